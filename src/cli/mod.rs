@@ -1,0 +1,60 @@
+//! The `dtr` command line: argument parsing and the commands it runs.
+
+mod info;
+mod render_cmd;
+
+use clap::{Parser, Subcommand};
+use std::path::PathBuf;
+
+#[derive(Parser, Debug)]
+#[command(
+    name = "dtr",
+    version,
+    about = "Differentiable transient renderer (Yi et al. 2021) on Embree"
+)]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+pub enum Command {
+    /// Render a scene's transient to PREFIX.npy and PREFIX.json (plus EXR and previews on request).
+    Render(render_cmd::RenderArgs),
+    /// Print a summary of a scene, including every parameter with its name, kind and value.
+    Info {
+        scene: PathBuf,
+        /// Machine-readable JSON instead of text.
+        #[arg(long)]
+        json: bool,
+        /// Override a parameter, as for `render`.
+        #[arg(long = "set", value_name = "NAME=VALUE")]
+        set: Vec<String>,
+    },
+}
+
+pub fn run(cli: Cli) -> anyhow::Result<()> {
+    match cli.command {
+        Command::Render(args) => render_cmd::run(args),
+        Command::Info { scene, json, set } => info::run(&scene, json, &set),
+    }
+}
+
+/// Parses `NAME=VALUE` overrides.
+pub fn parse_sets(sets: &[String]) -> anyhow::Result<Vec<(String, f32)>> {
+    sets.iter()
+        .map(|s| {
+            let (name, value) = s.split_once('=').ok_or_else(|| {
+                anyhow::anyhow!("--set {s:?}: expected NAME=VALUE, e.g. --set eta=1.33")
+            })?;
+            let v: f32 = value
+                .trim()
+                .parse()
+                .map_err(|_| anyhow::anyhow!("--set {s:?}: value {value:?} is not a number"))?;
+            if !v.is_finite() {
+                anyhow::bail!("--set {s:?}: value must be finite");
+            }
+            Ok((name.trim().to_string(), v))
+        })
+        .collect()
+}

@@ -1,0 +1,218 @@
+//! `dtr render`.
+
+use crate::film::Transient;
+use crate::output::{self, FilmView};
+use crate::render::{Lanes, RenderOptions, RenderStats, render};
+use crate::scene::Scene;
+use crate::temporal::SPEED_OF_LIGHT_M_PER_S;
+use anyhow::{Context, bail};
+use serde_json::json;
+use std::path::{Path, PathBuf};
+
+#[derive(clap::Args, Debug)]
+pub struct RenderArgs {
+    /// Scene description (.toml or .json).
+    pub scene: PathBuf,
+    /// Output prefix: writes PREFIX.npy ([H, W, T, C] float32) and PREFIX.json.
+    #[arg(short = 'o', long = "output", value_name = "PREFIX")]
+    pub output: PathBuf,
+    /// Samples per pixel (overrides the scene).
+    #[arg(long, allow_negative_numbers = true)]
+    pub spp: Option<i64>,
+    /// Random seed (overrides the scene).
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Override a parameter value: --set NAME=VALUE (repeatable; see `dtr info`).
+    #[arg(long = "set", value_name = "NAME=VALUE")]
+    pub set: Vec<String>,
+    /// Also write PREFIX.exr: one layer per time bin.
+    #[arg(long)]
+    pub exr: bool,
+    /// Also write PREFIX.frames.png (contact sheet), PREFIX.steady.png and PREFIX.plot.png
+    /// (radiance over time for the whole image and one pixel).
+    #[arg(long)]
+    pub preview: bool,
+    /// Pixel for the preview plot, as X,Y (default: the image centre).
+    #[arg(long, value_name = "X,Y")]
+    pub pixel: Option<String>,
+    /// Trace one path at a time instead of 8-wide packets (reference/debug).
+    #[arg(long)]
+    pub scalar: bool,
+    /// No progress bar.
+    #[arg(long, short)]
+    pub quiet: bool,
+}
+
+pub fn run(a: RenderArgs) -> anyhow::Result<()> {
+    let overrides = super::parse_sets(&a.set)?;
+    let spp = match a.spp {
+        Some(n) if n <= 0 => bail!("--spp must be a positive integer (got {n})"),
+        Some(n) => Some(u32::try_from(n).context("--spp is too large")?),
+        None => None,
+    };
+    let scene = Scene::load(&a.scene, &overrides)?;
+    let pixel = match &a.pixel {
+        Some(s) => Some(parse_pixel(s, &scene)?),
+        None => None,
+    };
+    let opts = RenderOptions {
+        spp,
+        seed: a.seed,
+        threads: a.threads,
+        progress: !a.quiet,
+        lanes: if a.scalar {
+            Lanes::Scalar
+        } else {
+            Lanes::Simd8
+        },
+    };
+    let (film, stats) = render(&scene, &opts)?;
+    let bad = film.non_finite_count();
+    if bad > 0 {
+        bail!("internal error: {bad} non-finite values in the transient; nothing written");
+    }
+    let prefix = |ext: &str| with_suffix(&a.output, ext);
+    if let Some(parent) = a.output.parent().filter(|p| !p.as_os_str().is_empty()) {
+        std::fs::create_dir_all(parent)
+            .with_context(|| format!("cannot create output folder {}", parent.display()))?;
+    }
+    output::write_npy(&prefix("npy"), &film.shape(), &film.data)?;
+    if a.exr {
+        output::write_exr_layers(&prefix("exr"), view(&film))?;
+    }
+    if a.preview {
+        write_previews(&film, &prefix, pixel)?;
+    }
+    output::write_json(&prefix("json"), &metadata(&scene, &film, &stats, &a))?;
+    if !a.quiet {
+        eprintln!(
+            "{}: {}x{}x{}x{} in {:.2} s ({:.3e} paths/CPU-s, {:.3e} rays/s)",
+            prefix("npy").display(),
+            film.height,
+            film.width,
+            film.axis.bins,
+            film.channels,
+            stats.wall_seconds,
+            stats.paths_per_cpu_second,
+            stats.rays_per_second
+        );
+    }
+    Ok(())
+}
+
+fn view(film: &Transient) -> FilmView<'_> {
+    FilmView {
+        data: &film.data,
+        height: film.height,
+        width: film.width,
+        bins: film.axis.bins,
+        channels: film.channels,
+    }
+}
+
+/// `PREFIX.ext`, keeping any dots already in the prefix.
+pub fn with_suffix(prefix: &Path, ext: &str) -> PathBuf {
+    let mut s = prefix.as_os_str().to_owned();
+    s.push(".");
+    s.push(ext);
+    PathBuf::from(s)
+}
+
+fn parse_pixel(s: &str, scene: &Scene) -> anyhow::Result<(usize, usize)> {
+    let (x, y) = s.split_once(',').context("--pixel: expected X,Y")?;
+    let x: usize = x
+        .trim()
+        .parse()
+        .context("--pixel: X is not a non-negative integer")?;
+    let y: usize = y
+        .trim()
+        .parse()
+        .context("--pixel: Y is not a non-negative integer")?;
+    if x >= scene.film.width as usize || y >= scene.film.height as usize {
+        bail!(
+            "--pixel {x},{y} is outside the {}x{} image",
+            scene.film.width,
+            scene.film.height
+        );
+    }
+    Ok((x, y))
+}
+
+fn write_previews(
+    film: &Transient,
+    prefix: &dyn Fn(&str) -> PathBuf,
+    pixel: Option<(usize, usize)>,
+) -> anyhow::Result<()> {
+    output::write_contact_sheet(&prefix("frames.png"), view(film), None)?;
+    output::write_steady_png(
+        &prefix("steady.png"),
+        &film.steady,
+        film.height,
+        film.width,
+        film.channels,
+    )?;
+    let (px, py) = pixel.unwrap_or((film.width / 2, film.height / 2));
+    let series = vec![
+        ("whole image".to_string(), film.bin_totals()),
+        (format!("pixel ({px}, {py})"), film.pixel_series(px, py)),
+    ];
+    output::write_time_plot(
+        &prefix("plot.png"),
+        (film.axis.start_opl, film.axis.bin_width_opl, film.axis.bins),
+        &series,
+    )?;
+    Ok(())
+}
+
+fn metadata(
+    scene: &Scene,
+    film: &Transient,
+    stats: &RenderStats,
+    a: &RenderArgs,
+) -> serde_json::Value {
+    let axis = film.axis;
+    let ns = |opl: f32| opl as f64 / SPEED_OF_LIGHT_M_PER_S * 1e9;
+    let params: serde_json::Map<String, serde_json::Value> = scene
+        .params
+        .iter()
+        .map(|p| (p.name.clone(), json!(p.value)))
+        .collect();
+    json!({
+        "scene": a.scene.display().to_string(),
+        "shape": film.shape(),
+        "layout": "[height, width, bins, channels], float32, radiance averaged over samples",
+        "channels": if film.channels == 1 { "mono" } else { "rgb" },
+        "time_axis": {
+            "start_opl": axis.start_opl,
+            "bin_width_opl": axis.bin_width_opl,
+            "bins": axis.bins,
+            "units": "metres of optical path length (OPL); time = OPL / c",
+            "start_ns": ns(axis.start_opl),
+            "bin_width_ns": ns(axis.bin_width_opl),
+            "speed_of_light_m_per_s": SPEED_OF_LIGHT_M_PER_S,
+        },
+        "unwarp": scene.film.unwarp,
+        "eta": scene.eta,
+        "params": params,
+        "spp": stats.spp,
+        "seed": stats.seed,
+        "threads": stats.threads,
+        "lanes": if a.scalar { 1 } else { 8 },
+        "wall_seconds": stats.wall_seconds,
+        "cpu_seconds": stats.cpu_seconds,
+        "paths": stats.paths,
+        "paths_per_second": stats.paths as f64 / stats.wall_seconds.max(1e-9),
+        "paths_per_cpu_second": stats.paths_per_cpu_second,
+        "rays": stats.intersect_rays + stats.occluded_rays,
+        "intersect_rays": stats.intersect_rays,
+        "occluded_rays": stats.occluded_rays,
+        "rays_per_second": stats.rays_per_second,
+        "rays_per_cpu_second": stats.rays_per_cpu_second,
+        "bvh_build_seconds": stats.bvh_build_seconds,
+        "non_finite_samples": stats.non_finite_samples,
+        "version": env!("CARGO_PKG_VERSION"),
+    })
+}

@@ -1,0 +1,205 @@
+//! Transient films: per-pixel, per-bin accumulation of path contributions.
+//!
+//! The integrator reports each path's throughput and optical path length; the film bins it
+//! through the correlation S_e of the emitter pulse with the sensor gate (supplemental
+//! Eq. 24): `I[y, x, l, c] += f_c · S_e(l, d)` for `l ∈ S_e.range(d)`. The derivative films
+//! add `ḟ_c · S_e(l, d) + f_c · Ṡ_e(l, d) · ḋ` (Algorithm 1, last loop).
+
+use crate::temporal::{Correlation, TimeAxis};
+
+/// A finished transient: `data` is `[height, width, bins, channels]`, row-major, averaged
+/// over samples. `steady` is the time-integrated image `[height, width, channels]` of the
+/// same paths, counting every path whether or not it falls inside the time axis.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Transient {
+    pub width: usize,
+    pub height: usize,
+    pub axis: TimeAxis,
+    pub channels: usize,
+    pub data: Vec<f32>,
+    pub steady: Vec<f32>,
+}
+
+impl Transient {
+    pub fn zeros(width: usize, height: usize, axis: TimeAxis, channels: usize) -> Self {
+        Self {
+            width,
+            height,
+            axis,
+            channels,
+            data: vec![0.0; width * height * axis.bins * channels],
+            steady: vec![0.0; width * height * channels],
+        }
+    }
+    /// Shape `[H, W, T, C]` as written to `.npy`.
+    pub fn shape(&self) -> [usize; 4] {
+        [self.height, self.width, self.axis.bins, self.channels]
+    }
+    #[inline]
+    pub fn index(&self, x: usize, y: usize, bin: usize, c: usize) -> usize {
+        ((y * self.width + x) * self.axis.bins + bin) * self.channels + c
+    }
+    pub fn at(&self, x: usize, y: usize, bin: usize, c: usize) -> f32 {
+        self.data[self.index(x, y, bin, c)]
+    }
+    /// Σ over time bins for one pixel and channel.
+    pub fn time_sum(&self, x: usize, y: usize, c: usize) -> f32 {
+        (0..self.axis.bins).map(|t| self.at(x, y, t, c)).sum()
+    }
+    /// Σ over pixels and channels, one value per bin (radiance over time of the whole image).
+    pub fn bin_totals(&self) -> Vec<f32> {
+        let mut out = vec![0.0f32; self.axis.bins];
+        for px in self.data.chunks_exact(self.axis.bins * self.channels) {
+            for (t, o) in out.iter_mut().enumerate() {
+                for c in 0..self.channels {
+                    *o += px[t * self.channels + c];
+                }
+            }
+        }
+        out
+    }
+    /// Per-bin series of one pixel, channels summed.
+    pub fn pixel_series(&self, x: usize, y: usize) -> Vec<f32> {
+        (0..self.axis.bins)
+            .map(|t| (0..self.channels).map(|c| self.at(x, y, t, c)).sum())
+            .collect()
+    }
+    /// Count of NaN or infinite values in data and steady image.
+    pub fn non_finite_count(&self) -> usize {
+        self.data
+            .iter()
+            .chain(&self.steady)
+            .filter(|v| !v.is_finite())
+            .count()
+    }
+    pub fn scale(&mut self, s: f32) {
+        self.data
+            .iter_mut()
+            .chain(self.steady.iter_mut())
+            .for_each(|v| *v *= s);
+    }
+}
+
+/// A rectangle of pixels accumulated by one worker; merged into a [`Transient`] in a fixed
+/// order, so results do not depend on the thread count or scheduling.
+#[derive(Clone, Debug)]
+pub struct TileFilm {
+    pub x0: usize,
+    pub y0: usize,
+    pub w: usize,
+    pub h: usize,
+    bins: usize,
+    channels: usize,
+    /// Primal, then one block per derivative, each `[h, w, bins, channels]`.
+    data: Vec<f32>,
+    steady: Vec<f32>,
+    derivs: usize,
+}
+
+impl TileFilm {
+    pub fn new(
+        x0: usize,
+        y0: usize,
+        w: usize,
+        h: usize,
+        axis: &TimeAxis,
+        channels: usize,
+        derivs: usize,
+    ) -> Self {
+        let n = w * h * axis.bins * channels;
+        Self {
+            x0,
+            y0,
+            w,
+            h,
+            bins: axis.bins,
+            channels,
+            data: vec![0.0; n * (1 + derivs)],
+            steady: vec![0.0; w * h * channels * (1 + derivs)],
+            derivs,
+        }
+    }
+
+    #[inline]
+    fn block(&self) -> usize {
+        self.w * self.h * self.bins * self.channels
+    }
+
+    /// Adds one path of OPL `d` with throughput `f` (per channel) to pixel (x, y) (global
+    /// coordinates, inside this tile).
+    #[inline]
+    pub fn add(&mut self, x: usize, y: usize, corr: &Correlation, d: f32, f: &[f32]) {
+        let p = (y - self.y0) * self.w + (x - self.x0);
+        let c_n = self.channels;
+        for c in 0..c_n {
+            self.steady[p * c_n + c] += f[c];
+        }
+        let base = p * self.bins * c_n;
+        let data = &mut self.data;
+        corr.for_each(d, |bin, s, _ds| {
+            let i = base + bin * c_n;
+            for c in 0..c_n {
+                data[i + c] += f[c] * s;
+            }
+        });
+    }
+
+    /// Adds the derivative of a path's contribution with respect to parameter `k`:
+    /// `ḟ · S_e(d) + f · Ṡ_e(d) · ḋ` (Algorithm 1), where `fdot` and `ddot` are the
+    /// derivatives of throughput and OPL.
+    #[inline]
+    pub fn add_deriv(
+        &mut self,
+        k: usize,
+        x: usize,
+        y: usize,
+        corr: &Correlation,
+        d: f32,
+        f: &[f32],
+        fdot: &[f32],
+        ddot: f32,
+    ) {
+        let p = (y - self.y0) * self.w + (x - self.x0);
+        let c_n = self.channels;
+        let sb = self.w * self.h * c_n * (1 + k);
+        for c in 0..c_n {
+            self.steady[sb + p * c_n + c] += fdot[c];
+        }
+        let base = self.block() * (1 + k) + p * self.bins * c_n;
+        let data = &mut self.data;
+        corr.for_each(d, |bin, s, ds| {
+            let i = base + bin * c_n;
+            for c in 0..c_n {
+                data[i + c] += fdot[c] * s + f[c] * ds * ddot;
+            }
+        });
+    }
+
+    /// Copies this tile into the full films (primal first, then derivatives).
+    pub fn merge_into(&self, films: &mut [Transient]) {
+        let row = self.w * self.bins * self.channels;
+        let srow = self.w * self.channels;
+        for (k, film) in films.iter_mut().enumerate().take(1 + self.derivs) {
+            let off = self.block() * k;
+            let soff = self.w * self.h * self.channels * k;
+            for ty in 0..self.h {
+                let dst = film.index(self.x0, self.y0 + ty, 0, 0);
+                let src = off + ty * row;
+                for (d, s) in film.data[dst..dst + row]
+                    .iter_mut()
+                    .zip(&self.data[src..src + row])
+                {
+                    *d += *s;
+                }
+                let sdst = ((self.y0 + ty) * film.width + self.x0) * self.channels;
+                let ssrc = soff + ty * srow;
+                for (d, s) in film.steady[sdst..sdst + srow]
+                    .iter_mut()
+                    .zip(&self.steady[ssrc..ssrc + srow])
+                {
+                    *d += *s;
+                }
+            }
+        }
+    }
+}

@@ -1,0 +1,64 @@
+//! Everything a render needs, prepared once: the Embree scene, per-triangle lookups, emitter
+//! tables, temporal correlations and the camera.
+
+use super::camera::CameraSampler;
+use super::emitters::EmitterTable;
+use super::motion::Motion;
+use crate::accel::{Accel, Device};
+use crate::error::Error;
+use crate::scene::Scene;
+use crate::temporal::Correlation;
+
+pub struct RenderContext<'a> {
+    pub scene: &'a Scene,
+    pub accel: Accel,
+    /// Material index of each triangle.
+    pub tri_material: Vec<u32>,
+    /// Emitter index of each triangle (`u32::MAX` where it emits nothing).
+    pub tri_emitter: Vec<u32>,
+    pub emitters: EmitterTable,
+    /// S_e of each emitter's pulse with the film's gate (supplemental Eq. 24).
+    pub correlations: Vec<Correlation>,
+    pub camera: CameraSampler,
+    pub motion: Motion,
+}
+
+impl<'a> RenderContext<'a> {
+    pub fn new(scene: &'a Scene, device: &Device) -> Result<Self, Error> {
+        let geo = &scene.geometry;
+        let positions: Vec<[f32; 3]> = geo.positions.iter().map(|p| p.to_array()).collect();
+        let accel = Accel::build(device, &positions, &geo.indices)?;
+        let tri_material = geo
+            .tri_shape
+            .iter()
+            .map(|&s| scene.shapes[s as usize].material)
+            .collect();
+        let tri_emitter = geo
+            .tri_shape
+            .iter()
+            .map(|&s| scene.shapes[s as usize].emitter.unwrap_or(u32::MAX))
+            .collect();
+        let emitters = EmitterTable::new(scene, &accel);
+        let correlations = scene
+            .emitters
+            .iter()
+            .map(|e| Correlation::new(scene.film.axis, e.pulse, e.offset_opl, scene.film.gate))
+            .collect::<Result<Vec<_>, _>>()?;
+        let camera = CameraSampler::new(
+            &scene.camera,
+            scene.film.width,
+            scene.film.height,
+            scene.film.filter,
+        );
+        Ok(Self {
+            scene,
+            accel,
+            tri_material,
+            tri_emitter,
+            emitters,
+            correlations,
+            camera,
+            motion: Motion::none(),
+        })
+    }
+}

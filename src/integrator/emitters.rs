@@ -1,0 +1,264 @@
+//! Emitter sampling for next-event estimation, and emission found by hitting a light.
+//!
+//! Emitters are chosen uniformly; an area emitter then picks a triangle by area and a point
+//! uniformly on it. A laser is a delta in position and direction: it lights one spot, found
+//! once per render, which then radiates like a small Lambertian source
+//! (I(ω) = Φ · albedo/π · cos θ), the usual NLOS treatment.
+
+use super::context::RenderContext;
+use super::surface::{SurfacePoint, surface_at};
+use crate::accel::Accel;
+use crate::kernel::{Mask, Real, Spectrum, V3};
+use crate::scene::{EmitterKind, Material, Scene};
+use glam::Vec3;
+
+/// The spot a laser lights.
+#[derive(Clone, Debug)]
+pub struct LaserSpot {
+    pub prim: u32,
+    pub u: f32,
+    pub v: f32,
+    /// Geometric distance from the laser to the spot.
+    pub distance: f32,
+    /// Φ · albedo / π (W·sr⁻¹ per unit cos θ).
+    pub intensity: [f32; 3],
+    /// +1 if the triangle's winding normal faces the laser, else -1 (the lit side).
+    pub side: f32,
+}
+
+#[derive(Clone, Debug)]
+enum Entry {
+    Area {
+        tris: Vec<u32>,
+        cdf: Vec<f32>,
+        area: f32,
+        radiance: [f32; 3],
+    },
+    Point {
+        position: Vec3,
+        intensity: [f32; 3],
+    },
+    Laser {
+        spot: Option<LaserSpot>,
+    },
+}
+
+/// Per-emitter sampling data.
+#[derive(Clone, Debug)]
+pub struct EmitterTable {
+    entries: Vec<Entry>,
+}
+
+/// A point sampled on an emitter, per lane.
+#[derive(Clone, Copy, Debug)]
+pub struct LightSample<R: Real, const C: usize> {
+    pub p: V3<R>,
+    /// Unit normal at the sampled point (area and laser spot); unused for point lights.
+    pub n: V3<R>,
+    /// Lanes whose emission carries cos θ at the emitter (area, laser spot).
+    pub has_cos: R::Mask,
+    /// Emission divided by the sampling pdf: Le/p_A (area), I/p_sel (point, laser spot).
+    pub weight: Spectrum<R, C>,
+    /// Area pdf including emitter selection, 0 for delta emitters (MIS weight 1).
+    pub pdf_area: R::Value,
+    pub emitter: [u32; 8],
+    /// Geometric length travelled before the sampled point (laser to spot), else 0.
+    pub pre_length: R::Value,
+    pub valid: R::Mask,
+}
+
+impl EmitterTable {
+    pub fn new(scene: &Scene, accel: &Accel) -> Self {
+        let geo = &scene.geometry;
+        let entries = scene
+            .emitters
+            .iter()
+            .map(|e| match &e.kind {
+                EmitterKind::Area { shape, radiance } => {
+                    let s = &scene.shapes[*shape as usize];
+                    let tris: Vec<u32> = (s.first_tri..s.first_tri + s.tri_count).collect();
+                    let mut cdf = Vec::with_capacity(tris.len());
+                    let mut acc = 0.0f64;
+                    for &t in &tris {
+                        let [a, b, c] = geo.indices[t as usize].map(|i| geo.positions[i as usize]);
+                        acc += 0.5 * (b - a).cross(c - a).length() as f64;
+                        cdf.push(acc as f32);
+                    }
+                    let area = acc as f32;
+                    cdf.iter_mut().for_each(|c| *c /= area.max(1e-30));
+                    Entry::Area {
+                        tris,
+                        cdf,
+                        area,
+                        radiance: *radiance,
+                    }
+                }
+                EmitterKind::Point {
+                    position,
+                    intensity,
+                } => Entry::Point {
+                    position: *position,
+                    intensity: *intensity,
+                },
+                EmitterKind::Laser {
+                    position,
+                    direction,
+                    power,
+                } => {
+                    let spot = accel
+                        .intersect1(
+                            position.to_array(),
+                            direction.to_array(),
+                            0.0,
+                            f32::INFINITY,
+                        )
+                        .map(|h| {
+                            let mat =
+                                scene.shapes[geo.tri_shape[h.prim as usize] as usize].material;
+                            let Material::Diffuse { albedo } =
+                                scene.materials[mat as usize].material;
+                            let [a, b, c] =
+                                geo.indices[h.prim as usize].map(|i| geo.positions[i as usize]);
+                            let side = if (b - a).cross(c - a).dot(*direction) < 0.0 {
+                                1.0
+                            } else {
+                                -1.0
+                            };
+                            LaserSpot {
+                                side,
+                                prim: h.prim,
+                                u: h.u,
+                                v: h.v,
+                                distance: h.t * direction.length(),
+                                intensity: std::array::from_fn(|c| {
+                                    power[c] * albedo[c] * std::f32::consts::FRAC_1_PI
+                                }),
+                            }
+                        });
+                    Entry::Laser { spot }
+                }
+            })
+            .collect();
+        Self { entries }
+    }
+
+    pub fn count(&self) -> usize {
+        self.entries.len()
+    }
+
+    /// Area pdf (with selection) of emitter `e` sampling a point on its surface.
+    #[inline]
+    pub fn area_pdf(&self, e: u32) -> f32 {
+        match self.entries.get(e as usize) {
+            Some(Entry::Area { area, .. }) if *area > 0.0 => {
+                1.0 / (*area * self.entries.len() as f32)
+            }
+            _ => 0.0,
+        }
+    }
+
+    /// Radiance of area emitter `e` (0 for others).
+    #[inline]
+    pub fn radiance(&self, e: u32) -> [f32; 3] {
+        match self.entries.get(e as usize) {
+            Some(Entry::Area { radiance, .. }) => *radiance,
+            _ => [0.0; 3],
+        }
+    }
+
+    /// Samples one emitter point per lane from three uniform numbers.
+    pub fn sample<R: Real, const C: usize>(
+        &self,
+        ctx: &RenderContext,
+        u0: R::Value,
+        u1: R::Value,
+        u2: R::Value,
+        active: R::Mask,
+    ) -> LightSample<R, C> {
+        let n_e = self.entries.len();
+        let mut emitter = [u32::MAX; 8];
+        let mut prim = [0u32; 8];
+        let mut bu = [0.0f32; 8];
+        let mut bv = [0.0f32; 8];
+        let mut point = [Vec3::ZERO; 8];
+        let mut weight = [[0.0f32; 3]; 8];
+        let mut pdf = [0.0f32; 8];
+        let mut pre = [0.0f32; 8];
+        let mut on_surface = [false; 8];
+        let mut side = [1.0f32; 8];
+        let mut valid = [false; 8];
+        for i in 0..R::LANES {
+            if !active.bit(i) || n_e == 0 {
+                continue;
+            }
+            let sel = u0.lane(i) * n_e as f32;
+            let e = (sel as usize).min(n_e - 1);
+            emitter[i] = e as u32;
+            let p_sel = 1.0 / n_e as f32;
+            match &self.entries[e] {
+                Entry::Area {
+                    tris,
+                    cdf,
+                    area,
+                    radiance,
+                } => {
+                    if *area <= 0.0 {
+                        continue;
+                    }
+                    // reuse the fractional part of the selection number for the triangle
+                    let ut = (sel - e as f32).clamp(0.0, 1.0 - f32::EPSILON);
+                    let k = cdf.partition_point(|&c| c <= ut).min(tris.len() - 1);
+                    let (s1, s2) = (u1.lane(i).sqrt(), u2.lane(i));
+                    prim[i] = tris[k];
+                    bu[i] = s1 * (1.0 - s2);
+                    bv[i] = s1 * s2;
+                    pdf[i] = p_sel / area;
+                    weight[i] = radiance.map(|r| r / pdf[i]);
+                    on_surface[i] = true;
+                    valid[i] = true;
+                }
+                Entry::Point {
+                    position,
+                    intensity,
+                } => {
+                    point[i] = *position;
+                    weight[i] = intensity.map(|r| r / p_sel);
+                    valid[i] = true;
+                }
+                Entry::Laser { spot: Some(s) } => {
+                    prim[i] = s.prim;
+                    bu[i] = s.u;
+                    bv[i] = s.v;
+                    pre[i] = s.distance;
+                    side[i] = s.side;
+                    weight[i] = s.intensity.map(|r| r / p_sel);
+                    on_surface[i] = true;
+                    valid[i] = true;
+                }
+                Entry::Laser { spot: None } => {}
+            }
+        }
+        let surf: SurfacePoint<R> = surface_at(
+            ctx,
+            &prim,
+            R::Value::from_lanes(&bu),
+            R::Value::from_lanes(&bv),
+        );
+        let has_cos = R::Mask::from_bools(&on_surface[..R::LANES]);
+        let p = V3::select(has_cos, surf.p, V3::from_lane_vecs(&point[..R::LANES]));
+        LightSample {
+            p,
+            n: surf.n * R::from_lanes(&side),
+            has_cos,
+            weight: Spectrum::from_lane_rgb(&weight[..R::LANES]).scale(R::select(
+                has_cos,
+                surf.jacobian,
+                R::one(),
+            )),
+            pdf_area: R::Value::from_lanes(&pdf),
+            emitter,
+            pre_length: R::Value::from_lanes(&pre),
+            valid: R::Mask::from_bools(&valid[..R::LANES]),
+        }
+    }
+}

@@ -1,0 +1,26 @@
+//! Estimators of the transient path integral (supplemental Eq. 21).
+//!
+//! - [`path`]: unidirectional path tracing with next-event estimation and MIS, 8 paths per
+//!   packet, generic over the number type (`f32`, `f32x8`, duals).
+//!
+//! Shared pieces: [`trace`] turns lanes into Embree queries, [`surface`] rebuilds hit points
+//! from (primitive, u, v) in the kernel's number type, [`bsdf`] evaluates materials,
+//! [`emitters`] samples lights, [`camera`] samples primary rays.
+
+pub mod bsdf;
+pub mod camera;
+pub mod context;
+pub mod emitters;
+pub mod motion;
+pub mod path;
+pub mod surface;
+pub mod trace;
+
+pub use context::RenderContext;
+
+/// Power heuristic with exponent 2 (Veach 1997, Eq. 9.13), on solid-angle pdfs.
+#[inline(always)]
+pub fn power_heuristic<R: crate::kernel::Real>(a: R, b: R) -> R {
+    let a2 = a * a;
+    R::safe_div(a2, a2 + b * b)
+}

@@ -1,0 +1,256 @@
+//! Unidirectional transient path tracing with next-event estimation and MIS, written once
+//! for every number type.
+//!
+//! Each lane carries one path of one pixel. Per vertex x_i the kernel adds
+//! - emission found by the BSDF-sampled ray (MIS-weighted against light sampling), and
+//! - next-event estimation to a sampled emitter point (MIS-weighted against BSDF sampling),
+//! each with its optical path length d = η · Σ‖x_{j+1} − x_j‖ (supplemental Eq. 24's
+//! tof(x̄) = d / c), binned by the film through S_e.
+//!
+//! Throughput is kept in the area-measure form of Algorithm 1: with dual numbers, vertices
+//! move with their surfaces and the ratio `[cos_{i-1} cos_i / r² · J]_dual / [...]_value`
+//! carries the derivative of the geometry term G and the area Jacobian J; with plain
+//! numbers that ratio is 1 and is skipped at compile time.
+
+use super::bsdf::{albedo, cosine_pdf, diffuse_eval, sample_cosine};
+use super::context::RenderContext;
+use super::power_heuristic;
+use super::surface::{offset_origin, self_intersection_eps, surface_at};
+use super::trace::{RayCounts, intersect, unoccluded};
+use crate::film::TileFilm;
+use crate::kernel::{Mask, PathSampler, Real, Spectrum, V3};
+
+/// The lanes of one packet: pixel coordinates and a global path id per lane.
+#[derive(Clone, Copy, Debug)]
+pub struct PacketLanes {
+    pub px: [u32; 8],
+    pub py: [u32; 8],
+    pub ids: [u64; 8],
+    /// Lanes in use (the rest are padding and stay inactive).
+    pub count: usize,
+}
+
+/// Per-packet tallies.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct PathCounts {
+    pub rays: RayCounts,
+    /// Samples dropped because they were not finite (reported, never written to the film).
+    pub non_finite: u64,
+}
+
+/// Traces `R::LANES` paths and adds their contributions to `film`.
+pub fn trace_packet<R: Real, const C: usize>(
+    ctx: &RenderContext,
+    seed: u64,
+    lanes: &PacketLanes,
+    film: &mut TileFilm,
+    counts: &mut PathCounts,
+) {
+    type V<R> = <R as Real>::Value;
+    let scene = ctx.scene;
+    let max_bounces = scene.integrator.max_bounces;
+    let eta = R::splat(scene.eta);
+    let mut sampler = PathSampler::new(seed, &lanes.ids[..lanes.count.max(1)]);
+    let mut in_use = [false; 8];
+    in_use[..lanes.count].iter_mut().for_each(|b| *b = true);
+    let mut active = R::Mask::from_bools(&in_use[..R::LANES]);
+
+    let (f1, f2) = sampler.next2::<V<R>>();
+    let mut ray_d: V3<V<R>> = ctx.camera.sample(&lanes.px, &lanes.py, f1, f2);
+    let mut ray_o: V3<V<R>> = V3::splat(ctx.camera.position);
+    let mut prev_p: V3<R> = V3::splat(ctx.camera.position);
+    let mut prev_n: V3<R> = V3::zero();
+    let mut prev_pdf: V<R> = V::<R>::zero();
+    let mut beta = Spectrum::<R, C>::splat(R::one());
+    let mut opl = R::zero();
+
+    for depth in 1..=max_bounces + 1 {
+        let hit = intersect(
+            &ctx.accel,
+            &ray_o,
+            &ray_d,
+            V::<R>::zero(),
+            V::<R>::splat(f32::INFINITY),
+            active,
+            depth == 1,
+            &mut counts.rays,
+        );
+        let mut hit_lanes = [false; 8];
+        for (i, h) in hit_lanes.iter_mut().enumerate().take(R::LANES) {
+            *h = hit.prim[i] != u32::MAX;
+        }
+        active = active & R::Mask::from_bools(&hit_lanes[..R::LANES]);
+        if active.none() {
+            break;
+        }
+        let x = surface_at::<R>(ctx, &hit.prim, hit.u, hit.v);
+        let seg = x.p - prev_p;
+        let r2 = seg.length_squared();
+        let r = r2.sqrt();
+        let w_in = seg * R::safe_div(R::one(), r);
+        let cos_i = x.n.dot(w_in).abs();
+        if R::DERIVS > 0 {
+            // G·J (dual) over its value: the derivative of the geometry of this segment.
+            let cos_prev = if depth == 1 {
+                R::one()
+            } else {
+                prev_n.dot(w_in).abs()
+            };
+            let g = cos_prev * cos_i / r2;
+            let ratio = R::safe_div(g, R::from_value(g.value())) * x.jacobian;
+            beta = beta.scale(ratio);
+        }
+        if !(depth == 1 && scene.film.unwarp) {
+            opl += eta * r;
+        }
+
+        // Emission found by this ray (Veach 1997, Eq. 9.13 weights against light sampling).
+        let mut emitter = [u32::MAX; 8];
+        let mut le_rgb = [[0.0f32; 3]; 8];
+        let mut pdf_light = [0.0f32; 8];
+        for i in 0..R::LANES {
+            if active.bit(i) {
+                let e = ctx.tri_emitter[hit.prim[i] as usize];
+                if e != u32::MAX {
+                    emitter[i] = e;
+                    le_rgb[i] = ctx.emitters.radiance(e);
+                    pdf_light[i] = ctx.emitters.area_pdf(e);
+                }
+            }
+        }
+        let front = x.n.value().dot(ray_d).lt(V::<R>::zero());
+        let emits =
+            active & front & R::Mask::from_bools(&emitter.map(|e| e != u32::MAX)[..R::LANES]);
+        if emits.any() {
+            let le = Spectrum::<R, C>::from_lane_rgb(&le_rgb[..R::LANES]);
+            let w = if depth == 1 {
+                V::<R>::one()
+            } else {
+                let p_l = V::<R>::from_lanes(&pdf_light) * r2.value() / cos_i.value();
+                power_heuristic(prev_pdf, p_l)
+            };
+            let contrib = (beta * le).scale(R::from_value(w));
+            splat(ctx, film, lanes, &emitter, opl, &contrib, emits, counts);
+        }
+        if depth > max_bounces {
+            break;
+        }
+
+        // Next-event estimation.
+        let alb = albedo::<R, C>(ctx, &x.prim);
+        let f = diffuse_eval(alb);
+        let (u0, u1) = sampler.next2::<V<R>>();
+        let u2 = sampler.next::<V<R>>();
+        let ls = ctx.emitters.sample::<R, C>(ctx, u0, u1, u2, active);
+        let to = ls.p - x.p;
+        let d2 = to.length_squared();
+        let dist = d2.sqrt();
+        let wl = to * R::safe_div(R::one(), dist);
+        let cos_x_signed = x.n.dot(wl);
+        let incoming_side = x.n.value().dot(-ray_d);
+        let same_side = (cos_x_signed.value() * incoming_side).gt(V::<R>::zero());
+        let cos_y = R::select(ls.has_cos, -ls.n.dot(wl), R::one());
+        let lit = active
+            & ls.valid
+            & same_side
+            & cos_y.value().gt(V::<R>::zero())
+            & d2.value().gt(V::<R>::zero());
+        if lit.any() {
+            let p_bsdf = cos_x_signed.value().abs() * V::<R>::splat(std::f32::consts::FRAC_1_PI);
+            let p_l = R::Value::safe_div(ls.pdf_area * d2.value(), cos_y.value());
+            let w = V::<R>::select(
+                ls.pdf_area.gt(V::<R>::zero()),
+                power_heuristic(p_l, p_bsdf),
+                V::<R>::one(),
+            );
+            let o = offset_origin(&x.p.value(), &x.n.value(), &wl.value());
+            let to_o = ls.p.value() - o;
+            let len = to_o.length();
+            let dir = to_o * V::<R>::safe_div(V::<R>::one(), len);
+            let tfar = len - self_intersection_eps(&ls.p.value());
+            let visible = unoccluded(
+                &ctx.accel,
+                &o,
+                &dir,
+                V::<R>::zero(),
+                tfar,
+                lit,
+                &mut counts.rays,
+            );
+            let lit = lit & visible;
+            if lit.any() {
+                let g = cos_x_signed.abs() * cos_y / d2;
+                let contrib = (beta * f * ls.weight).scale(g * R::from_value(w));
+                let d = opl + eta * (dist + R::from_value(ls.pre_length));
+                splat(ctx, film, lanes, &ls.emitter, d, &contrib, lit, counts);
+            }
+        }
+
+        // Continue by sampling the BSDF.
+        let (b1, b2) = sampler.next2::<V<R>>();
+        let n_v = x.n.value();
+        let side = -ray_d;
+        let (dir, pdf) = sample_cosine(&n_v, &side, b1, b2);
+        debug_assert!({
+            let p2 = cosine_pdf(&n_v, &side, &dir);
+            (0..R::LANES).all(|i| (p2.lane(i) - pdf.lane(i)).abs() <= 1e-3 * pdf.lane(i).max(1.0))
+        });
+        let cos_o = n_v.dot(dir).abs();
+        beta = (beta * f).scale(R::from_value(V::<R>::safe_div(cos_o, pdf)));
+        active = active & pdf.gt(V::<R>::zero());
+        if let Some(rr) = scene.integrator.rr_depth {
+            let u = sampler.next::<V<R>>();
+            if depth >= rr {
+                let q = beta.max_value().min(V::<R>::one());
+                active = active & u.lt(q);
+                beta = beta.scale(R::from_value(V::<R>::safe_div(V::<R>::one(), q)));
+            }
+        }
+        ray_o = offset_origin(&x.p.value(), &n_v, &dir);
+        ray_d = dir;
+        prev_p = x.p;
+        prev_n = x.n;
+        prev_pdf = pdf;
+    }
+}
+
+/// Adds each lane's contribution (and its derivatives) to its pixel, binned by the
+/// emitter's S_e at OPL `d`.
+#[allow(clippy::too_many_arguments)]
+fn splat<R: Real, const C: usize>(
+    ctx: &RenderContext,
+    film: &mut TileFilm,
+    lanes: &PacketLanes,
+    emitter: &[u32; 8],
+    d: R,
+    contrib: &Spectrum<R, C>,
+    mask: R::Mask,
+    counts: &mut PathCounts,
+) {
+    for i in 0..R::LANES {
+        if !mask.bit(i) || emitter[i] == u32::MAX {
+            continue;
+        }
+        let f: [f32; C] = std::array::from_fn(|c| contrib.0[c].lane(i));
+        let di = d.lane(i);
+        let mut finite = di.is_finite() && f.iter().all(|v| v.is_finite());
+        for k in 0..R::DERIVS {
+            finite &= d.deriv_lane(k, i).is_finite()
+                && (0..C).all(|c| contrib.0[c].deriv_lane(k, i).is_finite());
+        }
+        if !finite {
+            counts.non_finite += 1;
+            continue;
+        }
+        if f.iter().all(|&v| v == 0.0) && R::DERIVS == 0 {
+            continue;
+        }
+        let corr = &ctx.correlations[emitter[i] as usize];
+        let (x, y) = (lanes.px[i] as usize, lanes.py[i] as usize);
+        film.add(x, y, corr, di, &f);
+        for k in 0..R::DERIVS {
+            let fdot: [f32; C] = std::array::from_fn(|c| contrib.0[c].deriv_lane(k, i));
+            film.add_deriv(k, x, y, corr, di, &f, &fdot, d.deriv_lane(k, i));
+        }
+    }
+}

@@ -1,0 +1,120 @@
+//! Lanes to Embree and back. Embree sees plain `f32` rays only (STYLE example 1).
+
+use crate::accel::{Accel, Ray8};
+use crate::kernel::{Mask, Real, V3};
+
+/// Plain hit lanes: `prim[i] == u32::MAX` where lane `i` missed or was inactive.
+#[derive(Clone, Copy, Debug)]
+pub struct HitLanes<V> {
+    pub t: V,
+    pub u: V,
+    pub v: V,
+    pub prim: [u32; 8],
+}
+
+/// Counts of rays sent to Embree, for rays/s reports.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct RayCounts {
+    pub intersect: u64,
+    pub occluded: u64,
+}
+
+fn pack<V: Real>(o: &V3<V>, d: &V3<V>, tnear: V, tfar: V) -> Ray8 {
+    let mut r = Ray8::default();
+    for i in 0..V::LANES {
+        r.org_x[i] = o.x.lane(i);
+        r.org_y[i] = o.y.lane(i);
+        r.org_z[i] = o.z.lane(i);
+        r.dir_x[i] = d.x.lane(i);
+        r.dir_y[i] = d.y.lane(i);
+        r.dir_z[i] = d.z.lane(i);
+        r.tnear[i] = tnear.lane(i);
+        r.tfar[i] = tfar.lane(i);
+    }
+    r
+}
+
+fn bools<M: Mask>(m: M, lanes: usize) -> [bool; 8] {
+    let mut a = [false; 8];
+    for (i, o) in a.iter_mut().enumerate().take(lanes) {
+        *o = m.bit(i);
+    }
+    a
+}
+
+/// Closest hits for the active lanes. One lane goes through `rtcIntersect1`, eight through
+/// `rtcIntersect8`.
+pub fn intersect<V: Real>(
+    accel: &Accel,
+    o: &V3<V>,
+    d: &V3<V>,
+    tnear: V,
+    tfar: V,
+    active: V::Mask,
+    coherent: bool,
+    counts: &mut RayCounts,
+) -> HitLanes<V> {
+    let mut prim = [u32::MAX; 8];
+    let mut t = [0.0f32; 8];
+    let mut u = [0.0f32; 8];
+    let mut v = [0.0f32; 8];
+    if V::LANES == 1 {
+        if active.bit(0) {
+            counts.intersect += 1;
+            let org = [o.x.lane(0), o.y.lane(0), o.z.lane(0)];
+            let dir = [d.x.lane(0), d.y.lane(0), d.z.lane(0)];
+            if let Some(h) = accel.intersect1(org, dir, tnear.lane(0), tfar.lane(0)) {
+                prim[0] = h.prim;
+                t[0] = h.t;
+                u[0] = h.u;
+                v[0] = h.v;
+            }
+        }
+    } else {
+        let act = bools(active, V::LANES);
+        counts.intersect += act.iter().filter(|&&a| a).count() as u64;
+        let h = accel.intersect8(&pack(o, d, tnear, tfar), act, coherent);
+        for i in 0..8 {
+            if act[i] {
+                prim[i] = h.prim[i];
+                t[i] = h.t[i];
+                u[i] = h.u[i];
+                v[i] = h.v[i];
+            }
+        }
+    }
+    HitLanes {
+        t: V::from_lanes(&t),
+        u: V::from_lanes(&u),
+        v: V::from_lanes(&v),
+        prim,
+    }
+}
+
+/// Visibility of segments `o + s·d, s ∈ (tnear, tfar)`: true where nothing blocks.
+pub fn unoccluded<V: Real>(
+    accel: &Accel,
+    o: &V3<V>,
+    d: &V3<V>,
+    tnear: V,
+    tfar: V,
+    active: V::Mask,
+    counts: &mut RayCounts,
+) -> V::Mask {
+    let act = bools(active, V::LANES);
+    counts.occluded += act.iter().filter(|&&a| a).count() as u64;
+    let mut free = [false; 8];
+    if V::LANES == 1 {
+        if act[0] {
+            let org = [o.x.lane(0), o.y.lane(0), o.z.lane(0)];
+            let dir = [d.x.lane(0), d.y.lane(0), d.z.lane(0)];
+            free[0] = !accel.occluded1(org, dir, tnear.lane(0), tfar.lane(0));
+        }
+    } else {
+        let blocked = accel.occluded8(&pack(o, d, tnear, tfar), act, false);
+        for i in 0..8 {
+            free[i] = act[i] && !blocked[i];
+        }
+    }
+    V::Mask::from_bools(&free[..V::LANES])
+}

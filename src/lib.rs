@@ -1,0 +1,28 @@
+//! # difftransient
+//!
+//! Differentiable transient rendering (Yi et al., "Differentiable Transient Rendering",
+//! ACM TOG 40(6) 286, 2021) on the CPU: Embree for rays, eight paths per SIMD packet.
+//!
+//! The pipeline:
+//! [`scene`] (load a description, apply parameters) → [`integrator`] (estimate the transient
+//! path integral, packet by packet, through [`accel`] queries) → [`film`] (bin each path's
+//! optical path length through the correlation S_e of [`temporal`]) → [`output`] (`.npy`,
+//! EXR, previews).
+//!
+//! [`render::render`] runs it all on a rayon pool.
+
+pub mod accel;
+pub mod cli;
+pub mod error;
+pub mod film;
+pub mod integrator;
+pub mod kernel;
+pub mod output;
+pub mod render;
+pub mod scene;
+pub mod temporal;
+
+pub use error::Error;
+pub use film::Transient;
+pub use render::{Lanes, RenderOptions, RenderStats, render};
+pub use scene::Scene;

@@ -1,0 +1,112 @@
+//! [`OutputError`]: every way writing a result can fail, each naming the file it was for.
+
+use std::path::PathBuf;
+
+/// A failed write. Every variant names the destination file; when one is returned, nothing
+/// was written there (a file that already existed is left as it was).
+#[derive(Debug, thiserror::Error)]
+pub enum OutputError {
+    /// The data length does not match the shape it claims.
+    #[error("{}: shape {shape:?} holds {expected} values, but {actual} were given", .path.display())]
+    ShapeMismatch {
+        path: PathBuf,
+        shape: Vec<usize>,
+        expected: usize,
+        actual: usize,
+    },
+
+    /// The shape's element count does not fit in memory (`usize` overflow).
+    #[error("{}: shape {shape:?} is too large", .path.display())]
+    ShapeOverflow { path: PathBuf, shape: Vec<usize> },
+
+    /// Nothing to write: some dimension is zero, or a list is empty.
+    #[error("{}: nothing to write: {what}", .path.display())]
+    Empty { path: PathBuf, what: String },
+
+    /// The data holds NaN or ±Inf. The renderer must never produce those, so this is refused
+    /// rather than written.
+    #[error("{}: {count} of {total} values are not finite (NaN or ±Inf); refusing to write", .path.display())]
+    NonFinite {
+        path: PathBuf,
+        count: usize,
+        total: usize,
+    },
+
+    /// Only mono (1) and RGB (3) films are supported.
+    #[error("{}: unsupported channel count {channels} (expected 1 for mono or 3 for RGB)", .path.display())]
+    Channels { path: PathBuf, channels: usize },
+
+    /// An argument other than the data is out of range (exposure, time axis, series length, ...).
+    #[error("{}: {detail}", .path.display())]
+    Invalid { path: PathBuf, detail: String },
+
+    /// The file system refused (missing folder, no permission, disk full, ...).
+    #[error("cannot write {}: {source}", .path.display())]
+    Io {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+
+    /// The encoder of a file format failed.
+    #[error("cannot encode {} as {format}: {detail}", .path.display())]
+    Encode {
+        path: PathBuf,
+        format: &'static str,
+        detail: String,
+    },
+
+    /// No usable font was found for the text of a plot.
+    #[error("{}: {detail}", .path.display())]
+    Font { path: PathBuf, detail: String },
+}
+
+impl OutputError {
+    /// The file this error is about.
+    pub fn path(&self) -> &std::path::Path {
+        match self {
+            OutputError::ShapeMismatch { path, .. }
+            | OutputError::ShapeOverflow { path, .. }
+            | OutputError::Empty { path, .. }
+            | OutputError::NonFinite { path, .. }
+            | OutputError::Channels { path, .. }
+            | OutputError::Invalid { path, .. }
+            | OutputError::Io { path, .. }
+            | OutputError::Encode { path, .. }
+            | OutputError::Font { path, .. } => path,
+        }
+    }
+
+    pub(crate) fn invalid(path: &std::path::Path, detail: impl Into<String>) -> Self {
+        OutputError::Invalid {
+            path: path.to_path_buf(),
+            detail: detail.into(),
+        }
+    }
+
+    pub(crate) fn empty(path: &std::path::Path, what: impl Into<String>) -> Self {
+        OutputError::Empty {
+            path: path.to_path_buf(),
+            what: what.into(),
+        }
+    }
+
+    pub(crate) fn io(path: &std::path::Path, source: std::io::Error) -> Self {
+        OutputError::Io {
+            path: path.to_path_buf(),
+            source,
+        }
+    }
+
+    pub(crate) fn encode(
+        path: &std::path::Path,
+        format: &'static str,
+        detail: impl ToString,
+    ) -> Self {
+        OutputError::Encode {
+            path: path.to_path_buf(),
+            format,
+            detail: detail.to_string(),
+        }
+    }
+}

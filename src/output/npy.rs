@@ -1,0 +1,147 @@
+//! NumPy `.npy`: float32, little-endian, C order.
+
+use super::atomic::write_atomic;
+use super::{OutputError, check_data};
+use npyz::WriterBuilder;
+use std::path::Path;
+
+/// Writes `data` with the given `shape` as a float32 (`<f4`), C-order `.npy` file, atomically.
+///
+/// `shape`'s product must equal `data.len()`; zero dimensions and NaN/±Inf values are refused.
+/// An empty `shape` writes a 0-d array holding the one value of `data`.
+pub fn write_npy(path: &Path, shape: &[usize], data: &[f32]) -> Result<(), OutputError> {
+    check_data(path, shape, data)?;
+    let shape64: Vec<u64> = shape.iter().map(|&d| d as u64).collect();
+    write_atomic(path, |w| {
+        let io = |e: std::io::Error| OutputError::io(path, e);
+        let mut npy = npyz::WriteOptions::<f32>::new()
+            .dtype(npyz::DType::new_scalar(
+                "<f4".parse().expect("<f4 is a valid type string"),
+            ))
+            .shape(&shape64)
+            .writer(w)
+            .begin_nd()
+            .map_err(io)?;
+        npy.extend(data.iter().copied()).map_err(io)?;
+        npy.finish().map_err(io)
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::test_util::{coded_film, entries};
+    use super::*;
+
+    fn read_back(path: &Path) -> (Vec<u64>, Vec<f32>, String) {
+        let bytes = std::fs::read(path).unwrap();
+        let npy = npyz::NpyFile::new(&bytes[..]).unwrap();
+        let shape = npy.shape().to_vec();
+        let descr = npy.dtype().descr();
+        assert_eq!(npy.order(), npyz::Order::C);
+        let data: Vec<f32> = npy.into_vec().unwrap();
+        (shape, data, descr)
+    }
+
+    #[test]
+    fn round_trip() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("film.npy");
+        let data = coded_film(3, 4, 5, 3);
+        write_npy(&p, &[3, 4, 5, 3], &data).unwrap();
+        let (shape, back, descr) = read_back(&p);
+        assert_eq!(shape, vec![3, 4, 5, 3]);
+        assert_eq!(descr, "'<f4'");
+        assert_eq!(back, data);
+        // Raw layout: header then little-endian f32, C order.
+        let bytes = std::fs::read(&p).unwrap();
+        assert_eq!(&bytes[..6], b"\x93NUMPY");
+        let tail = &bytes[bytes.len() - 4..];
+        assert_eq!(
+            f32::from_le_bytes(tail.try_into().unwrap()),
+            *data.last().unwrap()
+        );
+        assert_eq!(entries(dir.path()), vec!["film.npy"]);
+    }
+
+    #[test]
+    fn scalar_and_1d() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("s.npy");
+        write_npy(&p, &[], &[2.5]).unwrap();
+        let (shape, back, _) = read_back(&p);
+        assert!(shape.is_empty());
+        assert_eq!(back, vec![2.5]);
+        write_npy(&p, &[3], &[1.0, -2.0, 3.0]).unwrap();
+        assert_eq!(read_back(&p).1, vec![1.0, -2.0, 3.0]);
+    }
+
+    #[test]
+    fn refuses_bad_input_without_leaving_files() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("bad.npy");
+        let e = write_npy(&p, &[2, 2], &[1.0; 3]).unwrap_err();
+        assert!(
+            matches!(
+                e,
+                OutputError::ShapeMismatch {
+                    expected: 4,
+                    actual: 3,
+                    ..
+                }
+            ),
+            "{e}"
+        );
+        let e = write_npy(&p, &[0, 2], &[]).unwrap_err();
+        assert!(matches!(e, OutputError::Empty { .. }), "{e}");
+        let e = write_npy(&p, &[2, 2], &[1.0, f32::NAN, 0.0, f32::NAN]).unwrap_err();
+        assert!(
+            e.to_string().contains("2 of 4 values are not finite"),
+            "{e}"
+        );
+        assert!(e.to_string().contains("bad.npy"), "{e}");
+        let e = write_npy(&p, &[usize::MAX, 3], &[1.0]).unwrap_err();
+        assert!(matches!(e, OutputError::ShapeOverflow { .. }), "{e}");
+        assert!(entries(dir.path()).is_empty(), "{:?}", entries(dir.path()));
+
+        let missing = dir.path().join("nope").join("x.npy");
+        let e = write_npy(&missing, &[1], &[1.0]).unwrap_err();
+        assert!(e.to_string().contains("nope/x.npy"), "{e}");
+        assert!(entries(dir.path()).is_empty());
+    }
+
+    /// numpy itself reads the file (skipped when python3 or numpy is absent).
+    #[test]
+    fn numpy_reads_it() {
+        let have_numpy = std::process::Command::new("python3")
+            .args(["-c", "import numpy"])
+            .output()
+            .map(|o| o.status.success())
+            .unwrap_or(false);
+        if !have_numpy {
+            eprintln!("numpy_reads_it: python3 with numpy not available; sub-check skipped");
+            return;
+        }
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("np.npy");
+        let data = coded_film(2, 3, 4, 3);
+        write_npy(&p, &[2, 3, 4, 3], &data).unwrap();
+        let script = "import sys, numpy as np\n\
+                      a = np.load(sys.argv[1])\n\
+                      assert a.dtype == np.float32 and a.dtype.byteorder in '<=', a.dtype\n\
+                      assert a.shape == (2, 3, 4, 3), a.shape\n\
+                      assert a.flags['C_CONTIGUOUS']\n\
+                      assert a[1, 2, 3, 1] == 1000 + 200 + 30 + 1 + 0.25, a[1, 2, 3, 1]\n\
+                      assert a[0, 1, 2, 0] == 100 + 20 + 0.25\n";
+        let out = std::process::Command::new("python3")
+            .arg("-c")
+            .arg(script)
+            .arg(&p)
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "numpy check failed: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    }
+}

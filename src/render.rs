@@ -1,0 +1,218 @@
+//! The render driver: tiles over a rayon pool, packets of eight paths, deterministic merge.
+//!
+//! A render is a pure function of (scene, spp, seed): each path's random numbers depend only
+//! on its pixel and sample index (see [`crate::kernel::PathSampler`]), each tile accumulates
+//! into its own film, and tiles are merged in a fixed order. So the same seed gives the same
+//! bytes for any thread count.
+
+use crate::accel::{Device, set_flush_denormals};
+use crate::error::Error;
+use crate::film::{TileFilm, Transient};
+use crate::integrator::RenderContext;
+use crate::integrator::path::{PacketLanes, PathCounts, trace_packet};
+use crate::kernel::{Real, f32x8};
+use crate::scene::Scene;
+use rayon::prelude::*;
+use std::time::Instant;
+
+/// Tile edge in pixels. A tile row of 8 pixels is one packet.
+pub const TILE: usize = 8;
+
+/// How many paths the kernel carries at once.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Lanes {
+    /// Eight paths per packet (`wide::f32x8`, `rtcIntersect8`). The default.
+    #[default]
+    Simd8,
+    /// One path at a time (`f32`, `rtcIntersect1`): the scalar reference for tests.
+    Scalar,
+}
+
+#[derive(Clone, Debug, Default)]
+pub struct RenderOptions {
+    /// Overrides the scene's samples per pixel.
+    pub spp: Option<u32>,
+    /// Overrides the scene's seed.
+    pub seed: Option<u64>,
+    /// Worker threads (default: all available).
+    pub threads: Option<usize>,
+    /// Show a progress bar (only on a terminal).
+    pub progress: bool,
+    pub lanes: Lanes,
+}
+
+/// What a render did and how fast.
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct RenderStats {
+    pub spp: u32,
+    pub seed: u64,
+    pub threads: usize,
+    pub wall_seconds: f64,
+    pub cpu_seconds: f64,
+    pub paths: u64,
+    pub intersect_rays: u64,
+    pub occluded_rays: u64,
+    pub paths_per_cpu_second: f64,
+    pub rays_per_second: f64,
+    pub rays_per_cpu_second: f64,
+    /// Samples dropped because they were not finite (should be 0; reported, never hidden).
+    pub non_finite_samples: u64,
+    pub bvh_build_seconds: f64,
+}
+
+/// CPU time (user + system) of this process, seconds.
+pub fn cpu_seconds() -> f64 {
+    // SAFETY: getrusage writes into the struct we pass; RUSAGE_SELF is always valid.
+    let mut u: libc::rusage = unsafe { std::mem::zeroed() };
+    unsafe { libc::getrusage(libc::RUSAGE_SELF, &mut u) };
+    let tv = |t: libc::timeval| t.tv_sec as f64 + t.tv_usec as f64 * 1e-6;
+    tv(u.ru_utime) + tv(u.ru_stime)
+}
+
+/// Builds a rayon pool whose workers set flush-to-zero / denormals-are-zero (EMBREE.md).
+pub fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool, Error> {
+    let n = threads.unwrap_or_else(|| {
+        std::thread::available_parallelism()
+            .map(|n| n.get())
+            .unwrap_or(1)
+    });
+    if n == 0 {
+        return Err(Error::Invalid("--threads must be at least 1".into()));
+    }
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(n)
+        .start_handler(|_| set_flush_denormals())
+        .build()
+        .map_err(|e| Error::Invalid(format!("cannot start {n} worker threads: {e}")))
+}
+
+/// Renders the forward transient of `scene`.
+pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<(Transient, RenderStats), Error> {
+    let spp = opts.spp.unwrap_or(scene.integrator.spp);
+    if spp == 0 {
+        return Err(Error::Invalid(format!(
+            "{}: spp must be at least 1 (got 0)",
+            scene.source.display()
+        )));
+    }
+    let seed = opts.seed.unwrap_or(scene.integrator.seed);
+    set_flush_denormals();
+    let device = Device::new("")?;
+    let t_build = Instant::now();
+    let ctx = RenderContext::new(scene, &device)?;
+    let bvh_build_seconds = t_build.elapsed().as_secs_f64();
+    let pool = thread_pool(opts.threads)?;
+
+    let (w, h) = (scene.film.width as usize, scene.film.height as usize);
+    let axis = scene.film.axis;
+    let channels = scene.film.channels;
+    let tiles: Vec<(usize, usize)> = (0..h.div_ceil(TILE))
+        .flat_map(|ty| (0..w.div_ceil(TILE)).map(move |tx| (tx * TILE, ty * TILE)))
+        .collect();
+    let bar = progress_bar(opts.progress, tiles.len() as u64);
+
+    let cpu0 = cpu_seconds();
+    let t0 = Instant::now();
+    let results: Vec<(TileFilm, PathCounts)> = pool.install(|| {
+        tiles
+            .par_iter()
+            .map(|&(x0, y0)| {
+                let tw = TILE.min(w - x0);
+                let th = TILE.min(h - y0);
+                let mut film = TileFilm::new(x0, y0, tw, th, &axis, channels, 0);
+                let mut counts = PathCounts::default();
+                match (opts.lanes, channels) {
+                    (Lanes::Simd8, 1) => {
+                        render_tile::<f32x8, 1>(&ctx, seed, spp, w, &mut film, &mut counts)
+                    }
+                    (Lanes::Simd8, _) => {
+                        render_tile::<f32x8, 3>(&ctx, seed, spp, w, &mut film, &mut counts)
+                    }
+                    (Lanes::Scalar, 1) => {
+                        render_tile::<f32, 1>(&ctx, seed, spp, w, &mut film, &mut counts)
+                    }
+                    (Lanes::Scalar, _) => {
+                        render_tile::<f32, 3>(&ctx, seed, spp, w, &mut film, &mut counts)
+                    }
+                }
+                bar.inc(1);
+                (film, counts)
+            })
+            .collect()
+    });
+    let wall = t0.elapsed().as_secs_f64();
+    let cpu = (cpu_seconds() - cpu0).max(1e-9);
+    bar.finish_and_clear();
+
+    let mut out = Transient::zeros(w, h, axis, channels);
+    let mut stats = RenderStats {
+        spp,
+        seed,
+        threads: pool.current_num_threads(),
+        wall_seconds: wall,
+        cpu_seconds: cpu,
+        paths: (w * h) as u64 * spp as u64,
+        bvh_build_seconds,
+        ..Default::default()
+    };
+    for (tile, c) in &results {
+        tile.merge_into(std::slice::from_mut(&mut out));
+        stats.intersect_rays += c.rays.intersect;
+        stats.occluded_rays += c.rays.occluded;
+        stats.non_finite_samples += c.non_finite;
+    }
+    out.scale(1.0 / spp as f32);
+    let rays = (stats.intersect_rays + stats.occluded_rays) as f64;
+    stats.paths_per_cpu_second = stats.paths as f64 / cpu;
+    stats.rays_per_second = rays / wall.max(1e-9);
+    stats.rays_per_cpu_second = rays / cpu;
+    Ok((out, stats))
+}
+
+/// All samples of one tile: for each sample index, one packet per tile row (up to 8 pixels).
+fn render_tile<R: Real, const C: usize>(
+    ctx: &RenderContext,
+    seed: u64,
+    spp: u32,
+    width: usize,
+    film: &mut TileFilm,
+    counts: &mut PathCounts,
+) {
+    let lanes_per_packet = R::LANES;
+    for s in 0..spp as u64 {
+        for ty in 0..film.h {
+            let mut x = 0;
+            while x < film.w {
+                let n = lanes_per_packet.min(film.w - x);
+                let mut lanes = PacketLanes {
+                    px: [0; 8],
+                    py: [0; 8],
+                    ids: [0; 8],
+                    count: n,
+                };
+                for i in 0..n {
+                    let (px, py) = (film.x0 + x + i, film.y0 + ty);
+                    lanes.px[i] = px as u32;
+                    lanes.py[i] = py as u32;
+                    lanes.ids[i] = (py * width + px) as u64 * spp as u64 + s;
+                }
+                trace_packet::<R, C>(ctx, seed, &lanes, film, counts);
+                x += n;
+            }
+        }
+    }
+}
+
+fn progress_bar(show: bool, len: u64) -> indicatif::ProgressBar {
+    use std::io::IsTerminal;
+    if !show || !std::io::stderr().is_terminal() {
+        return indicatif::ProgressBar::hidden();
+    }
+    let bar = indicatif::ProgressBar::new(len);
+    if let Ok(style) = indicatif::ProgressStyle::with_template(
+        "{elapsed_precise} [{bar:40}] {pos}/{len} tiles ({eta})",
+    ) {
+        bar.set_style(style.progress_chars("=> "));
+    }
+    bar
+}

@@ -1,0 +1,432 @@
+//! The scene file schema as serde structs, mirroring `scenes/README.md` one to one.
+//!
+//! These hold what the file says, before any check beyond types: ranges, references and
+//! combinations are checked when the description is resolved into a [`super::Scene`].
+//! Every table denies unknown fields. Counts are read as `i64` so that a negative or zero
+//! value gets a range message ("must be at least 1") rather than a type error.
+
+use super::IntegratorKind;
+use serde::Deserialize;
+use serde::de::{self, Deserializer, MapAccess, SeqAccess, Visitor};
+use std::fmt;
+
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SceneDesc {
+    #[serde(default)]
+    pub integrator: IntegratorDesc,
+    #[serde(default)]
+    pub medium: MediumDesc,
+    pub camera: CameraDesc,
+    pub film: FilmDesc,
+    #[serde(default)]
+    pub material: Vec<MaterialDesc>,
+    #[serde(default)]
+    pub shape: Vec<ShapeDesc>,
+    #[serde(default)]
+    pub emitter: Vec<EmitterDesc>,
+    #[serde(default)]
+    pub param: Vec<ParamDesc>,
+}
+
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct IntegratorDesc {
+    pub kind: IntegratorKind,
+    pub max_bounces: i64,
+    pub spp: i64,
+    pub seed: u64,
+    pub rr_depth: Option<i64>,
+}
+
+impl Default for IntegratorDesc {
+    fn default() -> Self {
+        Self {
+            kind: IntegratorKind::Path,
+            max_bounces: 8,
+            spp: 16,
+            seed: 0,
+            rr_depth: None,
+        }
+    }
+}
+
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct MediumDesc {
+    pub eta: f32,
+}
+
+impl Default for MediumDesc {
+    fn default() -> Self {
+        Self { eta: 1.0 }
+    }
+}
+
+fn default_up() -> [f32; 3] {
+    [0.0, 1.0, 0.0]
+}
+fn default_fov() -> f32 {
+    40.0
+}
+fn default_resolution() -> [i64; 2] {
+    [64, 64]
+}
+fn default_box<T>() -> NameOr<T> {
+    NameOr::Name("box".to_string())
+}
+fn default_delta<T>() -> NameOr<T> {
+    NameOr::Name("delta".to_string())
+}
+
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CameraDesc {
+    pub position: [f32; 3],
+    pub look_at: [f32; 3],
+    #[serde(default = "default_up")]
+    pub up: [f32; 3],
+    #[serde(default = "default_fov")]
+    pub fov: f32,
+    #[serde(default = "default_resolution")]
+    pub resolution: [i64; 2],
+    #[serde(default = "default_box")]
+    pub filter: NameOr<FilterTable>,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum FilterType {
+    Box,
+    Tent,
+    Gaussian,
+}
+
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FilterTable {
+    #[serde(rename = "type")]
+    pub ty: FilterType,
+    pub radius: Option<f32>,
+    pub sigma: Option<f32>,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Channels {
+    Mono,
+    Rgb,
+    Auto,
+}
+
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FilmDesc {
+    #[serde(default)]
+    pub start_opl: f32,
+    pub bin_width_opl: f32,
+    pub bins: i64,
+    #[serde(default = "default_box")]
+    pub gate: NameOr<GateTable>,
+    #[serde(default = "default_channels")]
+    pub channels: Channels,
+    #[serde(default)]
+    pub unwarp: bool,
+}
+
+fn default_channels() -> Channels {
+    Channels::Auto
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum GateType {
+    Box,
+    Gaussian,
+}
+
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GateTable {
+    #[serde(rename = "type")]
+    pub ty: GateType,
+    pub sigma_opl: Option<f32>,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum MaterialType {
+    Diffuse,
+}
+
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MaterialDesc {
+    pub name: String,
+    #[serde(rename = "type")]
+    pub ty: MaterialType,
+    pub albedo: Option<Triple>,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ShapeType {
+    Rectangle,
+    Cube,
+    Sphere,
+    Obj,
+}
+
+impl ShapeType {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            ShapeType::Rectangle => "rectangle",
+            ShapeType::Cube => "cube",
+            ShapeType::Sphere => "sphere",
+            ShapeType::Obj => "obj",
+        }
+    }
+}
+
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ShapeDesc {
+    pub name: String,
+    #[serde(rename = "type")]
+    pub ty: ShapeType,
+    pub material: Option<String>,
+    pub translate: Option<[f32; 3]>,
+    pub rotate: Option<[f32; 3]>,
+    pub scale: Option<Triple>,
+    /// sphere only
+    pub subdivisions: Option<i64>,
+    /// obj only
+    pub file: Option<String>,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum EmitterType {
+    Area,
+    Point,
+    Laser,
+}
+
+impl EmitterType {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            EmitterType::Area => "area",
+            EmitterType::Point => "point",
+            EmitterType::Laser => "laser",
+        }
+    }
+    /// The field holding the emitted amount for this type.
+    pub fn amount_field(self) -> &'static str {
+        match self {
+            EmitterType::Area => "radiance",
+            EmitterType::Point => "intensity",
+            EmitterType::Laser => "power",
+        }
+    }
+}
+
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct EmitterDesc {
+    pub name: String,
+    #[serde(rename = "type")]
+    pub ty: EmitterType,
+    /// area
+    pub shape: Option<String>,
+    pub radiance: Option<Triple>,
+    /// point, laser
+    pub position: Option<[f32; 3]>,
+    pub intensity: Option<Triple>,
+    /// laser
+    pub direction: Option<[f32; 3]>,
+    pub power: Option<Triple>,
+    #[serde(default = "default_delta")]
+    pub pulse: NameOr<PulseTable>,
+    #[serde(default)]
+    pub offset_opl: f32,
+}
+
+impl EmitterDesc {
+    /// The emitted amount (radiance, intensity or power, by type).
+    pub fn amount(&self) -> Option<Triple> {
+        match self.ty {
+            EmitterType::Area => self.radiance,
+            EmitterType::Point => self.intensity,
+            EmitterType::Laser => self.power,
+        }
+    }
+    /// The emitted amount (radiance, intensity or power, by type).
+    pub fn amount_mut(&mut self) -> &mut Option<Triple> {
+        match self.ty {
+            EmitterType::Area => &mut self.radiance,
+            EmitterType::Point => &mut self.intensity,
+            EmitterType::Laser => &mut self.power,
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum PulseType {
+    Delta,
+    Gaussian,
+    Box,
+}
+
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PulseTable {
+    #[serde(rename = "type")]
+    pub ty: PulseType,
+    pub sigma_opl: Option<f32>,
+    pub width_opl: Option<f32>,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ParamKindDesc {
+    Translate,
+    Rotate,
+    Scale,
+    Albedo,
+    Radiance,
+    Eta,
+    PulseOffset,
+}
+
+impl ParamKindDesc {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            ParamKindDesc::Translate => "translate",
+            ParamKindDesc::Rotate => "rotate",
+            ParamKindDesc::Scale => "scale",
+            ParamKindDesc::Albedo => "albedo",
+            ParamKindDesc::Radiance => "radiance",
+            ParamKindDesc::Eta => "eta",
+            ParamKindDesc::PulseOffset => "pulse_offset",
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum AxisDesc {
+    X,
+    Y,
+    Z,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ChannelDesc {
+    R,
+    G,
+    B,
+}
+
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ParamDesc {
+    pub name: String,
+    pub kind: ParamKindDesc,
+    pub shape: Option<String>,
+    pub material: Option<String>,
+    pub emitter: Option<String>,
+    pub axis: Option<AxisDesc>,
+    pub channel: Option<ChannelDesc>,
+    pub value: f32,
+}
+
+/// A scalar or an `[a, b, c]` triple (colours, scale).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Triple {
+    Scalar(f32),
+    Three([f32; 3]),
+}
+
+impl Triple {
+    pub fn to_array(self) -> [f32; 3] {
+        match self {
+            Triple::Scalar(s) => [s; 3],
+            Triple::Three(v) => v,
+        }
+    }
+    /// Written as three values with unequal channels.
+    pub fn is_unequal(self) -> bool {
+        match self {
+            Triple::Scalar(_) => false,
+            Triple::Three([a, b, c]) => a != b || b != c,
+        }
+    }
+}
+
+impl<'de> Deserialize<'de> for Triple {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl<'de> Visitor<'de> for V {
+            type Value = Triple;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("a number or an array of 3 numbers")
+            }
+            fn visit_f64<E: de::Error>(self, v: f64) -> Result<Triple, E> {
+                Ok(Triple::Scalar(v as f32))
+            }
+            fn visit_i64<E: de::Error>(self, v: i64) -> Result<Triple, E> {
+                Ok(Triple::Scalar(v as f32))
+            }
+            fn visit_u64<E: de::Error>(self, v: u64) -> Result<Triple, E> {
+                Ok(Triple::Scalar(v as f32))
+            }
+            fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Triple, A::Error> {
+                let mut out = [0.0f32; 3];
+                let mut n = 0usize;
+                while let Some(x) = seq.next_element::<f32>()? {
+                    if n < 3 {
+                        out[n] = x;
+                    }
+                    n += 1;
+                }
+                if n != 3 {
+                    return Err(de::Error::invalid_length(
+                        n,
+                        &"a number or an array of 3 numbers",
+                    ));
+                }
+                Ok(Triple::Three(out))
+            }
+        }
+        d.deserialize_any(V)
+    }
+}
+
+/// A string naming a variant with its defaults (`"box"`), or a table with `type` and
+/// parameters (`{ type = "tent", radius = 1.0 }`).
+#[derive(Clone, Debug)]
+pub enum NameOr<T> {
+    Name(String),
+    Table(T),
+}
+
+impl<'de, T: Deserialize<'de>> Deserialize<'de> for NameOr<T> {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V<T>(std::marker::PhantomData<T>);
+        impl<'de, T: Deserialize<'de>> Visitor<'de> for V<T> {
+            type Value = NameOr<T>;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("a name (string) or a table with a `type` field")
+            }
+            fn visit_str<E: de::Error>(self, s: &str) -> Result<NameOr<T>, E> {
+                Ok(NameOr::Name(s.to_string()))
+            }
+            fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<NameOr<T>, A::Error> {
+                T::deserialize(de::value::MapAccessDeserializer::new(map)).map(NameOr::Table)
+            }
+        }
+        d.deserialize_any(V(std::marker::PhantomData))
+    }
+}

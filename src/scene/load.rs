@@ -1,0 +1,519 @@
+//! Reading a scene file: format by extension, syntax check, a scan for non-finite numbers,
+//! typed parsing with field paths, then [`super::resolve`].
+
+use super::desc::SceneDesc;
+use super::error::{Seg, line_column, location};
+use super::{Scene, SceneError};
+use std::path::Path;
+
+/// The two spellings of the schema.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Format {
+    Toml,
+    Json,
+}
+
+impl Format {
+    /// `.toml` or `.json` (case-insensitive), else [`SceneError::UnknownFormat`].
+    pub fn from_path(path: &Path) -> Result<Format, SceneError> {
+        match path
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(str::to_ascii_lowercase)
+            .as_deref()
+        {
+            Some("toml") => Ok(Format::Toml),
+            Some("json") => Ok(Format::Json),
+            _ => Err(SceneError::UnknownFormat {
+                path: path.to_path_buf(),
+            }),
+        }
+    }
+
+    fn name(self) -> &'static str {
+        match self {
+            Format::Toml => "TOML",
+            Format::Json => "JSON",
+        }
+    }
+}
+
+impl Scene {
+    /// Loads `path` (TOML if it ends in `.toml`, JSON if `.json`), applies the `--set`
+    /// overrides `(param name, value)` and resolves it. OBJ files are looked up relative to
+    /// the scene file's folder.
+    pub fn load(path: &Path, overrides: &[(String, f32)]) -> Result<Scene, SceneError> {
+        let format = Format::from_path(path)?;
+        let text = std::fs::read_to_string(path).map_err(|err| SceneError::Io {
+            path: path.to_path_buf(),
+            err,
+        })?;
+        Scene::from_str(&text, format, path, overrides)
+    }
+
+    /// Parses and resolves a description given as text. `source` names the file in messages
+    /// and is the base for relative OBJ paths (its parent folder).
+    pub fn from_str(
+        text: &str,
+        format: Format,
+        source: &Path,
+        overrides: &[(String, f32)],
+    ) -> Result<Scene, SceneError> {
+        let desc = parse(text, format, source)?;
+        super::resolve::resolve(desc, source, overrides)
+    }
+}
+
+/// Text → description: syntax, non-finite numbers, then types (with field paths).
+pub(crate) fn parse(text: &str, format: Format, source: &Path) -> Result<SceneDesc, SceneError> {
+    let path = source.to_path_buf();
+    let syntax = |line: usize, column: usize, message: String| SceneError::Syntax {
+        path: path.clone(),
+        format: format.name(),
+        line,
+        column,
+        message: message.trim().replace('\n', "; "),
+    };
+    // 1. Syntax, into a generic tree; scan it for numbers that are not finite f32s.
+    let mut bad: Option<(Vec<Seg>, String)> = None;
+    let raw: serde_json::Value = match format {
+        Format::Toml => {
+            let v: toml::Value = toml::from_str(text).map_err(|e| {
+                let (line, column) = e.span().map_or((0, 0), |s| line_column(text, s.start));
+                syntax(line, column, e.message().to_string())
+            })?;
+            scan_toml(&v, &mut Vec::new(), &mut bad);
+            serde_json::to_value(&v).unwrap_or(serde_json::Value::Null)
+        }
+        Format::Json => {
+            let v: serde_json::Value = serde_json::from_str(text)
+                .map_err(|e| syntax(e.line(), e.column(), strip_position(&e)))?;
+            scan_json(&v, &mut Vec::new(), &mut bad);
+            v
+        }
+    };
+    let name_of = |section: &str, i: usize| -> Option<String> {
+        raw.get(section)?
+            .get(i)?
+            .get("name")?
+            .as_str()
+            .map(str::to_string)
+    };
+    if let Some((at, got)) = bad {
+        return Err(SceneError::Invalid {
+            path,
+            at: location(&at, &name_of),
+            message: format!("expected a finite number, got {got}"),
+        });
+    }
+    // 2. Types, unknown and missing fields, with the path to the offending field.
+    let typed = |segs: Vec<Seg>, message: String, pos: Option<(usize, usize)>| {
+        let message = match pos {
+            Some((l, c)) if l > 0 => format!("{message} (line {l}, column {c})"),
+            _ => message,
+        };
+        let at = match segs.as_slice() {
+            // a missing field is reported on the table that lacks it
+            [Seg::Key(table)] if message.starts_with("missing field") => table.clone(),
+            _ => location(&segs, &name_of),
+        };
+        SceneError::Invalid {
+            path: source.to_path_buf(),
+            at,
+            message,
+        }
+    };
+    match format {
+        Format::Toml => {
+            let de = toml::Deserializer::new(text);
+            serde_path_to_error::deserialize::<_, SceneDesc>(de).map_err(|e| {
+                let segs = segments(e.path());
+                let inner = e.into_inner();
+                let pos = inner.span().map(|s| line_column(text, s.start));
+                typed(segs, inner.message().replace("`", "'"), pos)
+            })
+        }
+        Format::Json => {
+            let mut de = serde_json::Deserializer::from_str(text);
+            serde_path_to_error::deserialize::<_, SceneDesc>(&mut de).map_err(|e| {
+                let segs = segments(e.path());
+                let inner = e.into_inner();
+                let pos = Some((inner.line(), inner.column()));
+                typed(segs, strip_position(&inner).replace("`", "'"), pos)
+            })
+        }
+    }
+}
+
+/// serde_json's message without its trailing " at line L column C".
+fn strip_position(e: &serde_json::Error) -> String {
+    let s = e.to_string();
+    match s.rfind(" at line ") {
+        Some(i) => s[..i].to_string(),
+        None => s,
+    }
+}
+
+fn segments(path: &serde_path_to_error::Path) -> Vec<Seg> {
+    use serde_path_to_error::Segment;
+    path.iter()
+        .filter_map(|s| match s {
+            Segment::Seq { index } => Some(Seg::Index(*index)),
+            Segment::Map { key } => Some(Seg::Key(key.clone())),
+            Segment::Enum { variant } => Some(Seg::Key(variant.clone())),
+            Segment::Unknown => None,
+        })
+        .collect()
+}
+
+fn check_float(f: f64, path: &[Seg], bad: &mut Option<(Vec<Seg>, String)>) {
+    if bad.is_none() && !(f as f32).is_finite() {
+        let got = if f.is_nan() {
+            "nan".to_string()
+        } else if f.is_infinite() {
+            if f > 0.0 {
+                "inf".to_string()
+            } else {
+                "-inf".to_string()
+            }
+        } else {
+            format!("{f:e}, which is outside the range of 32-bit floats")
+        };
+        *bad = Some((path.to_vec(), got));
+    }
+}
+
+fn scan_toml(v: &toml::Value, path: &mut Vec<Seg>, bad: &mut Option<(Vec<Seg>, String)>) {
+    match v {
+        toml::Value::Float(f) => check_float(*f, path, bad),
+        toml::Value::Array(a) => {
+            for (i, x) in a.iter().enumerate() {
+                path.push(Seg::Index(i));
+                scan_toml(x, path, bad);
+                path.pop();
+            }
+        }
+        toml::Value::Table(t) => {
+            for (k, x) in t {
+                path.push(Seg::Key(k.clone()));
+                scan_toml(x, path, bad);
+                path.pop();
+            }
+        }
+        _ => {}
+    }
+}
+
+fn scan_json(v: &serde_json::Value, path: &mut Vec<Seg>, bad: &mut Option<(Vec<Seg>, String)>) {
+    match v {
+        serde_json::Value::Number(n) if n.is_f64() => {
+            check_float(n.as_f64().unwrap_or(f64::NAN), path, bad)
+        }
+        serde_json::Value::Array(a) => {
+            for (i, x) in a.iter().enumerate() {
+                path.push(Seg::Index(i));
+                scan_json(x, path, bad);
+                path.pop();
+            }
+        }
+        serde_json::Value::Object(o) => {
+            for (k, x) in o {
+                path.push(Seg::Key(k.clone()));
+                scan_json(x, path, bad);
+                path.pop();
+            }
+        }
+        _ => {}
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::testutil::*;
+    use super::*;
+
+    #[test]
+    fn every_scene_in_scenes_loads() {
+        let mut n = 0;
+        for entry in std::fs::read_dir(scenes_dir()).unwrap() {
+            let p = entry.unwrap().path();
+            if matches!(
+                p.extension().and_then(|e| e.to_str()),
+                Some("toml" | "json")
+            ) {
+                let s = Scene::load(&p, &[]).unwrap_or_else(|e| panic!("{e}"));
+                assert!(!s.geometry.indices.is_empty(), "{}", p.display());
+                assert_eq!(s.geometry.indices.len(), s.geometry.tri_shape.len());
+                assert!(s.geometry.positions.iter().all(|p| p.is_finite()));
+                n += 1;
+            }
+        }
+        assert!(n >= 4, "only {n} scenes found");
+    }
+
+    #[test]
+    fn json_and_toml_give_the_same_scene() {
+        for name in [
+            "cornell_box.toml",
+            "confocal_plane.toml",
+            "obj_mesh.toml",
+            "occluder_shadow.toml",
+        ] {
+            let toml_scene = load_scene(name);
+            let value: toml::Value = toml::from_str(&scene_text(name)).unwrap();
+            let json = serde_json::to_string_pretty(&value).unwrap();
+            // Same folder, so relative OBJ paths resolve the same way.
+            let json_path = scenes_dir().join(name.replace(".toml", ".json"));
+            let j = Scene::from_str(&json, Format::Json, &json_path, &[])
+                .unwrap_or_else(|e| panic!("{e}"));
+            assert_eq!(
+                j.geometry.positions, toml_scene.geometry.positions,
+                "{name}"
+            );
+            assert_eq!(j.geometry.indices, toml_scene.geometry.indices, "{name}");
+            assert_eq!(
+                j.geometry.tri_shape, toml_scene.geometry.tri_shape,
+                "{name}"
+            );
+            assert_eq!(j.summary()["materials"], toml_scene.summary()["materials"]);
+            let (mut a, mut b) = (j.summary(), toml_scene.summary());
+            a["source"] = serde_json::Value::Null;
+            b["source"] = serde_json::Value::Null;
+            assert_eq!(a, b, "{name}");
+        }
+    }
+
+    #[test]
+    fn format_follows_the_extension() {
+        assert_eq!(
+            Format::from_path(Path::new("a/b.toml")).unwrap(),
+            Format::Toml
+        );
+        assert_eq!(
+            Format::from_path(Path::new("b.JSON")).unwrap(),
+            Format::Json
+        );
+        let e = expect_err(
+            "scene.yaml",
+            MINI,
+            &[],
+            &["unknown scene format", ".toml or .json"],
+        );
+        assert!(e.starts_with('/'), "{e}");
+    }
+
+    #[test]
+    fn missing_file_names_the_path() {
+        let e = Scene::load(Path::new("/nonexistent/dir/scene.toml"), &[])
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("/nonexistent/dir/scene.toml") && e.contains("cannot read"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn toml_syntax_error_has_line_and_column() {
+        let text = MINI.replacen("[film]", "[film", 1);
+        let e = expect_err(
+            "broken.toml",
+            &text,
+            &[],
+            &["TOML syntax error", "line 6", "column"],
+        );
+        assert!(e.contains("broken.toml"), "{e}");
+    }
+
+    #[test]
+    fn json_syntax_error_has_line_and_column() {
+        expect_err(
+            "broken.json",
+            "{\n  \"camera\": {\n    \"position\": [0, 0, 1],,\n",
+            &[],
+            &["JSON syntax error", "line 3", "column"],
+        );
+    }
+
+    #[test]
+    fn wrong_type_names_the_field_path() {
+        let text = mini_with("bins = 10", "bins = \"many\"");
+        expect_err(
+            "wrongtype.toml",
+            &text,
+            &[],
+            &[
+                "film: field 'bins'",
+                "invalid type: string \"many\"",
+                "expected i64",
+                "line 8",
+            ],
+        );
+        let text = mini_with("albedo = 0.5", "albedo = \"grey\"");
+        expect_err(
+            "t2.toml",
+            &text,
+            &[],
+            &[
+                "material[0] \"white\": field 'albedo'",
+                "expected a number or an array of 3 numbers",
+            ],
+        );
+        let text = mini_with("albedo = 0.5", "albedo = [0.5, 0.5]");
+        expect_err(
+            "t3.toml",
+            &text,
+            &[],
+            &[
+                "material[0] \"white\": field 'albedo'",
+                "array of 3 numbers",
+            ],
+        );
+        let text = mini_with("look_at = [0.0, 0.0, 0.0]", "look_at = [0.0, 0.0]");
+        expect_err(
+            "t4.toml",
+            &text,
+            &[],
+            &["camera: field 'look_at'", "expected an array of length 3"],
+        );
+        let text = mini_with("type = \"rectangle\"", "type = \"rectangel\"");
+        expect_err(
+            "t5.toml",
+            &text,
+            &[],
+            &[
+                "shape[0] \"quad\": field 'type'",
+                "unknown variant 'rectangel'",
+                "'rectangle'",
+            ],
+        );
+        // JSON too
+        let json = r#"{"camera": {"position": [0,0,3], "look_at": [0,0,0]}, "film": {"bin_width_opl": 0.1, "bins": true}}"#;
+        expect_err(
+            "t6.json",
+            json,
+            &[],
+            &[
+                "film: field 'bins'",
+                "invalid type: boolean",
+                "expected i64",
+            ],
+        );
+    }
+
+    #[test]
+    fn unknown_and_missing_fields_are_named() {
+        let text = mini_with("material = \"white\"", "material = \"white\"\ncolour = 3");
+        expect_err(
+            "unknown.toml",
+            &text,
+            &[],
+            &[
+                "shape[0] \"quad\": field 'colour'",
+                "unknown field 'colour'",
+                "expected one of",
+            ],
+        );
+        let text = format!("{MINI}\n[extra]\na = 1\n");
+        expect_err(
+            "top.toml",
+            &text,
+            &[],
+            &["field 'extra'", "unknown field 'extra'"],
+        );
+        let text = mini_with("position = [0.0, 0.0, 3.0]\nlook_at", "look_at");
+        expect_err(
+            "missing.toml",
+            &text,
+            &[],
+            &["missing.toml: camera: missing field 'position'"],
+        );
+        let text = mini_with(
+            "[camera]\nposition = [0.0, 0.0, 3.0]\nlook_at = [0.0, 0.0, 0.0]\n",
+            "",
+        );
+        expect_err(
+            "nocam.toml",
+            &text,
+            &[],
+            &["top level: missing field 'camera'"],
+        );
+        let text = MINI.replacen("[camera]", "[camera]\nfov = 40\n[camera.x]", 1);
+        expect_err(
+            "nested.toml",
+            &text,
+            &[],
+            &["camera: field 'x'", "unknown field"],
+        );
+    }
+
+    #[test]
+    fn nan_and_inf_literals_are_refused_with_their_path() {
+        let text = mini_with(
+            "look_at = [0.0, 0.0, 0.0]",
+            "look_at = [0.0, 0.0, 0.0]\nfov = nan",
+        );
+        expect_err(
+            "nan.toml",
+            &text,
+            &[],
+            &["camera: field 'fov'", "expected a finite number, got nan"],
+        );
+        let text = mini_with(
+            "material = \"white\"",
+            "material = \"white\"\nscale = [1.0, inf, 1.0]",
+        );
+        expect_err(
+            "inf.toml",
+            &text,
+            &[],
+            &["shape[0] \"quad\": field 'scale[1]'", "got inf"],
+        );
+        let text = mini_with("intensity = 1.0", "intensity = -inf");
+        expect_err(
+            "ninf.toml",
+            &text,
+            &[],
+            &["emitter[0] \"lamp\": field 'intensity'", "got -inf"],
+        );
+        let text = mini_with("bin_width_opl = 0.1", "bin_width_opl = 1e300");
+        expect_err(
+            "big.toml",
+            &text,
+            &[],
+            &[
+                "film: field 'bin_width_opl'",
+                "outside the range of 32-bit floats",
+            ],
+        );
+        let json = r#"{"camera": {"position": [0,0,3], "look_at": [0,0,1e39]}, "film": {"bin_width_opl": 0.1, "bins": 2}}"#;
+        expect_err(
+            "big.json",
+            json,
+            &[],
+            &["camera: field 'look_at[2]'", "32-bit"],
+        );
+    }
+
+    #[test]
+    fn mangled_files_never_panic() {
+        let text = scene_text("cornell_box.toml");
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("cut.toml");
+        let bytes = text.as_bytes();
+        for cut in (0..bytes.len()).step_by(37) {
+            std::fs::write(&p, &bytes[..cut]).unwrap();
+            let _ = Scene::load(&p, &[]);
+            // and a character swapped for a few troublemakers
+            for junk in ["\"", "]", "=", "-", "0", "nan", "\n[[shape]]\n"] {
+                let mut s = text[..text.floor_char_boundary(cut)].to_string();
+                s.push_str(junk);
+                s.push_str(&text[text.ceil_char_boundary(cut + 1).min(text.len())..]);
+                std::fs::write(&p, s).unwrap();
+                if let Err(e) = Scene::load(&p, &[]) {
+                    assert!(e.to_string().contains("cut.toml"), "{e}");
+                }
+            }
+        }
+    }
+}

@@ -1,0 +1,214 @@
+//! Scenes: what is rendered, resolved from a description file into flat arrays.
+//!
+//! Loading (`load.rs`) turns `scenes/*.toml` (or the same schema as JSON) into a [`Scene`]:
+//! parameters are applied first (their values override the description), then shapes are
+//! built in local space and transformed to world space. The integrator sees only world-space
+//! triangles plus, per shape, its transform, from which a parameter's velocity field is derived.
+
+mod camera;
+pub use camera::{Camera, PixelFilter};
+mod desc;
+mod error;
+mod info;
+mod load;
+mod params;
+mod resolve;
+pub mod shapes;
+#[cfg(test)]
+mod testutil;
+pub use error::SceneError;
+pub use load::Format;
+
+use crate::temporal::{Gate, Pulse, TimeAxis};
+use glam::{Mat3, Vec3};
+use std::path::PathBuf;
+
+/// A shape's transform: `x_world = translate + R · (scale ∘ x_local)`, where
+/// `R = Rz · Ry · Rx` from `rotate_deg` (degrees about the world axes, X applied first).
+/// Rotation and scale pivot on the shape's local origin.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Transform {
+    pub translate: Vec3,
+    pub rotate_deg: Vec3,
+    pub scale: Vec3,
+}
+
+impl Default for Transform {
+    fn default() -> Self {
+        Self {
+            translate: Vec3::ZERO,
+            rotate_deg: Vec3::ZERO,
+            scale: Vec3::ONE,
+        }
+    }
+}
+
+impl Transform {
+    pub fn rotation(&self) -> Mat3 {
+        let r = self.rotate_deg * (std::f32::consts::PI / 180.0);
+        Mat3::from_rotation_z(r.z) * Mat3::from_rotation_y(r.y) * Mat3::from_rotation_x(r.x)
+    }
+    pub fn apply(&self, p: Vec3) -> Vec3 {
+        self.translate + self.rotation() * (self.scale * p)
+    }
+}
+
+/// One named shape after loading: its triangles occupy `first_tri .. first_tri + tri_count`
+/// of [`Geometry`], and its vertices `first_vertex .. first_vertex + vertex_count`.
+#[derive(Clone, Debug)]
+pub struct Shape {
+    pub name: String,
+    pub transform: Transform,
+    /// Vertex positions before the transform (for velocity fields and re-posing).
+    pub local_positions: Vec<Vec3>,
+    pub first_vertex: u32,
+    pub vertex_count: u32,
+    pub first_tri: u32,
+    pub tri_count: u32,
+    pub material: u32,
+    /// Index into [`Scene::emitters`] if the shape is an area emitter.
+    pub emitter: Option<u32>,
+}
+
+/// All triangles of the scene in world space, as handed to Embree.
+#[derive(Clone, Debug, Default)]
+pub struct Geometry {
+    pub positions: Vec<Vec3>,
+    pub indices: Vec<[u32; 3]>,
+    /// Shape index of each triangle.
+    pub tri_shape: Vec<u32>,
+    /// Triangles of exactly zero area left out while loading (see `shapes.rs`).
+    pub dropped_degenerate: usize,
+}
+
+/// Surface reflectance. Shaped for more lobes later (a rough GGX conductor): each variant is
+/// evaluated, sampled and given a pdf in the local shading frame (see `integrator::bsdf`).
+#[derive(Clone, Debug, PartialEq)]
+pub enum Material {
+    /// Lambertian: f = albedo / π. Mono albedos are stored as three equal channels.
+    Diffuse { albedo: [f32; 3] },
+}
+
+#[derive(Clone, Debug)]
+pub struct NamedMaterial {
+    pub name: String,
+    pub material: Material,
+}
+
+/// Emission in space; its time profile is in [`Emitter::pulse`].
+#[derive(Clone, Debug, PartialEq)]
+pub enum EmitterKind {
+    /// One-sided (front = geometric normal side) diffuse emitter covering a shape.
+    /// Radiance in W·sr⁻¹·m⁻².
+    Area { shape: u32, radiance: [f32; 3] },
+    /// Isotropic point light with intensity in W·sr⁻¹.
+    Point { position: Vec3, intensity: [f32; 3] },
+    /// A laser beam (delta position and direction) with power in W. The spot it lights is
+    /// connected to by next-event estimation (the usual NLOS set-up).
+    Laser {
+        position: Vec3,
+        direction: Vec3,
+        power: [f32; 3],
+    },
+}
+
+#[derive(Clone, Debug)]
+pub struct Emitter {
+    pub name: String,
+    pub kind: EmitterKind,
+    /// Temporal profile of the emission (unit area).
+    pub pulse: Pulse,
+    /// Emission time offset, in OPL metres.
+    pub offset_opl: f32,
+}
+
+/// The transient film: time axis, gate, channels, and whether the camera segment is counted.
+#[derive(Clone, Debug)]
+pub struct FilmSpec {
+    pub width: u32,
+    pub height: u32,
+    pub axis: TimeAxis,
+    pub gate: Gate,
+    /// 1 (mono) or 3 (RGB).
+    pub channels: usize,
+    /// Leave out the camera-to-first-hit distance from the OPL ("unwarped" / confocal NLOS
+    /// convention).
+    pub unwarp: bool,
+    pub filter: PixelFilter,
+}
+
+/// Which estimator renders the interior integral.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum IntegratorKind {
+    /// Unidirectional path tracing with next-event estimation and MIS.
+    Path,
+}
+
+#[derive(Clone, Debug)]
+pub struct IntegratorSpec {
+    pub kind: IntegratorKind,
+    /// Maximum number of scattering events (1 = direct illumination only).
+    pub max_bounces: u32,
+    pub spp: u32,
+    pub seed: u64,
+    /// Russian roulette starts after this many bounces (None = off).
+    pub rr_depth: Option<u32>,
+}
+
+/// Which axis a pose parameter acts along.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Axis {
+    X = 0,
+    Y = 1,
+    Z = 2,
+}
+
+/// What a `[[param]]` entry controls.
+#[derive(Clone, Debug, PartialEq)]
+pub enum ParamKind {
+    /// `translate[axis]` of a shape, metres.
+    Translate { shape: u32, axis: Axis },
+    /// `rotate_deg[axis]` of a shape, degrees.
+    Rotate { shape: u32, axis: Axis },
+    /// `scale[axis]` of a shape (unitless factor).
+    Scale { shape: u32, axis: Axis },
+    /// Albedo of a material; `channel` None sets all channels.
+    Albedo {
+        material: u32,
+        channel: Option<usize>,
+    },
+    /// Radiance (area), intensity (point) or power (laser) of an emitter; `channel` None = all.
+    Radiance {
+        emitter: u32,
+        channel: Option<usize>,
+    },
+    /// Refractive index η of the medium.
+    Eta,
+    /// Emission time offset of an emitter, OPL metres.
+    PulseOffset { emitter: u32 },
+}
+
+#[derive(Clone, Debug)]
+pub struct Param {
+    pub name: String,
+    pub kind: ParamKind,
+    pub value: f32,
+}
+
+/// A loaded scene. Everything the renderer needs, with parameters already applied.
+#[derive(Clone, Debug)]
+pub struct Scene {
+    /// The file it came from (for messages).
+    pub source: PathBuf,
+    pub shapes: Vec<Shape>,
+    pub geometry: Geometry,
+    pub materials: Vec<NamedMaterial>,
+    pub emitters: Vec<Emitter>,
+    pub camera: Camera,
+    pub film: FilmSpec,
+    /// Refractive index of the medium: OPL = η × geometric length.
+    pub eta: f32,
+    pub integrator: IntegratorSpec,
+    pub params: Vec<Param>,
+}

@@ -1,0 +1,608 @@
+//! `[[param]]` entries and `--set NAME=VALUE` overrides: the override replaces the param's
+//! value, and each param's value then replaces the quantity it controls in the description
+//! (before any range check, so a bad value is reported like a bad value in the file).
+
+use super::desc::{AxisDesc, ChannelDesc, ParamKindDesc, SceneDesc, Triple};
+use super::error::{item_field, table_field};
+use super::resolve::{Ctx, Names, no_such};
+use super::{Axis, Param, ParamKind, SceneError};
+use std::path::Path;
+
+/// Applies `--set` overrides to the params' values; returns which params were overridden.
+pub(crate) fn apply_overrides(
+    desc: &mut SceneDesc,
+    overrides: &[(String, f32)],
+    names: &Names,
+    path: &Path,
+) -> Result<Vec<bool>, SceneError> {
+    let mut overridden = vec![false; desc.param.len()];
+    for (name, value) in overrides {
+        let err = |message: String| SceneError::Override {
+            path: path.to_path_buf(),
+            name: name.clone(),
+            message,
+        };
+        let Some(i) = names.params.iter().position(|p| p == name) else {
+            return Err(err(if names.params.is_empty() {
+                format!("no parameter named {name:?}: the scene has no [[param]] entries")
+            } else {
+                format!(
+                    "no parameter named {name:?} (parameters: {})",
+                    names.params.join(", ")
+                )
+            }));
+        };
+        if !value.is_finite() {
+            return Err(err(format!("value must be a finite number (got {value})")));
+        }
+        desc.param[i].value = *value;
+        overridden[i] = true;
+    }
+    Ok(overridden)
+}
+
+fn axis(a: AxisDesc) -> Axis {
+    match a {
+        AxisDesc::X => Axis::X,
+        AxisDesc::Y => Axis::Y,
+        AxisDesc::Z => Axis::Z,
+    }
+}
+
+fn channel(c: ChannelDesc) -> usize {
+    match c {
+        ChannelDesc::R => 0,
+        ChannelDesc::G => 1,
+        ChannelDesc::B => 2,
+    }
+}
+
+pub(crate) fn axis_name(a: Axis) -> &'static str {
+    ["x", "y", "z"][a as usize]
+}
+
+pub(crate) fn channel_name(c: usize) -> &'static str {
+    ["r", "g", "b"].get(c).copied().unwrap_or("?")
+}
+
+/// Sets one component (or all, `None`) of a scalar-or-triple.
+fn set_component(t: Option<Triple>, default: f32, component: Option<usize>, value: f32) -> Triple {
+    match component {
+        None => Triple::Scalar(value),
+        Some(c) => {
+            let mut v = t.map_or([default; 3], Triple::to_array);
+            v[c] = value;
+            Triple::Three(v)
+        }
+    }
+}
+
+/// Resolves every param's target, applies its value onto `desc`, and records in `ctx` which
+/// locations got their value from a param (so later range errors say so).
+pub(crate) fn apply_params(
+    desc: &mut SceneDesc,
+    names: &Names,
+    ctx: &mut Ctx,
+    overridden: &[bool],
+) -> Result<Vec<Param>, SceneError> {
+    let mut out: Vec<Param> = Vec::new();
+    // (quantity, component) pairs already claimed, with the index of the param claiming it.
+    let mut claimed: Vec<(String, usize, usize)> = Vec::new();
+    for i in 0..desc.param.len() {
+        let p = desc.param[i].clone();
+        let at = |f: &str| item_field("param", i, &p.name, f);
+        let kind_name = p.kind.as_str();
+        let origin = if overridden.get(i).copied().unwrap_or(false) {
+            format!(
+                "value from param {:?}, set with --set {}={}",
+                p.name, p.name, p.value
+            )
+        } else {
+            format!("value from param {:?}", p.name)
+        };
+        let bad_value = |message: String| {
+            let message = if overridden.get(i).copied().unwrap_or(false) {
+                format!("{message} (set with --set {}={})", p.name, p.value)
+            } else {
+                message
+            };
+            SceneError::Invalid {
+                path: ctx.path.to_path_buf(),
+                at: at("value"),
+                message,
+            }
+        };
+
+        // Which of the optional fields this kind takes.
+        let (takes, target_field): (&[&str], Option<&str>) = match p.kind {
+            ParamKindDesc::Translate | ParamKindDesc::Rotate | ParamKindDesc::Scale => {
+                (&["shape", "axis"], Some("shape"))
+            }
+            ParamKindDesc::Albedo => (&["material", "channel"], Some("material")),
+            ParamKindDesc::Radiance => (&["emitter", "channel"], Some("emitter")),
+            ParamKindDesc::Eta => (&[], None),
+            ParamKindDesc::PulseOffset => (&["emitter"], Some("emitter")),
+        };
+        let given = [
+            ("shape", p.shape.is_some()),
+            ("material", p.material.is_some()),
+            ("emitter", p.emitter.is_some()),
+            ("axis", p.axis.is_some()),
+            ("channel", p.channel.is_some()),
+        ];
+        for (field, is_set) in given {
+            if is_set && !takes.contains(&field) {
+                let takes = if takes.is_empty() {
+                    "none".to_string()
+                } else {
+                    takes.join(", ")
+                };
+                return Err(ctx.invalid(
+                    at(field),
+                    format!("does not apply to kind {kind_name} (it takes: {takes})"),
+                ));
+            }
+        }
+        let needs_axis = || {
+            p.axis.map(axis).ok_or_else(|| {
+                ctx.invalid(
+                    at("axis"),
+                    format!("missing: kind {kind_name} needs axis = \"x\", \"y\" or \"z\""),
+                )
+            })
+        };
+        let target = |list: &[String],
+                      what: &str,
+                      plural: &str,
+                      given: &Option<String>|
+         -> Result<usize, SceneError> {
+            let field = target_field.unwrap_or(what);
+            match given {
+                None => Err(ctx.invalid(
+                    at(field),
+                    format!(
+                        "missing: kind {kind_name} needs the name of {} {what} ({plural}: {})",
+                        if what == "emitter" { "an" } else { "a" },
+                        list.join(", ")
+                    ),
+                )),
+                Some(n) => list
+                    .iter()
+                    .position(|x| x == n)
+                    .ok_or_else(|| ctx.invalid(at(field), no_such(what, plural, n, list))),
+            }
+        };
+        let v = p.value;
+        // (kind, location of the controlled field, quantity name for conflicts, components)
+        let (kind, loc, quantity, components): (ParamKind, String, String, Vec<usize>) = match p
+            .kind
+        {
+            ParamKindDesc::Translate | ParamKindDesc::Rotate | ParamKindDesc::Scale => {
+                let s = target(&names.shapes, "shape", "shapes", &p.shape)?;
+                let a = needs_axis()?;
+                let shape = &mut desc.shape[s];
+                let (kind, field) = match p.kind {
+                    ParamKindDesc::Translate => {
+                        shape.translate.get_or_insert([0.0; 3])[a as usize] = v;
+                        (
+                            ParamKind::Translate {
+                                shape: s as u32,
+                                axis: a,
+                            },
+                            "translate",
+                        )
+                    }
+                    ParamKindDesc::Rotate => {
+                        shape.rotate.get_or_insert([0.0; 3])[a as usize] = v;
+                        (
+                            ParamKind::Rotate {
+                                shape: s as u32,
+                                axis: a,
+                            },
+                            "rotate",
+                        )
+                    }
+                    _ => {
+                        if v == 0.0 {
+                            return Err(bad_value(
+                                "a scale factor must be nonzero (got 0)".to_string(),
+                            ));
+                        }
+                        shape.scale = Some(set_component(shape.scale, 1.0, Some(a as usize), v));
+                        (
+                            ParamKind::Scale {
+                                shape: s as u32,
+                                axis: a,
+                            },
+                            "scale",
+                        )
+                    }
+                };
+                let loc = item_field("shape", s, &shape.name, field);
+                (
+                    kind,
+                    loc,
+                    format!("shape {:?} {field}", shape.name),
+                    vec![a as usize],
+                )
+            }
+            ParamKindDesc::Albedo => {
+                let m = target(&names.materials, "material", "materials", &p.material)?;
+                if !(0.0..=1.0).contains(&v) {
+                    return Err(bad_value(format!("an albedo must be in [0, 1] (got {v})")));
+                }
+                let c = p.channel.map(channel);
+                let mat = &mut desc.material[m];
+                if c.is_none() || mat.albedo.is_some() {
+                    mat.albedo = Some(set_component(mat.albedo, 0.0, c, v));
+                }
+                let loc = item_field("material", m, &mat.name, "albedo");
+                (
+                    ParamKind::Albedo {
+                        material: m as u32,
+                        channel: c,
+                    },
+                    loc,
+                    format!("material {:?} albedo", mat.name),
+                    c.map_or(vec![0, 1, 2], |c| vec![c]),
+                )
+            }
+            ParamKindDesc::Radiance => {
+                let e = target(&names.emitters, "emitter", "emitters", &p.emitter)?;
+                if v < 0.0 {
+                    return Err(bad_value(format!(
+                        "an emitted amount must be >= 0 (got {v})"
+                    )));
+                }
+                let c = p.channel.map(channel);
+                let em = &mut desc.emitter[e];
+                let field = em.ty.amount_field();
+                let amount = em.amount_mut();
+                if c.is_none() || amount.is_some() {
+                    *amount = Some(set_component(*amount, 0.0, c, v));
+                }
+                let loc = item_field("emitter", e, &em.name, field);
+                (
+                    ParamKind::Radiance {
+                        emitter: e as u32,
+                        channel: c,
+                    },
+                    loc,
+                    format!("emitter {:?} {field}", em.name),
+                    c.map_or(vec![0, 1, 2], |c| vec![c]),
+                )
+            }
+            ParamKindDesc::Eta => {
+                if v <= 0.0 {
+                    return Err(bad_value(format!(
+                        "a refractive index must be > 0 (got {v})"
+                    )));
+                }
+                desc.medium.eta = v;
+                (
+                    ParamKind::Eta,
+                    table_field("medium", "eta"),
+                    "medium eta".to_string(),
+                    vec![0],
+                )
+            }
+            ParamKindDesc::PulseOffset => {
+                let e = target(&names.emitters, "emitter", "emitters", &p.emitter)?;
+                let em = &mut desc.emitter[e];
+                em.offset_opl = v;
+                let loc = item_field("emitter", e, &em.name, "offset_opl");
+                (
+                    ParamKind::PulseOffset { emitter: e as u32 },
+                    loc,
+                    format!("emitter {:?} offset_opl", em.name),
+                    vec![0],
+                )
+            }
+        };
+        for c in &components {
+            if let Some((_, _, j)) = claimed.iter().find(|(q, k, _)| *q == quantity && k == c) {
+                return Err(ctx.invalid(
+                    at("kind"),
+                    format!("controls the same quantity ({quantity}) as param[{j}] {:?}; each quantity can have one param", out[*j].name),
+                ));
+            }
+        }
+        claimed.extend(components.iter().map(|&c| (quantity.clone(), c, i)));
+        ctx.set_by.insert(loc, origin);
+        out.push(Param {
+            name: p.name.clone(),
+            kind,
+            value: v,
+        });
+    }
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::testutil::*;
+    use super::super::{EmitterKind, Material, Scene};
+    use glam::Vec3;
+
+    fn set(name: &str, v: f32) -> Vec<(String, f32)> {
+        vec![(name.to_string(), v)]
+    }
+
+    #[test]
+    fn translate_override_moves_vertices_by_the_delta() {
+        let base = load_scene("occluder_shadow.toml");
+        let path = scenes_dir().join("occluder_shadow.toml");
+        let moved = Scene::load(&path, &set("occluder_x", 0.35)).unwrap();
+        let i = base
+            .shapes
+            .iter()
+            .position(|s| s.name == "occluder")
+            .unwrap();
+        let (a, b) = (&base.shapes[i], &moved.shapes[i]);
+        assert_eq!(
+            a.transform.translate.x, 0.1,
+            "the param's value overrides the file's translate"
+        );
+        assert_eq!(b.transform.translate.x, 0.35);
+        assert_eq!(
+            (a.transform.translate.y, a.transform.translate.z),
+            (b.transform.translate.y, b.transform.translate.z)
+        );
+        assert_eq!(moved.params[0].value, 0.35);
+        for k in 0..a.vertex_count as usize {
+            let pa = base.geometry.positions[a.first_vertex as usize + k];
+            let pb = moved.geometry.positions[b.first_vertex as usize + k];
+            let d = pb - pa;
+            assert!(
+                (d - Vec3::new(0.25, 0.0, 0.0)).abs().max_element() < 1e-6,
+                "{d}"
+            );
+            assert_eq!(pb, b.transform.apply(b.local_positions[k]));
+        }
+        // every other shape is untouched
+        for (j, s) in base.shapes.iter().enumerate().filter(|(j, _)| *j != i) {
+            let r = s.first_vertex as usize..(s.first_vertex + s.vertex_count) as usize;
+            assert_eq!(
+                base.geometry.positions[r.clone()],
+                moved.geometry.positions[r],
+                "shape {j}"
+            );
+        }
+    }
+
+    #[test]
+    fn eta_override_changes_eta() {
+        let path = scenes_dir().join("confocal_plane.toml");
+        assert_eq!(Scene::load(&path, &[]).unwrap().eta, 1.0);
+        assert_eq!(Scene::load(&path, &set("eta", 1.33)).unwrap().eta, 1.33);
+        expect_err_set(
+            "e.toml",
+            &scene_text("confocal_plane.toml"),
+            &[],
+            &set("eta", 0.0),
+            &[
+                "param[0] \"eta\": field 'value'",
+                "must be > 0",
+                "--set eta=0",
+            ],
+        );
+    }
+
+    #[test]
+    fn rotate_and_scale_params_act_on_the_obj() {
+        let path = scenes_dir().join("obj_mesh.toml");
+        let s = Scene::load(&path, &[]).unwrap();
+        let m = s.shapes.iter().find(|s| s.name == "pyramid").unwrap();
+        assert_eq!(m.transform.scale, Vec3::new(0.5, 0.6, 0.5));
+        assert_eq!(m.transform.rotate_deg, Vec3::new(0.0, 30.0, 0.0));
+        let s2 = Scene::load(
+            &path,
+            &[("pyramid_yaw".into(), 75.0), ("pyramid_height".into(), 1.2)],
+        )
+        .unwrap();
+        let m2 = s2.shapes.iter().find(|s| s.name == "pyramid").unwrap();
+        assert_eq!(m2.transform.rotate_deg.y, 75.0);
+        assert_eq!(m2.transform.scale, Vec3::new(0.5, 1.2, 0.5));
+        // apex (0, 1.5, 0) sits at height 1.5 * scale.y whatever the yaw
+        let top = |s: &Scene, m: &super::super::Shape| {
+            (0..m.vertex_count as usize)
+                .map(|k| s.geometry.positions[m.first_vertex as usize + k].y)
+                .fold(f32::MIN, f32::max)
+        };
+        assert!((top(&s, m) - 0.9).abs() < 1e-6);
+        assert!((top(&s2, m2) - 1.8).abs() < 1e-6);
+    }
+
+    #[test]
+    fn albedo_and_radiance_params_set_channels() {
+        let text = format!(
+            "{MINI}\n[[param]]\nname = \"a\"\nkind = \"albedo\"\nmaterial = \"white\"\nchannel = \"g\"\nvalue = 0.25\n\
+             [[param]]\nname = \"i\"\nkind = \"radiance\"\nemitter = \"lamp\"\nvalue = 3\n\
+             [[param]]\nname = \"t\"\nkind = \"pulse_offset\"\nemitter = \"lamp\"\nvalue = 0.2\n"
+        );
+        let s = load_text("p.toml", &text, &[], &[]).unwrap();
+        assert_eq!(
+            s.materials[0].material,
+            Material::Diffuse {
+                albedo: [0.5, 0.25, 0.5]
+            }
+        );
+        assert!(matches!(
+            s.emitters[0].kind,
+            EmitterKind::Point {
+                intensity: [3.0, 3.0, 3.0],
+                ..
+            }
+        ));
+        assert_eq!(s.emitters[0].offset_opl, 0.2);
+        assert_eq!(
+            s.film.channels, 3,
+            "a per-channel param makes an auto film RGB"
+        );
+        let s = load_text("p.toml", &text, &[], &set("i", 7.0)).unwrap();
+        assert!(matches!(
+            s.emitters[0].kind,
+            EmitterKind::Point {
+                intensity: [7.0, 7.0, 7.0],
+                ..
+            }
+        ));
+        let mono = text.replacen("bins = 10", "bins = 10\nchannels = \"mono\"", 1);
+        expect_err(
+            "mono.toml",
+            &mono,
+            &[],
+            &["param[0] \"a\": field 'channel'", "\"mono\""],
+        );
+        expect_err_set(
+            "alb.toml",
+            &text,
+            &[],
+            &set("a", 2.0),
+            &["param[0] \"a\": field 'value'", "[0, 1]", "--set a=2"],
+        );
+    }
+
+    #[test]
+    fn unknown_set_name_lists_the_params() {
+        let text = scene_text("obj_mesh.toml").replace(
+            "meshes/pyramid.obj",
+            &scenes_dir()
+                .join("meshes/pyramid.obj")
+                .display()
+                .to_string(),
+        );
+        expect_err_set(
+            "o.toml",
+            &text,
+            &[],
+            &set("pyramid_roll", 1.0),
+            &[
+                "--set pyramid_roll",
+                "no parameter named \"pyramid_roll\"",
+                "(parameters: pyramid_yaw, pyramid_height)",
+            ],
+        );
+        expect_err_set(
+            "m.toml",
+            MINI,
+            &[],
+            &set("x", 1.0),
+            &["--set x", "no [[param]] entries"],
+        );
+        expect_err_set(
+            "o.toml",
+            &text,
+            &[],
+            &set("pyramid_yaw", f32::NAN),
+            &["--set pyramid_yaw", "finite"],
+        );
+        expect_err_set(
+            "o.toml",
+            &text,
+            &[],
+            &set("pyramid_yaw", f32::INFINITY),
+            &["--set pyramid_yaw", "finite"],
+        );
+    }
+
+    #[test]
+    fn param_target_errors() {
+        let p = |body: &str| format!("{MINI}\n[[param]]\nname = \"p\"\n{body}\nvalue = 0.5\n");
+        expect_err(
+            "t1.toml",
+            &p("kind = \"translate\"\nshape = \"qaud\"\naxis = \"x\""),
+            &[],
+            &[
+                "param[0] \"p\": field 'shape'",
+                "no shape named \"qaud\" (shapes: quad)",
+            ],
+        );
+        expect_err(
+            "t2.toml",
+            &p("kind = \"translate\"\naxis = \"x\""),
+            &[],
+            &["param[0] \"p\": field 'shape'", "missing", "shapes: quad"],
+        );
+        expect_err(
+            "t3.toml",
+            &p("kind = \"rotate\"\nshape = \"quad\""),
+            &[],
+            &[
+                "param[0] \"p\": field 'axis'",
+                "missing",
+                "\"x\", \"y\" or \"z\"",
+            ],
+        );
+        expect_err(
+            "t4.toml",
+            &p("kind = \"scale\"\nshape = \"quad\"\naxis = \"w\""),
+            &[],
+            &[
+                "param[0] \"p\": field 'axis'",
+                "unknown variant 'w'",
+                "'x', 'y', 'z'",
+            ],
+        );
+        expect_err(
+            "t5.toml",
+            &p("kind = \"albedo\"\nmaterial = \"red\""),
+            &[],
+            &[
+                "param[0] \"p\": field 'material'",
+                "no material named \"red\" (materials: white)",
+            ],
+        );
+        expect_err(
+            "t6.toml",
+            &p("kind = \"radiance\"\nemitter = \"sun\""),
+            &[],
+            &[
+                "param[0] \"p\": field 'emitter'",
+                "no emitter named \"sun\" (emitters: lamp)",
+            ],
+        );
+        expect_err(
+            "t7.toml",
+            &p("kind = \"eta\"\naxis = \"x\""),
+            &[],
+            &["param[0] \"p\": field 'axis'", "does not apply to kind eta"],
+        );
+        expect_err(
+            "t8.toml",
+            &p("kind = \"warp\""),
+            &[],
+            &["param[0] \"p\": field 'kind'", "unknown variant 'warp'"],
+        );
+        expect_err(
+            "t9.toml",
+            &p("kind = \"pulse_offset\""),
+            &[],
+            &["param[0] \"p\": field 'emitter'", "missing"],
+        );
+        let no_value = format!("{MINI}\n[[param]]\nname = \"p\"\nkind = \"eta\"\n");
+        expect_err(
+            "t10.toml",
+            &no_value,
+            &[],
+            &["param[0] \"p\"", "missing field 'value'"],
+        );
+        let two = format!(
+            "{MINI}\n[[param]]\nname = \"a\"\nkind = \"eta\"\nvalue = 1\n[[param]]\nname = \"b\"\nkind = \"eta\"\nvalue = 1\n"
+        );
+        expect_err(
+            "t11.toml",
+            &two,
+            &[],
+            &["param[1] \"b\"", "same quantity", "param[0] \"a\""],
+        );
+        let zero = p("kind = \"scale\"\nshape = \"quad\"\naxis = \"x\"")
+            .replace("value = 0.5", "value = 0");
+        expect_err(
+            "t12.toml",
+            &zero,
+            &[],
+            &["param[0] \"p\": field 'value'", "nonzero"],
+        );
+    }
+}

@@ -1,0 +1,294 @@
+//! Time: emitter pulses, sensor gates, and their correlation S_e (supplemental Eq. 24).
+//!
+//! Time is measured as optical path length (OPL, metres; time = OPL / c). An emitter emits a
+//! unit-area pulse p(t − τ) with offset τ; bin l of the film has a gate g_l(t). A path of OPL d
+//! leaves at t and arrives at t + d, so its correlated importance for bin l is
+//!
+//!   S_e(l, d) = ∫ p(t − τ) g_l(t + d) dt = ∫ p(s − u) g_l(s) ds,   u = d + τ.
+//!
+//! Every pulse/gate pair has a closed form below, and so does ∂S_e/∂d (= ∂S_e/∂u). Since
+//! u = d + τ, the derivative with respect to the pulse offset is ∂S_e/∂τ = ∂S_e/∂d.
+//! With a delta pulse and box gate S_e jumps where d crosses a bin edge (supplemental
+//! Lemma 2.5): its derivative is then a Dirac distribution, which
+//! [`Correlation::derivative_is_distribution`] reports.
+
+use serde::{Deserialize, Serialize};
+
+pub const SPEED_OF_LIGHT_M_PER_S: f64 = 299_792_458.0;
+
+/// Gaussian factors are truncated at this many standard deviations; `eval` is zero outside
+/// `range`, so the truncation is consistent everywhere (mass lost: < 2·10⁻⁹).
+pub const GAUSSIAN_CUTOFF_SIGMAS: f64 = 6.0;
+
+/// The film's time axis: `bins` bins of `bin_width_opl` starting at `start_opl`.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct TimeAxis {
+    pub start_opl: f32,
+    pub bin_width_opl: f32,
+    pub bins: usize,
+}
+
+impl TimeAxis {
+    pub fn bin_start(&self, l: usize) -> f64 {
+        self.start_opl as f64 + l as f64 * self.bin_width_opl as f64
+    }
+    pub fn bin_centre(&self, l: usize) -> f64 {
+        self.bin_start(l) + 0.5 * self.bin_width_opl as f64
+    }
+    pub fn end_opl(&self) -> f64 {
+        self.bin_start(self.bins)
+    }
+    pub fn time_ns_of_opl(opl: f64) -> f64 {
+        opl / SPEED_OF_LIGHT_M_PER_S * 1e9
+    }
+}
+
+/// Emitted pulse shape (unit area), centred on the emitter's offset τ.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub enum Pulse {
+    Delta,
+    Gaussian {
+        sigma_opl: f32,
+    },
+    /// Uniform on [τ − width/2, τ + width/2].
+    Box {
+        width_opl: f32,
+    },
+}
+
+/// Sensor gate of each bin.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub enum Gate {
+    /// g_l(t) = 1 on [start + l·w, start + (l+1)·w).
+    Box,
+    /// g_l(t) = w · N(t; bin centre, σ). Σ_l g_l = 1 up to a ripple of 2·exp(−2π²σ²/w²):
+    /// 1.4% at σ = w/2, 5·10⁻⁹ at σ = w.
+    Gaussian { sigma_opl: f32 },
+}
+
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum TemporalError {
+    #[error("{field}: expected {expected}, got {got}")]
+    Invalid {
+        field: &'static str,
+        expected: &'static str,
+        got: String,
+    },
+}
+
+/// S_e for one emitter pulse and the film's gate.
+#[derive(Clone, Debug)]
+pub struct Correlation {
+    axis: TimeAxis,
+    pulse: Pulse,
+    offset: f64,
+    gate: Gate,
+    /// Half-width of the support of S_e(l, ·) around the bin (beyond the box gate's own edges
+    /// for a box gate; around the centre for a Gaussian gate).
+    reach: f64,
+}
+
+fn check(field: &'static str, v: f32, positive: bool) -> Result<(), TemporalError> {
+    let ok = v.is_finite() && (!positive || v > 0.0);
+    if ok {
+        Ok(())
+    } else {
+        let expected = if positive {
+            "a finite number > 0"
+        } else {
+            "a finite number"
+        };
+        Err(TemporalError::Invalid {
+            field,
+            expected,
+            got: v.to_string(),
+        })
+    }
+}
+
+/// Standard normal density and CDF (CDF through erfc: accurate in both tails).
+#[inline]
+fn phi(x: f64) -> f64 {
+    (-0.5 * x * x).exp() * 0.398_942_280_401_432_7
+}
+#[inline]
+fn cdf(x: f64) -> f64 {
+    0.5 * libm::erfc(-x * std::f64::consts::FRAC_1_SQRT_2)
+}
+/// Φ(b) − Φ(a) for a ≤ b, computed on the side of the smaller tail to avoid cancellation.
+#[inline]
+fn cdf_diff(a: f64, b: f64) -> f64 {
+    if a > 0.0 {
+        cdf(-a) - cdf(-b)
+    } else {
+        cdf(b) - cdf(a)
+    }
+}
+
+impl Correlation {
+    pub fn new(
+        axis: TimeAxis,
+        pulse: Pulse,
+        offset_opl: f32,
+        gate: Gate,
+    ) -> Result<Self, TemporalError> {
+        check("film.start_opl", axis.start_opl, false)?;
+        check("film.bin_width_opl", axis.bin_width_opl, true)?;
+        if axis.bins == 0 {
+            return Err(TemporalError::Invalid {
+                field: "film.bins",
+                expected: "at least 1",
+                got: "0".into(),
+            });
+        }
+        check("emitter.offset_opl", offset_opl, false)?;
+        let p_reach = match pulse {
+            Pulse::Delta => 0.0,
+            Pulse::Gaussian { sigma_opl } => {
+                check("emitter.pulse.sigma_opl", sigma_opl, true)?;
+                sigma_opl as f64
+            }
+            Pulse::Box { width_opl } => {
+                check("emitter.pulse.width_opl", width_opl, true)?;
+                0.0
+            }
+        };
+        let box_half = if let Pulse::Box { width_opl } = pulse {
+            0.5 * width_opl as f64
+        } else {
+            0.0
+        };
+        let reach = match gate {
+            Gate::Box => GAUSSIAN_CUTOFF_SIGMAS * p_reach + box_half,
+            Gate::Gaussian { sigma_opl } => {
+                check("film.gate.sigma_opl", sigma_opl, true)?;
+                let s = (p_reach * p_reach + (sigma_opl as f64).powi(2)).sqrt();
+                GAUSSIAN_CUTOFF_SIGMAS * s + box_half
+            }
+        };
+        Ok(Self {
+            axis,
+            pulse,
+            offset: offset_opl as f64,
+            gate,
+            reach,
+        })
+    }
+
+    pub fn axis(&self) -> &TimeAxis {
+        &self.axis
+    }
+
+    /// True when S_e is discontinuous in d (delta pulse, box gate): Ṡ_e is then a Dirac
+    /// distribution that a sampled estimator cannot evaluate (supplemental Lemma 2.5).
+    pub fn derivative_is_distribution(&self) -> bool {
+        matches!((self.pulse, self.gate), (Pulse::Delta, Gate::Box))
+    }
+
+    /// The bins a path of OPL `d` touches (S_e ≠ 0); empty outside the axis.
+    #[inline]
+    pub fn range(&self, d: f32) -> std::ops::Range<usize> {
+        let u = d as f64 + self.offset;
+        if !u.is_finite() {
+            return 0..0;
+        }
+        let w = self.axis.bin_width_opl as f64;
+        let x = (u - self.axis.start_opl as f64) / w;
+        let n = self.axis.bins as f64;
+        let (lo, hi) = match self.gate {
+            // bins [a, b) meeting [u − reach, u + reach]; a delta needs the one bin holding u
+            Gate::Box if self.reach == 0.0 => (x.floor(), x.floor() + 1.0),
+            Gate::Box => (
+                (x - self.reach / w).floor(),
+                (x + self.reach / w).floor() + 1.0,
+            ),
+            // bins whose centre lies within reach of u
+            Gate::Gaussian { .. } => (
+                (x - self.reach / w - 0.5).ceil(),
+                (x + self.reach / w - 0.5).floor() + 1.0,
+            ),
+        };
+        let lo = lo.clamp(0.0, n) as usize;
+        let hi = hi.clamp(0.0, n) as usize;
+        lo..hi.max(lo)
+    }
+
+    /// S_e(l, d) (dimensionless; a box gate with any unit-area pulse sums to 1 over bins).
+    #[inline]
+    pub fn eval(&self, bin: usize, d: f32) -> f32 {
+        if !self.range(d).contains(&bin) {
+            return 0.0;
+        }
+        self.eval_pair(bin, d as f64 + self.offset).0 as f32
+    }
+
+    /// ∂S_e(l, d)/∂d, per OPL metre (0 where S_e is piecewise constant).
+    #[inline]
+    pub fn eval_deriv(&self, bin: usize, d: f32) -> f32 {
+        if !self.range(d).contains(&bin) {
+            return 0.0;
+        }
+        self.eval_pair(bin, d as f64 + self.offset).1 as f32
+    }
+
+    /// Calls `f(bin, S_e, ∂S_e/∂d)` for every bin in `range(d)` where either is nonzero.
+    #[inline]
+    pub fn for_each(&self, d: f32, mut f: impl FnMut(usize, f32, f32)) {
+        let r = self.range(d);
+        if let (Pulse::Delta, Gate::Box) = (self.pulse, self.gate) {
+            if r.len() == 1 {
+                f(r.start, 1.0, 0.0);
+            }
+            return;
+        }
+        let u = d as f64 + self.offset;
+        for l in r {
+            let (s, ds) = self.eval_pair(l, u);
+            if s != 0.0 || ds != 0.0 {
+                f(l, s as f32, ds as f32);
+            }
+        }
+    }
+
+    /// (S_e, ∂S_e/∂u) for bin l at arrival u = d + τ, in closed form.
+    fn eval_pair(&self, l: usize, u: f64) -> (f64, f64) {
+        let w = self.axis.bin_width_opl as f64;
+        let a = self.axis.bin_start(l);
+        let b = a + w;
+        let c = a + 0.5 * w;
+        match (self.pulse, self.gate) {
+            (Pulse::Delta, Gate::Box) => (if a <= u && u < b { 1.0 } else { 0.0 }, 0.0),
+            (Pulse::Gaussian { sigma_opl }, Gate::Box) => {
+                let s = sigma_opl as f64;
+                let (za, zb) = ((a - u) / s, (b - u) / s);
+                (cdf_diff(za, zb), (phi(za) - phi(zb)) / s)
+            }
+            (Pulse::Box { width_opl }, Gate::Box) => {
+                let wp = width_opl as f64;
+                let (lo, hi) = (u - 0.5 * wp, u + 0.5 * wp);
+                let overlap = (hi.min(b) - lo.max(a)).max(0.0);
+                let inside = |t: f64| if a < t && t < b { 1.0 } else { 0.0 };
+                (overlap / wp, (inside(hi) - inside(lo)) / wp)
+            }
+            (Pulse::Delta, Gate::Gaussian { sigma_opl }) => gauss(w, u - c, sigma_opl as f64),
+            (Pulse::Gaussian { sigma_opl: sp }, Gate::Gaussian { sigma_opl: sg }) => {
+                gauss(w, u - c, ((sp as f64).powi(2) + (sg as f64).powi(2)).sqrt())
+            }
+            (Pulse::Box { width_opl }, Gate::Gaussian { sigma_opl }) => {
+                let (wp, s) = (width_opl as f64, sigma_opl as f64);
+                let (za, zb) = ((u - 0.5 * wp - c) / s, (u + 0.5 * wp - c) / s);
+                (w / wp * cdf_diff(za, zb), w / wp * (phi(zb) - phi(za)) / s)
+            }
+        }
+    }
+}
+
+/// w · N(x; 0, s) and its derivative in x.
+#[inline]
+fn gauss(w: f64, x: f64, s: f64) -> (f64, f64) {
+    let v = w * phi(x / s) / s;
+    (v, -v * x / (s * s))
+}
+
+#[cfg(test)]
+mod tests;

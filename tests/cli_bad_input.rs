@@ -1,0 +1,169 @@
+//! Bad input gives a clear error, a non-zero exit, no panic and no output file.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn dtr() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_dtr"))
+}
+
+fn scenes() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes")
+}
+
+/// Runs `dtr render` on `scene` with extra args into a fresh folder; returns (stderr, folder).
+fn render_fails(scene: &Path, extra: &[&str]) -> (String, tempfile::TempDir) {
+    let dir = tempfile::tempdir().unwrap();
+    let prefix = dir.path().join("out");
+    let out = dtr()
+        .arg("render")
+        .arg(scene)
+        .arg("-o")
+        .arg(&prefix)
+        .args(["--spp", "1", "--quiet"])
+        .args(extra)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr).to_string();
+    assert!(
+        !out.status.success(),
+        "expected failure, got success; stderr: {stderr}"
+    );
+    assert!(!stderr.contains("panicked"), "panic: {stderr}");
+    assert!(stderr.starts_with("error:"), "unexpected stderr: {stderr}");
+    let left: Vec<_> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert!(left.is_empty(), "files left behind: {left:?}");
+    (stderr, dir)
+}
+
+fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
+    let p = dir.join(name);
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+fn cornell_text() -> String {
+    std::fs::read_to_string(scenes().join("cornell_box.toml")).unwrap()
+}
+
+#[test]
+fn missing_scene_file() {
+    let (e, _d) = render_fails(Path::new("/nonexistent/scene.toml"), &[]);
+    assert!(e.contains("/nonexistent/scene.toml"), "{e}");
+}
+
+#[test]
+fn toml_syntax_error_names_file_and_line() {
+    let d = tempfile::tempdir().unwrap();
+    let p = write(
+        d.path(),
+        "broken.toml",
+        &cornell_text().replacen("[camera]", "[camera", 1),
+    );
+    let (e, _o) = render_fails(&p, &[]);
+    assert!(e.contains("broken.toml") && e.contains("line"), "{e}");
+}
+
+#[test]
+fn wrong_type_names_the_field() {
+    let d = tempfile::tempdir().unwrap();
+    let text = cornell_text();
+    let start = text.find("[film]").expect("cornell has [film]");
+    let bins_at = start + text[start..].find("bins").expect("film.bins");
+    let line_end = bins_at + text[bins_at..].find('\n').unwrap();
+    let bad = format!("{}bins = \"many\"{}", &text[..bins_at], &text[line_end..]);
+    let p = write(d.path(), "wrongtype.toml", &bad);
+    let (e, _o) = render_fails(&p, &[]);
+    assert!(e.contains("wrongtype.toml") && e.contains("bins"), "{e}");
+}
+
+#[test]
+fn nan_vertex_in_obj_names_the_obj() {
+    let d = tempfile::tempdir().unwrap();
+    write(
+        d.path(),
+        "bad.obj",
+        "v 0 0 0\nv 1 0 nan\nv 0 1 0\nf 1 2 3\n",
+    );
+    let scene = format!(
+        "{}\n[[shape]]\nname = \"bad\"\ntype = \"obj\"\nfile = \"bad.obj\"\nmaterial = \"{}\"\n",
+        cornell_text(),
+        first_material_name()
+    );
+    let p = write(d.path(), "nanobj.toml", &scene);
+    let (e, _o) = render_fails(&p, &[]);
+    assert!(e.contains("bad.obj"), "{e}");
+}
+
+#[test]
+fn nonpositive_spp_is_refused() {
+    for spp in ["0", "-3"] {
+        let d = tempfile::tempdir().unwrap();
+        let out = dtr()
+            .args(["render"])
+            .arg(scenes().join("cornell_box.toml"))
+            .arg("-o")
+            .arg(d.path().join("x"))
+            .args(["--spp", spp, "--quiet"])
+            .output()
+            .unwrap();
+        let e = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            !out.status.success() && e.contains("spp") && !e.contains("panicked"),
+            "{e}"
+        );
+        assert_eq!(std::fs::read_dir(d.path()).unwrap().count(), 0);
+    }
+    // and in the scene file
+    let d = tempfile::tempdir().unwrap();
+    let text = cornell_text();
+    let bad = if text.contains("spp =") {
+        let i = text.find("spp =").unwrap();
+        let j = i + text[i..].find('\n').unwrap();
+        format!("{}spp = 0{}", &text[..i], &text[j..])
+    } else {
+        text.replacen("[integrator]", "[integrator]\nspp = 0", 1)
+    };
+    let p = write(d.path(), "zerospp.toml", &bad);
+    let dir = tempfile::tempdir().unwrap();
+    let out = dtr()
+        .arg("render")
+        .arg(&p)
+        .arg("-o")
+        .arg(dir.path().join("x"))
+        .arg("--quiet")
+        .output()
+        .unwrap();
+    let e = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && e.contains("zerospp.toml") && e.contains("spp"),
+        "{e}"
+    );
+}
+
+#[test]
+fn unknown_set_name_lists_the_parameters() {
+    let (e, _o) = render_fails(
+        &scenes().join("occluder_shadow.toml"),
+        &["--set", "no_such_param=1"],
+    );
+    assert!(e.contains("no_such_param"), "{e}");
+}
+
+#[test]
+fn malformed_set_is_refused() {
+    let (e, _o) = render_fails(&scenes().join("cornell_box.toml"), &["--set", "eta"]);
+    assert!(e.contains("NAME=VALUE"), "{e}");
+}
+
+fn first_material_name() -> String {
+    let t = cornell_text();
+    let i = t.find("[[material]]").unwrap();
+    let n = i + t[i..].find("name").unwrap();
+    let q1 = n + t[n..].find('"').unwrap() + 1;
+    let q2 = q1 + t[q1..].find('"').unwrap();
+    t[q1..q2].to_string()
+}
