@@ -44,7 +44,7 @@ pub fn sample_cosine<V: Real>(n: &V3<V>, side: &V3<V>, u1: V, u2: V) -> (V3<V>, 
     let phi_a = V::safe_div(b, a).mul_f(q);
     let phi_b = V::splat(std::f32::consts::FRAC_PI_2) - V::safe_div(a, b).mul_f(q);
     let phi = V::select(use_a, phi_a, phi_b);
-    let (sn, cs) = sin_cos(phi);
+    let (sn, cs) = phi.sin_cos();
     let x = r * cs;
     let y = r * sn;
     let z = (V::one() - x * x - y * y).sqrt();
@@ -58,19 +58,6 @@ pub fn cosine_pdf<V: Real>(n: &V3<V>, side: &V3<V>, dir: &V3<V>) -> V {
     let c = n.dot(*dir);
     let same = (c * n.dot(*side)).gt(V::zero());
     c.abs().mul_f(std::f32::consts::FRAC_1_PI).masked(same)
-}
-
-/// sin and cos on lanes (phi in [-π/4, 3π/4]).
-#[inline(always)]
-fn sin_cos<V: Real>(phi: V) -> (V, V) {
-    let mut s = [0.0f32; 8];
-    let mut c = [0.0f32; 8];
-    for i in 0..V::LANES {
-        let (a, b) = phi.lane(i).sin_cos();
-        s[i] = a;
-        c[i] = b;
-    }
-    (V::from_lanes(&s), V::from_lanes(&c))
 }
 
 #[cfg(test)]

@@ -12,6 +12,8 @@ use crate::temporal::Correlation;
 pub struct RenderContext<'a> {
     pub scene: &'a Scene,
     pub accel: Accel,
+    /// World-space vertices of each triangle (one gather per lane instead of three).
+    pub tri_verts: Vec<[glam::Vec3; 3]>,
     /// Material index of each triangle.
     pub tri_material: Vec<u32>,
     /// Emitter index of each triangle (`u32::MAX` where it emits nothing).
@@ -28,6 +30,11 @@ impl<'a> RenderContext<'a> {
         let geo = &scene.geometry;
         let positions: Vec<[f32; 3]> = geo.positions.iter().map(|p| p.to_array()).collect();
         let accel = Accel::build(device, &positions, &geo.indices)?;
+        let tri_verts = geo
+            .indices
+            .iter()
+            .map(|t| t.map(|i| geo.positions[i as usize]))
+            .collect();
         let tri_material = geo
             .tri_shape
             .iter()
@@ -53,6 +60,7 @@ impl<'a> RenderContext<'a> {
         Ok(Self {
             scene,
             accel,
+            tri_verts,
             tri_material,
             tri_emitter,
             emitters,

@@ -21,22 +21,27 @@ pub struct SurfacePoint<R: Real> {
     pub prim: [u32; 8],
 }
 
-/// Vertex `corner` of triangle `prim` per lane, with its velocity under each parameter as
-/// derivative lanes.
-fn gather_vertex<R: Real>(ctx: &RenderContext, prim: &[u32; 8], corner: usize) -> V3<R> {
-    let geo = &ctx.scene.geometry;
-    let mut pos = [Vec3::ZERO; 8];
+/// The three vertices of triangle `prim` per lane, with their velocity under each parameter
+/// as derivative lanes. Lanes with `prim == u32::MAX` get triangle 0.
+#[inline]
+fn gather_triangle<R: Real>(ctx: &RenderContext, prim: &[u32; 8]) -> [V3<R>; 3] {
+    let last = ctx.tri_verts.len() as u32 - 1;
+    let mut pos = [[Vec3::ZERO; 8]; 3];
     for i in 0..R::LANES {
-        let t = prim[i].min(geo.indices.len() as u32 - 1) as usize;
-        pos[i] = geo.positions[geo.indices[t][corner] as usize];
+        let tri = &ctx.tri_verts[prim[i].min(last) as usize];
+        for c in 0..3 {
+            pos[c][i] = tri[c];
+        }
     }
-    let mut v = V3::<R>::from_lane_vecs(&pos[..R::LANES]);
-    if R::DERIVS > 0 {
+    std::array::from_fn(|c| {
+        let mut v = V3::<R>::from_lane_vecs(&pos[c][..R::LANES]);
         for k in 0..R::DERIVS {
             let mut vel = [[0.0f32; 8]; 3];
             for i in 0..R::LANES {
-                let t = prim[i].min(geo.indices.len() as u32 - 1) as usize;
-                let w = ctx.motion.velocity(k, geo.tri_shape[t] as usize, pos[i]);
+                let t = prim[i].min(last) as usize;
+                let w = ctx
+                    .motion
+                    .velocity(k, ctx.scene.geometry.tri_shape[t] as usize, pos[c][i]);
                 vel[0][i] = w.x;
                 vel[1][i] = w.y;
                 vel[2][i] = w.z;
@@ -45,8 +50,8 @@ fn gather_vertex<R: Real>(ctx: &RenderContext, prim: &[u32; 8], corner: usize) -
             v.y = v.y.with_deriv_lanes(k, &vel[1]);
             v.z = v.z.with_deriv_lanes(k, &vel[2]);
         }
-    }
-    v
+        v
+    })
 }
 
 /// Rebuilds the surface point at barycentrics (u, v) of `prim` in every lane. Lanes with
@@ -57,9 +62,7 @@ pub fn surface_at<R: Real>(
     u: R::Value,
     v: R::Value,
 ) -> SurfacePoint<R> {
-    let p0 = gather_vertex::<R>(ctx, prim, 0);
-    let p1 = gather_vertex::<R>(ctx, prim, 1);
-    let p2 = gather_vertex::<R>(ctx, prim, 2);
+    let [p0, p1, p2] = gather_triangle::<R>(ctx, prim);
     let e1 = p1 - p0;
     let e2 = p2 - p0;
     let p = p0 + e1 * R::from_value(u) + e2 * R::from_value(v);

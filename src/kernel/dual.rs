@@ -195,6 +195,11 @@ impl<const P: usize> Real for Dual8<P> {
         self.chain(e, e)
     }
     #[inline(always)]
+    fn sin_cos(self) -> (Self, Self) {
+        let (s, c) = self.v.sin_cos();
+        (self.chain(s, c), self.chain(c, -s))
+    }
+    #[inline(always)]
     fn select(m: f32x8, t: Self, f: Self) -> Self {
         Self {
             v: m.blend(t.v, f.v),

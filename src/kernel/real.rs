@@ -51,6 +51,8 @@ pub trait Real:
     fn min(self, o: Self) -> Self;
     fn max(self, o: Self) -> Self;
     fn exp(self) -> Self;
+    /// (sin, cos) of the value (derivatives by the chain rule).
+    fn sin_cos(self) -> (Self, Self);
     fn select(m: Self::Mask, t: Self, f: Self) -> Self;
     fn lt(self, o: Self) -> Self::Mask;
     fn le(self, o: Self) -> Self::Mask;
@@ -153,6 +155,10 @@ impl Real for f32 {
         f32::exp(self)
     }
     #[inline(always)]
+    fn sin_cos(self) -> (Self, Self) {
+        f32::sin_cos(self)
+    }
+    #[inline(always)]
     fn select(m: bool, t: Self, f: Self) -> Self {
         if m { t } else { f }
     }
@@ -233,6 +239,10 @@ impl Real for f32x8 {
     #[inline(always)]
     fn exp(self) -> Self {
         f32x8::exp(self)
+    }
+    #[inline(always)]
+    fn sin_cos(self) -> (Self, Self) {
+        f32x8::sin_cos(self)
     }
     #[inline(always)]
     fn select(m: f32x8, t: Self, f: Self) -> Self {

@@ -1,0 +1,264 @@
+//! Forward transient speed on the Cornell box (issue: foundation, "Speed").
+//!
+//! Workload: scenes/cornell_box.toml at 64×64, 200 bins of 0.03 m OPL, up to 8 bounces.
+//! Reports paths per CPU-second and rays/s of our renderer, the rate of bare Embree
+//! (`rtcIntersect8`/`rtcOccluded8`, no shading) on the same number and kind of rays, and the
+//! error the timed render reached against a high-spp reference (cached in target/bench-cache).
+//!
+//! Run: `cargo bench --bench forward` (set DTR_BENCH_SPP / DTR_BENCH_THREADS to change).
+
+use difftransient::accel::{Accel, Device, Ray8, set_flush_denormals};
+use difftransient::integrator::camera::CameraSampler;
+use difftransient::{RenderOptions, Scene, Transient, render};
+use glam::Vec3;
+use std::path::PathBuf;
+use std::time::Instant;
+
+fn env_or<T: std::str::FromStr>(k: &str, d: T) -> T {
+    std::env::var(k)
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(d)
+}
+
+fn main() {
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    let scene = Scene::load(&root.join("scenes/cornell_box.toml"), &[]).expect("scene");
+    let spp: u32 = env_or("DTR_BENCH_SPP", 64);
+    let threads: usize = env_or(
+        "DTR_BENCH_THREADS",
+        std::thread::available_parallelism()
+            .map(|n| n.get())
+            .unwrap_or(1),
+    );
+    let reference = reference(&scene, &root);
+
+    // warm-up, then the timed render
+    let opts = RenderOptions {
+        spp: Some(4),
+        seed: Some(1),
+        threads: Some(threads),
+        ..Default::default()
+    };
+    render(&scene, &opts).unwrap();
+    let opts = RenderOptions {
+        spp: Some(spp),
+        seed: Some(1),
+        threads: Some(threads),
+        ..Default::default()
+    };
+    let (t, stats) = render(&scene, &opts).unwrap();
+    let err = rel_l2(&t.data, &reference.data);
+    let err_img = rel_l2(&t.steady, &reference.steady);
+
+    // bare Embree on rays of the same number and kind
+    let dev = Device::new("").unwrap();
+    let pos: Vec<[f32; 3]> = scene
+        .geometry
+        .positions
+        .iter()
+        .map(|p| p.to_array())
+        .collect();
+    let accel = Accel::build(&dev, &pos, &scene.geometry.indices).unwrap();
+    let primary = camera_rays(&scene);
+    let n_primary = (scene.film.width * scene.film.height) as u64 * spp as u64;
+    let n_bounce = stats.intersect_rays.saturating_sub(n_primary);
+    let bounce = bounce_rays(&scene, 1 << 16, 7);
+    let shadow = shadow_rays(&scene, 1 << 16, 11);
+    let bare = |rays: &[Ray8], count: u64, f: &(dyn Fn(&[Ray8]) -> usize + Sync)| -> f64 {
+        // trace `count` rays (in packets of 8) spread over the worker threads, return seconds
+        let packets = count.div_ceil(8) as usize;
+        let pool = difftransient::render::thread_pool(Some(threads)).unwrap();
+        let t0 = Instant::now();
+        pool.install(|| {
+            use rayon::prelude::*;
+            (0..packets.div_ceil(rays.len()))
+                .into_par_iter()
+                .for_each(|chunk| {
+                    set_flush_denormals();
+                    let n = rays.len().min(packets - chunk * rays.len());
+                    std::hint::black_box(f(&rays[..n]));
+                });
+        });
+        t0.elapsed().as_secs_f64()
+    };
+    let t_primary = bare(&primary, n_primary, &|r| {
+        accel.raw_intersect8_batch(r, true)
+    });
+    let t_bounce = bare(&bounce, n_bounce, &|r| accel.raw_intersect8_batch(r, false));
+    let t_shadow = bare(&shadow, stats.occluded_rays, &|r| {
+        accel.raw_occluded8_batch(r, false)
+    });
+    let bare_total = t_primary + t_bounce + t_shadow;
+    let rays = (stats.intersect_rays + stats.occluded_rays) as f64;
+
+    println!("Cornell box 64x64, 200 bins x 0.03 m, max 8 bounces, {spp} spp, {threads} threads");
+    println!(
+        "  renderer : {:.3} s wall, {:.3} CPU-s, {:.3e} paths/CPU-s, {:.3e} rays/s ({:.3e} rays/CPU-s)",
+        stats.wall_seconds,
+        stats.cpu_seconds,
+        stats.paths_per_cpu_second,
+        stats.rays_per_second,
+        stats.rays_per_cpu_second
+    );
+    println!(
+        "  rays     : {} primary, {} bounce, {} shadow",
+        n_primary, n_bounce, stats.occluded_rays
+    );
+    println!(
+        "  bare Embree on the same rays: {:.3} s wall, {:.3e} rays/s  -> renderer/bare = {:.1}%",
+        bare_total,
+        rays / bare_total,
+        100.0 * (rays / stats.wall_seconds) / (rays / bare_total)
+    );
+    println!(
+        "  error vs {}-spp reference: transient rel. L2 {:.4}, time-summed image rel. L2 {:.4}",
+        reference_spp(),
+        err,
+        err_img
+    );
+}
+
+fn reference_spp() -> u32 {
+    env_or("DTR_BENCH_REF_SPP", 2048)
+}
+
+/// The converged reference, rendered once and cached with its settings in the file name.
+fn reference(scene: &Scene, root: &std::path::Path) -> Transient {
+    let spp = reference_spp();
+    let dir = root.join("target/bench-cache");
+    let path = dir.join(format!("cornell_64x64_200x0.03_b8_spp{spp}_seed12345.bin"));
+    let (w, h, t, c) = (
+        scene.film.width as usize,
+        scene.film.height as usize,
+        scene.film.axis.bins,
+        scene.film.channels,
+    );
+    if let Ok(bytes) = std::fs::read(&path) {
+        let v: Vec<f32> = bytes
+            .chunks_exact(4)
+            .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+            .collect();
+        if v.len() == w * h * t * c + w * h * c {
+            let mut out = Transient::zeros(w, h, scene.film.axis, c);
+            out.data.copy_from_slice(&v[..w * h * t * c]);
+            out.steady.copy_from_slice(&v[w * h * t * c..]);
+            return out;
+        }
+    }
+    eprintln!(
+        "rendering the {spp}-spp reference once (cached in {})",
+        path.display()
+    );
+    let opts = RenderOptions {
+        spp: Some(spp),
+        seed: Some(12345),
+        ..Default::default()
+    };
+    let (r, _) = render(scene, &opts).unwrap();
+    std::fs::create_dir_all(&dir).unwrap();
+    let bytes: Vec<u8> = r
+        .data
+        .iter()
+        .chain(&r.steady)
+        .flat_map(|v| v.to_le_bytes())
+        .collect();
+    std::fs::write(&path, bytes).unwrap();
+    r
+}
+
+fn rel_l2(a: &[f32], b: &[f32]) -> f64 {
+    let num: f64 = a.iter().zip(b).map(|(x, y)| ((x - y) as f64).powi(2)).sum();
+    let den: f64 = b.iter().map(|y| (*y as f64).powi(2)).sum();
+    (num / den.max(1e-300)).sqrt()
+}
+
+struct Rng(u64);
+impl Rng {
+    fn next(&mut self) -> f32 {
+        self.0 = self
+            .0
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (self.0 >> 40) as f32 / (1u64 << 24) as f32
+    }
+}
+
+fn point_on_scene(scene: &Scene, rng: &mut Rng) -> (Vec3, Vec3) {
+    let g = &scene.geometry;
+    let t = ((rng.next() * g.indices.len() as f32) as usize).min(g.indices.len() - 1);
+    let [a, b, c] = g.indices[t].map(|i| g.positions[i as usize]);
+    let (s, r) = (rng.next().sqrt(), rng.next());
+    (
+        a + (b - a) * s * (1.0 - r) + (c - a) * s * r,
+        (b - a).cross(c - a).normalize(),
+    )
+}
+
+fn bounce_rays(scene: &Scene, n: usize, seed: u64) -> Vec<Ray8> {
+    let mut rng = Rng(seed);
+    (0..n / 8)
+        .map(|_| {
+            let mut r = Ray8::default();
+            for i in 0..8 {
+                let (p, nrm) = point_on_scene(scene, &mut rng);
+                let d = loop {
+                    let v = Vec3::new(
+                        rng.next() * 2.0 - 1.0,
+                        rng.next() * 2.0 - 1.0,
+                        rng.next() * 2.0 - 1.0,
+                    );
+                    if v.length_squared() <= 1.0 && v.length_squared() > 1e-6 {
+                        break v.normalize();
+                    }
+                };
+                let d = if d.dot(nrm) < 0.0 { -d } else { d };
+                let o = p + nrm * 1e-4;
+                (r.org_x[i], r.org_y[i], r.org_z[i]) = (o.x, o.y, o.z);
+                (r.dir_x[i], r.dir_y[i], r.dir_z[i]) = (d.x, d.y, d.z);
+                r.tfar[i] = f32::INFINITY;
+            }
+            r
+        })
+        .collect()
+}
+
+fn shadow_rays(scene: &Scene, n: usize, seed: u64) -> Vec<Ray8> {
+    let mut rng = Rng(seed);
+    (0..n / 8)
+        .map(|_| {
+            let mut r = Ray8::default();
+            for i in 0..8 {
+                let (p, _) = point_on_scene(scene, &mut rng);
+                let (q, _) = point_on_scene(scene, &mut rng);
+                let d = q - p;
+                let len = d.length().max(1e-3);
+                (r.org_x[i], r.org_y[i], r.org_z[i]) = (p.x, p.y, p.z);
+                (r.dir_x[i], r.dir_y[i], r.dir_z[i]) = (d.x / len, d.y / len, d.z / len);
+                r.tnear[i] = 1e-4;
+                r.tfar[i] = len - 1e-4;
+            }
+            r
+        })
+        .collect()
+}
+
+fn camera_rays(scene: &Scene) -> Vec<Ray8> {
+    let (w, h) = (scene.film.width, scene.film.height);
+    let cam = CameraSampler::new(&scene.camera, w, h, scene.film.filter);
+    let mut out = Vec::new();
+    for y in 0..h {
+        for x0 in (0..w).step_by(8) {
+            let mut r = Ray8::default();
+            for i in 0..8 {
+                let d = cam.direction((x0 + i as u32).min(w - 1) as f32 + 0.5, y as f32 + 0.5);
+                let o = scene.camera.position;
+                (r.org_x[i], r.org_y[i], r.org_z[i]) = (o.x, o.y, o.z);
+                (r.dir_x[i], r.dir_y[i], r.dir_z[i]) = (d.x, d.y, d.z);
+                r.tfar[i] = f32::INFINITY;
+            }
+            out.push(r);
+        }
+    }
+    out
+}
