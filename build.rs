@@ -15,18 +15,12 @@ fn main() {
     .iter()
     .map(PathBuf::from)
     .collect();
-    let mut inc_dirs: Vec<PathBuf> = vec![
-        PathBuf::from("/usr/include"),
-        PathBuf::from("/usr/local/include"),
-    ];
+    let mut inc_dirs: Vec<PathBuf> = vec![PathBuf::from("/usr/include"), PathBuf::from("/usr/local/include")];
     if let Ok(dir) = std::env::var("EMBREE_DIR") {
         lib_dirs.insert(0, Path::new(&dir).join("lib"));
         inc_dirs.insert(0, Path::new(&dir).join("include"));
     }
-    let header = inc_dirs
-        .iter()
-        .map(|d| d.join("embree3/rtcore.h"))
-        .find(|p| p.exists());
+    let header = inc_dirs.iter().map(|d| d.join("embree3/rtcore.h")).find(|p| p.exists());
     let lib = lib_dirs.iter().find(|d| d.join("libembree3.so").exists());
     match (header, lib) {
         (Some(_), Some(dir)) => {

@@ -15,10 +15,7 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 fn env_or<T: std::str::FromStr>(k: &str, d: T) -> T {
-    std::env::var(k)
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(d)
+    std::env::var(k).ok().and_then(|v| v.parse().ok()).unwrap_or(d)
 }
 
 fn main() {
@@ -27,9 +24,7 @@ fn main() {
     let spp: u32 = env_or("DTR_BENCH_SPP", 64);
     let threads: usize = env_or(
         "DTR_BENCH_THREADS",
-        std::thread::available_parallelism()
-            .map(|n| n.get())
-            .unwrap_or(1),
+        std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1),
     );
     let reference = reference(&scene, &root);
 
@@ -53,12 +48,7 @@ fn main() {
 
     // bare Embree on rays of the same number and kind
     let dev = Device::new("").unwrap();
-    let pos: Vec<[f32; 3]> = scene
-        .geometry
-        .positions
-        .iter()
-        .map(|p| p.to_array())
-        .collect();
+    let pos: Vec<[f32; 3]> = scene.geometry.positions.iter().map(|p| p.to_array()).collect();
     let accel = Accel::build(&dev, &pos, &scene.geometry.indices).unwrap();
     let primary = camera_rays(&scene);
     let n_primary = (scene.film.width * scene.film.height) as u64 * spp as u64;
@@ -72,23 +62,17 @@ fn main() {
         let t0 = Instant::now();
         pool.install(|| {
             use rayon::prelude::*;
-            (0..packets.div_ceil(rays.len()))
-                .into_par_iter()
-                .for_each(|chunk| {
-                    set_flush_denormals();
-                    let n = rays.len().min(packets - chunk * rays.len());
-                    std::hint::black_box(f(&rays[..n]));
-                });
+            (0..packets.div_ceil(rays.len())).into_par_iter().for_each(|chunk| {
+                set_flush_denormals();
+                let n = rays.len().min(packets - chunk * rays.len());
+                std::hint::black_box(f(&rays[..n]));
+            });
         });
         t0.elapsed().as_secs_f64()
     };
-    let t_primary = bare(&primary, n_primary, &|r| {
-        accel.raw_intersect8_batch(r, true)
-    });
+    let t_primary = bare(&primary, n_primary, &|r| accel.raw_intersect8_batch(r, true));
     let t_bounce = bare(&bounce, n_bounce, &|r| accel.raw_intersect8_batch(r, false));
-    let t_shadow = bare(&shadow, stats.occluded_rays, &|r| {
-        accel.raw_occluded8_batch(r, false)
-    });
+    let t_shadow = bare(&shadow, stats.occluded_rays, &|r| accel.raw_occluded8_batch(r, false));
     let bare_total = t_primary + t_bounce + t_shadow;
     let rays = (stats.intersect_rays + stats.occluded_rays) as f64;
 
@@ -146,10 +130,7 @@ fn reference(scene: &Scene, root: &std::path::Path) -> Transient {
             return out;
         }
     }
-    eprintln!(
-        "rendering the {spp}-spp reference once (cached in {})",
-        path.display()
-    );
+    eprintln!("rendering the {spp}-spp reference once (cached in {})", path.display());
     let opts = RenderOptions {
         spp: Some(spp),
         seed: Some(12345),
@@ -157,12 +138,7 @@ fn reference(scene: &Scene, root: &std::path::Path) -> Transient {
     };
     let (r, _) = render(scene, &opts).unwrap();
     std::fs::create_dir_all(&dir).unwrap();
-    let bytes: Vec<u8> = r
-        .data
-        .iter()
-        .chain(&r.steady)
-        .flat_map(|v| v.to_le_bytes())
-        .collect();
+    let bytes: Vec<u8> = r.data.iter().chain(&r.steady).flat_map(|v| v.to_le_bytes()).collect();
     std::fs::write(&path, bytes).unwrap();
     r
 }
@@ -203,11 +179,7 @@ fn bounce_rays(scene: &Scene, n: usize, seed: u64) -> Vec<Ray8> {
             for i in 0..8 {
                 let (p, nrm) = point_on_scene(scene, &mut rng);
                 let d = loop {
-                    let v = Vec3::new(
-                        rng.next() * 2.0 - 1.0,
-                        rng.next() * 2.0 - 1.0,
-                        rng.next() * 2.0 - 1.0,
-                    );
+                    let v = Vec3::new(rng.next() * 2.0 - 1.0, rng.next() * 2.0 - 1.0, rng.next() * 2.0 - 1.0);
                     if v.length_squared() <= 1.0 && v.length_squared() > 1e-6 {
                         break v.normalize();
                     }

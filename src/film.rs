@@ -66,17 +66,10 @@ impl Transient {
     }
     /// Count of NaN or infinite values in data and steady image.
     pub fn non_finite_count(&self) -> usize {
-        self.data
-            .iter()
-            .chain(&self.steady)
-            .filter(|v| !v.is_finite())
-            .count()
+        self.data.iter().chain(&self.steady).filter(|v| !v.is_finite()).count()
     }
     pub fn scale(&mut self, s: f32) {
-        self.data
-            .iter_mut()
-            .chain(self.steady.iter_mut())
-            .for_each(|v| *v *= s);
+        self.data.iter_mut().chain(self.steady.iter_mut()).for_each(|v| *v *= s);
     }
 }
 
@@ -97,15 +90,7 @@ pub struct TileFilm {
 }
 
 impl TileFilm {
-    pub fn new(
-        x0: usize,
-        y0: usize,
-        w: usize,
-        h: usize,
-        axis: &TimeAxis,
-        channels: usize,
-        derivs: usize,
-    ) -> Self {
+    pub fn new(x0: usize, y0: usize, w: usize, h: usize, axis: &TimeAxis, channels: usize, derivs: usize) -> Self {
         let n = w * h * axis.bins * channels;
         Self {
             x0,
@@ -185,10 +170,7 @@ impl TileFilm {
             for ty in 0..self.h {
                 let dst = film.index(self.x0, self.y0 + ty, 0, 0);
                 let src = off + ty * row;
-                for (d, s) in film.data[dst..dst + row]
-                    .iter_mut()
-                    .zip(&self.data[src..src + row])
-                {
+                for (d, s) in film.data[dst..dst + row].iter_mut().zip(&self.data[src..src + row]) {
                     *d += *s;
                 }
                 let sdst = ((self.y0 + ty) * film.width + self.x0) * self.channels;

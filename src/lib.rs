@@ -24,5 +24,5 @@ pub mod temporal;
 
 pub use error::Error;
 pub use film::Transient;
-pub use render::{Lanes, RenderOptions, RenderStats, render};
+pub use render::{Lanes, RenderOptions, RenderStats, render, render_diff};
 pub use scene::Scene;

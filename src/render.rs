@@ -9,8 +9,9 @@ use crate::accel::{Device, set_flush_denormals};
 use crate::error::Error;
 use crate::film::{TileFilm, Transient};
 use crate::integrator::RenderContext;
+use crate::integrator::motion::Motion;
 use crate::integrator::path::{PacketLanes, PathCounts, trace_packet};
-use crate::kernel::{Real, f32x8};
+use crate::kernel::{Dual8, Real, f32x8};
 use crate::scene::Scene;
 use rayon::prelude::*;
 use std::time::Instant;
@@ -71,11 +72,7 @@ pub fn cpu_seconds() -> f64 {
 
 /// Builds a rayon pool whose workers set flush-to-zero / denormals-are-zero (EMBREE.md).
 pub fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool, Error> {
-    let n = threads.unwrap_or_else(|| {
-        std::thread::available_parallelism()
-            .map(|n| n.get())
-            .unwrap_or(1)
-    });
+    let n = threads.unwrap_or_else(|| std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1));
     if n == 0 {
         return Err(Error::Invalid("--threads must be at least 1".into()));
     }
@@ -86,8 +83,56 @@ pub fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool, Error> {
         .map_err(|e| Error::Invalid(format!("cannot start {n} worker threads: {e}")))
 }
 
-/// Renders the forward transient of `scene`.
+/// Renders the forward transient of `scene` (no derivative lanes: the plain f32x8 kernel).
 pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<(Transient, RenderStats), Error> {
+    let (mut films, stats) = render_films(scene, Motion::none(), opts)?;
+    Ok((films.swap_remove(0), stats))
+}
+
+/// Renders the transient and the interior derivative of every bin with respect to each
+/// parameter in `params` (Algorithm 1: İ += ḟ·s + f·Ṡ_e·ḋ), in one pass. Returns the
+/// transient and one derivative transient per parameter, in order.
+///
+/// The kernel carries `Dual8<P>` with the smallest P in {1, 2, 4, 8, 16} that fits.
+pub fn render_diff(
+    scene: &Scene,
+    params: &[String],
+    opts: &RenderOptions,
+) -> Result<(Transient, Vec<Transient>, RenderStats), Error> {
+    let motion = Motion::build(scene, params)?;
+    if motion.len() > 16 {
+        return Err(Error::Invalid(format!(
+            "at most 16 parameters per render (asked for {})",
+            motion.len()
+        )));
+    }
+    for (k, name) in params.iter().enumerate() {
+        if !motion.shifts_time(k) {
+            continue;
+        }
+        for (e, emitter) in scene.emitters.iter().enumerate() {
+            let corr =
+                crate::temporal::Correlation::new(scene.film.axis, emitter.pulse, emitter.offset_opl, scene.film.gate)?;
+            if corr.derivative_is_distribution()
+                && (motion.pulse_offset[k].is_none() || motion.pulse_offset[k] == Some(e))
+            {
+                return Err(Error::Invalid(format!(
+                    "{}: parameter {name:?} shifts paths in time, but emitter {:?} has a delta pulse and the film a box gate: \
+                     S_e is then discontinuous in time and its derivative is a Dirac distribution, which needs a temporal \
+                     boundary term we do not have yet. Use a Gaussian pulse (pulse = {{ type = \"gaussian\", sigma_opl = ... }}) \
+                     or a Gaussian gate (film.gate = {{ type = \"gaussian\", sigma_opl = ... }}).",
+                    scene.source.display(),
+                    emitter.name
+                )));
+            }
+        }
+    }
+    let (mut films, stats) = render_films(scene, motion, opts)?;
+    let primal = films.remove(0);
+    Ok((primal, films, stats))
+}
+
+fn render_films(scene: &Scene, motion: Motion, opts: &RenderOptions) -> Result<(Vec<Transient>, RenderStats), Error> {
     let spp = opts.spp.unwrap_or(scene.integrator.spp);
     if spp == 0 {
         return Err(Error::Invalid(format!(
@@ -99,7 +144,9 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<(Transient, RenderS
     set_flush_denormals();
     let device = Device::new("")?;
     let t_build = Instant::now();
-    let ctx = RenderContext::new(scene, &device)?;
+    let mut ctx = RenderContext::new(scene, &device)?;
+    let derivs = motion.len();
+    ctx.motion = motion;
     let bvh_build_seconds = t_build.elapsed().as_secs_f64();
     let pool = thread_pool(opts.threads)?;
 
@@ -119,21 +166,24 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<(Transient, RenderS
             .map(|&(x0, y0)| {
                 let tw = TILE.min(w - x0);
                 let th = TILE.min(h - y0);
-                let mut film = TileFilm::new(x0, y0, tw, th, &axis, channels, 0);
+                let mut film = TileFilm::new(x0, y0, tw, th, &axis, channels, derivs);
                 let mut counts = PathCounts::default();
-                match (opts.lanes, channels) {
-                    (Lanes::Simd8, 1) => {
-                        render_tile::<f32x8, 1>(&ctx, seed, spp, w, &mut film, &mut counts)
-                    }
-                    (Lanes::Simd8, _) => {
-                        render_tile::<f32x8, 3>(&ctx, seed, spp, w, &mut film, &mut counts)
-                    }
-                    (Lanes::Scalar, 1) => {
-                        render_tile::<f32, 1>(&ctx, seed, spp, w, &mut film, &mut counts)
-                    }
-                    (Lanes::Scalar, _) => {
-                        render_tile::<f32, 3>(&ctx, seed, spp, w, &mut film, &mut counts)
-                    }
+                let (f, c) = (&mut film, &mut counts);
+                match (derivs, opts.lanes, channels) {
+                    (0, Lanes::Simd8, 1) => render_tile::<f32x8, 1>(&ctx, seed, spp, w, f, c),
+                    (0, Lanes::Simd8, _) => render_tile::<f32x8, 3>(&ctx, seed, spp, w, f, c),
+                    (0, Lanes::Scalar, 1) => render_tile::<f32, 1>(&ctx, seed, spp, w, f, c),
+                    (0, Lanes::Scalar, _) => render_tile::<f32, 3>(&ctx, seed, spp, w, f, c),
+                    (1, _, 1) => render_tile::<Dual8<1>, 1>(&ctx, seed, spp, w, f, c),
+                    (1, _, _) => render_tile::<Dual8<1>, 3>(&ctx, seed, spp, w, f, c),
+                    (2, _, 1) => render_tile::<Dual8<2>, 1>(&ctx, seed, spp, w, f, c),
+                    (2, _, _) => render_tile::<Dual8<2>, 3>(&ctx, seed, spp, w, f, c),
+                    (3..=4, _, 1) => render_tile::<Dual8<4>, 1>(&ctx, seed, spp, w, f, c),
+                    (3..=4, _, _) => render_tile::<Dual8<4>, 3>(&ctx, seed, spp, w, f, c),
+                    (5..=8, _, 1) => render_tile::<Dual8<8>, 1>(&ctx, seed, spp, w, f, c),
+                    (5..=8, _, _) => render_tile::<Dual8<8>, 3>(&ctx, seed, spp, w, f, c),
+                    (_, _, 1) => render_tile::<Dual8<16>, 1>(&ctx, seed, spp, w, f, c),
+                    (_, _, _) => render_tile::<Dual8<16>, 3>(&ctx, seed, spp, w, f, c),
                 }
                 bar.inc(1);
                 (film, counts)
@@ -144,7 +194,7 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<(Transient, RenderS
     let cpu = (cpu_seconds() - cpu0).max(1e-9);
     bar.finish_and_clear();
 
-    let mut out = Transient::zeros(w, h, axis, channels);
+    let mut out = vec![Transient::zeros(w, h, axis, channels); 1 + derivs];
     let mut stats = RenderStats {
         spp,
         seed,
@@ -156,12 +206,12 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<(Transient, RenderS
         ..Default::default()
     };
     for (tile, c) in &results {
-        tile.merge_into(std::slice::from_mut(&mut out));
+        tile.merge_into(&mut out);
         stats.intersect_rays += c.rays.intersect;
         stats.occluded_rays += c.rays.occluded;
         stats.non_finite_samples += c.non_finite;
     }
-    out.scale(1.0 / spp as f32);
+    out.iter_mut().for_each(|t| t.scale(1.0 / spp as f32));
     let rays = (stats.intersect_rays + stats.occluded_rays) as f64;
     stats.paths_per_cpu_second = stats.paths as f64 / cpu;
     stats.rays_per_second = rays / wall.max(1e-9);
@@ -209,9 +259,8 @@ fn progress_bar(show: bool, len: u64) -> indicatif::ProgressBar {
         return indicatif::ProgressBar::hidden();
     }
     let bar = indicatif::ProgressBar::new(len);
-    if let Ok(style) = indicatif::ProgressStyle::with_template(
-        "{elapsed_precise} [{bar:40}] {pos}/{len} tiles ({eta})",
-    ) {
+    if let Ok(style) = indicatif::ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {pos}/{len} tiles ({eta})")
+    {
         bar.set_style(style.progress_chars("=> "));
     }
     bar

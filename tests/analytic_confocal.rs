@@ -43,11 +43,7 @@ fn setup() -> Setup {
     let mut scene = common::load("confocal_plane.toml");
     scene.film.filter = PixelFilter::Box;
     let Material::Diffuse { albedo } = scene.materials[0].material;
-    let EmitterKind::Point {
-        position,
-        intensity,
-    } = scene.emitters[0].kind
-    else {
+    let EmitterKind::Point { position, intensity } = scene.emitters[0].kind else {
         panic!("expected a point light")
     };
     assert!(
@@ -55,12 +51,7 @@ fn setup() -> Setup {
         "the scene must be confocal"
     );
     assert_eq!(scene.integrator.max_bounces, 1);
-    let cam = CameraSampler::new(
-        &scene.camera,
-        scene.film.width,
-        scene.film.height,
-        PixelFilter::Box,
-    );
+    let cam = CameraSampler::new(&scene.camera, scene.film.width, scene.film.height, PixelFilter::Box);
     let h = scene.camera.position.z as f64; // plane z = 0, normal +Z
     let k = albedo[0] as f64 * intensity[0] as f64 / std::f64::consts::PI;
     Setup { scene, cam, h, k }
@@ -123,9 +114,7 @@ fn pixel_energy_matches_closed_form_within_three_standard_errors() {
         (m - total_exact).abs() <= 3.0 * se + 1e-6 * total_exact,
         "image energy {m} vs exact {total_exact} (se {se})"
     );
-    eprintln!(
-        "worst |z| = {worst:.2}, Σz² = {chi2:.1} over {n} pixels, energy {m} vs {total_exact} ± {se}"
-    );
+    eprintln!("worst |z| = {worst:.2}, Σz² = {chi2:.1} over {n} pixels, energy {m} vs {total_exact} ± {se}");
 }
 
 #[test]

@@ -25,10 +25,7 @@ fn render_fails(scene: &Path, extra: &[&str]) -> (String, tempfile::TempDir) {
         .output()
         .unwrap();
     let stderr = String::from_utf8_lossy(&out.stderr).to_string();
-    assert!(
-        !out.status.success(),
-        "expected failure, got success; stderr: {stderr}"
-    );
+    assert!(!out.status.success(), "expected failure, got success; stderr: {stderr}");
     assert!(!stderr.contains("panicked"), "panic: {stderr}");
     assert!(stderr.starts_with("error:"), "unexpected stderr: {stderr}");
     let left: Vec<_> = std::fs::read_dir(dir.path())
@@ -83,11 +80,7 @@ fn wrong_type_names_the_field() {
 #[test]
 fn nan_vertex_in_obj_names_the_obj() {
     let d = tempfile::tempdir().unwrap();
-    write(
-        d.path(),
-        "bad.obj",
-        "v 0 0 0\nv 1 0 nan\nv 0 1 0\nf 1 2 3\n",
-    );
+    write(d.path(), "bad.obj", "v 0 0 0\nv 1 0 nan\nv 0 1 0\nf 1 2 3\n");
     let scene = format!(
         "{}\n[[shape]]\nname = \"bad\"\ntype = \"obj\"\nfile = \"bad.obj\"\nmaterial = \"{}\"\n",
         cornell_text(),
@@ -146,10 +139,7 @@ fn nonpositive_spp_is_refused() {
 
 #[test]
 fn unknown_set_name_lists_the_parameters() {
-    let (e, _o) = render_fails(
-        &scenes().join("occluder_shadow.toml"),
-        &["--set", "no_such_param=1"],
-    );
+    let (e, _o) = render_fails(&scenes().join("occluder_shadow.toml"), &["--set", "no_such_param=1"]);
     assert!(e.contains("no_such_param"), "{e}");
 }
 

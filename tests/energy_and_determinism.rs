@@ -46,17 +46,11 @@ fn same_seed_same_bytes_for_any_thread_count() {
     let b = common::render_with(&s, 2, 42, 2);
     let c = common::render_with(&s, 2, 42, 1);
     assert!(
-        a.data
-            .iter()
-            .zip(&b.data)
-            .all(|(x, y)| x.to_bits() == y.to_bits()),
+        a.data.iter().zip(&b.data).all(|(x, y)| x.to_bits() == y.to_bits()),
         "two runs differ"
     );
     assert!(
-        a.data
-            .iter()
-            .zip(&c.data)
-            .all(|(x, y)| x.to_bits() == y.to_bits()),
+        a.data.iter().zip(&c.data).all(|(x, y)| x.to_bits() == y.to_bits()),
         "1 vs 2 threads differ"
     );
     let d = common::render_with(&s, 2, 43, 2);

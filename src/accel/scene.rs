@@ -2,10 +2,10 @@
 
 use super::device::{AccelError, Device};
 use super::ffi;
-use super::packet::{Hit8, Ray8};
+use super::packet::{Hit8, Ray8, Valid8};
 
-/// A plain hit: distance along the ray, the triangle's index in the input index array, and
-/// Embree's barycentrics (p = (1 − u − v)·p0 + u·p1 + v·p2).
+/// A plain hit: distance along the ray (in units of `|dir|`), the triangle's index in the
+/// input index array, and Embree's barycentrics: p = (1 − u − v)·p0 + u·p1 + v·p2.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Hit {
     pub t: f32,
@@ -14,110 +14,173 @@ pub struct Hit {
     pub v: f32,
 }
 
-/// One triangle mesh in a committed Embree scene (robust traversal). Holds its own device
-/// reference, so it has no lifetime; queries are thread-safe.
+/// BVH build quality (`RTCBuildQuality`). `High` adds spatial splits: slower to build,
+/// faster to trace.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum BuildQuality {
+    Low,
+    Medium,
+    #[default]
+    High,
+}
+
+/// Largest coordinate Embree accepts in a ray (`FLT_LARGE` in its `Ray::valid`).
+const FLT_LARGE: f32 = 1.844e18;
+
+/// One triangle mesh (geometry 0) in a committed Embree scene with robust (watertight)
+/// traversal. Owns a reference to its device, so it has no lifetime.
+///
+/// Thread-safety: `Accel` is `Send + Sync`. After the commit in [`Accel::build`] the scene
+/// is never modified, and Embree allows any number of threads to run `rtcIntersect*` and
+/// `rtcOccluded*` on a committed scene at once. Traversal runs on the calling thread (TBB is
+/// used only for the build). Set [`set_flush_denormals`](super::set_flush_denormals) on every
+/// tracing thread.
+///
+/// Rays: a lane or ray is *valid* if every origin and direction coordinate is at most 1.844e18
+/// in magnitude (so not NaN or infinite), `tnear >= 0` and `tnear <= tfar` (`tfar` may be
+/// +inf). Invalid rays are reported as misses (not blocked) and never reach Embree. A zero
+/// direction is valid and misses.
 pub struct Accel {
     device: ffi::RTCDevice,
     scene: ffi::RTCScene,
     triangles: usize,
+    vertices: usize,
 }
 
-// SAFETY: after rtcCommitScene, Embree allows concurrent rtcIntersect*/rtcOccluded* calls.
+// SAFETY: see the type's documentation; the raw handles are only released in Drop.
 unsafe impl Send for Accel {}
 unsafe impl Sync for Accel {}
 
+impl std::fmt::Debug for Accel {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Accel")
+            .field("triangles", &self.triangles)
+            .field("vertices", &self.vertices)
+            .finish()
+    }
+}
+
+/// Releases a geometry handle on every exit path of the build.
+struct GeometryRef(ffi::RTCGeometry);
+
+impl Drop for GeometryRef {
+    fn drop(&mut self) {
+        // SAFETY: we own one reference to a non-null geometry.
+        unsafe { ffi::rtcReleaseGeometry(self.0) }
+    }
+}
+
 impl Accel {
-    /// Builds the BVH. Rejects empty meshes, non-finite coordinates and out-of-range indices.
-    pub fn build(
+    /// Builds the BVH at [`BuildQuality::High`]. See [`Accel::build_with_quality`].
+    pub fn build(device: &Device, positions: &[[f32; 3]], indices: &[[u32; 3]]) -> Result<Self, AccelError> {
+        Self::build_with_quality(device, positions, indices, BuildQuality::High)
+    }
+
+    /// Builds the BVH of one triangle mesh. Triangle `k` is `indices[k]` into `positions`.
+    /// Rejects (never panics on) an empty index array, non-finite coordinates and
+    /// out-of-range indices. Degenerate triangles are allowed; they are never hit.
+    ///
+    /// The build uses Embree's TBB threads (all cores unless the device says `threads=N`).
+    pub fn build_with_quality(
         device: &Device,
         positions: &[[f32; 3]],
         indices: &[[u32; 3]],
+        quality: BuildQuality,
     ) -> Result<Self, AccelError> {
-        if indices.is_empty() {
-            return Err(AccelError::InvalidMesh("the scene has no triangles".into()));
-        }
-        if let Some(i) = positions
-            .iter()
-            .position(|p| p.iter().any(|c| !c.is_finite()))
-        {
-            return Err(AccelError::InvalidMesh(format!(
-                "vertex {i} has a non-finite coordinate {:?}",
-                positions[i]
-            )));
-        }
-        let n = positions.len() as u32;
-        if let Some(t) = indices.iter().position(|t| t.iter().any(|&i| i >= n)) {
-            return Err(AccelError::InvalidMesh(format!(
-                "triangle {t} indexes vertex {:?}, but there are {n} vertices",
-                indices[t]
-            )));
-        }
-        // SAFETY: every pointer comes from Embree and is checked; buffers are written within
-        // the item counts Embree allocated.
+        validate(positions, indices)?;
+        // Drain any stale error of this thread so that checks below report our own.
+        let _ = device.check("before building");
+        // SAFETY: the device is live; we take a reference that Drop gives back.
+        unsafe { ffi::rtcRetainDevice(device.raw) };
+        let mut me = Self {
+            device: device.raw,
+            scene: std::ptr::null_mut(),
+            triangles: indices.len(),
+            vertices: positions.len(),
+        };
+        // SAFETY: every handle is checked for null before use; the buffers Embree allocates
+        // hold exactly `len` items of 12 bytes (Embree pads vertex buffers for 16-byte loads
+        // itself), and we copy exactly that many.
         unsafe {
-            ffi::rtcRetainDevice(device.raw);
-            let me = Self {
-                device: device.raw,
-                scene: ffi::rtcNewScene(device.raw),
-                triangles: indices.len(),
-            };
+            me.scene = ffi::rtcNewScene(device.raw);
             if me.scene.is_null() {
                 device.check("creating the scene")?;
-                return Err(AccelError::InvalidMesh("rtcNewScene returned null".into()));
+                return Err(unexpected("rtcNewScene returned null"));
             }
             ffi::rtcSetSceneFlags(me.scene, ffi::RTC_SCENE_FLAG_ROBUST);
-            ffi::rtcSetSceneBuildQuality(me.scene, ffi::RTC_BUILD_QUALITY_HIGH);
+            ffi::rtcSetSceneBuildQuality(
+                me.scene,
+                match quality {
+                    BuildQuality::Low => ffi::RTC_BUILD_QUALITY_LOW,
+                    BuildQuality::Medium => ffi::RTC_BUILD_QUALITY_MEDIUM,
+                    BuildQuality::High => ffi::RTC_BUILD_QUALITY_HIGH,
+                },
+            );
+            device.check("setting scene flags")?;
+
             let geom = ffi::rtcNewGeometry(device.raw, ffi::RTC_GEOMETRY_TYPE_TRIANGLE);
-            device.check("creating the triangle geometry")?;
+            if geom.is_null() {
+                device.check("creating the triangle geometry")?;
+                return Err(unexpected("rtcNewGeometry returned null"));
+            }
+            let geom = GeometryRef(geom);
             let vb = ffi::rtcSetNewGeometryBuffer(
-                geom,
+                geom.0,
                 ffi::RTC_BUFFER_TYPE_VERTEX,
                 0,
                 ffi::RTC_FORMAT_FLOAT3,
-                12,
+                std::mem::size_of::<[f32; 3]>(),
                 positions.len(),
             ) as *mut [f32; 3];
+            device.check("allocating the vertex buffer")?;
             let ib = ffi::rtcSetNewGeometryBuffer(
-                geom,
+                geom.0,
                 ffi::RTC_BUFFER_TYPE_INDEX,
                 0,
                 ffi::RTC_FORMAT_UINT3,
-                12,
+                std::mem::size_of::<[u32; 3]>(),
                 indices.len(),
             ) as *mut [u32; 3];
+            device.check("allocating the index buffer")?;
             if vb.is_null() || ib.is_null() {
-                ffi::rtcReleaseGeometry(geom);
-                device.check("allocating geometry buffers")?;
-                return Err(AccelError::InvalidMesh(
-                    "Embree could not allocate the geometry buffers".into(),
-                ));
+                return Err(unexpected("rtcSetNewGeometryBuffer returned null"));
             }
             std::ptr::copy_nonoverlapping(positions.as_ptr(), vb, positions.len());
             std::ptr::copy_nonoverlapping(indices.as_ptr(), ib, indices.len());
-            ffi::rtcCommitGeometry(geom);
-            ffi::rtcAttachGeometry(me.scene, geom);
-            ffi::rtcReleaseGeometry(geom);
+            ffi::rtcCommitGeometry(geom.0);
+            device.check("committing the geometry")?;
+            let id = ffi::rtcAttachGeometry(me.scene, geom.0);
+            device.check("attaching the geometry")?;
+            if id != 0 {
+                return Err(unexpected("the mesh did not get geometry id 0"));
+            }
+            drop(geom); // the scene holds its own reference now
             ffi::rtcCommitScene(me.scene);
             device.check("building the BVH")?;
-            Ok(me)
         }
+        Ok(me)
     }
 
+    /// Number of triangles (valid `prim` values are `0..triangle_count()`).
     pub fn triangle_count(&self) -> usize {
         self.triangles
     }
 
-    /// Closest hit along `org + t·dir`, `t ∈ [tnear, tfar]`.
+    /// Number of vertices.
+    pub fn vertex_count(&self) -> usize {
+        self.vertices
+    }
+
+    /// Closest hit along `org + t·dir`, `t ∈ [tnear, tfar]`; `None` on a miss or an invalid ray.
     #[inline]
     pub fn intersect1(&self, org: [f32; 3], dir: [f32; 3], tnear: f32, tfar: f32) -> Option<Hit> {
-        let mut rh = ffi::RTCRayHit {
-            ray: ray1(org, dir, tnear, tfar),
-            hit: ffi::RTCHit::default(),
-        };
-        rh.hit.geomID = ffi::RTC_INVALID_GEOMETRY_ID;
-        rh.hit.primID = ffi::RTC_INVALID_GEOMETRY_ID;
+        if !ray_ok(org, dir, tnear, tfar) {
+            return None;
+        }
+        let mut rh = rayhit1(org, dir, tnear, tfar);
         let mut ctx = ffi::init_intersect_context(false);
-        // SAFETY: the scene is committed; rh and ctx are valid for the call.
+        // SAFETY: the scene is committed and immutable; rh (16-aligned) and ctx live across
+        // the call.
         unsafe { ffi::rtcIntersect1(self.scene, &mut ctx, &mut rh) };
         (rh.hit.geomID != ffi::RTC_INVALID_GEOMETRY_ID).then_some(Hit {
             t: rh.ray.tfar,
@@ -127,31 +190,35 @@ impl Accel {
         })
     }
 
-    /// True if anything blocks `org + t·dir`, `t ∈ [tnear, tfar]`.
+    /// True if anything blocks `org + t·dir`, `t ∈ [tnear, tfar]` (false for an invalid ray).
     #[inline]
     pub fn occluded1(&self, org: [f32; 3], dir: [f32; 3], tnear: f32, tfar: f32) -> bool {
+        if !ray_ok(org, dir, tnear, tfar) {
+            return false;
+        }
         let mut r = ray1(org, dir, tnear, tfar);
         let mut ctx = ffi::init_intersect_context(false);
-        // SAFETY: as above.
+        // SAFETY: as in intersect1.
         unsafe { ffi::rtcOccluded1(self.scene, &mut ctx, &mut r) };
         r.tfar == f32::NEG_INFINITY
     }
 
-    /// Closest hits of the active lanes; inactive lanes report a miss.
+    /// Closest hits of the active, valid lanes; other lanes report a miss. `coherent` tells
+    /// Embree the rays are coherent (e.g. camera rays), which only changes speed.
     #[inline]
     pub fn intersect8(&self, rays: &Ray8, active: [bool; 8], coherent: bool) -> Hit8 {
-        let valid = valid8(active);
-        let mut rh = ffi::RTCRayHit8 {
-            ray: ray8(rays),
-            hit: ffi::RTCHit8::default(),
-        };
-        rh.hit.geomID = [ffi::RTC_INVALID_GEOMETRY_ID; 8];
-        let mut ctx = ffi::init_intersect_context(coherent);
-        // SAFETY: valid and rh are 32-byte aligned (repr(align(32))); the scene is committed.
-        unsafe { ffi::rtcIntersect8(valid.0.as_ptr(), self.scene, &mut ctx, &mut rh) };
+        let valid = valid_lanes(rays, active);
         let mut out = Hit8::default();
+        if valid.0 == [0; 8] {
+            return out;
+        }
+        let mut rh = rayhit8(rays);
+        let mut ctx = ffi::init_intersect_context(coherent);
+        // SAFETY: valid and rh are 32-byte aligned (repr(align(32))), as Embree requires; the
+        // scene is committed. Inactive lanes are not read or written by Embree.
+        unsafe { ffi::rtcIntersect8(valid.0.as_ptr(), self.scene, &mut ctx, &mut rh) };
         for i in 0..8 {
-            if active[i] && rh.hit.geomID[i] != ffi::RTC_INVALID_GEOMETRY_ID {
+            if valid.0[i] != 0 && rh.hit.geomID[i] != ffi::RTC_INVALID_GEOMETRY_ID {
                 out.t[i] = rh.ray.tfar[i];
                 out.prim[i] = rh.hit.primID[i];
                 out.u[i] = rh.hit.u[i];
@@ -161,37 +228,36 @@ impl Accel {
         out
     }
 
-    /// Per lane: true if blocked. Inactive lanes report false.
+    /// Per lane: true if blocked within `[tnear, tfar]`. Inactive or invalid lanes: false.
     #[inline]
     pub fn occluded8(&self, rays: &Ray8, active: [bool; 8], coherent: bool) -> [bool; 8] {
-        let valid = valid8(active);
+        let valid = valid_lanes(rays, active);
+        if valid.0 == [0; 8] {
+            return [false; 8];
+        }
         let mut r = ray8(rays);
         let mut ctx = ffi::init_intersect_context(coherent);
-        // SAFETY: as for intersect8.
+        // SAFETY: as in intersect8.
         unsafe { ffi::rtcOccluded8(valid.0.as_ptr(), self.scene, &mut ctx, &mut r) };
-        std::array::from_fn(|i| active[i] && r.tfar[i] == f32::NEG_INFINITY)
+        std::array::from_fn(|i| valid.0[i] != 0 && r.tfar[i] == f32::NEG_INFINITY)
     }
 
-    /// Bare Embree, for benchmarks: `rtcIntersect1` on every lane of every packet, with no
-    /// conversion of results. Returns the number of hits.
+    // ---- Bare Embree, for benchmarks -------------------------------------------------------
+    //
+    // These run Embree on every lane of every packet with no validation and no conversion of
+    // results beyond counting, so a benchmark can compare our wrapper with Embree itself on
+    // the exact same rays. The only work besides Embree is building its ray structs from
+    // `Ray8` (as any caller must) and counting. Rays must be valid (see the type docs).
+
+    /// `rtcIntersect1` on each lane of each packet (incoherent context). Returns the hits.
     pub fn raw_intersect1_batch(&self, rays: &[Ray8]) -> usize {
         let mut hits = 0;
         let mut ctx = ffi::init_intersect_context(false);
         for p in rays {
             for i in 0..8 {
-                let mut rh = ffi::RTCRayHit {
-                    ray: ray1(
-                        [p.org_x[i], p.org_y[i], p.org_z[i]],
-                        [p.dir_x[i], p.dir_y[i], p.dir_z[i]],
-                        p.tnear[i],
-                        p.tfar[i],
-                    ),
-                    hit: ffi::RTCHit {
-                        geomID: ffi::RTC_INVALID_GEOMETRY_ID,
-                        ..Default::default()
-                    },
-                };
-                // SAFETY: as for intersect1.
+                let (o, d, tn, tf) = p.lane(i);
+                let mut rh = rayhit1(o, d, tn, tf);
+                // SAFETY: as in intersect1.
                 unsafe { ffi::rtcIntersect1(self.scene, &mut ctx, &mut rh) };
                 hits += (rh.hit.geomID != ffi::RTC_INVALID_GEOMETRY_ID) as usize;
             }
@@ -199,18 +265,30 @@ impl Accel {
         hits
     }
 
-    /// Bare Embree, for benchmarks: `rtcIntersect8` on each packet, all lanes active.
+    /// `rtcOccluded1` on each lane of each packet (incoherent context). Returns blocked rays.
+    pub fn raw_occluded1_batch(&self, rays: &[Ray8]) -> usize {
+        let mut blocked = 0;
+        let mut ctx = ffi::init_intersect_context(false);
+        for p in rays {
+            for i in 0..8 {
+                let (o, d, tn, tf) = p.lane(i);
+                let mut r = ray1(o, d, tn, tf);
+                // SAFETY: as in occluded1.
+                unsafe { ffi::rtcOccluded1(self.scene, &mut ctx, &mut r) };
+                blocked += (r.tfar == f32::NEG_INFINITY) as usize;
+            }
+        }
+        blocked
+    }
+
+    /// `rtcIntersect8` on each packet, all lanes active. Returns the hits.
     pub fn raw_intersect8_batch(&self, rays: &[Ray8], coherent: bool) -> usize {
-        let valid = valid8([true; 8]);
+        let valid = Valid8::from([true; 8]);
         let mut hits = 0;
         let mut ctx = ffi::init_intersect_context(coherent);
         for p in rays {
-            let mut rh = ffi::RTCRayHit8 {
-                ray: ray8(p),
-                hit: ffi::RTCHit8::default(),
-            };
-            rh.hit.geomID = [ffi::RTC_INVALID_GEOMETRY_ID; 8];
-            // SAFETY: as for intersect8.
+            let mut rh = rayhit8(p);
+            // SAFETY: as in intersect8.
             unsafe { ffi::rtcIntersect8(valid.0.as_ptr(), self.scene, &mut ctx, &mut rh) };
             hits += rh
                 .hit
@@ -222,14 +300,14 @@ impl Accel {
         hits
     }
 
-    /// Bare Embree, for benchmarks: `rtcOccluded8` on each packet. Returns blocked lanes.
+    /// `rtcOccluded8` on each packet, all lanes active. Returns blocked rays.
     pub fn raw_occluded8_batch(&self, rays: &[Ray8], coherent: bool) -> usize {
-        let valid = valid8([true; 8]);
+        let valid = Valid8::from([true; 8]);
         let mut blocked = 0;
         let mut ctx = ffi::init_intersect_context(coherent);
         for p in rays {
             let mut r = ray8(p);
-            // SAFETY: as for occluded8.
+            // SAFETY: as in occluded8.
             unsafe { ffi::rtcOccluded8(valid.0.as_ptr(), self.scene, &mut ctx, &mut r) };
             blocked += r.tfar.iter().filter(|&&t| t == f32::NEG_INFINITY).count();
         }
@@ -239,14 +317,79 @@ impl Accel {
 
 impl Drop for Accel {
     fn drop(&mut self) {
-        // SAFETY: we own one reference to each.
+        // SAFETY: we own one reference to the device and, if non-null, one to the scene.
         unsafe {
-            ffi::rtcReleaseScene(self.scene);
+            if !self.scene.is_null() {
+                ffi::rtcReleaseScene(self.scene);
+            }
             ffi::rtcReleaseDevice(self.device);
         }
     }
 }
 
+fn unexpected(what: &str) -> AccelError {
+    AccelError::Embree {
+        what: "building the scene",
+        code: ffi::RTC_ERROR_UNKNOWN,
+        name: "RTC_ERROR_UNKNOWN",
+        message: Some(what.into()),
+    }
+}
+
+fn validate(positions: &[[f32; 3]], indices: &[[u32; 3]]) -> Result<(), AccelError> {
+    if indices.is_empty() {
+        return Err(AccelError::InvalidMesh("the mesh has no triangles".into()));
+    }
+    if indices.len() > u32::MAX as usize - 1 {
+        return Err(AccelError::InvalidMesh(format!(
+            "{} triangles is more than Embree can index",
+            indices.len()
+        )));
+    }
+    if let Some(i) = positions.iter().position(|p| p.iter().any(|c| !c.is_finite())) {
+        return Err(AccelError::InvalidMesh(format!(
+            "vertex {i} has a non-finite coordinate {:?}",
+            positions[i]
+        )));
+    }
+    let n = positions.len() as u64;
+    if let Some(t) = indices.iter().position(|t| t.iter().any(|&i| u64::from(i) >= n)) {
+        return Err(AccelError::InvalidMesh(format!(
+            "triangle {t} indexes vertex {:?}, but there are {n} vertices",
+            indices[t]
+        )));
+    }
+    Ok(())
+}
+
+#[inline(always)]
+fn ray_ok(org: [f32; 3], dir: [f32; 3], tnear: f32, tfar: f32) -> bool {
+    // Written with `&` (not `&&`) so it compiles to straight-line compares; NaN fails all.
+    (org[0].abs() <= FLT_LARGE)
+        & (org[1].abs() <= FLT_LARGE)
+        & (org[2].abs() <= FLT_LARGE)
+        & (dir[0].abs() <= FLT_LARGE)
+        & (dir[1].abs() <= FLT_LARGE)
+        & (dir[2].abs() <= FLT_LARGE)
+        & (tnear >= 0.0)
+        & (tnear <= tfar)
+}
+
+#[inline(always)]
+fn valid_lanes(r: &Ray8, active: [bool; 8]) -> Valid8 {
+    Valid8::from(std::array::from_fn(|i| {
+        active[i]
+            & ray_ok(
+                [r.org_x[i], r.org_y[i], r.org_z[i]],
+                [r.dir_x[i], r.dir_y[i], r.dir_z[i]],
+                r.tnear[i],
+                r.tfar[i],
+            )
+    }))
+}
+
+/// An `RTCRay` with mask all-ones (a zero mask misses everything: ray masks are compiled
+/// into Debian's Embree).
 #[inline(always)]
 fn ray1(org: [f32; 3], dir: [f32; 3], tnear: f32, tfar: f32) -> ffi::RTCRay {
     ffi::RTCRay {
@@ -262,6 +405,20 @@ fn ray1(org: [f32; 3], dir: [f32; 3], tnear: f32, tfar: f32) -> ffi::RTCRay {
         mask: u32::MAX,
         id: 0,
         flags: 0,
+    }
+}
+
+/// An `RTCRayHit` whose hit says "no geometry" until Embree writes one.
+#[inline(always)]
+fn rayhit1(org: [f32; 3], dir: [f32; 3], tnear: f32, tfar: f32) -> ffi::RTCRayHit {
+    ffi::RTCRayHit {
+        ray: ray1(org, dir, tnear, tfar),
+        hit: ffi::RTCHit {
+            primID: ffi::RTC_INVALID_GEOMETRY_ID,
+            geomID: ffi::RTC_INVALID_GEOMETRY_ID,
+            instID: [ffi::RTC_INVALID_GEOMETRY_ID],
+            ..Default::default()
+        },
     }
 }
 
@@ -284,6 +441,14 @@ fn ray8(r: &Ray8) -> ffi::RTCRay8 {
 }
 
 #[inline(always)]
-fn valid8(active: [bool; 8]) -> ffi::Valid8 {
-    ffi::Valid8(active.map(|a| if a { -1 } else { 0 }))
+fn rayhit8(r: &Ray8) -> ffi::RTCRayHit8 {
+    ffi::RTCRayHit8 {
+        ray: ray8(r),
+        hit: ffi::RTCHit8 {
+            primID: [ffi::RTC_INVALID_GEOMETRY_ID; 8],
+            geomID: [ffi::RTC_INVALID_GEOMETRY_ID; 8],
+            instID: [[ffi::RTC_INVALID_GEOMETRY_ID; 8]],
+            ..Default::default()
+        },
+    }
 }

@@ -44,9 +44,9 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
 pub fn parse_sets(sets: &[String]) -> anyhow::Result<Vec<(String, f32)>> {
     sets.iter()
         .map(|s| {
-            let (name, value) = s.split_once('=').ok_or_else(|| {
-                anyhow::anyhow!("--set {s:?}: expected NAME=VALUE, e.g. --set eta=1.33")
-            })?;
+            let (name, value) = s
+                .split_once('=')
+                .ok_or_else(|| anyhow::anyhow!("--set {s:?}: expected NAME=VALUE, e.g. --set eta=1.33"))?;
             let v: f32 = value
                 .trim()
                 .parse()

@@ -2,7 +2,7 @@
 
 use crate::film::Transient;
 use crate::output::{self, FilmView};
-use crate::render::{Lanes, RenderOptions, RenderStats, render};
+use crate::render::{Lanes, RenderOptions, RenderStats, render, render_diff};
 use crate::scene::Scene;
 use crate::temporal::SPEED_OF_LIGHT_M_PER_S;
 use anyhow::{Context, bail};
@@ -38,6 +38,10 @@ pub struct RenderArgs {
     /// Pixel for the preview plot, as X,Y (default: the image centre).
     #[arg(long, value_name = "X,Y")]
     pub pixel: Option<String>,
+    /// Also differentiate with respect to these parameters (comma-separated names from
+    /// `dtr info`): writes PREFIX.d_NAME.npy, same shape as the transient.
+    #[arg(long, value_delimiter = ',', value_name = "NAME[,NAME...]")]
+    pub diff: Vec<String>,
     /// Trace one path at a time instead of 8-wide packets (reference/debug).
     #[arg(long)]
     pub scalar: bool,
@@ -63,23 +67,26 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
         seed: a.seed,
         threads: a.threads,
         progress: !a.quiet,
-        lanes: if a.scalar {
-            Lanes::Scalar
-        } else {
-            Lanes::Simd8
-        },
+        lanes: if a.scalar { Lanes::Scalar } else { Lanes::Simd8 },
     };
-    let (film, stats) = render(&scene, &opts)?;
-    let bad = film.non_finite_count();
+    let (film, derivs, stats) = if a.diff.is_empty() {
+        let (f, s) = render(&scene, &opts)?;
+        (f, Vec::new(), s)
+    } else {
+        render_diff(&scene, &a.diff, &opts)?
+    };
+    let bad = film.non_finite_count() + derivs.iter().map(Transient::non_finite_count).sum::<usize>();
     if bad > 0 {
         bail!("internal error: {bad} non-finite values in the transient; nothing written");
     }
     let prefix = |ext: &str| with_suffix(&a.output, ext);
     if let Some(parent) = a.output.parent().filter(|p| !p.as_os_str().is_empty()) {
-        std::fs::create_dir_all(parent)
-            .with_context(|| format!("cannot create output folder {}", parent.display()))?;
+        std::fs::create_dir_all(parent).with_context(|| format!("cannot create output folder {}", parent.display()))?;
     }
     output::write_npy(&prefix("npy"), &film.shape(), &film.data)?;
+    for (name, d) in a.diff.iter().zip(&derivs) {
+        output::write_npy(&prefix(&format!("d_{name}.npy")), &d.shape(), &d.data)?;
+    }
     if a.exr {
         output::write_exr_layers(&prefix("exr"), view(&film))?;
     }
@@ -123,14 +130,8 @@ pub fn with_suffix(prefix: &Path, ext: &str) -> PathBuf {
 
 fn parse_pixel(s: &str, scene: &Scene) -> anyhow::Result<(usize, usize)> {
     let (x, y) = s.split_once(',').context("--pixel: expected X,Y")?;
-    let x: usize = x
-        .trim()
-        .parse()
-        .context("--pixel: X is not a non-negative integer")?;
-    let y: usize = y
-        .trim()
-        .parse()
-        .context("--pixel: Y is not a non-negative integer")?;
+    let x: usize = x.trim().parse().context("--pixel: X is not a non-negative integer")?;
+    let y: usize = y.trim().parse().context("--pixel: Y is not a non-negative integer")?;
     if x >= scene.film.width as usize || y >= scene.film.height as usize {
         bail!(
             "--pixel {x},{y} is outside the {}x{} image",
@@ -167,19 +168,11 @@ fn write_previews(
     Ok(())
 }
 
-fn metadata(
-    scene: &Scene,
-    film: &Transient,
-    stats: &RenderStats,
-    a: &RenderArgs,
-) -> serde_json::Value {
+fn metadata(scene: &Scene, film: &Transient, stats: &RenderStats, a: &RenderArgs) -> serde_json::Value {
     let axis = film.axis;
     let ns = |opl: f32| opl as f64 / SPEED_OF_LIGHT_M_PER_S * 1e9;
-    let params: serde_json::Map<String, serde_json::Value> = scene
-        .params
-        .iter()
-        .map(|p| (p.name.clone(), json!(p.value)))
-        .collect();
+    let params: serde_json::Map<String, serde_json::Value> =
+        scene.params.iter().map(|p| (p.name.clone(), json!(p.value))).collect();
     json!({
         "scene": a.scene.display().to_string(),
         "shape": film.shape(),
@@ -197,6 +190,7 @@ fn metadata(
         "unwarp": scene.film.unwarp,
         "eta": scene.eta,
         "params": params,
+        "derivatives": a.diff.iter().map(|n| json!({"param": n, "file": format!("{}.d_{n}.npy", a.output.display()), "estimator": "interior (Algorithm 1)"})).collect::<Vec<_>>(),
         "spp": stats.spp,
         "seed": stats.seed,
         "threads": stats.threads,

@@ -11,8 +11,7 @@ pub fn albedo<R: Real, const C: usize>(ctx: &RenderContext, prim: &[u32; 8]) -> 
     let mut rgb = [[0.0f32; 3]; 8];
     for i in 0..R::LANES {
         let t = prim[i].min(ctx.tri_material.len() as u32 - 1) as usize;
-        let Material::Diffuse { albedo } =
-            &ctx.scene.materials[ctx.tri_material[t] as usize].material;
+        let Material::Diffuse { albedo } = &ctx.scene.materials[ctx.tri_material[t] as usize].material;
         rgb[i] = *albedo;
     }
     let mut s = Spectrum::<R, C>::from_lane_rgb(&rgb[..R::LANES]);

@@ -24,16 +24,12 @@ impl FilterSampler {
                     cdf: Vec::new(),
                 };
             }
-            PixelFilter::Tent { radius } => {
-                (radius, Box::new(move |x: f32| (radius - x.abs()).max(0.0)))
-            }
+            PixelFilter::Tent { radius } => (radius, Box::new(move |x: f32| (radius - x.abs()).max(0.0))),
             PixelFilter::Gaussian { sigma, radius } => {
                 let edge = (-radius * radius / (2.0 * sigma * sigma)).exp();
                 (
                     radius,
-                    Box::new(move |x: f32| {
-                        ((-x * x / (2.0 * sigma * sigma)).exp() - edge).max(0.0)
-                    }),
+                    Box::new(move |x: f32| ((-x * x / (2.0 * sigma * sigma)).exp() - edge).max(0.0)),
                 )
             }
         };
@@ -131,9 +127,7 @@ mod tests {
                 / n as f64
         };
         assert!((var(&FilterSampler::new(PixelFilter::Box)) - 1.0 / 12.0).abs() < 1e-3);
-        assert!(
-            (var(&FilterSampler::new(PixelFilter::Tent { radius: 1.0 })) - 1.0 / 6.0).abs() < 2e-3
-        );
+        assert!((var(&FilterSampler::new(PixelFilter::Tent { radius: 1.0 })) - 1.0 / 6.0).abs() < 2e-3);
         let g = var(&FilterSampler::new(PixelFilter::Gaussian {
             sigma: 0.5,
             radius: 3.0,

@@ -51,12 +51,7 @@ impl<'a> RenderContext<'a> {
             .iter()
             .map(|e| Correlation::new(scene.film.axis, e.pulse, e.offset_opl, scene.film.gate))
             .collect::<Result<Vec<_>, _>>()?;
-        let camera = CameraSampler::new(
-            &scene.camera,
-            scene.film.width,
-            scene.film.height,
-            scene.film.filter,
-        );
+        let camera = CameraSampler::new(&scene.camera, scene.film.width, scene.film.height, scene.film.filter);
         Ok(Self {
             scene,
             accel,

@@ -6,6 +6,7 @@
 //! (I(ω) = Φ · albedo/π · cos θ), the usual NLOS treatment.
 
 use super::context::RenderContext;
+use super::path::ray_plane_point;
 use super::surface::{SurfacePoint, surface_at};
 use crate::accel::Accel;
 use crate::kernel::{Mask, Real, Spectrum, V3};
@@ -24,6 +25,9 @@ pub struct LaserSpot {
     pub intensity: [f32; 3],
     /// +1 if the triangle's winding normal faces the laser, else -1 (the lit side).
     pub side: f32,
+    /// The laser's position and unit direction.
+    pub origin: Vec3,
+    pub direction: Vec3,
 }
 
 #[derive(Clone, Debug)]
@@ -63,7 +67,7 @@ pub struct LightSample<R: Real, const C: usize> {
     pub pdf_area: R::Value,
     pub emitter: [u32; 8],
     /// Geometric length travelled before the sampled point (laser to spot), else 0.
-    pub pre_length: R::Value,
+    pub pre_length: R,
     pub valid: R::Mask,
 }
 
@@ -93,10 +97,7 @@ impl EmitterTable {
                         radiance: *radiance,
                     }
                 }
-                EmitterKind::Point {
-                    position,
-                    intensity,
-                } => Entry::Point {
+                EmitterKind::Point { position, intensity } => Entry::Point {
                     position: *position,
                     intensity: *intensity,
                 },
@@ -106,19 +107,11 @@ impl EmitterTable {
                     power,
                 } => {
                     let spot = accel
-                        .intersect1(
-                            position.to_array(),
-                            direction.to_array(),
-                            0.0,
-                            f32::INFINITY,
-                        )
+                        .intersect1(position.to_array(), direction.to_array(), 0.0, f32::INFINITY)
                         .map(|h| {
-                            let mat =
-                                scene.shapes[geo.tri_shape[h.prim as usize] as usize].material;
-                            let Material::Diffuse { albedo } =
-                                scene.materials[mat as usize].material;
-                            let [a, b, c] =
-                                geo.indices[h.prim as usize].map(|i| geo.positions[i as usize]);
+                            let mat = scene.shapes[geo.tri_shape[h.prim as usize] as usize].material;
+                            let Material::Diffuse { albedo } = scene.materials[mat as usize].material;
+                            let [a, b, c] = geo.indices[h.prim as usize].map(|i| geo.positions[i as usize]);
                             let side = if (b - a).cross(c - a).dot(*direction) < 0.0 {
                                 1.0
                             } else {
@@ -126,13 +119,13 @@ impl EmitterTable {
                             };
                             LaserSpot {
                                 side,
+                                origin: *position,
+                                direction: direction.normalize(),
                                 prim: h.prim,
                                 u: h.u,
                                 v: h.v,
                                 distance: h.t * direction.length(),
-                                intensity: std::array::from_fn(|c| {
-                                    power[c] * albedo[c] * std::f32::consts::FRAC_1_PI
-                                }),
+                                intensity: std::array::from_fn(|c| power[c] * albedo[c] * std::f32::consts::FRAC_1_PI),
                             }
                         });
                     Entry::Laser { spot }
@@ -150,9 +143,7 @@ impl EmitterTable {
     #[inline]
     pub fn area_pdf(&self, e: u32) -> f32 {
         match self.entries.get(e as usize) {
-            Some(Entry::Area { area, .. }) if *area > 0.0 => {
-                1.0 / (*area * self.entries.len() as f32)
-            }
+            Some(Entry::Area { area, .. }) if *area > 0.0 => 1.0 / (*area * self.entries.len() as f32),
             _ => 0.0,
         }
     }
@@ -181,7 +172,11 @@ impl EmitterTable {
         let mut bu = [0.0f32; 8];
         let mut bv = [0.0f32; 8];
         let mut point = [Vec3::ZERO; 8];
-        let mut weight = [[0.0f32; 3]; 8];
+        let mut radiance_rgb = [[0.0f32; 3]; 8];
+        let mut inv_pdf = [0.0f32; 8];
+        let mut laser = [false; 8];
+        let mut laser_o = [Vec3::ZERO; 8];
+        let mut laser_d = [Vec3::ZERO; 8];
         let mut pdf = [0.0f32; 8];
         let mut pre = [0.0f32; 8];
         let mut on_surface = [false; 8];
@@ -213,16 +208,15 @@ impl EmitterTable {
                     bu[i] = s1 * (1.0 - s2);
                     bv[i] = s1 * s2;
                     pdf[i] = p_sel / area;
-                    weight[i] = radiance.map(|r| r / pdf[i]);
+                    radiance_rgb[i] = *radiance;
+                    inv_pdf[i] = 1.0 / pdf[i];
                     on_surface[i] = true;
                     valid[i] = true;
                 }
-                Entry::Point {
-                    position,
-                    intensity,
-                } => {
+                Entry::Point { position, intensity } => {
                     point[i] = *position;
-                    weight[i] = intensity.map(|r| r / p_sel);
+                    radiance_rgb[i] = *intensity;
+                    inv_pdf[i] = 1.0 / p_sel;
                     valid[i] = true;
                 }
                 Entry::Laser { spot: Some(s) } => {
@@ -231,33 +225,45 @@ impl EmitterTable {
                     bv[i] = s.v;
                     pre[i] = s.distance;
                     side[i] = s.side;
-                    weight[i] = s.intensity.map(|r| r / p_sel);
+                    radiance_rgb[i] = s.intensity;
+                    inv_pdf[i] = 1.0 / p_sel;
+                    laser[i] = true;
+                    laser_o[i] = s.origin;
+                    laser_d[i] = s.direction;
                     on_surface[i] = true;
                     valid[i] = true;
                 }
                 Entry::Laser { spot: None } => {}
             }
         }
-        let surf: SurfacePoint<R> = surface_at(
-            ctx,
-            &prim,
-            R::Value::from_lanes(&bu),
-            R::Value::from_lanes(&bv),
-        );
+        let surf: SurfacePoint<R> = surface_at(ctx, &prim, R::Value::from_lanes(&bu), R::Value::from_lanes(&bv));
         let has_cos = R::Mask::from_bools(&on_surface[..R::LANES]);
-        let p = V3::select(has_cos, surf.p, V3::from_lane_vecs(&point[..R::LANES]));
+        let mut p = V3::select(has_cos, surf.p, V3::from_lane_vecs(&point[..R::LANES]));
+        let mut pre_length = R::from_lanes(&pre);
+        let is_laser = R::Mask::from_bools(&laser[..R::LANES]);
+        if R::DERIVS > 0 && is_laser.any() {
+            // The spot is where the fixed laser ray meets the moving surface (ray form).
+            let o = V3::<R>::from_lane_vecs(&laser_o[..R::LANES]);
+            let d = V3::<R>::from_lane_vecs(&laser_d[..R::LANES]);
+            let spot = ray_plane_point(&o, &d, &surf.p, &surf.n);
+            p = V3::select(is_laser, spot, p);
+            pre_length = R::select(is_laser, (spot - o).dot(d), pre_length);
+        }
+        let mut radiance = Spectrum::<R, C>::from_lane_rgb(&radiance_rgb[..R::LANES]);
+        if R::DERIVS > 0 {
+            ctx.motion.radiance_derivs(&emitter, &mut radiance);
+        }
+        // area samples move with their surface (material form): weight · J
+        let area = has_cos & !is_laser;
+        let scale = R::from_lanes(&inv_pdf) * R::select(area, surf.jacobian, R::one());
         LightSample {
             p,
             n: surf.n * R::from_lanes(&side),
             has_cos,
-            weight: Spectrum::from_lane_rgb(&weight[..R::LANES]).scale(R::select(
-                has_cos,
-                surf.jacobian,
-                R::one(),
-            )),
+            weight: radiance.scale(scale),
             pdf_area: R::Value::from_lanes(&pdf),
             emitter,
-            pre_length: R::Value::from_lanes(&pre),
+            pre_length,
             valid: R::Mask::from_bools(&valid[..R::LANES]),
         }
     }

@@ -20,6 +20,12 @@ pub struct Motion {
     pub fields: Vec<Vec<(usize, Velocity)>>,
     /// `albedo[k]`: (material index, channel mask) whose albedo is parameter k.
     pub albedo: Vec<Vec<(usize, [bool; 3])>>,
+    /// `radiance[k]`: (emitter index, channel mask) whose emission is parameter k.
+    pub radiance: Vec<Vec<(usize, [bool; 3])>>,
+    /// `eta[k]`: parameter k is the medium's η.
+    pub eta: Vec<bool>,
+    /// `pulse_offset[k]`: parameter k is this emitter's pulse offset τ (∂S_e/∂τ = ∂S_e/∂d).
+    pub pulse_offset: Vec<Option<usize>>,
 }
 
 impl Motion {
@@ -31,23 +37,14 @@ impl Motion {
     #[inline]
     pub fn velocity(&self, k: usize, shape: usize, x: Vec3) -> Vec3 {
         match self.fields.get(k) {
-            Some(f) => f
-                .iter()
-                .filter(|(s, _)| *s == shape)
-                .map(|(_, v)| v.a * x + v.b)
-                .sum(),
+            Some(f) => f.iter().filter(|(s, _)| *s == shape).map(|(_, v)| v.a * x + v.b).sum(),
             None => Vec3::ZERO,
         }
     }
 
     /// Sets the derivative lanes of a gathered albedo: ∂albedo/∂θ_k is 1 on the channels that
     /// parameter k controls.
-    pub fn albedo_derivs<R: Real, const C: usize>(
-        &self,
-        prim: &[u32; 8],
-        ctx: &RenderContext,
-        s: &mut Spectrum<R, C>,
-    ) {
+    pub fn albedo_derivs<R: Real, const C: usize>(&self, prim: &[u32; 8], ctx: &RenderContext, s: &mut Spectrum<R, C>) {
         for (k, targets) in self.albedo.iter().enumerate().take(R::DERIVS) {
             for c in 0..C {
                 let mut d = [0.0f32; 8];
@@ -61,5 +58,149 @@ impl Motion {
                 s.0[c] = s.0[c].with_deriv_lanes(k, &d);
             }
         }
+    }
+}
+
+/// Cross-product matrix [e]× of a unit axis: [e]× v = e × v.
+fn cross_matrix(e: Vec3) -> Mat3 {
+    Mat3::from_cols(e.cross(Vec3::X), e.cross(Vec3::Y), e.cross(Vec3::Z))
+}
+
+impl Motion {
+    /// The derivative lanes for parameters `names`, in that order. Errors name the unknown
+    /// parameter and list the available ones.
+    pub fn build(scene: &crate::scene::Scene, names: &[String]) -> Result<Self, crate::error::Error> {
+        use crate::scene::ParamKind;
+        let mut m = Motion::default();
+        for name in names {
+            let Some(p) = scene.params.iter().find(|p| &p.name == name) else {
+                let avail: Vec<&str> = scene.params.iter().map(|p| p.name.as_str()).collect();
+                return Err(crate::error::Error::Invalid(format!(
+                    "{}: --diff: no parameter named {name:?} (parameters: {})",
+                    scene.source.display(),
+                    if avail.is_empty() {
+                        "none; add [[param]] entries".to_string()
+                    } else {
+                        avail.join(", ")
+                    }
+                )));
+            };
+            let mut fields = Vec::new();
+            let mut albedo = Vec::new();
+            let mut radiance = Vec::new();
+            let mut eta = false;
+            let mut offset = None;
+            let channels = |c: Option<usize>| std::array::from_fn(|i| c.is_none_or(|c| c == i));
+            match p.kind {
+                ParamKind::Translate { shape, axis } => {
+                    let mut b = Vec3::ZERO;
+                    b[axis as usize] = 1.0;
+                    fields.push((shape as usize, Velocity { a: Mat3::ZERO, b }));
+                }
+                ParamKind::Rotate { shape, axis } => {
+                    let tr = scene.shapes[shape as usize].transform;
+                    let r = tr.rotate_deg * (std::f32::consts::PI / 180.0);
+                    let (rx, ry, rz) = (
+                        Mat3::from_rotation_x(r.x),
+                        Mat3::from_rotation_y(r.y),
+                        Mat3::from_rotation_z(r.z),
+                    );
+                    // d/dα R_a(α) = [e_a]× R_a(α); R = Rz Ry Rx
+                    let dr = match axis {
+                        crate::scene::Axis::X => rz * ry * cross_matrix(Vec3::X) * rx,
+                        crate::scene::Axis::Y => rz * cross_matrix(Vec3::Y) * ry * rx,
+                        crate::scene::Axis::Z => cross_matrix(Vec3::Z) * rz * ry * rx,
+                    };
+                    // x = t + R S x_l  ⇒  ẋ = Ṙ Rᵀ (x − t), per degree
+                    let a = dr * tr.rotation().transpose() * (std::f32::consts::PI / 180.0);
+                    fields.push((
+                        shape as usize,
+                        Velocity {
+                            a,
+                            b: -(a * tr.translate),
+                        },
+                    ));
+                }
+                ParamKind::Scale { shape, axis } => {
+                    let tr = scene.shapes[shape as usize].transform;
+                    let rot = tr.rotation();
+                    let k = axis as usize;
+                    let mut ek = Vec3::ZERO;
+                    ek[k] = 1.0;
+                    // x = t + R S x_l  ⇒  ẋ = R e_k e_kᵀ S⁻¹ Rᵀ (x − t)
+                    // e_k e_kᵀ S⁻¹: column k is e_k / s_k, the others zero
+                    let mut cols = [Vec3::ZERO; 3];
+                    cols[k] = ek / tr.scale[k];
+                    let proj = Mat3::from_cols(cols[0], cols[1], cols[2]);
+                    let a = rot * proj * rot.transpose();
+                    fields.push((
+                        shape as usize,
+                        Velocity {
+                            a,
+                            b: -(a * tr.translate),
+                        },
+                    ));
+                }
+                ParamKind::Albedo { material, channel } => albedo.push((material as usize, channels(channel))),
+                ParamKind::Radiance { emitter, channel } => radiance.push((emitter as usize, channels(channel))),
+                ParamKind::Eta => eta = true,
+                ParamKind::PulseOffset { emitter } => offset = Some(emitter as usize),
+            }
+            m.fields.push(fields);
+            m.albedo.push(albedo);
+            m.radiance.push(radiance);
+            m.eta.push(eta);
+            m.pulse_offset.push(offset);
+        }
+        Ok(m)
+    }
+
+    /// Number of derivative lanes.
+    pub fn len(&self) -> usize {
+        self.fields.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.fields.is_empty()
+    }
+
+    /// Whether any lane moves geometry.
+    pub fn moves_geometry(&self) -> bool {
+        self.fields.iter().any(|f| !f.is_empty())
+    }
+
+    /// Whether parameter `k` shifts paths in time (geometry, η or pulse offset).
+    pub fn shifts_time(&self, k: usize) -> bool {
+        !self.fields[k].is_empty() || self.eta[k] || self.pulse_offset[k].is_some()
+    }
+
+    /// Sets the derivative lanes of an emitted radiance: ∂L/∂θ_k = 1 on the channels of the
+    /// emitter that parameter k controls.
+    pub fn radiance_derivs<R: Real, const C: usize>(&self, emitter: &[u32; 8], s: &mut Spectrum<R, C>) {
+        for (k, targets) in self.radiance.iter().enumerate().take(R::DERIVS) {
+            if targets.is_empty() {
+                continue;
+            }
+            for c in 0..C {
+                let mut d = [0.0f32; 8];
+                for (i, di) in d.iter_mut().enumerate().take(R::LANES) {
+                    if targets.iter().any(|(e, ch)| *e as u32 == emitter[i] && ch[c]) {
+                        *di = 1.0;
+                    }
+                }
+                s.0[c] = s.0[c].with_deriv_lanes(k, &d);
+            }
+        }
+    }
+
+    /// η as a number carrying ∂η/∂θ_k = 1 on its lane.
+    pub fn eta<R: Real>(&self, eta: f32) -> R {
+        let mut v = R::splat(eta);
+        for (k, &e) in self.eta.iter().enumerate().take(R::DERIVS) {
+            if e {
+                v = v.with_deriv_lanes(k, &[1.0; 8]);
+            }
+        }
+        v
     }
 }

@@ -49,7 +49,7 @@ pub fn trace_packet<R: Real, const C: usize>(
     type V<R> = <R as Real>::Value;
     let scene = ctx.scene;
     let max_bounces = scene.integrator.max_bounces;
-    let eta = R::splat(scene.eta);
+    let eta = ctx.motion.eta::<R>(scene.eta);
     let mut sampler = PathSampler::new(seed, &lanes.ids[..lanes.count.max(1)]);
     let mut in_use = [false; 8];
     in_use[..lanes.count].iter_mut().for_each(|b| *b = true);
@@ -83,19 +83,20 @@ pub fn trace_packet<R: Real, const C: usize>(
         if active.none() {
             break;
         }
-        let x = surface_at::<R>(ctx, &hit.prim, hit.u, hit.v);
+        let mut x = surface_at::<R>(ctx, &hit.prim, hit.u, hit.v);
+        if R::DERIVS > 0 && depth == 1 {
+            // The camera ray is fixed in the image plane: the first vertex moves along it
+            // (x₁ = o + t(θ)·ω), so the pixel filter is never differentiated.
+            x.p = ray_plane_point(&prev_p, &V3::from_value(ray_d), &x.p, &x.n);
+        }
         let seg = x.p - prev_p;
         let r2 = seg.length_squared();
         let r = r2.sqrt();
         let w_in = seg * R::safe_div(R::one(), r);
         let cos_i = x.n.dot(w_in).abs();
-        if R::DERIVS > 0 {
+        if R::DERIVS > 0 && depth > 1 {
             // G·J (dual) over its value: the derivative of the geometry of this segment.
-            let cos_prev = if depth == 1 {
-                R::one()
-            } else {
-                prev_n.dot(w_in).abs()
-            };
+            let cos_prev = if depth == 1 { R::one() } else { prev_n.dot(w_in).abs() };
             let g = cos_prev * cos_i / r2;
             let ratio = R::safe_div(g, R::from_value(g.value())) * x.jacobian;
             beta = beta.scale(ratio);
@@ -119,10 +120,12 @@ pub fn trace_packet<R: Real, const C: usize>(
             }
         }
         let front = x.n.value().dot(ray_d).lt(V::<R>::zero());
-        let emits =
-            active & front & R::Mask::from_bools(&emitter.map(|e| e != u32::MAX)[..R::LANES]);
+        let emits = active & front & R::Mask::from_bools(&emitter.map(|e| e != u32::MAX)[..R::LANES]);
         if emits.any() {
-            let le = Spectrum::<R, C>::from_lane_rgb(&le_rgb[..R::LANES]);
+            let mut le = Spectrum::<R, C>::from_lane_rgb(&le_rgb[..R::LANES]);
+            if R::DERIVS > 0 {
+                ctx.motion.radiance_derivs(&emitter, &mut le);
+            }
             let w = if depth == 1 {
                 V::<R>::one()
             } else {
@@ -150,11 +153,7 @@ pub fn trace_packet<R: Real, const C: usize>(
         let incoming_side = x.n.value().dot(-ray_d);
         let same_side = (cos_x_signed.value() * incoming_side).gt(V::<R>::zero());
         let cos_y = R::select(ls.has_cos, -ls.n.dot(wl), R::one());
-        let lit = active
-            & ls.valid
-            & same_side
-            & cos_y.value().gt(V::<R>::zero())
-            & d2.value().gt(V::<R>::zero());
+        let lit = active & ls.valid & same_side & cos_y.value().gt(V::<R>::zero()) & d2.value().gt(V::<R>::zero());
         if lit.any() {
             let p_bsdf = cos_x_signed.value().abs() * V::<R>::splat(std::f32::consts::FRAC_1_PI);
             let p_l = R::Value::safe_div(ls.pdf_area * d2.value(), cos_y.value());
@@ -168,20 +167,12 @@ pub fn trace_packet<R: Real, const C: usize>(
             let len = to_o.length();
             let dir = to_o * V::<R>::safe_div(V::<R>::one(), len);
             let tfar = len - self_intersection_eps(&ls.p.value());
-            let visible = unoccluded(
-                &ctx.accel,
-                &o,
-                &dir,
-                V::<R>::zero(),
-                tfar,
-                lit,
-                &mut counts.rays,
-            );
+            let visible = unoccluded(&ctx.accel, &o, &dir, V::<R>::zero(), tfar, lit, &mut counts.rays);
             let lit = lit & visible;
             if lit.any() {
                 let g = cos_x_signed.abs() * cos_y / d2;
                 let contrib = (beta * f * ls.weight).scale(g * R::from_value(w));
-                let d = opl + eta * (dist + R::from_value(ls.pre_length));
+                let d = opl + eta * (dist + ls.pre_length);
                 splat(ctx, film, lanes, &ls.emitter, d, &contrib, lit, counts);
             }
         }
@@ -235,8 +226,7 @@ fn splat<R: Real, const C: usize>(
         let di = d.lane(i);
         let mut finite = di.is_finite() && f.iter().all(|v| v.is_finite());
         for k in 0..R::DERIVS {
-            finite &= d.deriv_lane(k, i).is_finite()
-                && (0..C).all(|c| contrib.0[c].deriv_lane(k, i).is_finite());
+            finite &= d.deriv_lane(k, i).is_finite() && (0..C).all(|c| contrib.0[c].deriv_lane(k, i).is_finite());
         }
         if !finite {
             counts.non_finite += 1;
@@ -246,11 +236,22 @@ fn splat<R: Real, const C: usize>(
             continue;
         }
         let corr = &ctx.correlations[emitter[i] as usize];
+        let offset_lane = |k: usize| ctx.motion.pulse_offset[k] == Some(emitter[i] as usize);
         let (x, y) = (lanes.px[i] as usize, lanes.py[i] as usize);
         film.add(x, y, corr, di, &f);
-        for k in 0..R::DERIVS {
+        for k in 0..R::DERIVS.min(ctx.motion.len()) {
             let fdot: [f32; C] = std::array::from_fn(|c| contrib.0[c].deriv_lane(k, i));
-            film.add_deriv(k, x, y, corr, di, &f, &fdot, d.deriv_lane(k, i));
+            // S_e depends on d + τ, so a pulse offset adds ∂d/∂τ = 1 (temporal.rs)
+            let ddot = d.deriv_lane(k, i) + if offset_lane(k) { 1.0 } else { 0.0 };
+            film.add_deriv(k, x, y, corr, di, &f, &fdot, ddot);
         }
     }
+}
+
+/// The point where the ray `o + t·ω` meets the plane through `p` with normal `n`, with `p`
+/// and `n` carrying the surface's motion: t = n·(p − o) / (n·ω) (ray-form vertex).
+#[inline(always)]
+pub fn ray_plane_point<R: Real>(o: &V3<R>, w: &V3<R>, p: &V3<R>, n: &V3<R>) -> V3<R> {
+    let t = R::safe_div(n.dot(*p - *o), n.dot(*w));
+    o.add_scaled(*w, t)
 }

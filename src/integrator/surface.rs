@@ -56,12 +56,7 @@ fn gather_triangle<R: Real>(ctx: &RenderContext, prim: &[u32; 8]) -> [V3<R>; 3] 
 
 /// Rebuilds the surface point at barycentrics (u, v) of `prim` in every lane. Lanes with
 /// `prim == u32::MAX` get triangle 0 (callers mask them out).
-pub fn surface_at<R: Real>(
-    ctx: &RenderContext,
-    prim: &[u32; 8],
-    u: R::Value,
-    v: R::Value,
-) -> SurfacePoint<R> {
+pub fn surface_at<R: Real>(ctx: &RenderContext, prim: &[u32; 8], u: R::Value, v: R::Value) -> SurfacePoint<R> {
     let [p0, p1, p2] = gather_triangle::<R>(ctx, prim);
     let e1 = p1 - p0;
     let e2 = p2 - p0;

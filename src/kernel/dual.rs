@@ -17,10 +17,7 @@ pub struct Dual8<const P: usize> {
 impl<const P: usize> Dual8<P> {
     #[inline(always)]
     pub fn constant(v: f32x8) -> Self {
-        Self {
-            v,
-            d: [f32x8::ZERO; P],
-        }
+        Self { v, d: [f32x8::ZERO; P] }
     }
     /// Applies the chain rule for a unary function with value `fv` and slope `slope`.
     #[inline(always)]
@@ -156,11 +153,7 @@ impl<const P: usize> Real for Dual8<P> {
     }
     #[inline(always)]
     fn deriv_lane(self, p: usize, i: usize) -> f32 {
-        if p < P {
-            self.d[p].as_array_ref()[i]
-        } else {
-            0.0
-        }
+        if p < P { self.d[p].as_array_ref()[i] } else { 0.0 }
     }
     #[inline(always)]
     fn with_deriv_lanes(mut self, p: usize, d: &[f32]) -> Self {
@@ -249,19 +242,12 @@ mod tests {
             let ad = y.deriv_lane(0, i) as f64;
             // FD truncation error ~h² f''' plus f32 rounding of the dual maths
             let tol = 2e-3 * fd.abs().max(1.0);
-            assert!(
-                (ad - fd).abs() <= tol,
-                "{name} lane {i} x={x}: dual {ad} vs fd {fd}"
-            );
+            assert!((ad - fd).abs() <= tol, "{name} lane {i} x={x}: dual {ad} vs fd {fd}");
             assert!(
                 (y.lane(i) as f64 - g(x)).abs() <= 1e-5 * g(x).abs().max(1.0),
                 "{name} value lane {i}"
             );
-            assert_eq!(
-                y.deriv_lane(1, i),
-                0.0,
-                "{name}: untouched lane must stay zero"
-            );
+            assert_eq!(y.deriv_lane(1, i), 0.0, "{name}: untouched lane must stay zero");
         }
     }
 
@@ -269,12 +255,7 @@ mod tests {
     fn derivatives_match_finite_differences() {
         let xs = [0.1f32, 0.5, 1.0, 2.0, 3.5, 7.0, 0.03, 1.7];
         check("mul", xs, |x| x * x * x, |x| x * x * x);
-        check(
-            "div",
-            xs,
-            |x| D::splat(1.0) / (x + D::splat(1.0)),
-            |x| 1.0 / (x + 1.0),
-        );
+        check("div", xs, |x| D::splat(1.0) / (x + D::splat(1.0)), |x| 1.0 / (x + 1.0));
         check("sqrt", xs, |x| x.sqrt(), |x| x.sqrt());
         check("rsqrt", xs, |x| x.rsqrt(), |x| 1.0 / x.sqrt());
         check("exp", xs, |x| (-x).exp(), |x| (-x).exp());
@@ -284,16 +265,7 @@ mod tests {
 
     #[test]
     fn guarded_edge_cases_stay_finite() {
-        let xs = [
-            0.0f32,
-            -1e-9,
-            -3.0,
-            1e-38,
-            1e30,
-            -0.0,
-            f32::MIN_POSITIVE,
-            1e-20,
-        ];
+        let xs = [0.0f32, -1e-9, -3.0, 1e-38, 1e30, -0.0, f32::MIN_POSITIVE, 1e-20];
         // d(x^-1/2)/dx = -x^-3/2/2 exceeds f32 below x ≈ 1e-25: rsqrt's tiny input is 1e-20.
         let xr = [0.0f32, -1e-9, -3.0, 1e-20, 1e30, -0.0, 1e-12, 1e-20];
         for (name, y) in [
@@ -309,11 +281,7 @@ mod tests {
                 );
             }
         }
-        assert_eq!(
-            var(xs).sqrt().lane(2),
-            0.0,
-            "sqrt of a negative is clamped to zero"
-        );
+        assert_eq!(var(xs).sqrt().lane(2), 0.0, "sqrt of a negative is clamped to zero");
     }
 
     fn libm_erf(x: f64) -> f64 {

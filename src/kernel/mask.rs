@@ -5,13 +5,7 @@ use wide::f32x8;
 
 /// A per-lane boolean. Lanes are either all-ones (true) or all-zeros (false).
 pub trait Mask:
-    Copy
-    + Send
-    + Sync
-    + std::fmt::Debug
-    + BitAnd<Output = Self>
-    + BitOr<Output = Self>
-    + Not<Output = Self>
+    Copy + Send + Sync + std::fmt::Debug + BitAnd<Output = Self> + BitOr<Output = Self> + Not<Output = Self>
 {
     fn splat(b: bool) -> Self;
     fn from_bools(b: &[bool]) -> Self;

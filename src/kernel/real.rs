@@ -277,16 +277,7 @@ mod tests {
     /// Each f32x8 lane equals the scalar implementation, on edge cases and ordinary values.
     #[test]
     fn f32x8_lanes_match_scalar() {
-        let xs = [
-            0.0f32,
-            -0.0,
-            1e-30,
-            1e30,
-            -2.5,
-            3.0,
-            f32::MIN_POSITIVE,
-            7.25,
-        ];
+        let xs = [0.0f32, -0.0, 1e-30, 1e30, -2.5, 3.0, f32::MIN_POSITIVE, 7.25];
         let ys = [1.0f32, 2.0, -3.0, 1e-20, 0.5, -1e10, 4.0, 7.25];
         let a = f32x8::from_lanes(&xs);
         let b = f32x8::from_lanes(&ys);
@@ -314,10 +305,7 @@ mod tests {
         }
         let sel = f32x8::select(m, a, b);
         for i in 0..8 {
-            assert_eq!(
-                Real::lane(sel, i),
-                if xs[i] < ys[i] { xs[i] } else { ys[i] }
-            );
+            assert_eq!(Real::lane(sel, i), if xs[i] < ys[i] { xs[i] } else { ys[i] });
         }
     }
 

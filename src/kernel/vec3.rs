@@ -81,11 +81,7 @@ impl<R: Real> V3<R> {
     }
     #[inline(always)]
     pub fn select(m: R::Mask, t: Self, f: Self) -> Self {
-        Self::new(
-            R::select(m, t.x, f.x),
-            R::select(m, t.y, f.y),
-            R::select(m, t.z, f.z),
-        )
+        Self::new(R::select(m, t.x, f.x), R::select(m, t.y, f.y), R::select(m, t.z, f.z))
     }
     /// Lanes whose three components are all finite.
     #[inline(always)]

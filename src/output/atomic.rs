@@ -33,21 +33,16 @@ where
         use std::os::unix::fs::PermissionsExt;
         builder.permissions(std::fs::Permissions::from_mode(0o666));
     }
-    let mut tmp = builder
-        .tempfile_in(dir)
-        .map_err(|e| OutputError::io(path, e))?;
+    let mut tmp = builder.tempfile_in(dir).map_err(|e| OutputError::io(path, e))?;
 
     {
         let mut w = BufWriter::with_capacity(1 << 20, tmp.as_file_mut());
         write(&mut w)?;
         w.flush().map_err(|e| OutputError::io(path, e))?;
     }
-    tmp.as_file()
-        .sync_all()
-        .map_err(|e| OutputError::io(path, e))?;
+    tmp.as_file().sync_all().map_err(|e| OutputError::io(path, e))?;
     // On failure the PersistError owns the temporary file and deletes it when dropped.
-    tmp.persist(path)
-        .map_err(|e| OutputError::io(path, e.error))?;
+    tmp.persist(path).map_err(|e| OutputError::io(path, e.error))?;
     Ok(())
 }
 
@@ -69,15 +64,9 @@ mod tests {
     fn writes_and_replaces() {
         let dir = tempfile::tempdir().unwrap();
         let p = dir.path().join("a.txt");
-        write_atomic(&p, |w| {
-            w.write_all(b"one").map_err(|e| OutputError::io(&p, e))
-        })
-        .unwrap();
+        write_atomic(&p, |w| w.write_all(b"one").map_err(|e| OutputError::io(&p, e))).unwrap();
         assert_eq!(std::fs::read(&p).unwrap(), b"one");
-        write_atomic(&p, |w| {
-            w.write_all(b"two!").map_err(|e| OutputError::io(&p, e))
-        })
-        .unwrap();
+        write_atomic(&p, |w| w.write_all(b"two!").map_err(|e| OutputError::io(&p, e))).unwrap();
         assert_eq!(std::fs::read(&p).unwrap(), b"two!");
         assert_eq!(entries(dir.path()), vec!["a.txt"]);
         #[cfg(unix)]
@@ -101,11 +90,7 @@ mod tests {
             Err(OutputError::invalid(&p, "simulated encoder failure"))
         });
         assert!(r.is_err());
-        assert!(
-            entries(dir.path()).is_empty(),
-            "left behind: {:?}",
-            entries(dir.path())
-        );
+        assert!(entries(dir.path()).is_empty(), "left behind: {:?}", entries(dir.path()));
 
         std::fs::write(&p, b"old").unwrap();
         let r = write_atomic(&p, |w| {
@@ -132,10 +117,7 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let p = dir.path().join("sub");
         std::fs::create_dir(&p).unwrap();
-        let e = write_atomic(&p, |w| {
-            w.write_all(b"x").map_err(|e| OutputError::io(&p, e))
-        })
-        .unwrap_err();
+        let e = write_atomic(&p, |w| w.write_all(b"x").map_err(|e| OutputError::io(&p, e))).unwrap_err();
         assert!(e.to_string().contains("sub"), "{e}");
         assert_eq!(entries(dir.path()), vec!["sub"]);
     }

@@ -26,11 +26,7 @@ pub enum OutputError {
     /// The data holds NaN or ±Inf. The renderer must never produce those, so this is refused
     /// rather than written.
     #[error("{}: {count} of {total} values are not finite (NaN or ±Inf); refusing to write", .path.display())]
-    NonFinite {
-        path: PathBuf,
-        count: usize,
-        total: usize,
-    },
+    NonFinite { path: PathBuf, count: usize, total: usize },
 
     /// Only mono (1) and RGB (3) films are supported.
     #[error("{}: unsupported channel count {channels} (expected 1 for mono or 3 for RGB)", .path.display())]
@@ -98,11 +94,7 @@ impl OutputError {
         }
     }
 
-    pub(crate) fn encode(
-        path: &std::path::Path,
-        format: &'static str,
-        detail: impl ToString,
-    ) -> Self {
+    pub(crate) fn encode(path: &std::path::Path, format: &'static str, detail: impl ToString) -> Self {
         OutputError::Encode {
             path: path.to_path_buf(),
             format,

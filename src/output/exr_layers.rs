@@ -21,20 +21,14 @@ pub fn write_exr_layers(path: &Path, film: FilmView) -> Result<(), OutputError> 
 /// `Some((start_opl, bin_width_opl))` (metres of optical path length): on every layer
 /// `start_opl`, `bin_width_opl` and this bin's `opl_begin`/`opl_end` (f32), `time_begin_ns`
 /// (f32) and the text `opl_units` = `metres`.
-pub fn write_exr_layers_with_axis(
-    path: &Path,
-    film: FilmView,
-    axis: Option<(f32, f32)>,
-) -> Result<(), OutputError> {
+pub fn write_exr_layers_with_axis(path: &Path, film: FilmView, axis: Option<(f32, f32)>) -> Result<(), OutputError> {
     film.validate(path)?;
     if let Some((start, width)) = axis
         && (!start.is_finite() || !width.is_finite() || width <= 0.0)
     {
         return Err(OutputError::invalid(
             path,
-            format!(
-                "time axis start_opl={start}, bin_width_opl={width} must be finite with a positive bin width"
-            ),
+            format!("time axis start_opl={start}, bin_width_opl={width} must be finite with a positive bin width"),
         ));
     }
     let (h, w, bins, ch) = (film.height, film.width, film.bins, film.channels);
@@ -78,15 +72,9 @@ pub fn write_exr_layers_with_axis(
                 Text::from("time_begin_ns"),
                 AttributeValue::F32((begin / SPEED_OF_LIGHT_M_PER_S * 1e9) as f32),
             );
-            other.insert(
-                Text::from("opl_units"),
-                AttributeValue::Text(Text::from("metres")),
-            );
+            other.insert(Text::from("opl_units"), AttributeValue::Text(Text::from("metres")));
         }
-        attributes.software_name = Some(Text::from(concat!(
-            "difftransient ",
-            env!("CARGO_PKG_VERSION")
-        )));
+        attributes.software_name = Some(Text::from(concat!("difftransient ", env!("CARGO_PKG_VERSION"))));
         layers.push(Layer::new(
             (w, h),
             attributes,
@@ -94,16 +82,10 @@ pub fn write_exr_layers_with_axis(
             AnyChannels::sort(channels.into()),
         ));
     }
-    let image = Image::from_layers(
-        ImageAttributes::new(IntegerBounds::from_dimensions((w, h))),
-        layers,
-    );
+    let image = Image::from_layers(ImageAttributes::new(IntegerBounds::from_dimensions((w, h))), layers);
 
     write_atomic(path, |out| {
-        image
-            .write()
-            .to_unbuffered(&mut *out)
-            .map_err(|e| exr_error(path, e))
+        image.write().to_unbuffered(&mut *out).map_err(|e| exr_error(path, e))
     })
 }
 
@@ -131,12 +113,7 @@ mod tests {
     }
 
     fn sample(layer: &Layer<AnyChannels<FlatSamples>>, name: &str, x: usize, y: usize) -> f32 {
-        let ch = layer
-            .channel_data
-            .list
-            .iter()
-            .find(|c| c.name == *name)
-            .unwrap();
+        let ch = layer.channel_data.list.iter().find(|c| c.name == *name).unwrap();
         match &ch.sample_data {
             FlatSamples::F32(v) => v[y * layer.size.0 + x],
             other => panic!("expected f32 samples, got {other:?}"),
@@ -165,12 +142,7 @@ mod tests {
                 Some(Text::from(format!("t{b:04}").as_str()))
             );
             assert_eq!(layer.size, Vec2(w, h));
-            let names: Vec<String> = layer
-                .channel_data
-                .list
-                .iter()
-                .map(|c| c.name.to_string())
-                .collect();
+            let names: Vec<String> = layer.channel_data.list.iter().map(|c| c.name.to_string()).collect();
             assert_eq!(names, vec!["B", "G", "R"]);
             for (y, x) in [(0, 0), (2, 4), (1, 3)] {
                 for (ci, n) in ["R", "G", "B"].iter().enumerate() {
@@ -182,10 +154,7 @@ mod tests {
                 }
             }
             let other = &layer.attributes.other;
-            assert_eq!(
-                other.get(&Text::from("time_bin")),
-                Some(&AttributeValue::I32(b as i32))
-            );
+            assert_eq!(other.get(&Text::from("time_bin")), Some(&AttributeValue::I32(b as i32)));
             assert_eq!(
                 other.get(&Text::from("opl_begin")),
                 Some(&AttributeValue::F32(1.5 + 0.25 * b as f32))
@@ -231,10 +200,7 @@ mod tests {
             channels: 1,
         };
         let e = write_exr_layers(&p, film).unwrap_err();
-        assert!(
-            e.to_string().contains("1 of 8 values are not finite"),
-            "{e}"
-        );
+        assert!(e.to_string().contains("1 of 8 values are not finite"), "{e}");
         let e = write_exr_layers(
             &p,
             FilmView {
@@ -258,10 +224,7 @@ mod tests {
         .unwrap_err();
         assert!(matches!(e, OutputError::Channels { .. }), "{e}");
         let good = coded_film(2, 2, 2, 1);
-        let film = FilmView {
-            data: &good,
-            ..film
-        };
+        let film = FilmView { data: &good, ..film };
         let e = write_exr_layers_with_axis(&p, film, Some((0.0, 0.0))).unwrap_err();
         assert!(e.to_string().contains("bin width"), "{e}");
         let e = write_exr_layers(&dir.path().join("missing/x.exr"), film).unwrap_err();

@@ -7,12 +7,9 @@ use std::path::Path;
 
 /// Writes `value` as pretty-printed JSON with a trailing newline, atomically.
 pub fn write_json(path: &Path, value: &serde_json::Value) -> Result<(), OutputError> {
-    let mut bytes =
-        serde_json::to_vec_pretty(value).map_err(|e| OutputError::encode(path, "JSON", e))?;
+    let mut bytes = serde_json::to_vec_pretty(value).map_err(|e| OutputError::encode(path, "JSON", e))?;
     bytes.push(b'\n');
-    write_atomic(path, |w| {
-        w.write_all(&bytes).map_err(|e| OutputError::io(path, e))
-    })
+    write_atomic(path, |w| w.write_all(&bytes).map_err(|e| OutputError::io(path, e)))
 }
 
 #[cfg(test)]
@@ -24,8 +21,7 @@ mod tests {
     fn round_trip() {
         let dir = tempfile::tempdir().unwrap();
         let p = dir.path().join("meta.json");
-        let v =
-            json!({"shape": [2, 3, 4, 1], "time_axis": {"start_opl": 0.5, "bins": 4}, "name": "ü"});
+        let v = json!({"shape": [2, 3, 4, 1], "time_axis": {"start_opl": 0.5, "bins": 4}, "name": "ü"});
         write_json(&p, &v).unwrap();
         let text = std::fs::read_to_string(&p).unwrap();
         assert!(text.contains('\n') && text.ends_with('\n'));

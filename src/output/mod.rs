@@ -204,10 +204,7 @@ mod tests {
         bad[5] = f32::INFINITY;
         bad[7] = f32::NEG_INFINITY;
         let e = FilmView { data: &bad, ..ok }.validate(p).unwrap_err();
-        assert!(
-            e.to_string().contains("3 of 12 values are not finite"),
-            "{e}"
-        );
+        assert!(e.to_string().contains("3 of 12 values are not finite"), "{e}");
         assert!(e.to_string().contains("out/x.exr"), "{e}");
         assert_eq!(e.path(), p);
     }

@@ -56,10 +56,7 @@ mod tests {
         let bytes = std::fs::read(&p).unwrap();
         assert_eq!(&bytes[..6], b"\x93NUMPY");
         let tail = &bytes[bytes.len() - 4..];
-        assert_eq!(
-            f32::from_le_bytes(tail.try_into().unwrap()),
-            *data.last().unwrap()
-        );
+        assert_eq!(f32::from_le_bytes(tail.try_into().unwrap()), *data.last().unwrap());
         assert_eq!(entries(dir.path()), vec!["film.npy"]);
     }
 
@@ -94,10 +91,7 @@ mod tests {
         let e = write_npy(&p, &[0, 2], &[]).unwrap_err();
         assert!(matches!(e, OutputError::Empty { .. }), "{e}");
         let e = write_npy(&p, &[2, 2], &[1.0, f32::NAN, 0.0, f32::NAN]).unwrap_err();
-        assert!(
-            e.to_string().contains("2 of 4 values are not finite"),
-            "{e}"
-        );
+        assert!(e.to_string().contains("2 of 4 values are not finite"), "{e}");
         assert!(e.to_string().contains("bad.npy"), "{e}");
         let e = write_npy(&p, &[usize::MAX, 3], &[1.0]).unwrap_err();
         assert!(matches!(e, OutputError::ShapeOverflow { .. }), "{e}");

@@ -38,11 +38,7 @@ const COLORS: [RGBColor; 10] = [
 ///
 /// Needs a TrueType font: see `OutputError::Font` for what to install (Debian:
 /// `fonts-dejavu-core`), or set `DIFFTRANSIENT_FONT`.
-pub fn write_time_plot(
-    path: &Path,
-    axis: (f32, f32, usize),
-    series: &[(String, Vec<f32>)],
-) -> Result<(), OutputError> {
+pub fn write_time_plot(path: &Path, axis: (f32, f32, usize), series: &[(String, Vec<f32>)]) -> Result<(), OutputError> {
     let (start, width, bins) = axis;
     if bins == 0 {
         return Err(OutputError::empty(path, "the time axis has 0 bins"));
@@ -50,9 +46,7 @@ pub fn write_time_plot(
     if !start.is_finite() || !width.is_finite() || width <= 0.0 {
         return Err(OutputError::invalid(
             path,
-            format!(
-                "time axis start_opl={start}, bin_width_opl={width} must be finite with a positive bin width"
-            ),
+            format!("time axis start_opl={start}, bin_width_opl={width} must be finite with a positive bin width"),
         ));
     }
     if series.is_empty() {
@@ -62,10 +56,7 @@ pub fn write_time_plot(
         if values.len() != bins {
             return Err(OutputError::invalid(
                 path,
-                format!(
-                    "series {name:?} has {} values for {bins} time bins",
-                    values.len()
-                ),
+                format!("series {name:?} has {} values for {bins} time bins", values.len()),
             ));
         }
     }
@@ -84,11 +75,7 @@ pub fn write_time_plot(
 
 type DrawResult = Result<(), Box<dyn std::error::Error>>;
 
-fn draw(
-    pixels: &mut [u8],
-    (start, width, bins): (f64, f64, usize),
-    series: &[(String, Vec<f32>)],
-) -> DrawResult {
+fn draw(pixels: &mut [u8], (start, width, bins): (f64, f64, usize), series: &[(String, Vec<f32>)]) -> DrawResult {
     let factors = rescale_factors(series);
     let scaled: Vec<Vec<f64>> = series
         .iter()
@@ -98,18 +85,14 @@ fn draw(
     let lo = scaled.iter().flatten().copied().fold(0.0f64, f64::min);
     let hi = scaled.iter().flatten().copied().fold(0.0f64, f64::max);
     let (y0, y1) = if hi > lo {
-        (
-            lo - 0.02 * (hi - lo) * (lo < 0.0) as u8 as f64,
-            hi + 0.12 * (hi - lo),
-        )
+        (lo - 0.02 * (hi - lo) * (lo < 0.0) as u8 as f64, hi + 0.12 * (hi - lo))
     } else {
         (0.0, 1.0)
     };
     let (x0, x1) = (start, start + width * bins as f64);
     let ns = |opl: f64| opl / SPEED_OF_LIGHT_M_PER_S * 1e9;
 
-    let root = BitMapBackend::with_buffer(pixels, (PLOT_WIDTH as u32, PLOT_HEIGHT as u32))
-        .into_drawing_area();
+    let root = BitMapBackend::with_buffer(pixels, (PLOT_WIDTH as u32, PLOT_HEIGHT as u32)).into_drawing_area();
     root.fill(&WHITE)?;
     let mut chart = ChartBuilder::on(&root)
         .caption("radiance over time", (FAMILY, 24))
@@ -140,8 +123,7 @@ fn draw(
         .axis_desc_style((FAMILY, 17))
         .draw()?;
 
-    for (i, (((name, _), values), &factor)) in series.iter().zip(&scaled).zip(&factors).enumerate()
-    {
+    for (i, (((name, _), values), &factor)) in series.iter().zip(&scaled).zip(&factors).enumerate() {
         let color = COLORS[i % COLORS.len()];
         let style = color.stroke_width(2);
         let points: Vec<(f64, f64)> = if bins == 1 {
@@ -161,9 +143,7 @@ fn draw(
         chart
             .draw_series(LineSeries::new(points, style))?
             .label(label)
-            .legend(move |(x, y)| {
-                PathElement::new(vec![(x, y), (x + 24, y)], color.stroke_width(3))
-            });
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 24, y)], color.stroke_width(3)));
     }
     chart
         .configure_series_labels()
@@ -245,27 +225,15 @@ mod tests {
         ];
         write_time_plot(&p, (2.0, 0.05, bins), &series).unwrap();
         let meta = std::fs::metadata(&p).unwrap();
-        assert!(
-            meta.len() > 5_000,
-            "suspiciously small PNG: {} bytes",
-            meta.len()
-        );
+        assert!(meta.len() > 5_000, "suspiciously small PNG: {} bytes", meta.len());
         let img = image::open(&p).unwrap().to_rgb8();
         assert_eq!(img.dimensions(), (PLOT_WIDTH as u32, PLOT_HEIGHT as u32));
         // The first two line colours are present.
         for c in &COLORS[..2] {
-            assert!(
-                img.pixels().any(|px| px.0 == [c.0, c.1, c.2]),
-                "colour {c:?} missing"
-            );
+            assert!(img.pixels().any(|px| px.0 == [c.0, c.1, c.2]), "colour {c:?} missing");
         }
         // Some dark (text/axis) pixels.
-        assert!(
-            img.pixels()
-                .filter(|px| px.0.iter().all(|&v| v < 60))
-                .count()
-                > 500
-        );
+        assert!(img.pixels().filter(|px| px.0.iter().all(|&v| v < 60)).count() > 500);
         assert_eq!(entries(dir.path()), vec!["plot.png"]);
 
         // One bin still plots.
@@ -292,16 +260,9 @@ mod tests {
         let e = write_time_plot(&p, (f32::NAN, 0.1, 2), &ok).unwrap_err();
         assert!(e.to_string().contains("finite"), "{e}");
         let e = write_time_plot(&p, (0.0, 0.1, 3), &ok).unwrap_err();
-        assert!(
-            e.to_string().contains("has 2 values for 3 time bins"),
-            "{e}"
-        );
-        let e = write_time_plot(&p, (0.0, 0.1, 2), &[("a".to_string(), vec![f32::NAN, 1.0])])
-            .unwrap_err();
-        assert!(
-            e.to_string().contains("1 of 2 values are not finite"),
-            "{e}"
-        );
+        assert!(e.to_string().contains("has 2 values for 3 time bins"), "{e}");
+        let e = write_time_plot(&p, (0.0, 0.1, 2), &[("a".to_string(), vec![f32::NAN, 1.0])]).unwrap_err();
+        assert!(e.to_string().contains("1 of 2 values are not finite"), "{e}");
         let e = write_time_plot(&dir.path().join("gone/p.png"), (0.0, 0.1, 2), &ok).unwrap_err();
         assert!(e.to_string().contains("gone/p.png"), "{e}");
         assert!(entries(dir.path()).is_empty(), "{:?}", entries(dir.path()));

@@ -29,22 +29,12 @@ pub(crate) fn write_png(
     let w = u32::try_from(width).map_err(|_| too_large())?;
     let h = u32::try_from(height).map_err(|_| too_large())?;
     if w == 0 || h == 0 {
-        return Err(OutputError::empty(
-            path,
-            format!("a {width}x{height} image"),
-        ));
+        return Err(OutputError::empty(path, format!("a {width}x{height} image")));
     }
-    if width
-        .checked_mul(height)
-        .and_then(|n| n.checked_mul(channels))
-        != Some(pixels.len())
-    {
+    if width.checked_mul(height).and_then(|n| n.checked_mul(channels)) != Some(pixels.len()) {
         return Err(OutputError::invalid(
             path,
-            format!(
-                "{} bytes do not make a {width}x{height}x{channels} image",
-                pixels.len()
-            ),
+            format!("{} bytes do not make a {width}x{height}x{channels} image", pixels.len()),
         ));
     }
     write_atomic(path, |out| {

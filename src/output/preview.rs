@@ -24,11 +24,7 @@ const GAP_GREY: u8 = 64;
 /// the 99.5th percentile of the positive values of the frames shown. sRGB curve; mono films
 /// give a grey PNG, RGB films an RGB PNG; negative values show black. Frames are enlarged
 /// (small films) or box-filtered down (large ones) to keep the sheet a sensible size.
-pub fn write_contact_sheet(
-    path: &Path,
-    film: FilmView,
-    exposure: Option<f32>,
-) -> Result<(), OutputError> {
+pub fn write_contact_sheet(path: &Path, film: FilmView, exposure: Option<f32>) -> Result<(), OutputError> {
     film.validate(path)?;
     let (h, w, bins, ch) = (film.height, film.width, film.bins, film.channels);
     let frames = chosen_bins(bins);
@@ -58,10 +54,7 @@ pub fn write_contact_sheet(
     let mut sheet = vec![GAP_GREY; sheet_w * sheet_h * ch];
     let mut acc = vec![0.0f64; ch];
     for (k, &t) in frames.iter().enumerate() {
-        let (x0, y0) = (
-            GAP + (k % cols) * (cell_w + GAP),
-            GAP + (k / cols) * (cell_h + GAP),
-        );
+        let (x0, y0) = (GAP + (k % cols) * (cell_w + GAP), GAP + (k / cols) * (cell_h + GAP));
         for oy in 0..cell_h {
             for ox in 0..cell_w {
                 // Source block: one pixel when enlarging, a down×down box when shrinking.
@@ -88,13 +81,7 @@ pub fn write_contact_sheet(
 
 /// Writes the time-integrated image `data` (`[h, w, c]` row-major, c = 1 or 3) as a PNG with
 /// the same tone mapping as [`write_contact_sheet`] (auto exposure, sRGB), at its own size.
-pub fn write_steady_png(
-    path: &Path,
-    data: &[f32],
-    h: usize,
-    w: usize,
-    c: usize,
-) -> Result<(), OutputError> {
+pub fn write_steady_png(path: &Path, data: &[f32], h: usize, w: usize, c: usize) -> Result<(), OutputError> {
     check_channels(path, c)?;
     check_data(path, &[h, w, c], data)?;
     let scale = exposure_scale(path, None, robust_white(|| data.iter().copied()))?;
@@ -110,9 +97,7 @@ fn grid(n: usize, h: usize, w: usize) -> (usize, usize) {
         let aspect = (cols * w) as f64 / (rows * h) as f64;
         (aspect / 1.4).ln().abs() + (rows * cols - n) as f64 / n as f64
     };
-    let cols = (1..=n)
-        .min_by(|&a, &b| score(a).total_cmp(&score(b)))
-        .unwrap_or(1);
+    let cols = (1..=n).min_by(|&a, &b| score(a).total_cmp(&score(b))).unwrap_or(1);
     (cols, n.div_ceil(cols))
 }
 
@@ -253,10 +238,7 @@ mod tests {
         )
         .unwrap();
         let img = image::open(&p).unwrap();
-        assert!(
-            img.width() as usize <= MAX_SHEET_SIDE + 64
-                && img.height() as usize <= MAX_SHEET_SIDE + 64
-        );
+        assert!(img.width() as usize <= MAX_SHEET_SIDE + 64 && img.height() as usize <= MAX_SHEET_SIDE + 64);
     }
 
     #[test]
@@ -288,13 +270,7 @@ mod tests {
 
         // All zero: a black image, not an error.
         write_steady_png(&pg, &[0.0; 12], 3, 4, 1).unwrap();
-        assert!(
-            image::open(&pg)
-                .unwrap()
-                .to_luma8()
-                .pixels()
-                .all(|p| p.0[0] == 0)
-        );
+        assert!(image::open(&pg).unwrap().to_luma8().pixels().all(|p| p.0[0] == 0));
     }
 
     #[test]
@@ -311,10 +287,7 @@ mod tests {
             channels: 1,
         };
         let e = write_contact_sheet(&p, film, None).unwrap_err();
-        assert!(
-            e.to_string().contains("1 of 12 values are not finite"),
-            "{e}"
-        );
+        assert!(e.to_string().contains("1 of 12 values are not finite"), "{e}");
         let e = write_contact_sheet(
             &p,
             FilmView {

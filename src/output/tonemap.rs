@@ -30,21 +30,14 @@ where
 
 /// The linear factor that maps data to display (1.0 = white): `exposure` if given (must be
 /// finite and positive), else `1 / white`, else 1.
-pub(crate) fn exposure_scale(
-    path: &Path,
-    exposure: Option<f32>,
-    white: Option<f32>,
-) -> Result<f64, OutputError> {
+pub(crate) fn exposure_scale(path: &Path, exposure: Option<f32>, white: Option<f32>) -> Result<f64, OutputError> {
     match exposure {
         Some(e) if e.is_finite() && e > 0.0 => Ok(e as f64),
         Some(e) => Err(OutputError::invalid(
             path,
             format!("exposure must be a finite positive factor, got {e}"),
         )),
-        None => Ok(white
-            .map(|w| 1.0 / w as f64)
-            .filter(|s| s.is_finite())
-            .unwrap_or(1.0)),
+        None => Ok(white.map(|w| 1.0 / w as f64).filter(|s| s.is_finite()).unwrap_or(1.0)),
     }
 }
 

@@ -392,10 +392,7 @@ impl<'de> Deserialize<'de> for Triple {
                     n += 1;
                 }
                 if n != 3 {
-                    return Err(de::Error::invalid_length(
-                        n,
-                        &"a number or an array of 3 numbers",
-                    ));
+                    return Err(de::Error::invalid_length(n, &"a number or an array of 3 numbers"));
                 }
                 Ok(Triple::Three(out))
             }

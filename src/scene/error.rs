@@ -26,11 +26,7 @@ pub enum SceneError {
     /// A value in the description is missing, of the wrong type, out of range or refers to
     /// something that does not exist. `at` is the location, e.g. `camera: field 'fov'`.
     #[error("{}: {at}: {message}", path.display())]
-    Invalid {
-        path: PathBuf,
-        at: String,
-        message: String,
-    },
+    Invalid { path: PathBuf, at: String, message: String },
     /// A `--set NAME=VALUE` override that cannot be applied.
     #[error("{}: --set {name}: {message}", path.display())]
     Override {
@@ -110,9 +106,7 @@ pub(crate) fn location(path: &[Seg], name_of: &dyn Fn(&str, usize) -> Option<Str
     }
     match path {
         [] => "top level".to_string(),
-        [Seg::Key(section), Seg::Index(i), rest @ ..]
-            if ITEM_SECTIONS.contains(&section.as_str()) =>
-        {
+        [Seg::Key(section), Seg::Index(i), rest @ ..] if ITEM_SECTIONS.contains(&section.as_str()) => {
             let head = item(section, *i, name_of(section, *i).as_deref());
             if rest.is_empty() {
                 head
@@ -144,11 +138,7 @@ mod tests {
         let names = |s: &str, i: usize| (s == "shape" && i == 1).then(|| "wall".to_string());
         let p = |v: &[&str]| -> Vec<Seg> {
             v.iter()
-                .map(|s| {
-                    s.parse::<usize>()
-                        .map(Seg::Index)
-                        .unwrap_or(Seg::Key(s.to_string()))
-                })
+                .map(|s| s.parse::<usize>().map(Seg::Index).unwrap_or(Seg::Key(s.to_string())))
                 .collect()
         };
         assert_eq!(
@@ -156,10 +146,7 @@ mod tests {
             "shape[1] \"wall\": field 'scale[2]'"
         );
         assert_eq!(location(&p(&["shape", "0"]), &names), "shape[0]");
-        assert_eq!(
-            location(&p(&["camera", "fov"]), &names),
-            "camera: field 'fov'"
-        );
+        assert_eq!(location(&p(&["camera", "fov"]), &names), "camera: field 'fov'");
         assert_eq!(
             location(&p(&["film", "gate", "sigma_opl"]), &names),
             "film: field 'gate.sigma_opl'"

@@ -61,11 +61,7 @@ impl Scene {
             return String::new();
         };
         let shape = |s: u32| self.shapes.get(s as usize).map_or("?", |s| s.name.as_str());
-        let emitter = |e: u32| {
-            self.emitters
-                .get(e as usize)
-                .map_or("?", |e| e.name.as_str())
-        };
+        let emitter = |e: u32| self.emitters.get(e as usize).map_or("?", |e| e.name.as_str());
         let ch = |c: Option<usize>| c.map_or(String::new(), |c| format!(".{}", channel_name(c)));
         match &p.kind {
             ParamKind::Translate { shape: s, axis } => {
@@ -79,15 +75,10 @@ impl Scene {
             }
             ParamKind::Albedo { material, channel } => format!(
                 "material {:?} albedo{}",
-                self.materials
-                    .get(*material as usize)
-                    .map_or("?", |m| m.name.as_str()),
+                self.materials.get(*material as usize).map_or("?", |m| m.name.as_str()),
                 ch(*channel)
             ),
-            ParamKind::Radiance {
-                emitter: e,
-                channel,
-            } => {
+            ParamKind::Radiance { emitter: e, channel } => {
                 let field = match self.emitters.get(*e as usize).map(|e| &e.kind) {
                     Some(EmitterKind::Point { .. }) => "intensity",
                     Some(EmitterKind::Laser { .. }) => "power",
@@ -140,7 +131,11 @@ impl Scene {
                     EmitterKind::Point { position, intensity } => {
                         json!({ "type": "point", "position": position.to_array(), "intensity": intensity })
                     }
-                    EmitterKind::Laser { position, direction, power } => json!({
+                    EmitterKind::Laser {
+                        position,
+                        direction,
+                        power,
+                    } => json!({
                         "type": "laser",
                         "position": position.to_array(),
                         "direction": direction.to_array(),
@@ -254,10 +249,7 @@ impl fmt::Display for Scene {
         )?;
         for s in &self.shapes {
             let t = &s.transform;
-            let mat = self
-                .materials
-                .get(s.material as usize)
-                .map_or("?", |m| m.name.as_str());
+            let mat = self.materials.get(s.material as usize).map_or("?", |m| m.name.as_str());
             write!(
                 out,
                 "    shape {:?}: {} triangles, material {:?}, translate {}, rotate {} deg, scale {}",
@@ -276,9 +268,7 @@ impl fmt::Display for Scene {
         writeln!(out, "  materials:")?;
         for m in &self.materials {
             match &m.material {
-                Material::Diffuse { albedo } => {
-                    writeln!(out, "    {:?}: diffuse, albedo {}", m.name, rgb(albedo))?
-                }
+                Material::Diffuse { albedo } => writeln!(out, "    {:?}: diffuse, albedo {}", m.name, rgb(albedo))?,
             }
         }
         writeln!(out, "  emitters:")?;
@@ -286,15 +276,10 @@ impl fmt::Display for Scene {
             let what = match &e.kind {
                 EmitterKind::Area { shape, radiance } => format!(
                     "area on shape {:?}, radiance {}",
-                    self.shapes
-                        .get(*shape as usize)
-                        .map_or("?", |s| s.name.as_str()),
+                    self.shapes.get(*shape as usize).map_or("?", |s| s.name.as_str()),
                     rgb(radiance)
                 ),
-                EmitterKind::Point {
-                    position,
-                    intensity,
-                } => {
+                EmitterKind::Point { position, intensity } => {
                     format!("point at {}, intensity {}", v3(*position), rgb(intensity))
                 }
                 EmitterKind::Laser {
@@ -361,8 +346,7 @@ impl fmt::Display for Scene {
             it.max_bounces,
             it.spp,
             it.seed,
-            it.rr_depth
-                .map_or("off".to_string(), |d| format!("from bounce {d}"))
+            it.rr_depth.map_or("off".to_string(), |d| format!("from bounce {d}"))
         )?;
         if self.params.is_empty() {
             writeln!(out, "  params: none")?;
@@ -401,10 +385,7 @@ mod tests {
             .unwrap();
         assert_eq!(light["triangles"], 2);
         assert_eq!(light["emitter"], "light");
-        assert_eq!(
-            light["transform"]["rotate_deg"],
-            serde_json::json!([90.0, 0.0, 0.0])
-        );
+        assert_eq!(light["transform"]["rotate_deg"], serde_json::json!([90.0, 0.0, 0.0]));
         assert_eq!(j["emitters"][0]["pulse"]["type"], "delta");
         assert_eq!(j["emitters"][0]["type"], "area");
         assert_eq!(j["film"]["bins"], 200);
@@ -419,11 +400,7 @@ mod tests {
 
     #[test]
     fn summary_has_every_param() {
-        for name in [
-            "confocal_plane.toml",
-            "obj_mesh.toml",
-            "occluder_shadow.toml",
-        ] {
+        for name in ["confocal_plane.toml", "obj_mesh.toml", "occluder_shadow.toml"] {
             let s = load_scene(name);
             let j = s.summary();
             let ps = j["params"].as_array().unwrap();

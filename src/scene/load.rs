@@ -86,18 +86,14 @@ pub(crate) fn parse(text: &str, format: Format, source: &Path) -> Result<SceneDe
             serde_json::to_value(&v).unwrap_or(serde_json::Value::Null)
         }
         Format::Json => {
-            let v: serde_json::Value = serde_json::from_str(text)
-                .map_err(|e| syntax(e.line(), e.column(), strip_position(&e)))?;
+            let v: serde_json::Value =
+                serde_json::from_str(text).map_err(|e| syntax(e.line(), e.column(), strip_position(&e)))?;
             scan_json(&v, &mut Vec::new(), &mut bad);
             v
         }
     };
     let name_of = |section: &str, i: usize| -> Option<String> {
-        raw.get(section)?
-            .get(i)?
-            .get("name")?
-            .as_str()
-            .map(str::to_string)
+        raw.get(section)?.get(i)?.get("name")?.as_str().map(str::to_string)
     };
     if let Some((at, got)) = bad {
         return Err(SceneError::Invalid {
@@ -171,11 +167,7 @@ fn check_float(f: f64, path: &[Seg], bad: &mut Option<(Vec<Seg>, String)>) {
         let got = if f.is_nan() {
             "nan".to_string()
         } else if f.is_infinite() {
-            if f > 0.0 {
-                "inf".to_string()
-            } else {
-                "-inf".to_string()
-            }
+            if f > 0.0 { "inf".to_string() } else { "-inf".to_string() }
         } else {
             format!("{f:e}, which is outside the range of 32-bit floats")
         };
@@ -206,9 +198,7 @@ fn scan_toml(v: &toml::Value, path: &mut Vec<Seg>, bad: &mut Option<(Vec<Seg>, S
 
 fn scan_json(v: &serde_json::Value, path: &mut Vec<Seg>, bad: &mut Option<(Vec<Seg>, String)>) {
     match v {
-        serde_json::Value::Number(n) if n.is_f64() => {
-            check_float(n.as_f64().unwrap_or(f64::NAN), path, bad)
-        }
+        serde_json::Value::Number(n) if n.is_f64() => check_float(n.as_f64().unwrap_or(f64::NAN), path, bad),
         serde_json::Value::Array(a) => {
             for (i, x) in a.iter().enumerate() {
                 path.push(Seg::Index(i));
@@ -237,10 +227,7 @@ mod tests {
         let mut n = 0;
         for entry in std::fs::read_dir(scenes_dir()).unwrap() {
             let p = entry.unwrap().path();
-            if matches!(
-                p.extension().and_then(|e| e.to_str()),
-                Some("toml" | "json")
-            ) {
+            if matches!(p.extension().and_then(|e| e.to_str()), Some("toml" | "json")) {
                 let s = Scene::load(&p, &[]).unwrap_or_else(|e| panic!("{e}"));
                 assert!(!s.geometry.indices.is_empty(), "{}", p.display());
                 assert_eq!(s.geometry.indices.len(), s.geometry.tri_shape.len());
@@ -264,17 +251,10 @@ mod tests {
             let json = serde_json::to_string_pretty(&value).unwrap();
             // Same folder, so relative OBJ paths resolve the same way.
             let json_path = scenes_dir().join(name.replace(".toml", ".json"));
-            let j = Scene::from_str(&json, Format::Json, &json_path, &[])
-                .unwrap_or_else(|e| panic!("{e}"));
-            assert_eq!(
-                j.geometry.positions, toml_scene.geometry.positions,
-                "{name}"
-            );
+            let j = Scene::from_str(&json, Format::Json, &json_path, &[]).unwrap_or_else(|e| panic!("{e}"));
+            assert_eq!(j.geometry.positions, toml_scene.geometry.positions, "{name}");
             assert_eq!(j.geometry.indices, toml_scene.geometry.indices, "{name}");
-            assert_eq!(
-                j.geometry.tri_shape, toml_scene.geometry.tri_shape,
-                "{name}"
-            );
+            assert_eq!(j.geometry.tri_shape, toml_scene.geometry.tri_shape, "{name}");
             assert_eq!(j.summary()["materials"], toml_scene.summary()["materials"]);
             let (mut a, mut b) = (j.summary(), toml_scene.summary());
             a["source"] = serde_json::Value::Null;
@@ -285,20 +265,9 @@ mod tests {
 
     #[test]
     fn format_follows_the_extension() {
-        assert_eq!(
-            Format::from_path(Path::new("a/b.toml")).unwrap(),
-            Format::Toml
-        );
-        assert_eq!(
-            Format::from_path(Path::new("b.JSON")).unwrap(),
-            Format::Json
-        );
-        let e = expect_err(
-            "scene.yaml",
-            MINI,
-            &[],
-            &["unknown scene format", ".toml or .json"],
-        );
+        assert_eq!(Format::from_path(Path::new("a/b.toml")).unwrap(), Format::Toml);
+        assert_eq!(Format::from_path(Path::new("b.JSON")).unwrap(), Format::Json);
+        let e = expect_err("scene.yaml", MINI, &[], &["unknown scene format", ".toml or .json"]);
         assert!(e.starts_with('/'), "{e}");
     }
 
@@ -316,12 +285,7 @@ mod tests {
     #[test]
     fn toml_syntax_error_has_line_and_column() {
         let text = MINI.replacen("[film]", "[film", 1);
-        let e = expect_err(
-            "broken.toml",
-            &text,
-            &[],
-            &["TOML syntax error", "line 6", "column"],
-        );
+        let e = expect_err("broken.toml", &text, &[], &["TOML syntax error", "line 6", "column"]);
         assert!(e.contains("broken.toml"), "{e}");
     }
 
@@ -364,10 +328,7 @@ mod tests {
             "t3.toml",
             &text,
             &[],
-            &[
-                "material[0] \"white\": field 'albedo'",
-                "array of 3 numbers",
-            ],
+            &["material[0] \"white\": field 'albedo'", "array of 3 numbers"],
         );
         let text = mini_with("look_at = [0.0, 0.0, 0.0]", "look_at = [0.0, 0.0]");
         expect_err(
@@ -388,16 +349,13 @@ mod tests {
             ],
         );
         // JSON too
-        let json = r#"{"camera": {"position": [0,0,3], "look_at": [0,0,0]}, "film": {"bin_width_opl": 0.1, "bins": true}}"#;
+        let json =
+            r#"{"camera": {"position": [0,0,3], "look_at": [0,0,0]}, "film": {"bin_width_opl": 0.1, "bins": true}}"#;
         expect_err(
             "t6.json",
             json,
             &[],
-            &[
-                "film: field 'bins'",
-                "invalid type: boolean",
-                "expected i64",
-            ],
+            &["film: field 'bins'", "invalid type: boolean", "expected i64"],
         );
     }
 
@@ -415,12 +373,7 @@ mod tests {
             ],
         );
         let text = format!("{MINI}\n[extra]\na = 1\n");
-        expect_err(
-            "top.toml",
-            &text,
-            &[],
-            &["field 'extra'", "unknown field 'extra'"],
-        );
+        expect_err("top.toml", &text, &[], &["field 'extra'", "unknown field 'extra'"]);
         let text = mini_with("position = [0.0, 0.0, 3.0]\nlook_at", "look_at");
         expect_err(
             "missing.toml",
@@ -428,41 +381,22 @@ mod tests {
             &[],
             &["missing.toml: camera: missing field 'position'"],
         );
-        let text = mini_with(
-            "[camera]\nposition = [0.0, 0.0, 3.0]\nlook_at = [0.0, 0.0, 0.0]\n",
-            "",
-        );
-        expect_err(
-            "nocam.toml",
-            &text,
-            &[],
-            &["top level: missing field 'camera'"],
-        );
+        let text = mini_with("[camera]\nposition = [0.0, 0.0, 3.0]\nlook_at = [0.0, 0.0, 0.0]\n", "");
+        expect_err("nocam.toml", &text, &[], &["top level: missing field 'camera'"]);
         let text = MINI.replacen("[camera]", "[camera]\nfov = 40\n[camera.x]", 1);
-        expect_err(
-            "nested.toml",
-            &text,
-            &[],
-            &["camera: field 'x'", "unknown field"],
-        );
+        expect_err("nested.toml", &text, &[], &["camera: field 'x'", "unknown field"]);
     }
 
     #[test]
     fn nan_and_inf_literals_are_refused_with_their_path() {
-        let text = mini_with(
-            "look_at = [0.0, 0.0, 0.0]",
-            "look_at = [0.0, 0.0, 0.0]\nfov = nan",
-        );
+        let text = mini_with("look_at = [0.0, 0.0, 0.0]", "look_at = [0.0, 0.0, 0.0]\nfov = nan");
         expect_err(
             "nan.toml",
             &text,
             &[],
             &["camera: field 'fov'", "expected a finite number, got nan"],
         );
-        let text = mini_with(
-            "material = \"white\"",
-            "material = \"white\"\nscale = [1.0, inf, 1.0]",
-        );
+        let text = mini_with("material = \"white\"", "material = \"white\"\nscale = [1.0, inf, 1.0]");
         expect_err(
             "inf.toml",
             &text,
@@ -481,18 +415,11 @@ mod tests {
             "big.toml",
             &text,
             &[],
-            &[
-                "film: field 'bin_width_opl'",
-                "outside the range of 32-bit floats",
-            ],
+            &["film: field 'bin_width_opl'", "outside the range of 32-bit floats"],
         );
-        let json = r#"{"camera": {"position": [0,0,3], "look_at": [0,0,1e39]}, "film": {"bin_width_opl": 0.1, "bins": 2}}"#;
-        expect_err(
-            "big.json",
-            json,
-            &[],
-            &["camera: field 'look_at[2]'", "32-bit"],
-        );
+        let json =
+            r#"{"camera": {"position": [0,0,3], "look_at": [0,0,1e39]}, "film": {"bin_width_opl": 0.1, "bins": 2}}"#;
+        expect_err("big.json", json, &[], &["camera: field 'look_at[2]'", "32-bit"]);
     }
 
     #[test]

@@ -174,15 +174,9 @@ pub enum ParamKind {
     /// `scale[axis]` of a shape (unitless factor).
     Scale { shape: u32, axis: Axis },
     /// Albedo of a material; `channel` None sets all channels.
-    Albedo {
-        material: u32,
-        channel: Option<usize>,
-    },
+    Albedo { material: u32, channel: Option<usize> },
     /// Radiance (area), intensity (point) or power (laser) of an emitter; `channel` None = all.
-    Radiance {
-        emitter: u32,
-        channel: Option<usize>,
-    },
+    Radiance { emitter: u32, channel: Option<usize> },
     /// Refractive index η of the medium.
     Eta,
     /// Emission time offset of an emitter, OPL metres.

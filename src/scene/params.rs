@@ -26,10 +26,7 @@ pub(crate) fn apply_overrides(
             return Err(err(if names.params.is_empty() {
                 format!("no parameter named {name:?}: the scene has no [[param]] entries")
             } else {
-                format!(
-                    "no parameter named {name:?} (parameters: {})",
-                    names.params.join(", ")
-                )
+                format!("no parameter named {name:?} (parameters: {})", names.params.join(", "))
             }));
         };
         if !value.is_finite() {
@@ -93,10 +90,7 @@ pub(crate) fn apply_params(
         let at = |f: &str| item_field("param", i, &p.name, f);
         let kind_name = p.kind.as_str();
         let origin = if overridden.get(i).copied().unwrap_or(false) {
-            format!(
-                "value from param {:?}, set with --set {}={}",
-                p.name, p.name, p.value
-            )
+            format!("value from param {:?}, set with --set {}={}", p.name, p.name, p.value)
         } else {
             format!("value from param {:?}", p.name)
         };
@@ -151,11 +145,7 @@ pub(crate) fn apply_params(
                 )
             })
         };
-        let target = |list: &[String],
-                      what: &str,
-                      plural: &str,
-                      given: &Option<String>|
-         -> Result<usize, SceneError> {
+        let target = |list: &[String], what: &str, plural: &str, given: &Option<String>| -> Result<usize, SceneError> {
             let field = target_field.unwrap_or(what);
             match given {
                 None => Err(ctx.invalid(
@@ -174,9 +164,7 @@ pub(crate) fn apply_params(
         };
         let v = p.value;
         // (kind, location of the controlled field, quantity name for conflicts, components)
-        let (kind, loc, quantity, components): (ParamKind, String, String, Vec<usize>) = match p
-            .kind
-        {
+        let (kind, loc, quantity, components): (ParamKind, String, String, Vec<usize>) = match p.kind {
             ParamKindDesc::Translate | ParamKindDesc::Rotate | ParamKindDesc::Scale => {
                 let s = target(&names.shapes, "shape", "shapes", &p.shape)?;
                 let a = needs_axis()?;
@@ -204,9 +192,7 @@ pub(crate) fn apply_params(
                     }
                     _ => {
                         if v == 0.0 {
-                            return Err(bad_value(
-                                "a scale factor must be nonzero (got 0)".to_string(),
-                            ));
+                            return Err(bad_value("a scale factor must be nonzero (got 0)".to_string()));
                         }
                         shape.scale = Some(set_component(shape.scale, 1.0, Some(a as usize), v));
                         (
@@ -219,12 +205,7 @@ pub(crate) fn apply_params(
                     }
                 };
                 let loc = item_field("shape", s, &shape.name, field);
-                (
-                    kind,
-                    loc,
-                    format!("shape {:?} {field}", shape.name),
-                    vec![a as usize],
-                )
+                (kind, loc, format!("shape {:?} {field}", shape.name), vec![a as usize])
             }
             ParamKindDesc::Albedo => {
                 let m = target(&names.materials, "material", "materials", &p.material)?;
@@ -250,9 +231,7 @@ pub(crate) fn apply_params(
             ParamKindDesc::Radiance => {
                 let e = target(&names.emitters, "emitter", "emitters", &p.emitter)?;
                 if v < 0.0 {
-                    return Err(bad_value(format!(
-                        "an emitted amount must be >= 0 (got {v})"
-                    )));
+                    return Err(bad_value(format!("an emitted amount must be >= 0 (got {v})")));
                 }
                 let c = p.channel.map(channel);
                 let em = &mut desc.emitter[e];
@@ -274,9 +253,7 @@ pub(crate) fn apply_params(
             }
             ParamKindDesc::Eta => {
                 if v <= 0.0 {
-                    return Err(bad_value(format!(
-                        "a refractive index must be > 0 (got {v})"
-                    )));
+                    return Err(bad_value(format!("a refractive index must be > 0 (got {v})")));
                 }
                 desc.medium.eta = v;
                 (
@@ -303,7 +280,10 @@ pub(crate) fn apply_params(
             if let Some((_, _, j)) = claimed.iter().find(|(q, k, _)| *q == quantity && k == c) {
                 return Err(ctx.invalid(
                     at("kind"),
-                    format!("controls the same quantity ({quantity}) as param[{j}] {:?}; each quantity can have one param", out[*j].name),
+                    format!(
+                        "controls the same quantity ({quantity}) as param[{j}] {:?}; each quantity can have one param",
+                        out[*j].name
+                    ),
                 ));
             }
         }
@@ -333,11 +313,7 @@ mod tests {
         let base = load_scene("occluder_shadow.toml");
         let path = scenes_dir().join("occluder_shadow.toml");
         let moved = Scene::load(&path, &set("occluder_x", 0.35)).unwrap();
-        let i = base
-            .shapes
-            .iter()
-            .position(|s| s.name == "occluder")
-            .unwrap();
+        let i = base.shapes.iter().position(|s| s.name == "occluder").unwrap();
         let (a, b) = (&base.shapes[i], &moved.shapes[i]);
         assert_eq!(
             a.transform.translate.x, 0.1,
@@ -353,10 +329,7 @@ mod tests {
             let pa = base.geometry.positions[a.first_vertex as usize + k];
             let pb = moved.geometry.positions[b.first_vertex as usize + k];
             let d = pb - pa;
-            assert!(
-                (d - Vec3::new(0.25, 0.0, 0.0)).abs().max_element() < 1e-6,
-                "{d}"
-            );
+            assert!((d - Vec3::new(0.25, 0.0, 0.0)).abs().max_element() < 1e-6, "{d}");
             assert_eq!(pb, b.transform.apply(b.local_positions[k]));
         }
         // every other shape is untouched
@@ -380,11 +353,7 @@ mod tests {
             &scene_text("confocal_plane.toml"),
             &[],
             &set("eta", 0.0),
-            &[
-                "param[0] \"eta\": field 'value'",
-                "must be > 0",
-                "--set eta=0",
-            ],
+            &["param[0] \"eta\": field 'value'", "must be > 0", "--set eta=0"],
         );
     }
 
@@ -395,11 +364,7 @@ mod tests {
         let m = s.shapes.iter().find(|s| s.name == "pyramid").unwrap();
         assert_eq!(m.transform.scale, Vec3::new(0.5, 0.6, 0.5));
         assert_eq!(m.transform.rotate_deg, Vec3::new(0.0, 30.0, 0.0));
-        let s2 = Scene::load(
-            &path,
-            &[("pyramid_yaw".into(), 75.0), ("pyramid_height".into(), 1.2)],
-        )
-        .unwrap();
+        let s2 = Scene::load(&path, &[("pyramid_yaw".into(), 75.0), ("pyramid_height".into(), 1.2)]).unwrap();
         let m2 = s2.shapes.iter().find(|s| s.name == "pyramid").unwrap();
         assert_eq!(m2.transform.rotate_deg.y, 75.0);
         assert_eq!(m2.transform.scale, Vec3::new(0.5, 1.2, 0.5));
@@ -435,10 +400,7 @@ mod tests {
             }
         ));
         assert_eq!(s.emitters[0].offset_opl, 0.2);
-        assert_eq!(
-            s.film.channels, 3,
-            "a per-channel param makes an auto film RGB"
-        );
+        assert_eq!(s.film.channels, 3, "a per-channel param makes an auto film RGB");
         let s = load_text("p.toml", &text, &[], &set("i", 7.0)).unwrap();
         assert!(matches!(
             s.emitters[0].kind,
@@ -467,10 +429,7 @@ mod tests {
     fn unknown_set_name_lists_the_params() {
         let text = scene_text("obj_mesh.toml").replace(
             "meshes/pyramid.obj",
-            &scenes_dir()
-                .join("meshes/pyramid.obj")
-                .display()
-                .to_string(),
+            &scenes_dir().join("meshes/pyramid.obj").display().to_string(),
         );
         expect_err_set(
             "o.toml",
@@ -528,21 +487,13 @@ mod tests {
             "t3.toml",
             &p("kind = \"rotate\"\nshape = \"quad\""),
             &[],
-            &[
-                "param[0] \"p\": field 'axis'",
-                "missing",
-                "\"x\", \"y\" or \"z\"",
-            ],
+            &["param[0] \"p\": field 'axis'", "missing", "\"x\", \"y\" or \"z\""],
         );
         expect_err(
             "t4.toml",
             &p("kind = \"scale\"\nshape = \"quad\"\naxis = \"w\""),
             &[],
-            &[
-                "param[0] \"p\": field 'axis'",
-                "unknown variant 'w'",
-                "'x', 'y', 'z'",
-            ],
+            &["param[0] \"p\": field 'axis'", "unknown variant 'w'", "'x', 'y', 'z'"],
         );
         expect_err(
             "t5.toml",
@@ -581,12 +532,7 @@ mod tests {
             &["param[0] \"p\": field 'emitter'", "missing"],
         );
         let no_value = format!("{MINI}\n[[param]]\nname = \"p\"\nkind = \"eta\"\n");
-        expect_err(
-            "t10.toml",
-            &no_value,
-            &[],
-            &["param[0] \"p\"", "missing field 'value'"],
-        );
+        expect_err("t10.toml", &no_value, &[], &["param[0] \"p\"", "missing field 'value'"]);
         let two = format!(
             "{MINI}\n[[param]]\nname = \"a\"\nkind = \"eta\"\nvalue = 1\n[[param]]\nname = \"b\"\nkind = \"eta\"\nvalue = 1\n"
         );
@@ -596,13 +542,7 @@ mod tests {
             &[],
             &["param[1] \"b\"", "same quantity", "param[0] \"a\""],
         );
-        let zero = p("kind = \"scale\"\nshape = \"quad\"\naxis = \"x\"")
-            .replace("value = 0.5", "value = 0");
-        expect_err(
-            "t12.toml",
-            &zero,
-            &[],
-            &["param[0] \"p\": field 'value'", "nonzero"],
-        );
+        let zero = p("kind = \"scale\"\nshape = \"quad\"\naxis = \"x\"").replace("value = 0.5", "value = 0");
+        expect_err("t12.toml", &zero, &[], &["param[0] \"p\": field 'value'", "nonzero"]);
     }
 }

@@ -2,13 +2,13 @@
 //! check, then the flat arrays.
 
 use super::desc::{
-    CameraDesc, Channels, EmitterDesc, EmitterType, FilmDesc, FilterType, GateType, MaterialDesc,
-    MaterialType, NameOr, PulseType, SceneDesc, Triple,
+    CameraDesc, Channels, EmitterDesc, EmitterType, FilmDesc, FilterType, GateType, MaterialDesc, MaterialType, NameOr,
+    PulseType, SceneDesc, Triple,
 };
 use super::error::{item, item_field, table_field};
 use super::{
-    Camera, Emitter, EmitterKind, FilmSpec, IntegratorSpec, Material, NamedMaterial, Param,
-    ParamKind, PixelFilter, Scene, SceneError,
+    Camera, Emitter, EmitterKind, FilmSpec, IntegratorSpec, Material, NamedMaterial, Param, ParamKind, PixelFilter,
+    Scene, SceneError,
 };
 use crate::temporal::{Gate, Pulse, TimeAxis};
 use glam::Vec3;
@@ -79,17 +79,12 @@ fn index_names<'a>(
     let mut out: Vec<String> = Vec::new();
     for (i, n) in names.enumerate() {
         if n.trim().is_empty() {
-            return Err(ctx.invalid(
-                format!("{}: field 'name'", item(section, i, None)),
-                "must not be empty",
-            ));
+            return Err(ctx.invalid(format!("{}: field 'name'", item(section, i, None)), "must not be empty"));
         }
         if let Some(j) = out.iter().position(|m| m == n) {
             return Err(ctx.invalid(
                 item_field(section, i, n, "name"),
-                format!(
-                    "duplicate name: {section}[{j}] is already called {n:?}; names must be unique"
-                ),
+                format!("duplicate name: {section}[{j}] is already called {n:?}; names must be unique"),
             ));
         }
         out.push(n.clone());
@@ -97,11 +92,7 @@ fn index_names<'a>(
     Ok(out)
 }
 
-pub(crate) fn resolve(
-    mut desc: SceneDesc,
-    path: &Path,
-    overrides: &[(String, f32)],
-) -> Result<Scene, SceneError> {
+pub(crate) fn resolve(mut desc: SceneDesc, path: &Path, overrides: &[(String, f32)]) -> Result<Scene, SceneError> {
     let mut ctx = Ctx {
         path,
         set_by: HashMap::new(),
@@ -118,10 +109,7 @@ pub(crate) fn resolve(
     let integrator = integrator(&desc, &ctx)?;
     let eta = desc.medium.eta;
     if eta <= 0.0 {
-        return Err(ctx.invalid(
-            table_field("medium", "eta"),
-            format!("must be > 0 (got {eta})"),
-        ));
+        return Err(ctx.invalid(table_field("medium", "eta"), format!("must be > 0 (got {eta})")));
     }
     let (camera, width, height, filter) = camera(&desc.camera, &ctx)?;
     let materials = materials(&desc.material, &ctx)?;
@@ -217,7 +205,10 @@ fn camera(d: &CameraDesc, ctx: &Ctx) -> Result<(Camera, u32, u32, PixelFilter), 
     if !(r.is_finite() && u.is_finite() && f.is_finite()) {
         return Err(ctx.invalid(
             at("up"),
-            format!("{:?} is too small or too large for 32-bit arithmetic; use a vector of length about 1", d.up),
+            format!(
+                "{:?} is too small or too large for 32-bit arithmetic; use a vector of length about 1",
+                d.up
+            ),
         ));
     }
     if !(d.fov > 0.0 && d.fov < 180.0) {
@@ -250,10 +241,7 @@ fn positive(ctx: &Ctx, at: String, v: f32) -> Result<f32, SceneError> {
     }
 }
 
-fn pixel_filter(
-    f: &NameOr<super::desc::FilterTable>,
-    ctx: &Ctx,
-) -> Result<PixelFilter, SceneError> {
+fn pixel_filter(f: &NameOr<super::desc::FilterTable>, ctx: &Ctx) -> Result<PixelFilter, SceneError> {
     let at = |s: &str| table_field("camera", s);
     let (ty, radius, sigma) = match f {
         NameOr::Name(n) => match n.as_str() {
@@ -332,10 +320,7 @@ fn gate(g: &NameOr<super::desc::GateTable>, ctx: &Ctx) -> Result<Gate, SceneErro
                 sigma_opl: positive(ctx, at("gate.sigma_opl"), s)?,
             },
             None => {
-                return Err(ctx.invalid(
-                    at("gate.sigma_opl"),
-                    "missing: a gaussian gate needs sigma_opl > 0",
-                ));
+                return Err(ctx.invalid(at("gate.sigma_opl"), "missing: a gaussian gate needs sigma_opl > 0"));
             }
         },
     })
@@ -375,13 +360,7 @@ fn film(
 }
 
 /// Checks each channel of a colour is in `[lo, hi]`.
-pub(crate) fn check_colour(
-    ctx: &Ctx,
-    at: String,
-    c: Triple,
-    lo: f32,
-    hi: f32,
-) -> Result<[f32; 3], SceneError> {
+pub(crate) fn check_colour(ctx: &Ctx, at: String, c: Triple, lo: f32, hi: f32) -> Result<[f32; 3], SceneError> {
     let v = c.to_array();
     if v.iter().any(|&x| !(x >= lo && x <= hi)) {
         let range = if hi.is_finite() {
@@ -406,9 +385,17 @@ fn materials(list: &[MaterialDesc], ctx: &Ctx) -> Result<Vec<NamedMaterial>, Sce
             let MaterialType::Diffuse = m.ty;
             let albedo = match m.albedo {
                 Some(a) => check_colour(ctx, at, a, 0.0, 1.0)?,
-                None => return Err(ctx.invalid(at, "missing: a diffuse material needs albedo = scalar or [r, g, b], each in [0, 1]")),
+                None => {
+                    return Err(ctx.invalid(
+                        at,
+                        "missing: a diffuse material needs albedo = scalar or [r, g, b], each in [0, 1]",
+                    ));
+                }
             };
-            Ok(NamedMaterial { name: m.name.clone(), material: Material::Diffuse { albedo } })
+            Ok(NamedMaterial {
+                name: m.name.clone(),
+                material: Material::Diffuse { albedo },
+            })
         })
         .collect()
 }
@@ -460,9 +447,7 @@ fn pulse(ctx: &Ctx, i: usize, e: &EmitterDesc) -> Result<Pulse, SceneError> {
                 let field = if n == "box" { "width_opl" } else { "sigma_opl" };
                 return Err(ctx.invalid(
                     at("pulse"),
-                    format!(
-                        "a {n} pulse needs its width: write {{ type = \"{n}\", {field} = ... }}"
-                    ),
+                    format!("a {n} pulse needs its width: write {{ type = \"{n}\", {field} = ... }}"),
                 ));
             }
             other => {
@@ -474,12 +459,8 @@ fn pulse(ctx: &Ctx, i: usize, e: &EmitterDesc) -> Result<Pulse, SceneError> {
         },
         NameOr::Table(t) => (t.ty, t.sigma_opl, t.width_opl),
     };
-    let unused = |f: &str, name: &str| {
-        ctx.invalid(
-            at(&format!("pulse.{f}")),
-            format!("does not apply to a {name} pulse"),
-        )
-    };
+    let unused =
+        |f: &str, name: &str| ctx.invalid(at(&format!("pulse.{f}")), format!("does not apply to a {name} pulse"));
     Ok(match ty {
         PulseType::Delta => {
             if sigma.is_some() {
@@ -494,12 +475,8 @@ fn pulse(ctx: &Ctx, i: usize, e: &EmitterDesc) -> Result<Pulse, SceneError> {
             if width.is_some() {
                 return Err(unused("width_opl", "gaussian"));
             }
-            let s = sigma.ok_or_else(|| {
-                ctx.invalid(
-                    at("pulse.sigma_opl"),
-                    "missing: a gaussian pulse needs sigma_opl > 0",
-                )
-            })?;
+            let s = sigma
+                .ok_or_else(|| ctx.invalid(at("pulse.sigma_opl"), "missing: a gaussian pulse needs sigma_opl > 0"))?;
             Pulse::Gaussian {
                 sigma_opl: positive(ctx, at("pulse.sigma_opl"), s)?,
             }
@@ -508,12 +485,8 @@ fn pulse(ctx: &Ctx, i: usize, e: &EmitterDesc) -> Result<Pulse, SceneError> {
             if sigma.is_some() {
                 return Err(unused("sigma_opl", "box"));
             }
-            let w = width.ok_or_else(|| {
-                ctx.invalid(
-                    at("pulse.width_opl"),
-                    "missing: a box pulse needs width_opl > 0",
-                )
-            })?;
+            let w =
+                width.ok_or_else(|| ctx.invalid(at("pulse.width_opl"), "missing: a box pulse needs width_opl > 0"))?;
             Pulse::Box {
                 width_opl: positive(ctx, at("pulse.width_opl"), w)?,
             }
@@ -534,7 +507,10 @@ fn emitters(desc: &SceneDesc, names: &Names, ctx: &Ctx) -> Result<Vec<Emitter>, 
                 None => {
                     return Err(ctx.invalid(
                         at(amount_field),
-                        format!("missing: {} emitter needs {amount_field} = scalar or [r, g, b], each >= 0", a_type(e.ty)),
+                        format!(
+                            "missing: {} emitter needs {amount_field} = scalar or [r, g, b], each >= 0",
+                            a_type(e.ty)
+                        ),
                     ));
                 }
             }
@@ -543,28 +519,31 @@ fn emitters(desc: &SceneDesc, names: &Names, ctx: &Ctx) -> Result<Vec<Emitter>, 
             e.position.map(Vec3::from).ok_or_else(|| {
                 ctx.invalid(
                     at("position"),
-                    format!(
-                        "missing: a {} emitter needs position = [x, y, z]",
-                        e.ty.as_str()
-                    ),
+                    format!("missing: a {} emitter needs position = [x, y, z]", e.ty.as_str()),
                 )
             })
         };
         let kind = match e.ty {
             EmitterType::Area => {
                 let Some(shape_name) = &e.shape else {
-                    return Err(ctx.invalid(at("shape"), format!("missing: an area emitter needs the name of the shape it covers (shapes: {})", names.shapes.join(", "))));
-                };
-                let Some(s) = names.shape(shape_name) else {
                     return Err(ctx.invalid(
                         at("shape"),
-                        no_such("shape", "shapes", shape_name, &names.shapes),
+                        format!(
+                            "missing: an area emitter needs the name of the shape it covers (shapes: {})",
+                            names.shapes.join(", ")
+                        ),
                     ));
+                };
+                let Some(s) = names.shape(shape_name) else {
+                    return Err(ctx.invalid(at("shape"), no_such("shape", "shapes", shape_name, &names.shapes)));
                 };
                 if let Some(j) = claimed.insert(s, i) {
                     return Err(ctx.invalid(
                         at("shape"),
-                        format!("shape {shape_name:?} is already the area emitter {:?}; a shape can carry one area emitter", desc.emitter[j].name),
+                        format!(
+                            "shape {shape_name:?} is already the area emitter {:?}; a shape can carry one area emitter",
+                            desc.emitter[j].name
+                        ),
                     ));
                 }
                 if desc.shape[s].material.is_none() {
@@ -637,13 +616,7 @@ fn channels(desc: &SceneDesc, params: &[Param], ctx: &Ctx) -> Result<usize, Scen
     let channel_param = params.iter().enumerate().find(|(_, p)| {
         matches!(
             p.kind,
-            ParamKind::Albedo {
-                channel: Some(_),
-                ..
-            } | ParamKind::Radiance {
-                channel: Some(_),
-                ..
-            }
+            ParamKind::Albedo { channel: Some(_), .. } | ParamKind::Radiance { channel: Some(_), .. }
         )
     });
     match desc.film.channels {
@@ -768,24 +741,15 @@ mod tests {
             "zeropulse.toml",
             &text,
             &[],
-            &[
-                "emitter[0] \"lamp\": field 'pulse.sigma_opl'",
-                "must be > 0",
-            ],
+            &["emitter[0] \"lamp\": field 'pulse.sigma_opl'", "must be > 0"],
         );
         let text = mini_with("bins = 10", "bins = 10\ngate = { type = \"gaussian\" }");
-        expect_err(
-            "gate.toml",
-            &text,
-            &[],
-            &["film: field 'gate.sigma_opl'", "missing"],
-        );
+        expect_err("gate.toml", &text, &[], &["film: field 'gate.sigma_opl'", "missing"]);
     }
 
     #[test]
     fn duplicate_names_are_refused() {
-        let text =
-            format!("{MINI}\n[[shape]]\nname = \"quad\"\ntype = \"cube\"\nmaterial = \"white\"\n");
+        let text = format!("{MINI}\n[[shape]]\nname = \"quad\"\ntype = \"cube\"\nmaterial = \"white\"\n");
         expect_err(
             "dup.toml",
             &text,
@@ -797,8 +761,7 @@ mod tests {
                 "unique",
             ],
         );
-        let text =
-            format!("{MINI}\n[[material]]\nname = \"white\"\ntype = \"diffuse\"\nalbedo = 0.1\n");
+        let text = format!("{MINI}\n[[material]]\nname = \"white\"\ntype = \"diffuse\"\nalbedo = 0.1\n");
         expect_err(
             "dupm.toml",
             &text,
@@ -825,9 +788,11 @@ mod tests {
 
     #[test]
     fn unknown_references_list_what_exists() {
-        let text =
-            format!("{MINI}\n[[material]]\nname = \"red\"\ntype = \"diffuse\"\nalbedo = 0.1\n")
-                .replacen("material = \"white\"", "material = \"whte\"", 1);
+        let text = format!("{MINI}\n[[material]]\nname = \"red\"\ntype = \"diffuse\"\nalbedo = 0.1\n").replacen(
+            "material = \"white\"",
+            "material = \"whte\"",
+            1,
+        );
         expect_err(
             "ref.toml",
             &text,
@@ -837,9 +802,7 @@ mod tests {
                 "no material named \"whte\" (materials: white, red)",
             ],
         );
-        let text = format!(
-            "{MINI}\n[[emitter]]\nname = \"area\"\ntype = \"area\"\nshape = \"qaud\"\nradiance = 1\n"
-        );
+        let text = format!("{MINI}\n[[emitter]]\nname = \"area\"\ntype = \"area\"\nshape = \"qaud\"\nradiance = 1\n");
         expect_err(
             "eref.toml",
             &text,
@@ -854,11 +817,7 @@ mod tests {
             "nomat.toml",
             &text,
             &[],
-            &[
-                "shape[0] \"quad\": field 'material'",
-                "missing",
-                "materials: white",
-            ],
+            &["shape[0] \"quad\": field 'material'", "missing", "materials: white"],
         );
     }
 
@@ -880,9 +839,8 @@ mod tests {
 
     #[test]
     fn area_emitter_fields() {
-        let text = format!(
-            "{MINI}\n[[emitter]]\nname = \"glow\"\ntype = \"area\"\nshape = \"quad\"\nradiance = [1, 2, 3]\n"
-        );
+        let text =
+            format!("{MINI}\n[[emitter]]\nname = \"glow\"\ntype = \"area\"\nshape = \"quad\"\nradiance = [1, 2, 3]\n");
         let s = load_text("area.toml", &text, &[], &[]).unwrap();
         assert_eq!(
             s.emitters[1].kind,
@@ -893,9 +851,7 @@ mod tests {
         );
         assert_eq!(s.shapes[0].emitter, Some(1));
         assert_eq!(s.film.channels, 3, "auto picks RGB for an unequal triple");
-        let twice = format!(
-            "{text}\n[[emitter]]\nname = \"glow2\"\ntype = \"area\"\nshape = \"quad\"\nradiance = 1\n"
-        );
+        let twice = format!("{text}\n[[emitter]]\nname = \"glow2\"\ntype = \"area\"\nshape = \"quad\"\nradiance = 1\n");
         expect_err(
             "twice.toml",
             &twice,
@@ -905,8 +861,7 @@ mod tests {
                 "already the area emitter \"glow\"",
             ],
         );
-        let text =
-            format!("{MINI}\n[[emitter]]\nname = \"glow\"\ntype = \"area\"\nshape = \"quad\"\n");
+        let text = format!("{MINI}\n[[emitter]]\nname = \"glow\"\ntype = \"area\"\nshape = \"quad\"\n");
         expect_err(
             "norad.toml",
             &text,
@@ -940,11 +895,7 @@ mod tests {
                 "spp.toml",
                 &text,
                 &[],
-                &[
-                    "integrator: field 'spp'",
-                    "must be at least 1",
-                    &format!("got {spp}"),
-                ],
+                &["integrator: field 'spp'", "must be at least 1", &format!("got {spp}")],
             );
         }
         let text = format!("[integrator]\nmax_bounces = 0\n{MINI}");
@@ -966,11 +917,7 @@ mod tests {
             "kind.toml",
             &text,
             &[],
-            &[
-                "integrator: field 'kind'",
-                "unknown variant 'bdpt'",
-                "'path'",
-            ],
+            &["integrator: field 'kind'", "unknown variant 'bdpt'", "'path'"],
         );
         let text = mini_with("bins = 10", "bins = 0");
         expect_err(
@@ -981,12 +928,7 @@ mod tests {
         );
         for w in ["0.0", "-0.1"] {
             let text = mini_with("bin_width_opl = 0.1", &format!("bin_width_opl = {w}"));
-            expect_err(
-                "bw.toml",
-                &text,
-                &[],
-                &["film: field 'bin_width_opl'", "must be > 0"],
-            );
+            expect_err("bw.toml", &text, &[], &["film: field 'bin_width_opl'", "must be > 0"]);
         }
         let text = mini_with(
             "look_at = [0.0, 0.0, 0.0]",
@@ -1011,11 +953,7 @@ mod tests {
                 "fov.toml",
                 &text,
                 &[],
-                &[
-                    "camera: field 'fov'",
-                    "must be in (0, 180)",
-                    &format!("got {fov}"),
-                ],
+                &["camera: field 'fov'", "must be in (0, 180)", &format!("got {fov}")],
             );
         }
         let text = mini_with("look_at = [0.0, 0.0, 0.0]", "look_at = [0.0, 0.0, 3.0]");
@@ -1023,10 +961,7 @@ mod tests {
             "same.toml",
             &text,
             &[],
-            &[
-                "camera: field 'look_at'",
-                "must differ from camera.position",
-            ],
+            &["camera: field 'look_at'", "must differ from camera.position"],
         );
         let text = mini_with(
             "look_at = [0.0, 0.0, 0.0]",
@@ -1038,10 +973,7 @@ mod tests {
             &[],
             &["camera: field 'up'", "parallel to the view direction"],
         );
-        let text = mini_with(
-            "look_at = [0.0, 0.0, 0.0]",
-            "look_at = [0.0, 0.0, 0.0]\nup = [0, 0, 0]",
-        );
+        let text = mini_with("look_at = [0.0, 0.0, 0.0]", "look_at = [0.0, 0.0, 0.0]\nup = [0, 0, 0]");
         expect_err("up0.toml", &text, &[], &["camera: field 'up'", "nonzero"]);
         let text = mini_with(
             "look_at = [0.0, 0.0, 0.0]",
@@ -1058,12 +990,7 @@ mod tests {
             "look_at = [0.0, 0.0, -3e38]",
             1,
         );
-        expect_err(
-            "far.toml",
-            &text,
-            &[],
-            &["camera: field 'look_at'", "too far"],
-        );
+        expect_err("far.toml", &text, &[], &["camera: field 'look_at'", "too far"]);
         // a huge but nonzero up vector is fine (only its direction matters)
         let text = mini_with(
             "look_at = [0.0, 0.0, 0.0]",
@@ -1086,18 +1013,13 @@ mod tests {
         );
         let text = format!("{MINI}{}", laser.replace("[0, 0, -4]", "[0, 0, -1e30]"));
         let s = load_text("hugedir.toml", &text, &[], &[]).unwrap();
-        assert!(
-            matches!(s.emitters[1].kind, EmitterKind::Laser { direction, .. } if direction == Vec3::NEG_Z)
-        );
+        assert!(matches!(s.emitters[1].kind, EmitterKind::Laser { direction, .. } if direction == Vec3::NEG_Z));
         let text = format!("{MINI}{}", laser.replace("[0, 0, -4]", "[0, 0, 0]"));
         expect_err(
             "zerodir.toml",
             &text,
             &[],
-            &[
-                "emitter[1] \"beam\": field 'direction'",
-                "must be a nonzero vector",
-            ],
+            &["emitter[1] \"beam\": field 'direction'", "must be a nonzero vector"],
         );
         let text = format!("{MINI}{}", laser.replace("direction = [0, 0, -4]\n", ""));
         expect_err(
@@ -1111,22 +1033,13 @@ mod tests {
     #[test]
     fn eta_and_albedo_ranges() {
         let text = format!("[medium]\neta = 0\n{MINI}");
-        expect_err(
-            "eta.toml",
-            &text,
-            &[],
-            &["medium: field 'eta'", "must be > 0"],
-        );
+        expect_err("eta.toml", &text, &[], &["medium: field 'eta'", "must be > 0"]);
         let text = mini_with("albedo = 0.5", "albedo = [0.5, 1.5, 0.5]");
         expect_err(
             "alb.toml",
             &text,
             &[],
-            &[
-                "material[0] \"white\": field 'albedo'",
-                "in [0, 1]",
-                "[0.5, 1.5, 0.5]",
-            ],
+            &["material[0] \"white\": field 'albedo'", "in [0, 1]", "[0.5, 1.5, 0.5]"],
         );
         let text = mini_with("albedo = 0.5\n", "");
         expect_err(
@@ -1148,32 +1061,16 @@ mod tests {
             "mono.toml",
             &text,
             &[],
-            &[
-                "material[0] \"white\": field 'albedo'",
-                "unequal channels",
-                "\"mono\"",
-            ],
+            &["material[0] \"white\": field 'albedo'", "unequal channels", "\"mono\""],
         );
         let text = mini_with("bins = 10", "bins = 10\nchannels = \"mono\"").replacen(
             "albedo = 0.5",
             "albedo = [0.5, 0.5, 0.5]",
             1,
         );
-        assert_eq!(
-            load_text("mono_ok.toml", &text, &[], &[])
-                .unwrap()
-                .film
-                .channels,
-            1
-        );
+        assert_eq!(load_text("mono_ok.toml", &text, &[], &[]).unwrap().film.channels, 1);
         let text = mini_with("bins = 10", "bins = 10\nchannels = \"rgb\"");
-        assert_eq!(
-            load_text("rgb.toml", &text, &[], &[])
-                .unwrap()
-                .film
-                .channels,
-            3
-        );
+        assert_eq!(load_text("rgb.toml", &text, &[], &[]).unwrap().film.channels, 3);
         let text = mini_with("bins = 10", "bins = 10\nchannels = \"grey\"");
         expect_err(
             "ch.toml",

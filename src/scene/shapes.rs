@@ -219,9 +219,9 @@ fn check_obj_text(text: &str) -> ObjResult<()> {
                         .map_err(|_| format!("vertex {nv} (line {ln}): {w:?} is not a number"))?;
                 }
                 if nums.len() == 4 {
-                    let w = nums[3].parse::<f32>().map_err(|_| {
-                        format!("vertex {nv} (line {ln}): w = {:?} is not a number", nums[3])
-                    })?;
+                    let w = nums[3]
+                        .parse::<f32>()
+                        .map_err(|_| format!("vertex {nv} (line {ln}): w = {:?} is not a number", nums[3]))?;
                     if w == 0.0 || !w.is_finite() {
                         return Err(format!(
                             "vertex {nv} (line {ln}): w must be finite and nonzero (got {w})"
@@ -296,19 +296,13 @@ fn local_mesh(ctx: &Ctx, i: usize, d: &ShapeDesc) -> Result<Mesh, SceneError> {
     if d.ty != ShapeType::Sphere && d.subdivisions.is_some() {
         return Err(ctx.invalid(
             at("subdivisions"),
-            format!(
-                "only applies to type sphere (this shape is a {})",
-                d.ty.as_str()
-            ),
+            format!("only applies to type sphere (this shape is a {})", d.ty.as_str()),
         ));
     }
     if d.ty != ShapeType::Obj && d.file.is_some() {
         return Err(ctx.invalid(
             at("file"),
-            format!(
-                "only applies to type obj (this shape is a {})",
-                d.ty.as_str()
-            ),
+            format!("only applies to type obj (this shape is a {})", d.ty.as_str()),
         ));
     }
     Ok(match d.ty {
@@ -326,7 +320,10 @@ fn local_mesh(ctx: &Ctx, i: usize, d: &ShapeDesc) -> Result<Mesh, SceneError> {
         }
         ShapeType::Obj => {
             let Some(file) = &d.file else {
-                return Err(ctx.invalid(at("file"), "missing: an obj shape needs file = \"path/to/mesh.obj\" (relative to the scene file)"));
+                return Err(ctx.invalid(
+                    at("file"),
+                    "missing: an obj shape needs file = \"path/to/mesh.obj\" (relative to the scene file)",
+                ));
             };
             let obj = obj_path(ctx.path, file);
             load_obj(&obj).map_err(|message| SceneError::Obj {
@@ -361,12 +358,9 @@ pub(crate) fn build(
     for (i, d) in desc.shape.iter().enumerate() {
         let at = |f: &str| item_field("shape", i, &d.name, f);
         let material = match &d.material {
-            Some(m) => names.material(m).ok_or_else(|| {
-                ctx.invalid(
-                    at("material"),
-                    no_such("material", "materials", m, &names.materials),
-                )
-            })?,
+            Some(m) => names
+                .material(m)
+                .ok_or_else(|| ctx.invalid(at("material"), no_such("material", "materials", m, &names.materials)))?,
             None => {
                 return Err(ctx.invalid(
                     at("material"),
@@ -383,7 +377,10 @@ pub(crate) fn build(
         if let Some(k) = world.iter().position(|p| !p.is_finite()) {
             return Err(ctx.invalid(
                 at("translate"),
-                format!("the transform sends vertex {k} to a non-finite position {:?}; scale or translation too large", world[k].to_array()),
+                format!(
+                    "the transform sends vertex {k} to a non-finite position {:?}; scale or translation too large",
+                    world[k].to_array()
+                ),
             ));
         }
         let mirror = transform.scale.x * transform.scale.y * transform.scale.z < 0.0;
@@ -421,12 +418,8 @@ pub(crate) fn build(
         }
         geo.dropped_degenerate += dropped;
         geo.positions.extend_from_slice(&world);
-        if geo.positions.len() > u32::MAX as usize / 2 || geo.indices.len() > u32::MAX as usize / 2
-        {
-            return Err(ctx.invalid(
-                at("file"),
-                "the scene has too many vertices or triangles (over 2^31)",
-            ));
+        if geo.positions.len() > u32::MAX as usize / 2 || geo.indices.len() > u32::MAX as usize / 2 {
+            return Err(ctx.invalid(at("file"), "the scene has too many vertices or triangles (over 2^31)"));
         }
         let emitter = emitters
             .iter()
@@ -543,8 +536,7 @@ mod tests {
             let b = s.shapes.iter().find(|x| x.name == name).unwrap();
             let centre = b.transform.translate;
             for t in b.first_tri..b.first_tri + b.tri_count {
-                let [p0, p1, p2] =
-                    s.geometry.indices[t as usize].map(|i| s.geometry.positions[i as usize]);
+                let [p0, p1, p2] = s.geometry.indices[t as usize].map(|i| s.geometry.positions[i as usize]);
                 assert!(
                     geo_normal(&s, t as usize).dot((p0 + p1 + p2) / 3.0 - centre) > 0.0,
                     "{name}"
@@ -567,11 +559,7 @@ mod tests {
         );
         let s = load_text("cube.toml", &text, &[], &[]).unwrap();
         let sh = &s.shapes[0];
-        let k = sh
-            .local_positions
-            .iter()
-            .position(|&p| p == Vec3::ONE)
-            .unwrap();
+        let k = sh.local_positions.iter().position(|&p| p == Vec3::ONE).unwrap();
         let w = s.geometry.positions[sh.first_vertex as usize + k];
         // scale → (1,2,3); Ry(90°): (x,y,z) → (z, y, -x) → (3,2,-1); + (1,0,0)
         assert!((w - Vec3::new(4.0, 2.0, -1.0)).length() < 1e-5, "{w}");
@@ -601,8 +589,7 @@ mod tests {
 
     #[test]
     fn sphere_subdivisions() {
-        let sphere =
-            |extra: &str| mini_with("type = \"rectangle\"", &format!("type = \"sphere\"{extra}"));
+        let sphere = |extra: &str| mini_with("type = \"rectangle\"", &format!("type = \"sphere\"{extra}"));
         let s = load_text("s.toml", &sphere(""), &[], &[]).unwrap();
         assert_eq!(s.shapes[0].tri_count, 1280);
         let s = load_text("s.toml", &sphere("\nsubdivisions = 1"), &[], &[]).unwrap();
@@ -613,18 +600,12 @@ mod tests {
             &[],
             &["shape[0] \"quad\": field 'subdivisions'", "0..=7"],
         );
-        let text = mini_with(
-            "material = \"white\"",
-            "material = \"white\"\nsubdivisions = 2",
-        );
+        let text = mini_with("material = \"white\"", "material = \"white\"\nsubdivisions = 2");
         expect_err(
             "sub2.toml",
             &text,
             &[],
-            &[
-                "shape[0] \"quad\": field 'subdivisions'",
-                "only applies to type sphere",
-            ],
+            &["shape[0] \"quad\": field 'subdivisions'", "only applies to type sphere"],
         );
     }
 
@@ -637,43 +618,28 @@ mod tests {
             &[],
             &["shape[0] \"quad\": field 'scale'", "nonzero", "got 0"],
         );
-        let text = mini_with(
-            "material = \"white\"",
-            "material = \"white\"\nscale = [1, 0, 1]",
-        );
+        let text = mini_with("material = \"white\"", "material = \"white\"\nscale = [1, 0, 1]");
         expect_err(
             "s1.toml",
             &text,
             &[],
-            &[
-                "shape[0] \"quad\": field 'scale'",
-                "nonzero",
-                "[1.0, 0.0, 1.0]",
-            ],
+            &["shape[0] \"quad\": field 'scale'", "nonzero", "[1.0, 0.0, 1.0]"],
         );
         // a rectangle may be flat along z: scale z is still required nonzero
         let text = mini_with(
             "material = \"white\"",
             "material = \"white\"\ntranslate = [3e38, 0, 0]\nscale = 3e38",
         );
-        expect_err(
-            "huge.toml",
-            &text,
-            &[],
-            &["shape[0] \"quad\"", "non-finite"],
-        );
+        expect_err("huge.toml", &text, &[], &["shape[0] \"quad\"", "non-finite"]);
     }
 
     fn obj_scene(file: &str) -> String {
-        format!(
-            "{MINI}\n[[shape]]\nname = \"mesh\"\ntype = \"obj\"\nfile = \"{file}\"\nmaterial = \"white\"\n"
-        )
+        format!("{MINI}\n[[shape]]\nname = \"mesh\"\ntype = \"obj\"\nfile = \"{file}\"\nmaterial = \"white\"\n")
     }
 
     #[test]
     fn obj_loads_and_drops_zero_area_triangles() {
-        let obj =
-            "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 2 0 0\nv 0 0 1e-20\nf 1 2 3\nf 1 2 4\nf 1 2 2\nf 1 2 5\n";
+        let obj = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 2 0 0\nv 0 0 1e-20\nf 1 2 3\nf 1 2 4\nf 1 2 2\nf 1 2 5\n";
         let s = load_text("o.toml", &obj_scene("m.obj"), &[("m.obj", obj)], &[]).unwrap();
         let m = &s.shapes[1];
         // kept: the real triangle and the tiny (1e-20 high) one; dropped: collinear and repeated
@@ -691,8 +657,7 @@ mod tests {
         assert_eq!((p.vertex_count, p.tri_count), (5, 6));
         let centre = p.transform.apply(Vec3::new(0.0, 0.5, 0.0));
         for t in p.first_tri..p.first_tri + p.tri_count {
-            let [a, b, c] =
-                s.geometry.indices[t as usize].map(|i| s.geometry.positions[i as usize]);
+            let [a, b, c] = s.geometry.indices[t as usize].map(|i| s.geometry.positions[i as usize]);
             assert!((b - a).cross(c - a).dot((a + b + c) / 3.0 - centre) > 0.0);
         }
     }
@@ -755,8 +720,7 @@ mod tests {
             &[("f.obj", flat)],
             &["shape[1] \"mesh\": field 'file'", "empty mesh", "zero area"],
         );
-        let no_file =
-            format!("{MINI}\n[[shape]]\nname = \"mesh\"\ntype = \"obj\"\nmaterial = \"white\"\n");
+        let no_file = format!("{MINI}\n[[shape]]\nname = \"mesh\"\ntype = \"obj\"\nmaterial = \"white\"\n");
         expect_err(
             "nofile.toml",
             &no_file,
@@ -792,10 +756,7 @@ mod tests {
             let r = load_text("odd.toml", &obj_scene("odd.obj"), &[("odd.obj", obj)], &[]);
             if let Err(e) = r {
                 let e = e.to_string();
-                assert!(
-                    e.contains("odd.toml") && e.contains("odd.obj"),
-                    "case {i}: {e}"
-                );
+                assert!(e.contains("odd.toml") && e.contains("odd.obj"), "case {i}: {e}");
             }
         }
     }

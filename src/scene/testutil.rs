@@ -80,10 +80,7 @@ pub fn expect_err_set(
         Ok(_) => panic!("{name}: expected an error containing {parts:?}, but it loaded"),
         Err(e) => e.to_string(),
     };
-    assert!(
-        msg.contains(name),
-        "message does not name the file {name}: {msg}"
-    );
+    assert!(msg.contains(name), "message does not name the file {name}: {msg}");
     for p in parts {
         assert!(msg.contains(p), "message lacks {p:?}: {msg}");
     }

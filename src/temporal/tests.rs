@@ -33,8 +33,7 @@ fn quadrature(c: &Correlation, l: usize, d: f64) -> f64 {
         }
         Gate::Gaussian { sigma_opl } => {
             let sg = sigma_opl as f64;
-            w * (-(s - (a + 0.5 * w)).powi(2) / (2.0 * sg * sg)).exp()
-                / (sg * (2.0 * std::f64::consts::PI).sqrt())
+            w * (-(s - (a + 0.5 * w)).powi(2) / (2.0 * sg * sg)).exp() / (sg * (2.0 * std::f64::consts::PI).sqrt())
         }
     };
     match c.pulse {
@@ -47,8 +46,7 @@ fn quadrature(c: &Correlation, l: usize, d: f64) -> f64 {
             (0..n)
                 .map(|i| {
                     let t = lo + (i as f64 + 0.5) * h;
-                    let p = (-(t - u).powi(2) / (2.0 * s * s)).exp()
-                        / (s * (2.0 * std::f64::consts::PI).sqrt());
+                    let p = (-(t - u).powi(2) / (2.0 * s * s)).exp() / (s * (2.0 * std::f64::consts::PI).sqrt());
                     p * gate(t) * h
                 })
                 .sum()
@@ -57,9 +55,7 @@ fn quadrature(c: &Correlation, l: usize, d: f64) -> f64 {
             let wp = width_opl as f64;
             let n = 200_000;
             let h = wp / n as f64;
-            (0..n)
-                .map(|i| gate(u - 0.5 * wp + (i as f64 + 0.5) * h) * h / wp)
-                .sum()
+            (0..n).map(|i| gate(u - 0.5 * wp + (i as f64 + 0.5) * h) * h / wp).sum()
         }
     }
 }
@@ -76,9 +72,7 @@ fn closed_forms_match_quadrature() {
                     let e = c.eval(l, d as f32) as f64;
                     // midpoint quadrature of a discontinuous integrand: error ≤ one cell (h/width)
                     let tol = 2e-4 + 1e-4 * q.abs();
-                    if matches!((p, g), (Pulse::Delta, Gate::Box))
-                        && ((d + 0.02 - 1.0) / 0.1).fract().abs() < 1e-4
-                    {
+                    if matches!((p, g), (Pulse::Delta, Gate::Box)) && ((d + 0.02 - 1.0) / 0.1).fract().abs() < 1e-4 {
                         continue; // exactly on an edge: both sides are right
                     }
                     assert!(
@@ -142,12 +136,10 @@ fn box_gate_is_a_partition_of_unity() {
         }
     }
     // Gaussian gates spaced w apart sum to 1 up to a ripple of 2·exp(−2π²σ²/w²) (Poisson
-    // summation), plus the 6σ truncation (< 2e-9).
+    // summation), plus the 8σ truncation (< 2e-15).
     for sigma in [0.05f32, 0.07, 0.1] {
-        let c =
-            Correlation::new(AXIS, Pulse::Delta, 0.0, Gate::Gaussian { sigma_opl: sigma }).unwrap();
-        let ripple =
-            2.0 * (-2.0 * std::f64::consts::PI.powi(2) * (sigma as f64 / 0.1).powi(2)).exp();
+        let c = Correlation::new(AXIS, Pulse::Delta, 0.0, Gate::Gaussian { sigma_opl: sigma }).unwrap();
+        let ripple = 2.0 * (-2.0 * std::f64::consts::PI.powi(2) * (sigma as f64 / 0.1).powi(2)).exp();
         for k in 0..100 {
             let d = 2.0 + k as f32 * 0.0113;
             let mut sum = 0.0f64;
@@ -196,16 +188,7 @@ fn extreme_inputs_stay_finite() {
                 bins: 1000,
             };
             let c = Correlation::new(axis, p, 0.0, g).unwrap();
-            for d in [
-                0.0f32,
-                -1.0,
-                1e6,
-                0.5,
-                0.0005,
-                0.999_999,
-                f32::MAX,
-                f32::NAN,
-            ] {
+            for d in [0.0f32, -1.0, 1e6, 0.5, 0.0005, 0.999_999, f32::MAX, f32::NAN] {
                 c.for_each(d, |_, s, ds| {
                     assert!(s.is_finite() && ds.is_finite(), "{p:?} {g:?} d {d}")
                 });
@@ -218,7 +201,6 @@ fn extreme_inputs_stay_finite() {
 fn bad_settings_name_the_field() {
     let e = Correlation::new(AXIS, Pulse::Gaussian { sigma_opl: 0.0 }, 0.0, Gate::Box).unwrap_err();
     assert!(e.to_string().contains("sigma_opl"));
-    let e =
-        Correlation::new(TimeAxis { bins: 0, ..AXIS }, Pulse::Delta, 0.0, Gate::Box).unwrap_err();
+    let e = Correlation::new(TimeAxis { bins: 0, ..AXIS }, Pulse::Delta, 0.0, Gate::Box).unwrap_err();
     assert!(e.to_string().contains("film.bins"));
 }

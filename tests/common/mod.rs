@@ -5,9 +5,7 @@ use difftransient::{RenderOptions, Scene, Transient, render};
 use std::path::PathBuf;
 
 pub fn scene_path(name: &str) -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("scenes")
-        .join(name)
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes").join(name)
 }
 
 pub fn load(name: &str) -> Scene {
