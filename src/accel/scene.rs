@@ -208,24 +208,23 @@ impl Accel {
     #[inline]
     pub fn intersect8(&self, rays: &Ray8, active: [bool; 8], coherent: bool) -> Hit8 {
         let valid = valid_lanes(rays, active);
-        let mut out = Hit8::default();
         if valid.0 == [0; 8] {
-            return out;
+            return Hit8::default();
         }
         let mut rh = rayhit8(rays);
         let mut ctx = ffi::init_intersect_context(coherent);
         // SAFETY: valid and rh are 32-byte aligned (repr(align(32))), as Embree requires; the
         // scene is committed. Inactive lanes are not read or written by Embree.
         unsafe { ffi::rtcIntersect8(valid.0.as_ptr(), self.scene, &mut ctx, &mut rh) };
-        for i in 0..8 {
-            if valid.0[i] != 0 && rh.hit.geomID[i] != ffi::RTC_INVALID_GEOMETRY_ID {
-                out.t[i] = rh.ray.tfar[i];
-                out.prim[i] = rh.hit.primID[i];
-                out.u[i] = rh.hit.u[i];
-                out.v[i] = rh.hit.v[i];
-            }
+        // Branch-free per lane, so it vectorises: a lane hit if it was valid and got a geometry.
+        let hit: [bool; 8] =
+            std::array::from_fn(|i| (valid.0[i] != 0) & (rh.hit.geomID[i] != ffi::RTC_INVALID_GEOMETRY_ID));
+        Hit8 {
+            t: std::array::from_fn(|i| if hit[i] { rh.ray.tfar[i] } else { f32::INFINITY }),
+            prim: std::array::from_fn(|i| if hit[i] { rh.hit.primID[i] } else { u32::MAX }),
+            u: std::array::from_fn(|i| if hit[i] { rh.hit.u[i] } else { 0.0 }),
+            v: std::array::from_fn(|i| if hit[i] { rh.hit.v[i] } else { 0.0 }),
         }
-        out
     }
 
     /// Per lane: true if blocked within `[tnear, tfar]`. Inactive or invalid lanes: false.
@@ -375,17 +374,23 @@ fn ray_ok(org: [f32; 3], dir: [f32; 3], tnear: f32, tfar: f32) -> bool {
         & (tnear <= tfar)
 }
 
+/// `active & ray_ok` per lane, eight lanes at once.
 #[inline(always)]
 fn valid_lanes(r: &Ray8, active: [bool; 8]) -> Valid8 {
-    Valid8::from(std::array::from_fn(|i| {
-        active[i]
-            & ray_ok(
-                [r.org_x[i], r.org_y[i], r.org_z[i]],
-                [r.dir_x[i], r.dir_y[i], r.dir_z[i]],
-                r.tnear[i],
-                r.tfar[i],
-            )
-    }))
+    use wide::{CmpGe, CmpLe, f32x8};
+    let big = f32x8::splat(FLT_LARGE);
+    let fin = |a: &[f32; 8]| f32x8::from(*a).abs().cmp_le(big);
+    let (tn, tf) = (f32x8::from(r.tnear), f32x8::from(r.tfar));
+    let ok = fin(&r.org_x)
+        & fin(&r.org_y)
+        & fin(&r.org_z)
+        & fin(&r.dir_x)
+        & fin(&r.dir_y)
+        & fin(&r.dir_z)
+        & tn.cmp_ge(f32x8::ZERO)
+        & tn.cmp_le(tf);
+    let bits = ok.move_mask();
+    Valid8(std::array::from_fn(|i| if active[i] { -((bits >> i) & 1) } else { 0 }))
 }
 
 /// An `RTCRay` with mask all-ones (a zero mask misses everything: ray masks are compiled
