@@ -129,33 +129,46 @@ impl TileFilm {
         });
     }
 
-    /// Adds the derivative of a path's contribution with respect to parameter `k`:
-    /// `ḟ · S_e(d) + f · Ṡ_e(d) · ḋ` (Algorithm 1), where `fdot` and `ddot` are the
-    /// derivatives of throughput and OPL.
+    /// Adds one path and its derivatives in a single pass over S_e.range(d) (S_e and Ṡ_e are
+    /// evaluated once for all films): `I += f·S_e(d)` and, for each parameter k,
+    /// `İ_k += ḟ_k·S_e(d) + f·Ṡ_e(d)·ḋ_k` (Algorithm 1). `fdot[k*C + c]` and `ddot[k]` are the
+    /// derivatives of throughput and OPL; `fdot.len() == ddot.len() * C`.
     #[inline]
-    pub fn add_deriv(
+    pub fn add_with_derivs(
         &mut self,
-        k: usize,
         x: usize,
         y: usize,
         corr: &Correlation,
         d: f32,
         f: &[f32],
         fdot: &[f32],
-        ddot: f32,
+        ddot: &[f32],
     ) {
         let p = (y - self.y0) * self.w + (x - self.x0);
         let c_n = self.channels;
-        let sb = self.w * self.h * c_n * (1 + k);
+        let n_k = ddot.len().min(self.derivs);
+        let sblock = self.w * self.h * c_n;
         for c in 0..c_n {
-            self.steady[sb + p * c_n + c] += fdot[c];
+            self.steady[p * c_n + c] += f[c];
         }
-        let base = self.block() * (1 + k) + p * self.bins * c_n;
+        for k in 0..n_k {
+            for c in 0..c_n {
+                self.steady[sblock * (1 + k) + p * c_n + c] += fdot[k * c_n + c];
+            }
+        }
+        let block = self.block();
+        let base = p * self.bins * c_n;
         let data = &mut self.data;
         corr.for_each(d, |bin, s, ds| {
             let i = base + bin * c_n;
             for c in 0..c_n {
-                data[i + c] += fdot[c] * s + f[c] * ds * ddot;
+                data[i + c] += f[c] * s;
+            }
+            for k in 0..n_k {
+                let ik = block * (1 + k) + i;
+                for c in 0..c_n {
+                    data[ik + c] += fdot[k * c_n + c] * s + f[c] * ds * ddot[k];
+                }
             }
         });
     }

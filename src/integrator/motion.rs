@@ -26,6 +26,10 @@ pub struct Motion {
     pub eta: Vec<bool>,
     /// `pulse_offset[k]`: parameter k is this emitter's pulse offset τ (∂S_e/∂τ = ∂S_e/∂d).
     pub pulse_offset: Vec<Option<usize>>,
+    /// `table[k * shapes + s]`: summed velocity field of shape s under parameter k (zero where
+    /// it does not move), for O(1) lookups in the vertex gather.
+    table: Vec<Velocity>,
+    shapes: usize,
 }
 
 impl Motion {
@@ -36,8 +40,8 @@ impl Motion {
     /// Velocity of world point `x` of `shape` under parameter `k`.
     #[inline]
     pub fn velocity(&self, k: usize, shape: usize, x: Vec3) -> Vec3 {
-        match self.fields.get(k) {
-            Some(f) => f.iter().filter(|(s, _)| *s == shape).map(|(_, v)| v.a * x + v.b).sum(),
+        match self.table.get(k * self.shapes + shape) {
+            Some(v) => v.a * x + v.b,
             None => Vec3::ZERO,
         }
     }
@@ -151,6 +155,21 @@ impl Motion {
             m.radiance.push(radiance);
             m.eta.push(eta);
             m.pulse_offset.push(offset);
+        }
+        m.shapes = scene.shapes.len();
+        m.table = vec![
+            Velocity {
+                a: Mat3::ZERO,
+                b: Vec3::ZERO
+            };
+            m.fields.len() * m.shapes
+        ];
+        for (k, fields) in m.fields.iter().enumerate() {
+            for (s, v) in fields {
+                let t = &mut m.table[k * m.shapes + s];
+                t.a += v.a;
+                t.b += v.b;
+            }
         }
         Ok(m)
     }

@@ -238,13 +238,21 @@ fn splat<R: Real, const C: usize>(
         let corr = &ctx.correlations[emitter[i] as usize];
         let offset_lane = |k: usize| ctx.motion.pulse_offset[k] == Some(emitter[i] as usize);
         let (x, y) = (lanes.px[i] as usize, lanes.py[i] as usize);
-        film.add(x, y, corr, di, &f);
-        for k in 0..R::DERIVS.min(ctx.motion.len()) {
-            let fdot: [f32; C] = std::array::from_fn(|c| contrib.0[c].deriv_lane(k, i));
-            // S_e depends on d + τ, so a pulse offset adds ∂d/∂τ = 1 (temporal.rs)
-            let ddot = d.deriv_lane(k, i) + if offset_lane(k) { 1.0 } else { 0.0 };
-            film.add_deriv(k, x, y, corr, di, &f, &fdot, ddot);
+        if R::DERIVS == 0 {
+            film.add(x, y, corr, di, &f);
+            continue;
         }
+        let n_k = R::DERIVS.min(ctx.motion.len()).min(16);
+        let mut fdot = [0.0f32; 48];
+        let mut ddot = [0.0f32; 16];
+        for k in 0..n_k {
+            for c in 0..C {
+                fdot[k * C + c] = contrib.0[c].deriv_lane(k, i);
+            }
+            // S_e depends on d + τ, so a pulse offset adds ∂d/∂τ = 1 (temporal.rs)
+            ddot[k] = d.deriv_lane(k, i) + if offset_lane(k) { 1.0 } else { 0.0 };
+        }
+        film.add_with_derivs(x, y, corr, di, &f, &fdot[..n_k * C], &ddot[..n_k]);
     }
 }
 
