@@ -7,10 +7,10 @@
 //!
 //! Run: `cargo bench --bench forward` (set DTR_BENCH_SPP / DTR_BENCH_THREADS to change).
 
+mod common;
+use common::{bounce_rays, camera_rays, rel_l2, shadow_rays};
 use difftransient::accel::{Accel, Device, Ray8, set_flush_denormals};
-use difftransient::integrator::camera::CameraSampler;
 use difftransient::{RenderOptions, Scene, Transient, render};
-use glam::Vec3;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -141,96 +141,4 @@ fn reference(scene: &Scene, root: &std::path::Path) -> Transient {
     let bytes: Vec<u8> = r.data.iter().chain(&r.steady).flat_map(|v| v.to_le_bytes()).collect();
     std::fs::write(&path, bytes).unwrap();
     r
-}
-
-fn rel_l2(a: &[f32], b: &[f32]) -> f64 {
-    let num: f64 = a.iter().zip(b).map(|(x, y)| ((x - y) as f64).powi(2)).sum();
-    let den: f64 = b.iter().map(|y| (*y as f64).powi(2)).sum();
-    (num / den.max(1e-300)).sqrt()
-}
-
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> f32 {
-        self.0 = self
-            .0
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        (self.0 >> 40) as f32 / (1u64 << 24) as f32
-    }
-}
-
-fn point_on_scene(scene: &Scene, rng: &mut Rng) -> (Vec3, Vec3) {
-    let g = &scene.geometry;
-    let t = ((rng.next() * g.indices.len() as f32) as usize).min(g.indices.len() - 1);
-    let [a, b, c] = g.indices[t].map(|i| g.positions[i as usize]);
-    let (s, r) = (rng.next().sqrt(), rng.next());
-    (
-        a + (b - a) * s * (1.0 - r) + (c - a) * s * r,
-        (b - a).cross(c - a).normalize(),
-    )
-}
-
-fn bounce_rays(scene: &Scene, n: usize, seed: u64) -> Vec<Ray8> {
-    let mut rng = Rng(seed);
-    (0..n / 8)
-        .map(|_| {
-            let mut r = Ray8::default();
-            for i in 0..8 {
-                let (p, nrm) = point_on_scene(scene, &mut rng);
-                let d = loop {
-                    let v = Vec3::new(rng.next() * 2.0 - 1.0, rng.next() * 2.0 - 1.0, rng.next() * 2.0 - 1.0);
-                    if v.length_squared() <= 1.0 && v.length_squared() > 1e-6 {
-                        break v.normalize();
-                    }
-                };
-                let d = if d.dot(nrm) < 0.0 { -d } else { d };
-                let o = p + nrm * 1e-4;
-                (r.org_x[i], r.org_y[i], r.org_z[i]) = (o.x, o.y, o.z);
-                (r.dir_x[i], r.dir_y[i], r.dir_z[i]) = (d.x, d.y, d.z);
-                r.tfar[i] = f32::INFINITY;
-            }
-            r
-        })
-        .collect()
-}
-
-fn shadow_rays(scene: &Scene, n: usize, seed: u64) -> Vec<Ray8> {
-    let mut rng = Rng(seed);
-    (0..n / 8)
-        .map(|_| {
-            let mut r = Ray8::default();
-            for i in 0..8 {
-                let (p, _) = point_on_scene(scene, &mut rng);
-                let (q, _) = point_on_scene(scene, &mut rng);
-                let d = q - p;
-                let len = d.length().max(1e-3);
-                (r.org_x[i], r.org_y[i], r.org_z[i]) = (p.x, p.y, p.z);
-                (r.dir_x[i], r.dir_y[i], r.dir_z[i]) = (d.x / len, d.y / len, d.z / len);
-                r.tnear[i] = 1e-4;
-                r.tfar[i] = len - 1e-4;
-            }
-            r
-        })
-        .collect()
-}
-
-fn camera_rays(scene: &Scene) -> Vec<Ray8> {
-    let (w, h) = (scene.film.width, scene.film.height);
-    let cam = CameraSampler::new(&scene.camera, w, h, scene.film.filter);
-    let mut out = Vec::new();
-    for y in 0..h {
-        for x0 in (0..w).step_by(8) {
-            let mut r = Ray8::default();
-            for i in 0..8 {
-                let d = cam.direction((x0 + i as u32).min(w - 1) as f32 + 0.5, y as f32 + 0.5);
-                let o = scene.camera.position;
-                (r.org_x[i], r.org_y[i], r.org_z[i]) = (o.x, o.y, o.z);
-                (r.dir_x[i], r.dir_y[i], r.dir_z[i]) = (d.x, d.y, d.z);
-                r.tfar[i] = f32::INFINITY;
-            }
-            out.push(r);
-        }
-    }
-    out
 }

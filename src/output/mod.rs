@@ -19,6 +19,7 @@ mod plot;
 mod png;
 mod preview;
 mod tonemap;
+mod xy_plot;
 
 pub use error::OutputError;
 pub use exr_layers::{write_exr_layers, write_exr_layers_with_axis};
@@ -27,6 +28,7 @@ pub use json::write_json;
 pub use npy::write_npy;
 pub use plot::write_time_plot;
 pub use preview::{MAX_SHEET_FRAMES, write_contact_sheet, write_steady_png};
+pub use xy_plot::write_loglog_plot;
 
 use std::path::Path;
 

@@ -1,0 +1,316 @@
+//! Speed against error: the benchmark harness.
+//!
+//! For each workload it renders a high-spp reference once (cached in target/bench-cache, the
+//! settings in the file name), then renders at increasing spp and reports, per run: wall and
+//! CPU seconds, paths per CPU-second, rays/s, the rays/s of bare Embree on rays of the same
+//! kinds and counts (measured in the same run) and the ratio, peak RSS, and the error against
+//! the reference (relative L2 of the transient, of the time-summed image, per bin; for
+//! derivative workloads also of the derivative). Writes bench-out/harness.csv and
+//! bench-out/error_vs_time.png (one line per workload and estimator).
+//!
+//! Run: `cargo bench --bench harness` (DTR_HARNESS_QUICK=1 for a short run).
+//! Workloads: the Cornell box (forward, path tracer); the Cornell box with a Gaussian pulse and
+//! one pose parameter (interior derivative); the Cornell box plus a ~1M-triangle bumpy sphere.
+
+mod common;
+use common::{bounce_rays, camera_rays, rel_l2, shadow_rays};
+use difftransient::accel::{Accel, Device, Ray8, set_flush_denormals};
+use difftransient::scene::{Axis, Param, ParamKind};
+use difftransient::temporal::Pulse;
+use difftransient::{RenderOptions, RenderStats, Scene, Transient, render, render_diff};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+struct Workload {
+    name: &'static str,
+    scene: Scene,
+    diff: Vec<String>,
+}
+
+fn main() {
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    let quick = std::env::var("DTR_HARNESS_QUICK").is_ok();
+    let threads = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1);
+    let spps: Vec<u32> = if quick {
+        vec![1, 4, 16]
+    } else {
+        vec![1, 2, 4, 8, 16, 32, 64]
+    };
+    let ref_spp: u32 = if quick { 256 } else { 2048 };
+    let out = root.join("bench-out");
+    std::fs::create_dir_all(&out).unwrap();
+    let cornell = Scene::load(&root.join("scenes/cornell_box.toml"), &[]).unwrap();
+    let workloads = vec![
+        Workload {
+            name: "cornell",
+            scene: cornell.clone(),
+            diff: vec![],
+        },
+        Workload {
+            name: "cornell_diff",
+            scene: with_pose_param(cornell.clone()),
+            diff: vec!["tall_box_x".into()],
+        },
+        Workload {
+            name: "million",
+            scene: million(&root),
+            diff: vec![],
+        },
+    ];
+    let mut csv = String::from(
+        "workload,estimator,spp,threads,wall_s,cpu_s,paths_per_cpu_s,rays_per_s,bare_embree_rays_per_s,ratio_to_bare,\
+         peak_rss_mb,rel_l2_transient,rel_l2_image,median_bin_rel_l2,worst_bin_rel_l2,rel_l2_derivative\n",
+    );
+    let mut series: Vec<(String, Vec<(f64, f64)>)> = Vec::new();
+    for w in &workloads {
+        let tris = w.scene.geometry.indices.len();
+        let reference = cached_reference(&root, w, ref_spp);
+        let estimator = if w.diff.is_empty() { "path" } else { "path+interior" };
+        let mut pts = Vec::new();
+        for &spp in &spps {
+            let opts = RenderOptions {
+                spp: Some(spp),
+                seed: Some(1),
+                threads: Some(threads),
+                ..Default::default()
+            };
+            let (t, d, st) = run(w, &opts);
+            let bare = bare_embree_rate(&w.scene, &st, threads);
+            let (med, worst) = per_bin(&t, &reference.0);
+            let e_t = rel_l2(&t.data, &reference.0.data);
+            let e_d = d
+                .first()
+                .zip(reference.1.first())
+                .map(|(a, b)| rel_l2(&a.data, &b.data));
+            let rays = (st.intersect_rays + st.occluded_rays) as f64;
+            let line = format!(
+                "{},{},{},{},{:.4},{:.4},{:.4e},{:.4e},{:.4e},{:.3},{:.1},{:.5},{:.5},{:.5},{:.5},{}\n",
+                w.name,
+                estimator,
+                spp,
+                threads,
+                st.wall_seconds,
+                st.cpu_seconds,
+                st.paths_per_cpu_second,
+                st.rays_per_second,
+                bare,
+                (rays / st.wall_seconds) / bare,
+                peak_rss_mb(),
+                e_t,
+                rel_l2(&t.steady, &reference.0.steady),
+                med,
+                worst,
+                e_d.map_or("".into(), |e| format!("{e:.5}"))
+            );
+            print!("{} ({tris} triangles): {line}", w.name);
+            csv.push_str(&line);
+            pts.push((st.wall_seconds, e_d.unwrap_or(e_t)));
+        }
+        let what = if w.diff.is_empty() { "transient" } else { "derivative" };
+        series.push((format!("{} {estimator} ({what})", w.name), pts));
+    }
+    std::fs::write(out.join("harness.csv"), csv).unwrap();
+    difftransient::output::write_loglog_plot(
+        &out.join("error_vs_time.png"),
+        "error against time",
+        "wall seconds (2 threads)",
+        "relative L2 error vs reference",
+        &series,
+    )
+    .unwrap();
+    println!("wrote {}/harness.csv and error_vs_time.png", out.display());
+}
+
+fn run(w: &Workload, opts: &RenderOptions) -> (Transient, Vec<Transient>, RenderStats) {
+    if w.diff.is_empty() {
+        let (t, s) = render(&w.scene, opts).unwrap();
+        (t, Vec::new(), s)
+    } else {
+        render_diff(&w.scene, &w.diff, opts).unwrap()
+    }
+}
+
+/// The Cornell box with a Gaussian pulse and the tall box's x position as a parameter.
+fn with_pose_param(mut s: Scene) -> Scene {
+    for e in &mut s.emitters {
+        e.pulse = Pulse::Gaussian { sigma_opl: 0.01 };
+    }
+    let tall = s.shapes.iter().position(|x| x.name == "tall_box").unwrap() as u32;
+    let value = s.shapes[tall as usize].transform.translate.x;
+    s.params.push(Param {
+        name: "tall_box_x".into(),
+        kind: ParamKind::Translate {
+            shape: tall,
+            axis: Axis::X,
+        },
+        value,
+    });
+    s
+}
+
+/// The Cornell box plus a bumpy sphere of ~1M triangles (an OBJ generated once into the cache).
+fn million(root: &Path) -> Scene {
+    let dir = root.join("target/bench-cache");
+    std::fs::create_dir_all(&dir).unwrap();
+    let obj = dir.join("bumpy_sphere_1m.obj");
+    if !obj.exists() {
+        let (nu, nv) = (1000usize, 500usize); // 2·nu·(nv−1) ≈ 1M triangles
+        let mut f = std::io::BufWriter::new(std::fs::File::create(&obj).unwrap());
+        for j in 0..=nv {
+            let th = std::f64::consts::PI * j as f64 / nv as f64;
+            for i in 0..nu {
+                let ph = 2.0 * std::f64::consts::PI * i as f64 / nu as f64;
+                let r = 1.0 + 0.03 * (13.0 * ph).sin() * (11.0 * th).sin();
+                writeln!(
+                    f,
+                    "v {} {} {}",
+                    r * th.sin() * ph.cos(),
+                    r * th.cos(),
+                    r * th.sin() * ph.sin()
+                )
+                .unwrap();
+            }
+        }
+        for j in 0..nv {
+            for i in 0..nu {
+                let a = j * nu + i + 1;
+                let b = j * nu + (i + 1) % nu + 1;
+                let (c, d) = (a + nu, b + nu);
+                if j > 0 {
+                    writeln!(f, "f {a} {c} {b}").unwrap();
+                }
+                if j < nv - 1 {
+                    writeln!(f, "f {b} {c} {d}").unwrap();
+                }
+            }
+        }
+    }
+    let text = std::fs::read_to_string(root.join("scenes/cornell_box.toml")).unwrap().replace(
+        "[[shape]]\nname = \"floor\"",
+        &format!(
+            "[[shape]]\nname = \"bumpy\"\ntype = \"obj\"\nfile = \"{}\"\nmaterial = \"white\"\ntranslate = [0.3, 1.2, 0.3]\nscale = 0.3\n\n[[shape]]\nname = \"floor\"",
+            obj.display()
+        ),
+    );
+    let path = dir.join("million.toml");
+    std::fs::write(&path, text).unwrap();
+    Scene::load(&path, &[]).unwrap()
+}
+
+/// (transient, derivatives) at `spp`, cached by workload name and settings.
+fn cached_reference(root: &Path, w: &Workload, spp: u32) -> (Transient, Vec<Transient>) {
+    let f = &w.scene.film;
+    let key = format!(
+        "{}_{}x{}_{}x{}_b{}_spp{spp}_seed777",
+        w.name, f.width, f.height, f.axis.bins, f.axis.bin_width_opl, w.scene.integrator.max_bounces
+    );
+    let path = root.join("target/bench-cache").join(format!("{key}.bin"));
+    let n = f.width as usize * f.height as usize;
+    let sizes = (n * f.axis.bins * f.channels, n * f.channels);
+    let films = 1 + w.diff.len();
+    if let Ok(bytes) = std::fs::read(&path) {
+        let v: Vec<f32> = bytes
+            .chunks_exact(4)
+            .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+            .collect();
+        if v.len() == films * (sizes.0 + sizes.1) {
+            let mut all = v.chunks_exact(sizes.0 + sizes.1).map(|c| {
+                let mut t = Transient::zeros(f.width as usize, f.height as usize, f.axis, f.channels);
+                t.data.copy_from_slice(&c[..sizes.0]);
+                t.steady.copy_from_slice(&c[sizes.0..]);
+                t
+            });
+            let p = all.next().unwrap();
+            return (p, all.collect());
+        }
+    }
+    eprintln!(
+        "rendering the {spp}-spp reference for {} once ({})",
+        w.name,
+        path.display()
+    );
+    let opts = RenderOptions {
+        spp: Some(spp),
+        seed: Some(777),
+        ..Default::default()
+    };
+    let (t, d, _) = run(w, &opts);
+    let bytes: Vec<u8> = std::iter::once(&t)
+        .chain(&d)
+        .flat_map(|x| x.data.iter().chain(&x.steady))
+        .flat_map(|v| v.to_le_bytes())
+        .collect();
+    std::fs::write(&path, bytes).unwrap();
+    (t, d)
+}
+
+/// Median and worst relative L2 error over bins holding at least 1% of the peak bin energy.
+fn per_bin(t: &Transient, r: &Transient) -> (f64, f64) {
+    let bins = t.axis.bins;
+    let c = t.channels;
+    let mut num = vec![0.0f64; bins];
+    let mut den = vec![0.0f64; bins];
+    for (a, b) in t.data.chunks_exact(bins * c).zip(r.data.chunks_exact(bins * c)) {
+        for l in 0..bins {
+            for k in 0..c {
+                num[l] += ((a[l * c + k] - b[l * c + k]) as f64).powi(2);
+                den[l] += (b[l * c + k] as f64).powi(2);
+            }
+        }
+    }
+    let peak = den.iter().cloned().fold(0.0, f64::max);
+    let mut errs: Vec<f64> = (0..bins)
+        .filter(|&l| den[l] >= 1e-2 * peak && den[l] > 0.0)
+        .map(|l| (num[l] / den[l]).sqrt())
+        .collect();
+    if errs.is_empty() {
+        return (0.0, 0.0);
+    }
+    errs.sort_by(f64::total_cmp);
+    (errs[errs.len() / 2], *errs.last().unwrap())
+}
+
+/// Bare Embree rays/s (wall, `threads` threads) on rays of the same kinds and counts as `st`.
+fn bare_embree_rate(scene: &Scene, st: &RenderStats, threads: usize) -> f64 {
+    let dev = Device::new("").unwrap();
+    let pos: Vec<[f32; 3]> = scene.geometry.positions.iter().map(|p| p.to_array()).collect();
+    let accel = Accel::build(&dev, &pos, &scene.geometry.indices).unwrap();
+    let n_primary = (scene.film.width * scene.film.height) as u64 * st.spp as u64;
+    let n_bounce = st.intersect_rays.saturating_sub(n_primary);
+    let (primary, bounce, shadow) = (
+        camera_rays(scene),
+        bounce_rays(scene, 1 << 14, 7),
+        shadow_rays(scene, 1 << 14, 11),
+    );
+    let pool = difftransient::render::thread_pool(Some(threads)).unwrap();
+    let time = |rays: &[Ray8], count: u64, f: &(dyn Fn(&[Ray8]) -> usize + Sync)| -> f64 {
+        let packets = count.div_ceil(8) as usize;
+        let t0 = Instant::now();
+        pool.install(|| {
+            use rayon::prelude::*;
+            (0..packets.div_ceil(rays.len())).into_par_iter().for_each(|chunk| {
+                set_flush_denormals();
+                let n = rays.len().min(packets - chunk * rays.len());
+                std::hint::black_box(f(&rays[..n]));
+            });
+        });
+        t0.elapsed().as_secs_f64()
+    };
+    let t = time(&primary, n_primary, &|r| accel.raw_intersect8_batch(r, true))
+        + time(&bounce, n_bounce, &|r| accel.raw_intersect8_batch(r, false))
+        + time(&shadow, st.occluded_rays, &|r| accel.raw_occluded8_batch(r, false));
+    (st.intersect_rays + st.occluded_rays) as f64 / t.max(1e-9)
+}
+
+/// Peak resident set size of this process so far (VmHWM), MiB.
+fn peak_rss_mb() -> f64 {
+    std::fs::read_to_string("/proc/self/status")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("VmHWM:"))
+                .and_then(|l| l.split_whitespace().nth(1)?.parse::<f64>().ok())
+        })
+        .map_or(0.0, |kb| kb / 1024.0)
+}
