@@ -111,7 +111,7 @@ fn packets_equal_single_rays_lane_by_lane() {
         if k % 7 == 0 {
             r.org_x[3] = f32::NAN; // invalid lane: a miss, never sent to Embree
         }
-        let active: [bool; 8] = std::array::from_fn(|_| rng.next() % 4 != 0);
+        let active: [bool; 8] = std::array::from_fn(|_| !rng.next().is_multiple_of(4));
         let coherent = k % 2 == 0;
         let h8 = a.intersect8(&r, active, coherent);
         let o8 = a.occluded8(&r, active, coherent);
