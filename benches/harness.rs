@@ -60,7 +60,7 @@ fn main() {
     ];
     let mut csv = String::from(
         "workload,estimator,spp,threads,wall_s,cpu_s,paths_per_cpu_s,rays_per_s,bare_embree_rays_per_s,ratio_to_bare,\
-         peak_rss_mb,rel_l2_transient,rel_l2_image,median_bin_rel_l2,worst_bin_rel_l2,rel_l2_derivative\n",
+         peak_rss_mb,rel_l2_transient,rel_l2_image,median_bin_rel_l2,worst_bin_rel_l2,rel_l2_derivative,tracing_s,shading_s,film_s\n",
     );
     let mut series: Vec<(String, Vec<(f64, f64)>)> = Vec::new();
     for w in &workloads {
@@ -85,7 +85,7 @@ fn main() {
                 .map(|(a, b)| rel_l2(&a.data, &b.data));
             let rays = (st.intersect_rays + st.occluded_rays) as f64;
             let line = format!(
-                "{},{},{},{},{:.4},{:.4},{:.4e},{:.4e},{:.4e},{:.3},{:.1},{:.5},{:.5},{:.5},{:.5},{}\n",
+                "{},{},{},{},{:.4},{:.4},{:.4e},{:.4e},{:.4e},{:.3},{:.1},{:.5},{:.5},{:.5},{:.5},{},{:.4},{:.4},{:.4}\n",
                 w.name,
                 estimator,
                 spp,
@@ -101,7 +101,10 @@ fn main() {
                 rel_l2(&t.steady, &reference.0.steady),
                 med,
                 worst,
-                e_d.map_or("".into(), |e| format!("{e:.5}"))
+                e_d.map_or("".into(), |e| format!("{e:.5}")),
+                st.phase_seconds.tracing,
+                st.phase_seconds.shading,
+                st.phase_seconds.film
             );
             print!("{} ({tris} triangles): {line}", w.name);
             csv.push_str(&line);

@@ -21,6 +21,7 @@ pub mod output;
 pub mod render;
 pub mod scene;
 pub mod temporal;
+pub mod timing;
 
 pub use error::Error;
 pub use film::Transient;

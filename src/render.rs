@@ -59,6 +59,16 @@ pub struct RenderStats {
     /// Samples dropped because they were not finite (should be 0; reported, never hidden).
     pub non_finite_samples: u64,
     pub bvh_build_seconds: f64,
+    /// Where the CPU time went: Embree queries, shading/sampling (the rest of the kernel and
+    /// driver), and film binning; seconds, summing to `cpu_seconds` of the tiles.
+    pub phase_seconds: PhaseSeconds,
+}
+
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct PhaseSeconds {
+    pub tracing: f64,
+    pub shading: f64,
+    pub film: f64,
 }
 
 /// CPU time (user + system) of this process, seconds.
@@ -168,6 +178,7 @@ fn render_films(scene: &Scene, motion: Motion, opts: &RenderOptions) -> Result<(
                 let th = TILE.min(h - y0);
                 let mut film = TileFilm::new(x0, y0, tw, th, &axis, channels, derivs);
                 let mut counts = PathCounts::default();
+                let tick0 = crate::timing::ticks();
                 let (f, c) = (&mut film, &mut counts);
                 match (derivs, opts.lanes, channels) {
                     (0, Lanes::Simd8, 1) => render_tile::<f32x8, 1>(&ctx, seed, spp, w, f, c),
@@ -185,6 +196,7 @@ fn render_films(scene: &Scene, motion: Motion, opts: &RenderOptions) -> Result<(
                     (_, _, 1) => render_tile::<Dual8<16>, 1>(&ctx, seed, spp, w, f, c),
                     (_, _, _) => render_tile::<Dual8<16>, 3>(&ctx, seed, spp, w, f, c),
                 }
+                counts.total_ticks = crate::timing::ticks() - tick0;
                 bar.inc(1);
                 (film, counts)
             })
@@ -205,12 +217,22 @@ fn render_films(scene: &Scene, motion: Motion, opts: &RenderOptions) -> Result<(
         bvh_build_seconds,
         ..Default::default()
     };
+    let mut ticks = (0u64, 0u64, 0u64);
     for (tile, c) in &results {
         tile.merge_into(&mut out);
         stats.intersect_rays += c.rays.intersect;
         stats.occluded_rays += c.rays.occluded;
         stats.non_finite_samples += c.non_finite;
+        ticks.0 += c.rays.trace_ticks;
+        ticks.1 += c.film_ticks;
+        ticks.2 += c.total_ticks;
     }
+    let total = ticks.2.max(1) as f64;
+    stats.phase_seconds = PhaseSeconds {
+        tracing: cpu * ticks.0 as f64 / total,
+        film: cpu * ticks.1 as f64 / total,
+        shading: cpu * (ticks.2.saturating_sub(ticks.0 + ticks.1)) as f64 / total,
+    };
     out.iter_mut().for_each(|t| t.scale(1.0 / spp as f32));
     let rays = (stats.intersect_rays + stats.occluded_rays) as f64;
     stats.paths_per_cpu_second = stats.paths as f64 / cpu;

@@ -207,6 +207,7 @@ fn metadata(scene: &Scene, film: &Transient, stats: &RenderStats, a: &RenderArgs
         "rays_per_cpu_second": stats.rays_per_cpu_second,
         "bvh_build_seconds": stats.bvh_build_seconds,
         "non_finite_samples": stats.non_finite_samples,
+        "phase_seconds": stats.phase_seconds,
         "version": env!("CARGO_PKG_VERSION"),
     })
 }

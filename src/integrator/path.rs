@@ -36,6 +36,10 @@ pub struct PathCounts {
     pub rays: RayCounts,
     /// Samples dropped because they were not finite (reported, never written to the film).
     pub non_finite: u64,
+    /// Ticks spent adding contributions to the film (binning through S_e).
+    pub film_ticks: u64,
+    /// Ticks spent in the whole tile (set by the render driver).
+    pub total_ticks: u64,
 }
 
 /// Traces `R::LANES` paths and adds their contributions to `film`.
@@ -218,6 +222,7 @@ fn splat<R: Real, const C: usize>(
     mask: R::Mask,
     counts: &mut PathCounts,
 ) {
+    let t0 = crate::timing::ticks();
     for i in 0..R::LANES {
         if !mask.bit(i) || emitter[i] == u32::MAX {
             continue;
@@ -254,6 +259,7 @@ fn splat<R: Real, const C: usize>(
         }
         film.add_with_derivs(x, y, corr, di, &f, &fdot[..n_k * C], &ddot[..n_k]);
     }
+    counts.film_ticks += crate::timing::ticks() - t0;
 }
 
 /// The point where the ray `o + t·ω` meets the plane through `p` with normal `n`, with `p`

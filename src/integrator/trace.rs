@@ -17,6 +17,8 @@ pub struct HitLanes<V> {
 pub struct RayCounts {
     pub intersect: u64,
     pub occluded: u64,
+    /// Ticks spent in Embree queries (see `crate::timing`).
+    pub trace_ticks: u64,
 }
 
 fn pack<V: Real>(o: &V3<V>, d: &V3<V>, tnear: V, tfar: V) -> Ray8 {
@@ -54,6 +56,7 @@ pub fn intersect<V: Real>(
     coherent: bool,
     counts: &mut RayCounts,
 ) -> HitLanes<V> {
+    let t0 = crate::timing::ticks();
     let mut prim = [u32::MAX; 8];
     let mut t = [0.0f32; 8];
     let mut u = [0.0f32; 8];
@@ -83,6 +86,7 @@ pub fn intersect<V: Real>(
             }
         }
     }
+    counts.trace_ticks += crate::timing::ticks() - t0;
     HitLanes {
         t: V::from_lanes(&t),
         u: V::from_lanes(&u),
@@ -101,6 +105,7 @@ pub fn unoccluded<V: Real>(
     active: V::Mask,
     counts: &mut RayCounts,
 ) -> V::Mask {
+    let t0 = crate::timing::ticks();
     let act = bools(active, V::LANES);
     counts.occluded += act.iter().filter(|&&a| a).count() as u64;
     let mut free = [false; 8];
@@ -116,5 +121,6 @@ pub fn unoccluded<V: Real>(
             free[i] = act[i] && !blocked[i];
         }
     }
+    counts.trace_ticks += crate::timing::ticks() - t0;
     V::Mask::from_bools(&free[..V::LANES])
 }
