@@ -60,6 +60,8 @@ pub fn write_loglog_plot(
                 .configure_mesh()
                 .x_desc(x_label)
                 .y_desc(y_label)
+                .x_label_formatter(&|v| short(*v))
+                .y_label_formatter(&|v| short(*v))
                 .label_style((FAMILY, 14))
                 .axis_desc_style((FAMILY, 16))
                 .draw()?;
@@ -74,6 +76,7 @@ pub fn write_loglog_plot(
             }
             chart
                 .configure_series_labels()
+                .position(SeriesLabelPosition::UpperRight)
                 .background_style(WHITE.mix(0.9))
                 .border_style(BLACK)
                 .label_font((FAMILY, 14))
@@ -84,4 +87,14 @@ pub fn write_loglog_plot(
         draw().map_err(|e| OutputError::encode(path, "PNG plot", e))?;
     }
     write_png(path, &pixels, W, H, 3)
+}
+
+/// A compact tick label: up to 3 significant digits, no float noise.
+fn short(v: f64) -> String {
+    if v == 0.0 {
+        return "0".into();
+    }
+    let digits = (2 - v.abs().log10().floor() as i32).max(0) as usize;
+    let s = format!("{v:.digits$}");
+    if s.contains('.') { s.trim_end_matches('0').trim_end_matches('.').to_string() } else { s }
 }
