@@ -1,0 +1,114 @@
+#!/usr/bin/env python3
+"""Peer comparison against mitransient (Mitsuba 3, LLVM backend, CPU). Optional, not in CI.
+
+Setup and run with benches/peer/run.sh. It renders scenes/cornell_box.toml with `dtr` and the
+same scene, rebuilt from the TOML, with mitransient's transient_path integrator at equal
+settings (resolution, bins, bin width, start, max depth = max_bounces + 1, Russian roulette
+off, box pixel filter, camera segment counted). It checks first that the two transients agree
+within noise (time-summed image and per-bin totals), then reports in one run:
+  - our paths per CPU-second / theirs,
+  - our error at equal time / theirs (errors against a high-spp dtr reference, scaled to equal
+    time by error ∝ 1/√time).
+"""
+import json, math, os, subprocess, sys, time, tomllib
+import numpy as np
+import mitsuba as mi
+
+mi.set_variant("llvm_ad_rgb")
+import mitransient as mitr  # noqa: E402,F401
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+SCENE = os.path.join(ROOT, "scenes", "cornell_box.toml")
+DTR = os.path.join(ROOT, "target", "release", "dtr")
+SPP = int(os.environ.get("PEER_SPP", "64"))
+REF_SPP = int(os.environ.get("PEER_REF_SPP", "1024"))
+OUT = os.path.join(ROOT, "bench-out", "peer")
+
+
+def rgb(v):
+    return [float(v)] * 3 if isinstance(v, (int, float)) else [float(x) for x in v]
+
+
+def to_world(s):
+    T = mi.ScalarTransform4f
+    t = s.get("translate", [0, 0, 0])
+    r = s.get("rotate", [0, 0, 0])
+    sc = s.get("scale", 1.0)
+    sc = [sc] * 3 if isinstance(sc, (int, float)) else sc
+    # ours: x_world = t + Rz·Ry·Rx·(s ∘ x), X applied first
+    return (T().translate(t) @ T().rotate([0, 0, 1], r[2]) @ T().rotate([0, 1, 0], r[1])
+            @ T().rotate([1, 0, 0], r[0]) @ T().scale(sc))
+
+
+def mitsuba_scene(d, max_depth):
+    cam, film = d["camera"], d["film"]
+    w, h = cam.get("resolution", [64, 64])
+    pos, at, up = cam["position"], cam["look_at"], cam.get("up", [0, 1, 0])
+    sc = {
+        "type": "scene",
+        "integrator": {"type": "transient_path", "max_depth": max_depth, "rr_depth": 1000, "camera_unwarp": bool(film.get("unwarp", False))},
+        "sensor": {
+            "type": "perspective", "fov_axis": "y", "fov": float(cam.get("fov", 40.0)),
+            "to_world": mi.ScalarTransform4f().look_at(origin=pos, target=at, up=up),
+            "sampler": {"type": "independent", "sample_count": SPP},
+            "film": {"type": "transient_hdr_film", "width": w, "height": h, "rfilter": {"type": "box"},
+                     "temporal_bins": int(film["bins"]), "start_opl": float(film.get("start_opl", 0.0)),
+                     "bin_width_opl": float(film["bin_width_opl"])},
+        },
+    }
+    mats = {m["name"]: {"type": "diffuse", "reflectance": {"type": "rgb", "value": rgb(m["albedo"])}} for m in d["material"]}
+    emit = {e["shape"]: e for e in d.get("emitter", []) if e["type"] == "area"}
+    for s in d["shape"]:
+        kind = {"rectangle": "rectangle", "cube": "cube"}[s["type"]]
+        shape = {"type": kind, "to_world": to_world(s), "bsdf": mats[s["material"]]}
+        if s["name"] in emit:
+            shape["emitter"] = {"type": "area", "radiance": {"type": "rgb", "value": rgb(emit[s["name"]]["radiance"])}}
+        sc[s["name"]] = shape
+    return sc
+
+
+def run_dtr(spp, seed, prefix):
+    subprocess.run([DTR, "render", SCENE, "--spp", str(spp), "--seed", str(seed), "-o", prefix, "-q"], check=True)
+    with open(prefix + ".json") as f:
+        return np.load(prefix + ".npy"), json.load(f)
+
+
+def rel_l2(a, b):
+    return float(np.sqrt(((a - b) ** 2).sum() / (b ** 2).sum()))
+
+
+def main():
+    os.makedirs(OUT, exist_ok=True)
+    with open(SCENE, "rb") as f:
+        d = tomllib.load(f)
+    max_depth = int(d.get("integrator", {}).get("max_bounces", 8)) + 1
+    ref, _ = run_dtr(REF_SPP, 777, os.path.join(OUT, "ref"))
+    ours, meta = run_dtr(SPP, 1, os.path.join(OUT, "ours"))
+    t_ours, cpu_ours = meta["wall_seconds"], meta["cpu_seconds"]
+
+    scene = mi.load_dict(mitsuba_scene(d, max_depth))
+    mi.render(scene, spp=1)  # JIT warm-up, not timed
+    c0, w0 = time.process_time(), time.perf_counter()
+    _, transient = mi.render(scene, spp=SPP, seed=1)
+    theirs = np.array(transient)
+    t_theirs, cpu_theirs = time.perf_counter() - w0, time.process_time() - c0
+    theirs = theirs[..., :3]
+    print("shapes: ours", ours.shape, "theirs", theirs.shape)
+    paths = ours.shape[0] * ours.shape[1] * SPP
+
+    # agreement within noise: image totals and per-bin totals vs the reference
+    tot = lambda a: float(a.sum())
+    bins = lambda a: a.sum(axis=(0, 1, 3))
+    print(f"total energy: ours {tot(ours):.4f}, mitransient {tot(theirs):.4f}, reference {tot(ref):.4f}")
+    print(f"per-bin totals rel. L2 vs reference: ours {rel_l2(bins(ours), bins(ref)):.4f}, mitransient {rel_l2(bins(theirs), bins(ref)):.4f}")
+    e_ours, e_theirs = rel_l2(ours, ref), rel_l2(theirs, ref)
+    print(f"transient rel. L2 vs {REF_SPP}-spp reference: ours {e_ours:.4f}, mitransient {e_theirs:.4f}")
+    ppc_ours, ppc_theirs = paths / cpu_ours, paths / cpu_theirs
+    print(f"paths per CPU-second: ours {ppc_ours:.3e} ({t_ours:.2f} s wall), mitransient {ppc_theirs:.3e} ({t_theirs:.2f} s wall)")
+    print(f"ratio ours/theirs paths per CPU-second: {ppc_ours / ppc_theirs:.2f}")
+    eq = (e_ours * math.sqrt(cpu_ours)) / (e_theirs * math.sqrt(cpu_theirs))
+    print(f"error at equal CPU time, ours/theirs: {eq:.2f}")
+
+
+if __name__ == "__main__":
+    sys.exit(main())
