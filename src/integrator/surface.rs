@@ -86,10 +86,10 @@ pub fn offset_origin<V: Real>(p: &V3<V>, n: &V3<V>, dir: &V3<V>) -> V3<V> {
     p.add_scaled(*n, side)
 }
 
-/// 2⁻¹⁵ (≈3e-5) of the largest coordinate, at least 3e-5 m: f32 barycentric
+/// 2⁻¹⁸ (≈3.8e-6, 32 f32 ulps) of the largest coordinate, at least 3.8e-6 m: f32 barycentric
 /// reconstruction is accurate to a few ulps of the coordinates.
 #[inline(always)]
 pub fn self_intersection_eps<V: Real>(p: &V3<V>) -> V {
     let m = p.x.abs().max(p.y.abs()).max(p.z.abs()).max(V::one());
-    m * V::splat(3.0e-5)
+    m * V::splat(1.0 / 262_144.0)
 }
