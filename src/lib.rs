@@ -12,6 +12,7 @@
 //! [`render::render`] runs it all on a rayon pool.
 
 pub mod accel;
+pub mod boundary;
 pub mod cli;
 pub mod error;
 pub mod film;

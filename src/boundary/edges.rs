@@ -1,0 +1,117 @@
+//! Edge topology, built once per scene (STYLE example 3; supplemental §2.1).
+//!
+//! Each record keeps integers only: its vertices v0 < v1, its faces (face1 = None on a mesh
+//! boundary) and the vertex opposite the edge in each face. Geometry is gathered per use.
+//! Edges whose two faces are coplanar (and consistently oriented) are dropped: they cannot be
+//! silhouettes (supplemental Eq. 32), so they carry no boundary term.
+
+use crate::scene::Geometry;
+use std::collections::HashMap;
+
+/// One mesh edge. `face1` is None for a boundary edge.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Edge {
+    pub v0: u32,
+    pub v1: u32,
+    pub face0: u32,
+    pub face1: Option<u32>,
+    /// Vertex of face0 (and face1) not on the edge.
+    pub opposite0: u32,
+    pub opposite1: Option<u32>,
+}
+
+impl Edge {
+    /// A boundary edge has one face; a sharp edge two.
+    pub fn is_boundary(&self) -> bool {
+        self.face1.is_none()
+    }
+}
+
+/// Dihedral threshold: faces whose unit normals agree to within this cosine are coplanar.
+pub const COPLANAR_COS: f32 = 1.0 - 1e-6;
+
+/// Builds the edges of all triangles. Edges shared by more than two faces (non-manifold) are
+/// kept as boundary edges of each extra face, so none is lost.
+pub fn build_edges(geo: &Geometry) -> Vec<Edge> {
+    let mut map: HashMap<(u32, u32), usize> = HashMap::new();
+    let mut edges: Vec<Edge> = Vec::new();
+    for (f, tri) in geo.indices.iter().enumerate() {
+        for k in 0..3 {
+            let (a, b, o) = (tri[k], tri[(k + 1) % 3], tri[(k + 2) % 3]);
+            let key = (a.min(b), a.max(b));
+            match map.get(&key) {
+                Some(&i) if edges[i].face1.is_none() => {
+                    edges[i].face1 = Some(f as u32);
+                    edges[i].opposite1 = Some(o);
+                }
+                _ => {
+                    map.insert(key, edges.len());
+                    edges.push(Edge {
+                        v0: key.0,
+                        v1: key.1,
+                        face0: f as u32,
+                        face1: None,
+                        opposite0: o,
+                        opposite1: None,
+                    });
+                }
+            }
+        }
+    }
+    edges.retain(|e| !is_coplanar(geo, e));
+    edges
+}
+
+fn face_normal(geo: &Geometry, f: u32) -> glam::Vec3 {
+    let [a, b, c] = geo.indices[f as usize].map(|i| geo.positions[i as usize]);
+    (b - a).cross(c - a).normalize_or_zero()
+}
+
+/// Two faces in one plane, facing the same way: the edge is invisible to visibility.
+fn is_coplanar(geo: &Geometry, e: &Edge) -> bool {
+    match e.face1 {
+        None => false,
+        Some(f1) => face_normal(geo, e.face0).dot(face_normal(geo, f1)) >= COPLANAR_COS,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::shapes;
+
+    fn geometry(mesh: shapes::Mesh) -> Geometry {
+        Geometry {
+            positions: mesh.positions.clone(),
+            indices: mesh.tris.clone(),
+            tri_shape: vec![0; mesh.tris.len()],
+            ..Default::default()
+        }
+    }
+
+    #[test]
+    fn cube_keeps_its_twelve_sharp_edges() {
+        let edges = build_edges(&geometry(shapes::cube()));
+        assert_eq!(edges.len(), 12, "6 face diagonals are coplanar and dropped");
+        assert!(edges.iter().all(|e| !e.is_boundary()));
+    }
+
+    #[test]
+    fn rectangle_has_four_boundary_edges() {
+        let edges = build_edges(&geometry(shapes::rectangle()));
+        assert_eq!(edges.len(), 4);
+        assert!(edges.iter().all(Edge::is_boundary));
+    }
+
+    #[test]
+    fn sphere_keeps_every_edge() {
+        let m = shapes::icosphere(2);
+        let tris = m.tris.len();
+        let edges = build_edges(&geometry(m));
+        assert_eq!(edges.len(), tris * 3 / 2, "closed mesh: E = 3F/2, none coplanar");
+        for e in &edges {
+            let f1 = e.face1.unwrap() as usize;
+            assert!(geometry(shapes::icosphere(2)).indices[f1].contains(&e.opposite1.unwrap()));
+        }
+    }
+}
