@@ -8,11 +8,10 @@
 //! Run: `cargo bench --bench forward` (set DTR_BENCH_SPP / DTR_BENCH_THREADS to change).
 
 mod common;
-use common::{bounce_rays, camera_rays, rel_l2, shadow_rays};
-use difftransient::accel::{Accel, Device, Ray8, set_flush_denormals};
+use common::{bare_seconds, bounce_rays, camera_rays, rel_l2, shadow_rays};
+use difftransient::accel::{Accel, Device, Ray8};
 use difftransient::{RenderOptions, Scene, Transient, render};
 use std::path::PathBuf;
-use std::time::Instant;
 
 fn env_or<T: std::str::FromStr>(k: &str, d: T) -> T {
     std::env::var(k).ok().and_then(|v| v.parse().ok()).unwrap_or(d)
@@ -55,21 +54,8 @@ fn main() {
     let n_bounce = stats.intersect_rays.saturating_sub(n_primary);
     let bounce = bounce_rays(&scene, 1 << 16, 7);
     let shadow = shadow_rays(&scene, 1 << 16, 11);
-    let bare = |rays: &[Ray8], count: u64, f: &(dyn Fn(&[Ray8]) -> usize + Sync)| -> f64 {
-        // trace `count` rays (in packets of 8) spread over the worker threads, return seconds
-        let packets = count.div_ceil(8) as usize;
-        let pool = difftransient::render::thread_pool(Some(threads)).unwrap();
-        let t0 = Instant::now();
-        pool.install(|| {
-            use rayon::prelude::*;
-            (0..packets.div_ceil(rays.len())).into_par_iter().for_each(|chunk| {
-                set_flush_denormals();
-                let n = rays.len().min(packets - chunk * rays.len());
-                std::hint::black_box(f(&rays[..n]));
-            });
-        });
-        t0.elapsed().as_secs_f64()
-    };
+    let pool = difftransient::render::thread_pool(Some(threads)).unwrap();
+    let bare = |rays: &[Ray8], count: u64, f: &(dyn Fn(&[Ray8]) -> usize + Sync)| bare_seconds(&pool, rays, count, f);
     let t_primary = bare(&primary, n_primary, &|r| accel.raw_intersect8_batch(r, true));
     let t_bounce = bare(&bounce, n_bounce, &|r| accel.raw_intersect8_batch(r, false));
     let t_shadow = bare(&shadow, stats.occluded_rays, &|r| accel.raw_occluded8_batch(r, false));

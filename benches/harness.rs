@@ -13,14 +13,13 @@
 //! one pose parameter (interior derivative); the Cornell box plus a ~1M-triangle bumpy sphere.
 
 mod common;
-use common::{bounce_rays, camera_rays, rel_l2, shadow_rays};
-use difftransient::accel::{Accel, Device, Ray8, set_flush_denormals};
+use common::{bare_seconds, bounce_rays, camera_rays, rel_l2, shadow_rays};
+use difftransient::accel::{Accel, Device, Ray8};
 use difftransient::scene::{Axis, Param, ParamKind};
 use difftransient::temporal::Pulse;
 use difftransient::{RenderOptions, RenderStats, Scene, Transient, render, render_diff};
 use std::io::Write;
 use std::path::{Path, PathBuf};
-use std::time::Instant;
 
 struct Workload {
     name: &'static str,
@@ -287,19 +286,7 @@ fn bare_embree_rate(scene: &Scene, st: &RenderStats, threads: usize) -> f64 {
         shadow_rays(scene, 1 << 14, 11),
     );
     let pool = difftransient::render::thread_pool(Some(threads)).unwrap();
-    let time = |rays: &[Ray8], count: u64, f: &(dyn Fn(&[Ray8]) -> usize + Sync)| -> f64 {
-        let packets = count.div_ceil(8) as usize;
-        let t0 = Instant::now();
-        pool.install(|| {
-            use rayon::prelude::*;
-            (0..packets.div_ceil(rays.len())).into_par_iter().for_each(|chunk| {
-                set_flush_denormals();
-                let n = rays.len().min(packets - chunk * rays.len());
-                std::hint::black_box(f(&rays[..n]));
-            });
-        });
-        t0.elapsed().as_secs_f64()
-    };
+    let time = |rays: &[Ray8], count: u64, f: &(dyn Fn(&[Ray8]) -> usize + Sync)| bare_seconds(&pool, rays, count, f);
     let t = time(&primary, n_primary, &|r| accel.raw_intersect8_batch(r, true))
         + time(&bounce, n_bounce, &|r| accel.raw_intersect8_batch(r, false))
         + time(&shadow, st.occluded_rays, &|r| accel.raw_occluded8_batch(r, false));

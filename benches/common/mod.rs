@@ -127,3 +127,19 @@ pub fn camera_rays(scene: &Scene) -> Vec<Ray8> {
     }
     out
 }
+
+/// Wall seconds for bare Embree to trace `count` rays (packets of 8 cycled from `rays`) on
+/// `pool`, with `f` tracing one slice of packets.
+pub fn bare_seconds(pool: &rayon::ThreadPool, rays: &[Ray8], count: u64, f: &(dyn Fn(&[Ray8]) -> usize + Sync)) -> f64 {
+    use rayon::prelude::*;
+    let packets = count.div_ceil(8) as usize;
+    let t0 = std::time::Instant::now();
+    pool.install(|| {
+        (0..packets.div_ceil(rays.len())).into_par_iter().for_each(|chunk| {
+            difftransient::accel::set_flush_denormals();
+            let n = rays.len().min(packets - chunk * rays.len());
+            std::hint::black_box(f(&rays[..n]));
+        });
+    });
+    t0.elapsed().as_secs_f64()
+}

@@ -15,7 +15,7 @@ const PLOT_HEIGHT: usize = 600;
 const RESCALE_RATIO: f64 = 10.0;
 
 /// Line colours (Tableau 10).
-const COLORS: [RGBColor; 10] = [
+pub(crate) const COLORS: [RGBColor; 10] = [
     RGBColor(31, 119, 180),
     RGBColor(255, 127, 14),
     RGBColor(44, 160, 44),

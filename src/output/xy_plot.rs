@@ -2,20 +2,13 @@
 
 use super::OutputError;
 use super::font::{FAMILY, ensure_font};
+use super::plot::COLORS;
 use super::png::write_png;
 use plotters::prelude::*;
 use std::path::Path;
 
 const W: usize = 900;
 const H: usize = 600;
-const COLORS: [RGBColor; 6] = [
-    RGBColor(31, 119, 180),
-    RGBColor(255, 127, 14),
-    RGBColor(44, 160, 44),
-    RGBColor(214, 39, 40),
-    RGBColor(148, 103, 189),
-    RGBColor(140, 86, 75),
-];
 
 /// Writes a log–log line plot (points with both coordinates > 0 and finite), atomically.
 pub fn write_loglog_plot(
