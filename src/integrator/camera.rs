@@ -8,6 +8,9 @@ use glam::Vec3;
 /// With filter importance sampling every sample has weight 1 (pbrt-v4's `FilterSampler`).
 #[derive(Clone, Debug)]
 pub struct FilterSampler {
+    filter: PixelFilter,
+    /// 1 / ∫ f over [-radius, radius]: turns the filter into the density h that it samples.
+    norm: f32,
     radius: f32,
     /// CDF at `TABLE` uniformly spaced offsets over [-radius, radius]; empty for the box.
     cdf: Vec<f32>,
@@ -20,6 +23,8 @@ impl FilterSampler {
         let (radius, f): (f32, Box<dyn Fn(f32) -> f32>) = match filter {
             PixelFilter::Box => {
                 return Self {
+                    filter,
+                    norm: 1.0,
                     radius: 0.5,
                     cdf: Vec::new(),
                 };
@@ -41,10 +46,57 @@ impl FilterSampler {
             cdf[i + 1] = cdf[i] + 0.5 * h * (f(x0 as f32) as f64 + f((x0 + h) as f32) as f64);
         }
         let total = cdf[TABLE].max(1e-30);
+        let exact = match filter {
+            PixelFilter::Box => 1.0,
+            PixelFilter::Tent { radius } => (radius * radius) as f64,
+            PixelFilter::Gaussian { sigma, radius } => {
+                let (s, r) = (sigma as f64, radius as f64);
+                let edge = (-r * r / (2.0 * s * s)).exp();
+                s * (2.0 * std::f64::consts::PI).sqrt() * libm::erf(r / (s * std::f64::consts::SQRT_2)) - 2.0 * r * edge
+            }
+        };
         Self {
+            filter,
+            norm: (1.0 / exact.max(1e-30)) as f32,
             radius,
             cdf: cdf.iter().map(|c| (c / total) as f32).collect(),
         }
+    }
+
+    /// Support half-width in pixels.
+    pub fn radius(&self) -> f32 {
+        self.radius
+    }
+
+    /// The normalised 1-D filter density h(x) (∫h = 1) at offset `x` pixels from a pixel
+    /// centre, and its derivative dh/dx. The box has h = 1 on [-½, ½) and dh/dx = 0 almost
+    /// everywhere: its jumps are why derivative splats need a smooth filter.
+    #[inline]
+    pub fn density(&self, x: f32) -> (f32, f32) {
+        match self.filter {
+            PixelFilter::Box => (if (-0.5..0.5).contains(&x) { 1.0 } else { 0.0 }, 0.0),
+            PixelFilter::Tent { radius } => {
+                if x.abs() >= radius {
+                    (0.0, 0.0)
+                } else {
+                    ((radius - x.abs()) * self.norm, -x.signum() * self.norm)
+                }
+            }
+            PixelFilter::Gaussian { sigma, radius } => {
+                if x.abs() >= radius {
+                    return (0.0, 0.0);
+                }
+                let inv = 1.0 / (2.0 * sigma * sigma);
+                let g = (-x * x * inv).exp();
+                let edge = (-radius * radius * inv).exp();
+                ((g - edge) * self.norm, -2.0 * x * inv * g * self.norm)
+            }
+        }
+    }
+
+    /// Is the density continuous (tent, Gaussian), so that splat weights can be differentiated?
+    pub fn is_smooth(&self) -> bool {
+        !matches!(self.filter, PixelFilter::Box)
     }
 
     /// Offset in pixels for uniform `u`.
@@ -59,6 +111,26 @@ impl FilterSampler {
         let h = 2.0 * self.radius / TABLE as f32;
         -self.radius + (i as f32 - 1.0 + frac) * h
     }
+}
+
+/// Where a world point lands on the film, and the pinhole's importance towards it.
+///
+/// A pixel j measures I_j = ∫ h_j(u) L(ω(u)) du over film points u (pixels), with h_j the
+/// normalised filter around its centre. Changing variables to directions, du = dω / (a cos³θ)
+/// with a the pixel area on the image plane at unit distance, so the importance per unit solid
+/// angle is W_j(ω) = h_j(u(ω)) · `importance`, `importance` = 1 / (a cos³θ). A connection from
+/// a scene point x to the camera adds β · f_s · |cos θ_x| / `dist2` · W_j.
+#[derive(Clone, Copy, Debug)]
+pub struct CameraProjection {
+    /// Film coordinates in pixels (origin top-left, y down), as [`CameraSampler::direction`].
+    pub fx: f32,
+    pub fy: f32,
+    /// Cosine between the camera's forward axis and the direction to the point.
+    pub cos: f32,
+    /// 1 / (a cos³θ), per steradian.
+    pub importance: f32,
+    /// Squared distance from the pinhole.
+    pub dist2: f32,
 }
 
 /// The pinhole camera in the form the kernel uses.
@@ -102,6 +174,68 @@ impl CameraSampler {
         V3::from_lane_vecs(&d[..V::LANES])
     }
 
+    /// The film point a world point projects to, for connections to the camera (light tracing
+    /// and the sensor end of boundary paths). `None` behind the camera or outside the film
+    /// (widened by the filter radius, since a filter reaches neighbouring pixels).
+    pub fn project(&self, p: Vec3) -> Option<CameraProjection> {
+        let d = p - self.position;
+        let z = d.dot(self.fwd);
+        let dist2 = d.length_squared();
+        if !(z > 0.0) || !dist2.is_finite() {
+            return None;
+        }
+        let sx = d.dot(self.right) / z;
+        let sy = d.dot(self.up) / z;
+        let fx = (sx / (self.tan_half * self.aspect) + 1.0) * 0.5 * self.width;
+        let fy = (1.0 - sy / self.tan_half) * 0.5 * self.height;
+        let r = self.filter.radius;
+        if !(fx > -r && fx < self.width + r && fy > -r && fy < self.height + r) {
+            return None;
+        }
+        let cos = z / dist2.sqrt();
+        // Pixel area on the image plane at distance 1.
+        let a = (2.0 * self.tan_half * self.aspect / self.width) * (2.0 * self.tan_half / self.height);
+        Some(CameraProjection {
+            fx,
+            fy,
+            cos,
+            importance: 1.0 / (a * cos * cos * cos),
+            dist2,
+        })
+    }
+
+    /// Calls `f(px, py, h, dh/dfx, dh/dfy)` for every pixel whose filter reaches film point
+    /// (fx, fy), with the separable filter weight h = h(fx − px − ½)·h(fy − py − ½) and its
+    /// gradient in film coordinates. The weights of one point sum to 1 over the film's interior.
+    pub fn for_each_pixel(&self, fx: f32, fy: f32, mut f: impl FnMut(u32, u32, f32, f32, f32)) {
+        let r = self.filter.radius;
+        let (x0, x1) = (
+            (fx - 0.5 - r).floor().max(0.0),
+            (fx - 0.5 + r).ceil().min(self.width - 1.0),
+        );
+        let (y0, y1) = (
+            (fy - 0.5 - r).floor().max(0.0),
+            (fy - 0.5 + r).ceil().min(self.height - 1.0),
+        );
+        let mut py = y0;
+        while py <= y1 {
+            let (hy, dhy) = self.filter.density(fy - py - 0.5);
+            let mut px = x0;
+            while px <= x1 {
+                let (hx, dhx) = self.filter.density(fx - px - 0.5);
+                if hx * hy != 0.0 || dhx * hy != 0.0 || hx * dhy != 0.0 {
+                    f(px as u32, py as u32, hx * hy, dhx * hy, hx * dhy);
+                }
+                px += 1.0;
+            }
+            py += 1.0;
+        }
+    }
+
+    pub fn filter(&self) -> &FilterSampler {
+        &self.filter
+    }
+
     /// Unit direction through film point (fx, fy) in pixels (origin top-left, y down).
     pub fn direction(&self, fx: f32, fy: f32) -> Vec3 {
         let sx = (2.0 * fx / self.width - 1.0) * self.tan_half * self.aspect;
@@ -133,5 +267,87 @@ mod tests {
             radius: 3.0,
         }));
         assert!((g - 0.25).abs() < 3e-3, "gaussian variance {g}");
+    }
+
+    /// The filter density integrates to 1 and its derivative matches central differences.
+    #[test]
+    fn filter_density_is_normalised_and_differentiable() {
+        for filter in [
+            PixelFilter::Box,
+            PixelFilter::Tent { radius: 1.0 },
+            PixelFilter::Tent { radius: 1.7 },
+            PixelFilter::Gaussian {
+                sigma: 0.5,
+                radius: 1.5,
+            },
+        ] {
+            let fs = FilterSampler::new(filter);
+            let n = 40_000;
+            let h = 2.0 * fs.radius() as f64 / n as f64;
+            let total: f64 = (0..n)
+                .map(|i| fs.density(-fs.radius() + (i as f32 + 0.5) * h as f32).0 as f64 * h)
+                .sum();
+            assert!((total - 1.0).abs() < 1e-3, "{filter:?}: integral {total}");
+            if fs.is_smooth() {
+                for &x in &[-1.2f32, -0.3, 0.2, 0.77, 1.1] {
+                    if x.abs() >= fs.radius() - 0.01 || x.abs() < 0.01 {
+                        continue;
+                    }
+                    let e = 1e-3;
+                    let fd = (fs.density(x + e).0 - fs.density(x - e).0) / (2.0 * e);
+                    let an = fs.density(x).1;
+                    assert!(
+                        (fd - an).abs() < 2e-3 * (1.0 + an.abs()),
+                        "{filter:?} at {x}: {fd} vs {an}"
+                    );
+                }
+            }
+        }
+    }
+
+    /// `project` inverts `direction`, splat weights sum to 1 inside the film, and the
+    /// importance integrates to one pixel per pixel: Σ_j ∫ W_j dω = number of pixels.
+    #[test]
+    fn projection_inverts_primary_rays() {
+        let cam = Camera {
+            position: Vec3::new(0.3, 1.0, 3.0),
+            look_at: Vec3::new(0.0, 0.9, 0.0),
+            up: Vec3::Y,
+            fov_y_deg: 45.0,
+        };
+        for filter in [PixelFilter::Box, PixelFilter::Tent { radius: 1.0 }] {
+            let cs = CameraSampler::new(&cam, 40, 30, filter);
+            for &(fx, fy) in &[(20.0f32, 15.0f32), (3.3, 27.9), (39.5, 0.5), (11.25, 8.75)] {
+                let d = cs.direction(fx, fy);
+                let p = cs.position + d * 2.5;
+                let pr = cs.project(p).expect("in front of the camera");
+                assert!(
+                    (pr.fx - fx).abs() < 1e-3 && (pr.fy - fy).abs() < 1e-3,
+                    "{fx},{fy} -> {pr:?}"
+                );
+                let mut sum = 0.0;
+                cs.for_each_pixel(pr.fx, pr.fy, |_, _, h, _, _| sum += h);
+                if fx > 1.0 && fy > 1.0 && fx < 39.0 && fy < 29.0 {
+                    assert!((sum - 1.0).abs() < 1e-4, "{filter:?}: weights sum {sum}");
+                }
+            }
+            assert!(cs.project(cs.position - cs.fwd * 2.0).is_none());
+            // ∫ importance dω over the film = number of pixels, with the solid angle of each
+            // sub-pixel taken from the Jacobian of `direction` (not from the cos³ formula).
+            let mut integral = 0.0f64;
+            let sub = 4;
+            let e = 1e-2f32;
+            for y in 0..30 * sub {
+                for x in 0..40 * sub {
+                    let (fx, fy) = ((x as f32 + 0.5) / sub as f32, (y as f32 + 0.5) / sub as f32);
+                    let pr = cs.project(cs.position + cs.direction(fx, fy)).unwrap();
+                    let dx = (cs.direction(fx + e, fy) - cs.direction(fx - e, fy)) / (2.0 * e);
+                    let dy = (cs.direction(fx, fy + e) - cs.direction(fx, fy - e)) / (2.0 * e);
+                    let d_omega = dx.cross(dy).length() as f64 / (sub * sub) as f64;
+                    integral += pr.importance as f64 * d_omega;
+                }
+            }
+            assert!((integral - 1200.0).abs() < 1e-2 * 1200.0, "{integral}");
+        }
     }
 }
