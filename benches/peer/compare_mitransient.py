@@ -5,7 +5,9 @@ Setup and run with benches/peer/run.sh. It renders scenes/cornell_box.toml with 
 same scene, rebuilt from the TOML, with mitransient's transient_path integrator at equal
 settings (resolution, bins, bin width, start, max depth = max_bounces + 1, Russian roulette
 off, box pixel filter, camera segment counted). It checks first that the two transients agree
-within noise (time-summed image and per-bin totals), then reports in one run:
+within noise (per-bin totals and 8x8 blocks of the time-summed image, z-scores of the
+difference of means over PEER_SEEDS independent seeds per renderer; it stops if they
+disagree), then reports in one run:
   - our paths per CPU-second / theirs,
   - our error at equal time / theirs (errors against a high-spp dtr reference, scaled to equal
     time by error ∝ 1/√time).
@@ -21,6 +23,8 @@ ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)
 SCENE = os.path.join(ROOT, "scenes", "cornell_box.toml")
 DTR = os.path.join(ROOT, "target", "release", "dtr")
 SPP = int(os.environ.get("PEER_SPP", "64"))
+# independent seeds per renderer for the agreement test (standard errors from their spread)
+SEEDS = int(os.environ.get("PEER_SEEDS", "6"))
 REF_SPP = int(os.environ.get("PEER_REF_SPP", "1024"))
 OUT = os.path.join(ROOT, "bench-out", "peer")
 
@@ -83,27 +87,58 @@ def main():
         d = tomllib.load(f)
     max_depth = int(d.get("integrator", {}).get("max_bounces", 8)) + 1
     ref, _ = run_dtr(REF_SPP, 777, os.path.join(OUT, "ref"))
-    ours, meta = run_dtr(SPP, 1, os.path.join(OUT, "ours"))
-    t_ours, cpu_ours = meta["wall_seconds"], meta["cpu_seconds"]
+    ours_runs, t_ours, cpu_ours = [], 0.0, 0.0
+    for k in range(SEEDS):
+        o, meta = run_dtr(SPP, 1 + k, os.path.join(OUT, f"ours{k}"))
+        ours_runs.append(o)
+        t_ours += meta["wall_seconds"]
+        cpu_ours += meta["cpu_seconds"]
 
     scene = mi.load_dict(mitsuba_scene(d, max_depth))
     mi.render(scene, spp=1)  # JIT warm-up, not timed
-    c0, w0 = time.process_time(), time.perf_counter()
-    _, transient = mi.render(scene, spp=SPP, seed=1)
-    theirs = np.array(transient)
-    t_theirs, cpu_theirs = time.perf_counter() - w0, time.process_time() - c0
-    theirs = theirs[..., :3]
+    theirs_runs, t_theirs, cpu_theirs = [], 0.0, 0.0
+    for k in range(SEEDS):
+        c0, w0 = time.process_time(), time.perf_counter()
+        _, transient = mi.render(scene, spp=SPP, seed=1 + k)
+        theirs_runs.append(np.array(transient)[..., :3])
+        t_theirs += time.perf_counter() - w0
+        cpu_theirs += time.process_time() - c0
+    ours, theirs = ours_runs[0], theirs_runs[0]
     print("shapes: ours", ours.shape, "theirs", theirs.shape)
-    paths = ours.shape[0] * ours.shape[1] * SPP
+    paths = ours.shape[0] * ours.shape[1] * SPP * SEEDS
 
-    # agreement within noise: image totals and per-bin totals vs the reference
     tot = lambda a: float(a.sum())
     bins = lambda a: a.sum(axis=(0, 1, 3))
+    # 8x8-pixel blocks of the time-summed image
+    blocks = lambda a: a.sum(axis=(2, 3)).reshape(a.shape[0] // 8, 8, a.shape[1] // 8, 8).sum(axis=(1, 3)).ravel()
+    # Agreement within noise, before any speed is compared: for each aggregate, the difference
+    # of the two renderers' means over SEEDS independent seeds, in units of its standard error.
+    # Under agreement Σz² ≈ number of entries (χ²) and no |z| exceeds a Bonferroni bound.
+    agree = True
+    for name, agg in (("per-bin totals", bins), ("8x8 blocks of the time-summed image", blocks)):
+        a = np.array([agg(x) for x in ours_runs])
+        b = np.array([agg(x) for x in theirs_runs])
+        se2 = a.var(axis=0, ddof=1) / SEEDS + b.var(axis=0, ddof=1) / SEEDS
+        used = se2 > 0
+        z = (a.mean(axis=0) - b.mean(axis=0))[used] / np.sqrt(se2[used])
+        n = int(used.sum())
+        chi2 = float((z ** 2).sum())
+        zmax = float(np.abs(z).max()) if n else 0.0
+        # Student-t with SEEDS-1 dof has variance (SEEDS-1)/(SEEDS-3); allow 4 sd of the χ² sum
+        var_t = (SEEDS - 1) / (SEEDS - 3) if SEEDS > 3 else 3.0
+        ok = chi2 <= n * var_t + 4.0 * math.sqrt(2.0 * n) * var_t and zmax <= 6.0
+        agree &= ok
+        print(f"agreement, {name}: {n} entries, sum z^2 {chi2:.1f} (expected ~{n * var_t:.1f}), max |z| {zmax:.2f}: {'ok' if ok else 'DISAGREE'}")
+    if not agree:
+        print("the two transients disagree beyond noise: find out why before comparing speeds")
+        return 1
     print(f"total energy: ours {tot(ours):.4f}, mitransient {tot(theirs):.4f}, reference {tot(ref):.4f}")
     print(f"per-bin totals rel. L2 vs reference: ours {rel_l2(bins(ours), bins(ref)):.4f}, mitransient {rel_l2(bins(theirs), bins(ref)):.4f}")
     e_ours, e_theirs = rel_l2(ours, ref), rel_l2(theirs, ref)
     print(f"transient rel. L2 vs {REF_SPP}-spp reference: ours {e_ours:.4f}, mitransient {e_theirs:.4f}")
     ppc_ours, ppc_theirs = paths / cpu_ours, paths / cpu_theirs
+    cpu_ours, cpu_theirs = cpu_ours / SEEDS, cpu_theirs / SEEDS
+    t_ours, t_theirs = t_ours / SEEDS, t_theirs / SEEDS
     print(f"paths per CPU-second: ours {ppc_ours:.3e} ({t_ours:.2f} s wall), mitransient {ppc_theirs:.3e} ({t_theirs:.2f} s wall)")
     print(f"ratio ours/theirs paths per CPU-second: {ppc_ours / ppc_theirs:.2f}")
     eq = (e_ours * math.sqrt(cpu_ours)) / (e_theirs * math.sqrt(cpu_theirs))
