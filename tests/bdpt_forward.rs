@@ -129,3 +129,38 @@ fn bdpt_is_deterministic_across_thread_counts() {
     let (b, _) = render(&scene, &o).unwrap();
     assert!(a.data == b.data && a.steady == b.steady);
 }
+
+/// With a box filter a derivative render leaves out t = 1; the remaining strategies'
+/// weights still sum to 1, so its primal transient agrees with the full BDPT within noise.
+#[test]
+fn bdpt_without_t1_matches_full_bdpt() {
+    let scene = common::load("diff_room.toml");
+    let (mut full, mut without) = (Vec::new(), Vec::new());
+    for seed in 0..K {
+        let (t, _) = render(&scene, &opts(IntegratorKind::Bdpt, 4, seed)).unwrap();
+        full.push(aggregates(&t));
+        let o = opts(IntegratorKind::Bdpt, 4, 500 + seed);
+        let (t, _, _) = difftransient::render_diff(&scene, &["albedo".to_string()], &o).unwrap();
+        without.push(aggregates(&t));
+    }
+    for (what, a, b) in [
+        (
+            "bins",
+            full.iter().map(|r| r.0.clone()).collect::<Vec<_>>(),
+            without.iter().map(|r| r.0.clone()).collect::<Vec<_>>(),
+        ),
+        (
+            "image",
+            full.iter().map(|r| r.1.clone()).collect(),
+            without.iter().map(|r| r.1.clone()).collect(),
+        ),
+    ] {
+        let (chi2, zmax, n) = common::two_sample_z(&a, &b);
+        let (mean, sd) = common::t2_sum_moments(n as f64, (K - 1) as f64);
+        eprintln!("t1 off {what}: Σz² = {chi2:.1} (expect {mean:.1} ± {sd:.1}) over {n}, max|z| = {zmax:.2}");
+        assert!(
+            chi2 <= mean + 5.0 * sd && zmax <= 8.0,
+            "{what}: BDPT without t = 1 disagrees"
+        );
+    }
+}

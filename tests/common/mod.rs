@@ -1,6 +1,8 @@
 //! Helpers shared by the integration tests.
 #![allow(dead_code)]
 
+pub mod fd;
+
 use difftransient::{RenderOptions, Scene, Transient, render};
 use std::path::PathBuf;
 

@@ -1,0 +1,76 @@
+//! BDPT's interior derivative (Algorithm 1 with MIS over every (s, t) strategy) against
+//! central finite differences with common random numbers, on diff_room.toml (camera and
+//! point light inside a convex room: no parameter moves a visibility boundary). Statistics
+//! as in tests/interior_fd.rs (tests/common/fd.rs).
+//!
+//! Two pixel filters:
+//! - box (the scene's): a derivative render leaves out the t = 1 strategy (its splat weight
+//!   is discontinuous in the moving film point). The finite differences are taken of the
+//!   primal that the derivative render returns, i.e. of the same estimator, so common random
+//!   numbers cancel its noise (with t = 1 in the FD renders only, AD − FD would carry the
+//!   rare, heavy-tailed t = 1 splats; tests/bdpt_forward.rs checks separately that leaving
+//!   out t = 1 does not change the expectation);
+//! - tent: t = 1 runs and its splat weight h_j(u(θ)) is differentiated.
+
+mod common;
+use common::fd::FdCheck;
+use difftransient::scene::{IntegratorKind, PixelFilter};
+
+fn bdpt(edit: fn(&mut difftransient::Scene)) -> FdCheck {
+    FdCheck {
+        scene: "diff_room.toml",
+        k: 10,
+        spp: 2,
+        integrator: Some(IntegratorKind::Bdpt),
+        edit,
+        fd_from_diff_render: true,
+    }
+}
+
+fn boxed() -> FdCheck {
+    bdpt(|_| {})
+}
+
+fn tent() -> FdCheck {
+    bdpt(|s| s.film.filter = PixelFilter::Tent { radius: 1.0 })
+}
+
+#[test]
+fn bdpt_box_albedo_matches_finite_differences() {
+    boxed().check("albedo", 0.6, 0.01);
+}
+
+#[test]
+fn bdpt_box_radiance_matches_finite_differences() {
+    boxed().check("intensity", 5.0, 0.1);
+}
+
+#[test]
+fn bdpt_box_eta_matches_finite_differences() {
+    boxed().check("eta", 1.0, 0.005);
+}
+
+#[test]
+fn bdpt_box_translate_matches_finite_differences() {
+    boxed().check("room_z", 0.0, 0.004);
+}
+
+#[test]
+fn bdpt_tent_albedo_matches_finite_differences() {
+    tent().check("albedo", 0.6, 0.01);
+}
+
+#[test]
+fn bdpt_tent_radiance_matches_finite_differences() {
+    tent().check("intensity", 5.0, 0.1);
+}
+
+#[test]
+fn bdpt_tent_eta_matches_finite_differences() {
+    tent().check("eta", 1.0, 0.005);
+}
+
+#[test]
+fn bdpt_tent_translate_matches_finite_differences() {
+    tent().check("room_z", 0.0, 0.004);
+}
