@@ -95,3 +95,59 @@ pub fn splat_to_camera<R: Real, const C: usize>(pk: &mut Packet<'_, '_, R, C>, s
         });
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use crate::integrator::camera::CameraSampler;
+    use crate::kernel::{Dual8, Real, V3};
+    use crate::scene::{Camera, PixelFilter};
+    use glam::Vec3;
+
+    /// The film point, importance and distance of a moving scene point carry the derivatives
+    /// of their f32 counterparts (central differences), which is what the t = 1 splat weight
+    /// h_j(u(θ)) is differentiated through.
+    #[test]
+    fn projection_derivatives_match_finite_differences() {
+        let cam = Camera {
+            position: Vec3::new(0.3, 1.0, 3.0),
+            look_at: Vec3::new(0.0, 0.9, 0.0),
+            up: Vec3::Y,
+            fov_y_deg: 45.0,
+        };
+        let cs = CameraSampler::new(&cam, 40, 30, PixelFilter::Tent { radius: 1.0 });
+        let points = [
+            Vec3::new(0.0, 1.0, 0.0),
+            Vec3::new(0.5, 0.4, -0.5),
+            Vec3::new(-0.7, 1.6, 0.3),
+        ];
+        let vel = Vec3::new(0.3, -0.8, 0.5);
+        for p in points {
+            let lanes = [p; 8];
+            let mut pd = V3::<Dual8<1>>::from_lane_vecs(&lanes);
+            pd.x = pd.x.with_deriv_lanes(0, &[vel.x; 8]);
+            pd.y = pd.y.with_deriv_lanes(0, &[vel.y; 8]);
+            pd.z = pd.z.with_deriv_lanes(0, &[vel.z; 8]);
+            let pr = cs.project_lanes(&pd);
+            let e = 1e-3;
+            let (a, b) = (cs.project(p + vel * e).unwrap(), cs.project(p - vel * e).unwrap());
+            let c = cs.project(p).unwrap();
+            assert!((pr.fx.lane(0) - c.fx).abs() < 1e-3 && (pr.fy.lane(0) - c.fy).abs() < 1e-3);
+            for (name, ad, fd, scale) in [
+                ("fx", pr.fx.deriv_lane(0, 0), (a.fx - b.fx) / (2.0 * e), 1.0),
+                ("fy", pr.fy.deriv_lane(0, 0), (a.fy - b.fy) / (2.0 * e), 1.0),
+                (
+                    "importance",
+                    pr.importance.deriv_lane(0, 0),
+                    (a.importance - b.importance) / (2.0 * e),
+                    c.importance,
+                ),
+                ("dist2", pr.dist2.deriv_lane(0, 0), (a.dist2 - b.dist2) / (2.0 * e), 1.0),
+            ] {
+                assert!(
+                    (ad - fd).abs() <= 2e-2 * (fd.abs() + scale),
+                    "{name} at {p}: AD {ad} vs FD {fd}"
+                );
+            }
+        }
+    }
+}
