@@ -5,6 +5,7 @@
 //! ∂d/∂τ = 1 to the OPL derivative (see `temporal.rs`).
 
 use super::context::RenderContext;
+use super::path::PathCounts;
 use crate::film::TileFilm;
 use crate::kernel::{Real, Spectrum};
 
@@ -85,4 +86,31 @@ impl<const C: usize> LaneContribution<C> {
         }
         film.add_with_derivs(x, y, corr, self.d, &f, &fdot[..self.n_k * C], &self.ddot[..self.n_k]);
     }
+}
+
+/// Pulls every lane of `mask` with an emitter out of (`d`, `contrib`) and hands the finite,
+/// non-empty ones to `add(lane, contribution)`; non-finite lanes are counted in `counts` and
+/// dropped. The time spent is counted as film time.
+#[allow(clippy::too_many_arguments)]
+pub fn for_each_lane<R: Real, const C: usize>(
+    ctx: &RenderContext,
+    emitter: &[u32; 8],
+    d: R,
+    contrib: &Spectrum<R, C>,
+    mask: R::Mask,
+    counts: &mut PathCounts,
+    mut add: impl FnMut(usize, &LaneContribution<C>),
+) {
+    let t0 = crate::timing::ticks();
+    for i in 0..R::LANES {
+        if !crate::kernel::Mask::bit(mask, i) || emitter[i] == u32::MAX {
+            continue;
+        }
+        match LaneContribution::<C>::extract(ctx, emitter[i], d, contrib, i) {
+            Some(lc) if !lc.is_empty() => add(i, &lc),
+            Some(_) => {}
+            None => counts.non_finite += 1,
+        }
+    }
+    counts.film_ticks += crate::timing::ticks() - t0;
 }

@@ -30,9 +30,9 @@ pub mod vertex;
 pub mod walk;
 
 use super::context::RenderContext;
-use super::deposit::LaneContribution;
+use super::deposit::for_each_lane;
 use super::path::{PacketLanes, PathCounts};
-use crate::kernel::{Mask, PathSampler, Real, Spectrum};
+use crate::kernel::{PathSampler, Real, Spectrum};
 use film::BdptFilm;
 use vertex::Vertex;
 use walk::LightOrigin;
@@ -85,21 +85,11 @@ impl<R: Real, const C: usize> Packet<'_, '_, R, C> {
         contrib: &Spectrum<R, C>,
         mask: R::Mask,
     ) {
-        let t0 = crate::timing::ticks();
-        for i in 0..R::LANES {
-            if !mask.bit(i) || emitter[i] == u32::MAX {
-                continue;
-            }
-            match LaneContribution::<C>::extract(self.ctx, emitter[i], d, contrib, i) {
-                Some(lc) if !lc.is_empty() => {
-                    let (x, y) = (self.lanes.px[i] as usize, self.lanes.py[i] as usize);
-                    self.film.add(self.ctx, strategy, x, y, &lc, 1.0, &[]);
-                }
-                Some(_) => {}
-                None => self.counts.non_finite += 1,
-            }
-        }
-        self.counts.film_ticks += crate::timing::ticks() - t0;
+        let (ctx, lanes, film) = (self.ctx, self.lanes, &mut *self.film);
+        for_each_lane(ctx, emitter, d, contrib, mask, self.counts, |i, lc| {
+            let (x, y) = (lanes.px[i] as usize, lanes.py[i] as usize);
+            film.add(ctx, strategy, x, y, lc, 1.0, &[]);
+        });
     }
 }
 
