@@ -157,3 +157,12 @@ fn first_material_name() -> String {
     let q2 = q1 + t[q1..].find('"').unwrap();
     t[q1..q2].to_string()
 }
+
+#[test]
+fn strategies_need_bdpt_and_unknown_integrators_are_refused() {
+    let cornell = scenes().join("cornell_box.toml");
+    let (e, _d) = render_fails(&cornell, &["--strategies"]);
+    assert!(e.contains("bdpt"), "{e}");
+    let (e, _d) = render_fails(&cornell, &["--integrator", "bdtp"]);
+    assert!(e.contains("path") && e.contains("bdpt"), "{e}");
+}

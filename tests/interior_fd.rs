@@ -16,6 +16,7 @@ fn check_param(name: &str, value: f32, h: f32) {
         integrator: None,
         edit: |_| {},
         fd_from_diff_render: false,
+        require_signal: true,
     }
     .check(name, value, h);
 }
