@@ -19,8 +19,8 @@ use difftransient::scene::{IntegratorKind, PixelFilter};
 fn bdpt(edit: fn(&mut difftransient::Scene)) -> FdCheck {
     FdCheck {
         scene: "diff_room.toml",
-        k: 10,
-        spp: 2,
+        k: 12,
+        spp: 4,
         integrator: Some(IntegratorKind::Bdpt),
         edit,
         fd_from_diff_render: true,
@@ -90,8 +90,8 @@ fn splat_plane(require_signal: bool) -> FdCheck {
 fn splat_plane_with(require_signal: bool, edit: fn(&mut difftransient::Scene)) -> FdCheck {
     FdCheck {
         scene: "splat_plane.toml",
-        k: 10,
-        spp: 2,
+        k: 12,
+        spp: 4,
         integrator: Some(IntegratorKind::Bdpt),
         edit,
         fd_from_diff_render: true,

@@ -13,7 +13,7 @@ use difftransient::render::render_strategies;
 use difftransient::scene::IntegratorKind;
 use difftransient::{RenderOptions, Scene, Transient, render};
 
-const K: u64 = 8;
+const K: u64 = 12;
 
 fn opts(kind: IntegratorKind, spp: u32, seed: u64) -> RenderOptions {
     RenderOptions {
@@ -80,17 +80,17 @@ fn small_cornell() -> Scene {
 
 #[test]
 fn bdpt_matches_path_tracer_on_the_cornell_box() {
-    agree("cornell", &small_cornell(), 4);
+    agree("cornell", &small_cornell(), 16);
 }
 
 #[test]
 fn bdpt_matches_path_tracer_with_a_point_light() {
-    agree("confocal_plane", &common::load("confocal_plane.toml"), 4);
+    agree("confocal_plane", &common::load("confocal_plane.toml"), 16);
 }
 
 #[test]
 fn bdpt_matches_path_tracer_with_a_laser() {
-    agree("laser_room", &common::load("laser_room.toml"), 4);
+    agree("laser_room", &common::load("laser_room.toml"), 16);
 }
 
 /// The per-strategy transients (`--strategies`) add up to the BDPT transient.
