@@ -164,9 +164,19 @@ pub fn render_strategies(
     Ok((films.swap_remove(0), list.into_iter().zip(strategies).collect(), stats))
 }
 
-/// Fixed number of chunks a BDPT render is split into: each owns a full-frame film (splats
-/// land anywhere), and chunks are merged in order, so the bytes do not depend on threads.
+/// Most chunks a BDPT render is split into: each owns a full-frame film (splats land
+/// anywhere), and chunks are merged in order, so the bytes do not depend on threads.
 const BDPT_CHUNKS: usize = 8;
+
+/// Memory the chunk films of a BDPT render may take together.
+const BDPT_FILM_BUDGET_BYTES: usize = 2 << 30;
+
+/// How many chunks a BDPT render uses: up to [`BDPT_CHUNKS`], fewer when that many
+/// full-frame films (`frame_floats` each) would exceed [`BDPT_FILM_BUDGET_BYTES`] (then the
+/// render runs on fewer threads). Depends only on the scene, never on the thread count.
+fn bdpt_chunks(frame_floats: usize) -> usize {
+    (BDPT_FILM_BUDGET_BYTES / (frame_floats * 4).max(1)).clamp(1, BDPT_CHUNKS)
+}
 
 /// Picks the kernel instance for (derivative lanes, lane width, channels) and calls
 /// `$f::<R, C>($args)`.
@@ -253,8 +263,14 @@ fn render_films(
             results.into_iter().map(|r| r.1).collect()
         }
         IntegratorKind::Bdpt => {
-            let per_chunk = tiles.len().div_ceil(BDPT_CHUNKS);
             let max_b = scene.integrator.max_bounces;
+            let strategies = if per_strategy {
+                bdpt::film::strategy_list(max_b).len()
+            } else {
+                0
+            };
+            let frame_floats = w * h * (axis.bins * channels + channels) * (1 + derivs + strategies);
+            let per_chunk = tiles.len().div_ceil(bdpt_chunks(frame_floats));
             let results: Vec<(BdptFilm, PathCounts)> = pool.install(|| {
                 tiles
                     .par_chunks(per_chunk)

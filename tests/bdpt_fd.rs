@@ -119,3 +119,8 @@ fn bdpt_splat_weight_derivative_matches_finite_differences_for_a_tilt() {
 fn bdpt_box_filter_leaves_out_t1_for_a_sliding_plane() {
     splat_plane_with(false, |s| s.film.filter = PixelFilter::Box).check("plane_x", 0.0, 0.01);
 }
+
+#[test]
+fn bdpt_tent_pulse_offset_matches_finite_differences() {
+    tent().check("lamp_offset", 0.0, 0.005);
+}

@@ -83,6 +83,15 @@ fn bdpt_matches_path_tracer_on_the_cornell_box() {
     agree("cornell", &small_cornell(), 16);
 }
 
+/// Unwarped film (the camera segment leaves the OPL): camera strategies drop their first
+/// segment, light tracing its connection to the pinhole.
+#[test]
+fn bdpt_matches_path_tracer_unwarped() {
+    let mut s = small_cornell();
+    s.film.unwarp = true;
+    agree("cornell unwarped", &s, 16);
+}
+
 #[test]
 fn bdpt_matches_path_tracer_with_a_point_light() {
     agree("confocal_plane", &common::load("confocal_plane.toml"), 16);
@@ -163,4 +172,20 @@ fn bdpt_without_t1_matches_full_bdpt() {
             "{what}: BDPT without t = 1 disagrees"
         );
     }
+}
+
+/// One path per packet (`f32`, `rtcIntersect1`) and eight (`f32x8`, `rtcIntersect8`) run the
+/// same subpaths with the same random numbers, so they give the same transient up to f32
+/// rounding (a lane never sees another lane's data).
+#[test]
+fn bdpt_scalar_and_simd_lanes_agree() {
+    let scene = small_cornell();
+    let mut o = opts(IntegratorKind::Bdpt, 2, 9);
+    let (a, _) = render(&scene, &o).unwrap();
+    o.lanes = difftransient::Lanes::Scalar;
+    let (b, _) = render(&scene, &o).unwrap();
+    let sum = |t: &Transient| t.data.iter().map(|&v| v as f64).sum::<f64>();
+    let diff: f64 = a.steady.iter().zip(&b.steady).map(|(x, y)| (x - y).abs() as f64).sum();
+    eprintln!("simd {} scalar {} steady L1 diff {diff}", sum(&a), sum(&b));
+    assert!(diff <= 1e-4 * sum(&a), "lanes disagree: L1 difference {diff}");
 }

@@ -53,16 +53,9 @@ pub fn splat_to_camera<R: Real, const C: usize>(pk: &mut Packet<'_, '_, R, C>, s
         &qs,
         camera_dir_pdf(V::<R>::one(), proj.importance.value(), pixels),
     );
-    path_pdfs(
-        &pk.light[..s],
-        &pk.camera[..1],
-        zero,
-        camera_pdf,
-        &mut pk.pl,
-        &mut pk.pe,
-    );
+    path_pdfs(&pk.light[..s], &pk.camera[..1], zero, camera_pdf, pk.pl, pk.pe);
     let (delta, t1, n) = (pk.origin.delta, pk.t1_enabled, s + 1);
-    let (lower, _) = ratio_sums(&pk.pl, &pk.pe, s, |sp| allowed(n, sp, delta, t1));
+    let (lower, _) = ratio_sums(pk.pl, pk.pe, s, |sp| allowed(n, sp, delta, t1));
     let g = cos_q * proj.importance / proj.dist2;
     let contrib = (qs.beta * qs.f).scale(g.mul_f(1.0 / pixels));
     let d = if ctx.scene.film.unwarp {
