@@ -159,8 +159,20 @@ pub fn render_strategies(
             scene.source.display()
         )));
     }
-    let (mut films, strategies, stats) = render_films(scene, Motion::none(), opts, true)?;
     let list = bdpt::film::strategy_list(scene.integrator.max_bounces);
+    let f = &scene.film;
+    let frame_bytes = f.width as usize * f.height as usize * (f.axis.bins + 1) * f.channels * 4;
+    if frame_bytes.saturating_mul(list.len() + 1) > BDPT_FILM_BUDGET_BYTES {
+        return Err(Error::Invalid(format!(
+            "{}: --strategies would keep {} full transients ({} bounces) in memory, more than {} GiB; \
+             lower [integrator] max_bounces, the resolution or the number of bins",
+            scene.source.display(),
+            list.len(),
+            scene.integrator.max_bounces,
+            BDPT_FILM_BUDGET_BYTES >> 30
+        )));
+    }
+    let (mut films, strategies, stats) = render_films(scene, Motion::none(), opts, true)?;
     Ok((films.swap_remove(0), list.into_iter().zip(strategies).collect(), stats))
 }
 

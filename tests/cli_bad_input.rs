@@ -166,3 +166,12 @@ fn strategies_need_bdpt_and_unknown_integrators_are_refused() {
     let (e, _d) = render_fails(&cornell, &["--integrator", "bdtp"]);
     assert!(e.contains("path") && e.contains("bdpt"), "{e}");
 }
+
+#[test]
+fn strategies_that_would_not_fit_in_memory_are_refused() {
+    let d = tempfile::tempdir().unwrap();
+    let text = cornell_text().replace("max_bounces = 8", "max_bounces = 200");
+    let p = write(d.path(), "deep.toml", &text);
+    let (e, _d) = render_fails(&p, &["--integrator", "bdpt", "--strategies"]);
+    assert!(e.contains("max_bounces"), "{e}");
+}

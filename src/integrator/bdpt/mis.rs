@@ -4,7 +4,7 @@
 //! A path x̄ = x_0 … x_{n−1} (x_0 on a light, x_{n−1} the pinhole) can be made by n − 1
 //! strategies: s vertices from the light subpath and t = n − s from the camera subpath.
 //! With `pl[k]` the area density of x_k under light-side sampling and `pe[k]` under
-//! camera-side sampling, the strategy densities satisfy p_{s+1} / p_s = pl[s] / pe[s]
+//! camera-side sampling, the strategy densities satisfy p_{s+1} / p_s = `pl[s] / pe[s]`
 //! (Veach Eq. 10.9), so the weight of strategy s is 1 / Σ_{s'} (p_{s'} / p_s)², computed from
 //! these ratios without ever forming the (tiny) full-path densities. Zero densities are
 //! remapped to 1 in ratios, as pbrt-v4's `MISWeight` does; strategies that cannot make the
