@@ -1,6 +1,13 @@
 //! Subpath vertices and the area-measure pdfs that link them (Veach 1997, §10.2; the
 //! `pdfFwd` / `pdfRev` bookkeeping of pbrt-v4's BDPT, STYLE example 7).
 //!
+//! Delta flags: pbrt-v4 marks vertices scattered by a specular lobe (`delta`) and lights that
+//! are deltas in position (`IsDeltaLight`). Our only BSDF is diffuse, so no surface vertex is
+//! a delta and none carries the flag; the light origin's flag is
+//! [`super::walk::LightOrigin::delta`] (point lights, laser spots), and zero (delta) densities
+//! are remapped to 1 in the MIS ratios as pbrt's `MISWeight` does. A specular lobe would add a
+//! per-vertex mask here and to [`super::mis::allowed`].
+//!
 //! Each vertex holds eight lanes (one subpath per lane). `pdf_fwd` is the area density with
 //! which the subpath's own walk generated the vertex, `pdf_rev` the density with which the
 //! other direction would generate it. The MIS weights ([`super::mis`]) read only these values;
