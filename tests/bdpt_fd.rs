@@ -11,6 +11,9 @@
 //!   rare, heavy-tailed t = 1 splats; tests/bdpt_forward.rs checks separately that leaving
 //!   out t = 1 does not change the expectation);
 //! - tent: t = 1 runs and its splat weight h_j(u(θ)) is differentiated.
+//!
+//! Also: laser_room.toml, where the laser spot (the first light vertex) has intensity Φ·ρ/π,
+//! for BDPT and the path tracer; and splat_plane.toml, where t = 1 carries most of the image.
 
 mod common;
 use common::fd::FdCheck;
@@ -123,4 +126,27 @@ fn bdpt_box_filter_leaves_out_t1_for_a_sliding_plane() {
 #[test]
 fn bdpt_tent_pulse_offset_matches_finite_differences() {
     tent().check("lamp_offset", 0.0, 0.005);
+}
+
+/// scenes/laser_room.toml: the laser spot is the first light vertex; its intensity Φ·ρ/π
+/// depends on the power Φ and on the albedo ρ of the wall it lights.
+fn laser(integrator: IntegratorKind) -> FdCheck {
+    FdCheck {
+        scene: "laser_room.toml",
+        k: 12,
+        spp: 4,
+        integrator: Some(integrator),
+        edit: |_| {},
+        fd_from_diff_render: true,
+        require_signal: true,
+    }
+}
+
+#[test]
+fn laser_spot_derivatives_match_finite_differences_in_both_integrators() {
+    for kind in [IntegratorKind::Path, IntegratorKind::Bdpt] {
+        laser(kind).check("wall_albedo", 0.6, 0.01);
+        laser(kind).check("laser_power", 10.0, 0.2);
+        laser(kind).check("room_z", 0.0, 0.004);
+    }
 }
