@@ -9,10 +9,11 @@ use crate::accel::{Device, set_flush_denormals};
 use crate::error::Error;
 use crate::film::{TileFilm, Transient};
 use crate::integrator::RenderContext;
+use crate::integrator::bdpt::{self, film::BdptFilm};
 use crate::integrator::motion::Motion;
 use crate::integrator::path::{PacketLanes, PathCounts, trace_packet};
 use crate::kernel::{Dual8, Real, f32x8};
-use crate::scene::Scene;
+use crate::scene::{IntegratorKind, Scene};
 use rayon::prelude::*;
 use std::time::Instant;
 
@@ -40,6 +41,8 @@ pub struct RenderOptions {
     /// Show a progress bar (only on a terminal).
     pub progress: bool,
     pub lanes: Lanes,
+    /// Overrides the scene's `[integrator] kind` (`dtr render --integrator`).
+    pub integrator: Option<IntegratorKind>,
 }
 
 /// What a render did and how fast.
@@ -95,7 +98,7 @@ pub fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool, Error> {
 
 /// Renders the forward transient of `scene` (no derivative lanes: the plain f32x8 kernel).
 pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<(Transient, RenderStats), Error> {
-    let (mut films, stats) = render_films(scene, Motion::none(), opts)?;
+    let (mut films, _, stats) = render_films(scene, Motion::none(), opts, false)?;
     Ok((films.swap_remove(0), stats))
 }
 
@@ -137,12 +140,86 @@ pub fn render_diff(
             }
         }
     }
-    let (mut films, stats) = render_films(scene, motion, opts)?;
+    let (mut films, _, stats) = render_films(scene, motion, opts, false)?;
     let primal = films.remove(0);
     Ok((primal, films, stats))
 }
 
-fn render_films(scene: &Scene, motion: Motion, opts: &RenderOptions) -> Result<(Vec<Transient>, RenderStats), Error> {
+/// Renders with BDPT and also returns one transient per (s, t) strategy, in the order of
+/// [`bdpt::film::strategy_list`] (MIS-weighted; they sum to the transient). Like pbrt-v4's
+/// `visualizeStrategies`, for debugging. Errors unless the integrator is BDPT.
+#[allow(clippy::type_complexity)]
+pub fn render_strategies(
+    scene: &Scene,
+    opts: &RenderOptions,
+) -> Result<(Transient, Vec<((usize, usize), Transient)>, RenderStats), Error> {
+    if opts.integrator.unwrap_or(scene.integrator.kind) != IntegratorKind::Bdpt {
+        return Err(Error::Invalid(format!(
+            "{}: per-strategy transients (--strategies) need the bidirectional integrator: set [integrator] kind = \"bdpt\" or pass --integrator bdpt",
+            scene.source.display()
+        )));
+    }
+    let list = bdpt::film::strategy_list(scene.integrator.max_bounces);
+    let f = &scene.film;
+    let frame_bytes = f.width as usize * f.height as usize * (f.axis.bins + 1) * f.channels * 4;
+    if frame_bytes.saturating_mul(list.len() + 1) > BDPT_FILM_BUDGET_BYTES {
+        return Err(Error::Invalid(format!(
+            "{}: --strategies would keep {} full transients ({} bounces) in memory, more than {} GiB; \
+             lower [integrator] max_bounces, the resolution or the number of bins",
+            scene.source.display(),
+            list.len(),
+            scene.integrator.max_bounces,
+            BDPT_FILM_BUDGET_BYTES >> 30
+        )));
+    }
+    let (mut films, strategies, stats) = render_films(scene, Motion::none(), opts, true)?;
+    Ok((films.swap_remove(0), list.into_iter().zip(strategies).collect(), stats))
+}
+
+/// Most chunks a BDPT render is split into: each owns a full-frame film (splats land
+/// anywhere), and chunks are merged in order, so the bytes do not depend on threads.
+const BDPT_CHUNKS: usize = 8;
+
+/// Memory the chunk films of a BDPT render may take together.
+const BDPT_FILM_BUDGET_BYTES: usize = 2 << 30;
+
+/// How many chunks a BDPT render uses: up to [`BDPT_CHUNKS`], fewer when that many
+/// full-frame films (`frame_floats` each) would exceed [`BDPT_FILM_BUDGET_BYTES`] (then the
+/// render runs on fewer threads). Depends only on the scene, never on the thread count.
+fn bdpt_chunks(frame_floats: usize) -> usize {
+    (BDPT_FILM_BUDGET_BYTES / (frame_floats * 4).max(1)).clamp(1, BDPT_CHUNKS)
+}
+
+/// Picks the kernel instance for (derivative lanes, lane width, channels) and calls
+/// `$f::<R, C>($args)`.
+macro_rules! dispatch {
+    ($derivs:expr, $lanes:expr, $channels:expr, $f:ident ( $($arg:expr),* )) => {
+        match ($derivs, $lanes, $channels) {
+            (0, Lanes::Simd8, 1) => $f::<f32x8, 1>($($arg),*),
+            (0, Lanes::Simd8, _) => $f::<f32x8, 3>($($arg),*),
+            (0, Lanes::Scalar, 1) => $f::<f32, 1>($($arg),*),
+            (0, Lanes::Scalar, _) => $f::<f32, 3>($($arg),*),
+            (1, _, 1) => $f::<Dual8<1>, 1>($($arg),*),
+            (1, _, _) => $f::<Dual8<1>, 3>($($arg),*),
+            (2, _, 1) => $f::<Dual8<2>, 1>($($arg),*),
+            (2, _, _) => $f::<Dual8<2>, 3>($($arg),*),
+            (3..=4, _, 1) => $f::<Dual8<4>, 1>($($arg),*),
+            (3..=4, _, _) => $f::<Dual8<4>, 3>($($arg),*),
+            (5..=8, _, 1) => $f::<Dual8<8>, 1>($($arg),*),
+            (5..=8, _, _) => $f::<Dual8<8>, 3>($($arg),*),
+            (_, _, 1) => $f::<Dual8<16>, 1>($($arg),*),
+            (_, _, _) => $f::<Dual8<16>, 3>($($arg),*),
+        }
+    };
+}
+
+#[allow(clippy::type_complexity)]
+fn render_films(
+    scene: &Scene,
+    motion: Motion,
+    opts: &RenderOptions,
+    per_strategy: bool,
+) -> Result<(Vec<Transient>, Vec<Transient>, RenderStats), Error> {
     let spp = opts.spp.unwrap_or(scene.integrator.spp);
     if spp == 0 {
         return Err(Error::Invalid(format!(
@@ -170,43 +247,77 @@ fn render_films(scene: &Scene, motion: Motion, opts: &RenderOptions) -> Result<(
 
     let cpu0 = cpu_seconds();
     let t0 = Instant::now();
-    let results: Vec<(TileFilm, PathCounts)> = pool.install(|| {
-        tiles
-            .par_iter()
-            .map(|&(x0, y0)| {
-                let tw = TILE.min(w - x0);
-                let th = TILE.min(h - y0);
-                let mut film = TileFilm::new(x0, y0, tw, th, &axis, channels, derivs);
-                let mut counts = PathCounts::default();
-                let tick0 = crate::timing::ticks();
-                let (f, c) = (&mut film, &mut counts);
-                match (derivs, opts.lanes, channels) {
-                    (0, Lanes::Simd8, 1) => render_tile::<f32x8, 1>(&ctx, seed, spp, w, f, c),
-                    (0, Lanes::Simd8, _) => render_tile::<f32x8, 3>(&ctx, seed, spp, w, f, c),
-                    (0, Lanes::Scalar, 1) => render_tile::<f32, 1>(&ctx, seed, spp, w, f, c),
-                    (0, Lanes::Scalar, _) => render_tile::<f32, 3>(&ctx, seed, spp, w, f, c),
-                    (1, _, 1) => render_tile::<Dual8<1>, 1>(&ctx, seed, spp, w, f, c),
-                    (1, _, _) => render_tile::<Dual8<1>, 3>(&ctx, seed, spp, w, f, c),
-                    (2, _, 1) => render_tile::<Dual8<2>, 1>(&ctx, seed, spp, w, f, c),
-                    (2, _, _) => render_tile::<Dual8<2>, 3>(&ctx, seed, spp, w, f, c),
-                    (3..=4, _, 1) => render_tile::<Dual8<4>, 1>(&ctx, seed, spp, w, f, c),
-                    (3..=4, _, _) => render_tile::<Dual8<4>, 3>(&ctx, seed, spp, w, f, c),
-                    (5..=8, _, 1) => render_tile::<Dual8<8>, 1>(&ctx, seed, spp, w, f, c),
-                    (5..=8, _, _) => render_tile::<Dual8<8>, 3>(&ctx, seed, spp, w, f, c),
-                    (_, _, 1) => render_tile::<Dual8<16>, 1>(&ctx, seed, spp, w, f, c),
-                    (_, _, _) => render_tile::<Dual8<16>, 3>(&ctx, seed, spp, w, f, c),
+    let kind = opts.integrator.unwrap_or(scene.integrator.kind);
+    let mut out = vec![Transient::zeros(w, h, axis, channels); 1 + derivs];
+    let mut strategy_out = Vec::new();
+    let counts: Vec<PathCounts> = match kind {
+        IntegratorKind::Path => {
+            let results: Vec<(TileFilm, PathCounts)> = pool.install(|| {
+                tiles
+                    .par_iter()
+                    .map(|&(x0, y0)| {
+                        let tw = TILE.min(w - x0);
+                        let th = TILE.min(h - y0);
+                        let mut film = TileFilm::new(x0, y0, tw, th, &axis, channels, derivs);
+                        let mut counts = PathCounts::default();
+                        let tick0 = crate::timing::ticks();
+                        let (f, c) = (&mut film, &mut counts);
+                        dispatch!(derivs, opts.lanes, channels, render_tile(&ctx, seed, spp, w, f, c));
+                        counts.total_ticks = crate::timing::ticks() - tick0;
+                        bar.inc(1);
+                        (film, counts)
+                    })
+                    .collect()
+            });
+            for (tile, _) in &results {
+                tile.merge_into(&mut out);
+            }
+            results.into_iter().map(|r| r.1).collect()
+        }
+        IntegratorKind::Bdpt => {
+            let max_b = scene.integrator.max_bounces;
+            let strategies = if per_strategy {
+                bdpt::film::strategy_list(max_b).len()
+            } else {
+                0
+            };
+            let frame_floats = w * h * (axis.bins * channels + channels) * (1 + derivs + strategies);
+            let per_chunk = tiles.len().div_ceil(bdpt_chunks(frame_floats));
+            let results: Vec<(BdptFilm, PathCounts)> = pool.install(|| {
+                tiles
+                    .par_chunks(per_chunk)
+                    .map(|chunk| {
+                        let mut film = BdptFilm::new(w, h, &axis, channels, derivs, max_b, per_strategy);
+                        let mut counts = PathCounts::default();
+                        let tick0 = crate::timing::ticks();
+                        let (f, c) = (&mut film, &mut counts);
+                        dispatch!(
+                            derivs,
+                            opts.lanes,
+                            channels,
+                            bdpt_tiles(&ctx, seed, spp, chunk, TILE, f, c)
+                        );
+                        counts.total_ticks = crate::timing::ticks() - tick0;
+                        bar.inc(chunk.len() as u64);
+                        (film, counts)
+                    })
+                    .collect()
+            });
+            let list_len = results.first().map_or(0, |r| r.0.strategies.len());
+            strategy_out = vec![Transient::zeros(w, h, axis, channels); list_len];
+            for (chunk, _) in &results {
+                chunk.film.merge_into(&mut out);
+                for (k, f) in chunk.strategies.iter().enumerate() {
+                    f.merge_into(&mut strategy_out[k..k + 1]);
                 }
-                counts.total_ticks = crate::timing::ticks() - tick0;
-                bar.inc(1);
-                (film, counts)
-            })
-            .collect()
-    });
+            }
+            results.into_iter().map(|r| r.1).collect()
+        }
+    };
     let wall = t0.elapsed().as_secs_f64();
     let cpu = (cpu_seconds() - cpu0).max(1e-9);
     bar.finish_and_clear();
 
-    let mut out = vec![Transient::zeros(w, h, axis, channels); 1 + derivs];
     let mut stats = RenderStats {
         spp,
         seed,
@@ -218,8 +329,7 @@ fn render_films(scene: &Scene, motion: Motion, opts: &RenderOptions) -> Result<(
         ..Default::default()
     };
     let mut ticks = (0u64, 0u64, 0u64);
-    for (tile, c) in &results {
-        tile.merge_into(&mut out);
+    for c in &counts {
         stats.intersect_rays += c.rays.intersect;
         stats.occluded_rays += c.rays.occluded;
         stats.non_finite_samples += c.non_finite;
@@ -233,13 +343,17 @@ fn render_films(scene: &Scene, motion: Motion, opts: &RenderOptions) -> Result<(
         film: cpu * ticks.1 as f64 / total,
         shading: cpu * (ticks.2.saturating_sub(ticks.0 + ticks.1)) as f64 / total,
     };
-    out.iter_mut().for_each(|t| t.scale(1.0 / spp as f32));
+    out.iter_mut()
+        .chain(strategy_out.iter_mut())
+        .for_each(|t| t.scale(1.0 / spp as f32));
     let rays = (stats.intersect_rays + stats.occluded_rays) as f64;
     stats.paths_per_cpu_second = stats.paths as f64 / cpu;
     stats.rays_per_second = rays / wall.max(1e-9);
     stats.rays_per_cpu_second = rays / cpu;
-    Ok((out, stats))
+    Ok((out, strategy_out, stats))
 }
+
+use bdpt::render_tiles as bdpt_tiles;
 
 /// All samples of one tile: for each sample index, one packet per tile row (up to 8 pixels).
 fn render_tile<R: Real, const C: usize>(

@@ -157,3 +157,21 @@ fn first_material_name() -> String {
     let q2 = q1 + t[q1..].find('"').unwrap();
     t[q1..q2].to_string()
 }
+
+#[test]
+fn strategies_need_bdpt_and_unknown_integrators_are_refused() {
+    let cornell = scenes().join("cornell_box.toml");
+    let (e, _d) = render_fails(&cornell, &["--strategies"]);
+    assert!(e.contains("bdpt"), "{e}");
+    let (e, _d) = render_fails(&cornell, &["--integrator", "bdtp"]);
+    assert!(e.contains("path") && e.contains("bdpt"), "{e}");
+}
+
+#[test]
+fn strategies_that_would_not_fit_in_memory_are_refused() {
+    let d = tempfile::tempdir().unwrap();
+    let text = cornell_text().replace("max_bounces = 8", "max_bounces = 200");
+    let p = write(d.path(), "deep.toml", &text);
+    let (e, _d) = render_fails(&p, &["--integrator", "bdpt", "--strategies"]);
+    assert!(e.contains("max_bounces"), "{e}");
+}

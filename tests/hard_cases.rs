@@ -75,10 +75,9 @@ fn scene_far_from_the_origin_matches_the_scene_at_the_origin() {
     );
 }
 
-#[test]
-fn tiny_and_degenerate_triangles_stay_finite() {
+/// The Cornell box with a sliver triangle (area ~1e-12) and a needle in the middle of the room.
+fn with_degenerate_triangles() -> difftransient::Scene {
     let mut s = small_cornell();
-    // add a sliver triangle (area ~1e-12) and a needle in the middle of the room
     let base = s.geometry.positions.len() as u32;
     s.geometry.positions.extend([
         Vec3::new(0.0, 1.0, 0.0),
@@ -92,6 +91,12 @@ fn tiny_and_degenerate_triangles_stay_finite() {
         .indices
         .extend([[base, base + 1, base + 2], [base + 3, base + 4, base + 5]]);
     s.geometry.tri_shape.extend([0, 0]);
+    s
+}
+
+#[test]
+fn tiny_and_degenerate_triangles_stay_finite() {
+    let s = with_degenerate_triangles();
     let t = common::render_with(&s, 4, 1, 2);
     assert_eq!(t.non_finite_count(), 0);
     let opts = difftransient::RenderOptions {
@@ -102,4 +107,36 @@ fn tiny_and_degenerate_triangles_stay_finite() {
     };
     let (_, stats) = difftransient::render(&s, &opts).unwrap();
     assert_eq!(stats.non_finite_samples, 0, "no sample may be non-finite");
+}
+
+/// BDPT on the same hard cases (degenerate triangles; the Cornell box 10 km from the
+/// origin): no non-finite sample, no non-finite output, and the far box keeps its energy.
+#[test]
+fn bdpt_stays_finite_on_hard_cases() {
+    let opts = |seed| difftransient::RenderOptions {
+        spp: Some(4),
+        seed: Some(seed),
+        threads: Some(2),
+        integrator: Some(difftransient::scene::IntegratorKind::Bdpt),
+        ..Default::default()
+    };
+    let (t, stats) = difftransient::render(&with_degenerate_triangles(), &opts(1)).unwrap();
+    assert_eq!(t.non_finite_count(), 0);
+    assert_eq!(stats.non_finite_samples, 0, "no sample may be non-finite");
+    let far = shifted(small_cornell(), Vec3::new(1.0e4, -3.0e3, 2.0e3));
+    let (mut near_e, mut far_e) = (Vec::new(), Vec::new());
+    for seed in 0..6 {
+        let (t, stats) = difftransient::render(&far, &opts(100 + seed)).unwrap();
+        assert_eq!(t.non_finite_count(), 0);
+        assert_eq!(stats.non_finite_samples, 0);
+        far_e.push(t.steady.iter().map(|&v| v as f64).sum::<f64>());
+        let (t, _) = difftransient::render(&small_cornell(), &opts(seed)).unwrap();
+        near_e.push(t.steady.iter().map(|&v| v as f64).sum::<f64>());
+    }
+    let (ma, sa) = common::mean_se(&near_e);
+    let (mb, sb) = common::mean_se(&far_e);
+    assert!(
+        (ma - mb).abs() <= 3.0 * (sa * sa + sb * sb).sqrt(),
+        "BDPT image energy at origin {ma} ± {sa} vs far {mb} ± {sb}"
+    );
 }

@@ -2,195 +2,23 @@
 //! random numbers, for every parameter kind, on a scene where no parameter moves a visibility
 //! boundary (scenes/diff_room.toml: camera and point light inside a convex room).
 //!
-//! For each of K seeds, D_k = AD_k − FD_k is computed on two aggregates: the per-pixel
-//! time-summed derivative image and the per-bin totals. Its mean over seeds must vanish
-//! within its standard error: Σ z² over the aggregate's entries is tested against the
-//! Student-t (K − 1 dof) expectation, every |z| against a family-wise bound, and the grand
-//! total within 3 standard errors. The standard error is widened by the finite difference's
-//! own error: its truncation error, estimated by Richardson from steps h and 2h
-//! ((FD_2h − FD_h) / 3), and f32 rounding of the film (2⁻²³ · |I| / h).
+//! The statistics (Student-t z of AD − FD over seeds, widened by the finite difference's own
+//! error) are in tests/common/fd.rs, shared with the BDPT tests (tests/bdpt_fd.rs).
 
 mod common;
-use difftransient::{RenderOptions, Scene, Transient, render, render_diff};
 
-const K: u64 = 12;
-const SPP: u32 = 4;
-
-fn opts(seed: u64) -> RenderOptions {
-    RenderOptions {
-        spp: Some(SPP),
-        seed: Some(seed),
-        threads: Some(2),
-        ..Default::default()
-    }
-}
-
-fn load_with(name: &str, value: Option<f32>) -> Scene {
-    let overrides: Vec<(String, f32)> = value.map(|v| vec![(name.to_string(), v)]).unwrap_or_default();
-    Scene::load(&common::scene_path("diff_room.toml"), &overrides).unwrap()
-}
-
-fn image(t: &Transient) -> Vec<f64> {
-    (0..t.height)
-        .flat_map(|y| (0..t.width).map(move |x| (x, y)))
-        .map(|(x, y)| t.time_sum(x, y, 0) as f64)
-        .collect()
-}
-fn bins(t: &Transient) -> Vec<f64> {
-    t.bin_totals().into_iter().map(|v| v as f64).collect()
-}
-
-/// Σ z², max |z| and entries for `diffs[k][i]` (seed k, entry i), plus the mean AD magnitude
-/// in standard errors (to show the derivative is not trivially zero). `fd_err[i]` is the
-/// finite difference's own error bound for entry i.
-fn z_stats(diffs: &[Vec<f64>], ads: &[Vec<f64>], fd_err: &[f64]) -> (f64, f64, usize, f64) {
-    let n = diffs[0].len();
-    let (mut chi2, mut zmax, mut used, mut signal) = (0.0, 0.0f64, 0, 0.0f64);
-    for i in 0..n {
-        let col: Vec<f64> = diffs.iter().map(|d| d[i]).collect();
-        let (m, se) = common::mean_se(&col);
-        let ad: Vec<f64> = ads.iter().map(|d| d[i]).collect();
-        let (ma, sea) = common::mean_se(&ad);
-        signal = signal.max(ma.abs() / (sea + 1e-12));
-        if se == 0.0 && m == 0.0 {
-            continue;
-        }
-        let z = m
-            / (se * se + fd_err[i] * fd_err[i])
-                .sqrt()
-                .max(1e-12 * ma.abs().max(1e-30));
-        chi2 += z * z;
-        if z.abs() > zmax {
-            eprintln!(
-                "  entry {i}: mean AD−FD {m:.4e}, se {se:.3e}, fd err {:.3e}, AD {ma:.4e}",
-                fd_err[i]
-            );
-        }
-        zmax = zmax.max(z.abs());
-        used += 1;
-    }
-    (chi2, zmax, used, signal)
-}
-
+/// The path tracer on diff_room.toml: 12 seeds of 4 samples per pixel.
 fn check_param(name: &str, value: f32, h: f32) {
-    let base = load_with(name, None);
-    let plus = load_with(name, Some(value + h));
-    let minus = load_with(name, Some(value - h));
-    let plus2 = load_with(name, Some(value + 2.0 * h));
-    let minus2 = load_with(name, Some(value - 2.0 * h));
-    let mut d_img = Vec::new();
-    let mut d_bin = Vec::new();
-    let mut a_img = Vec::new();
-    let mut a_bin = Vec::new();
-    let mut totals = Vec::new();
-    let mut rich_img = Vec::new();
-    let mut rich_bin = Vec::new();
-    let mut round_img = vec![0.0f64; 0];
-    let mut round_bin = vec![0.0f64; 0];
-    for seed in 0..K {
-        let (_, d, _) = render_diff(&base, &[name.to_string()], &opts(seed)).unwrap();
-        let ad = &d[0];
-        let (p, _) = render(&plus, &opts(seed)).unwrap();
-        let (m, _) = render(&minus, &opts(seed)).unwrap();
-        let fd_img: Vec<f64> = image(&p)
-            .iter()
-            .zip(image(&m))
-            .map(|(a, b)| (a - b) / (2.0 * h as f64))
-            .collect();
-        let fd_bin: Vec<f64> = bins(&p)
-            .iter()
-            .zip(bins(&m))
-            .map(|(a, b)| (a - b) / (2.0 * h as f64))
-            .collect();
-        let (p2, _) = render(&plus2, &opts(seed)).unwrap();
-        let (m2, _) = render(&minus2, &opts(seed)).unwrap();
-        let fd2_img: Vec<f64> = image(&p2)
-            .iter()
-            .zip(image(&m2))
-            .map(|(a, b)| (a - b) / (4.0 * h as f64))
-            .collect();
-        let fd2_bin: Vec<f64> = bins(&p2)
-            .iter()
-            .zip(bins(&m2))
-            .map(|(a, b)| (a - b) / (4.0 * h as f64))
-            .collect();
-        rich_img.push(
-            fd2_img
-                .iter()
-                .zip(&fd_img)
-                .map(|(a, b)| (a - b) / 3.0)
-                .collect::<Vec<_>>(),
-        );
-        rich_bin.push(
-            fd2_bin
-                .iter()
-                .zip(&fd_bin)
-                .map(|(a, b)| (a - b) / 3.0)
-                .collect::<Vec<_>>(),
-        );
-        let eps = f32::EPSILON as f64;
-        let rnd = |a: Vec<f64>, b: Vec<f64>| -> Vec<f64> {
-            a.iter()
-                .zip(&b)
-                .map(|(x, y)| 4.0 * eps * (x.abs() + y.abs()) / (2.0 * h as f64))
-                .collect()
-        };
-        round_img = rnd(image(&p), image(&m));
-        round_bin = rnd(bins(&p), bins(&m));
-        let (ai, ab) = (image(ad), bins(ad));
-        d_img.push(ai.iter().zip(&fd_img).map(|(a, f)| a - f).collect::<Vec<_>>());
-        d_bin.push(ab.iter().zip(&fd_bin).map(|(a, f)| a - f).collect::<Vec<_>>());
-        totals.push(ab.iter().sum::<f64>() - fd_bin.iter().sum::<f64>());
-        a_img.push(ai);
-        a_bin.push(ab);
+    common::fd::FdCheck {
+        scene: "diff_room.toml",
+        k: 12,
+        spp: 4,
+        integrator: None,
+        edit: |_| {},
+        fd_from_diff_render: false,
+        require_signal: true,
     }
-    let dof = (K - 1) as f64;
-    // FD error per entry: |mean Richardson estimate| + its standard error + rounding
-    let fd_err = |rich: &[Vec<f64>], round: &[f64]| -> Vec<f64> {
-        (0..round.len())
-            .map(|i| {
-                let col: Vec<f64> = rich.iter().map(|r| r[i]).collect();
-                let (m, se) = common::mean_se(&col);
-                m.abs() + 2.0 * se + round[i]
-            })
-            .collect()
-    };
-    // floor: S_e's Gaussian cut at 8σ leaves a jump of φ(8) ≈ 5e-15 of a path's peak, and f32
-    // films resolve ~1e-7 of the largest entry; entries far below that carry no information
-    let floor = |e: Vec<f64>, ads: &[Vec<f64>]| -> Vec<f64> {
-        let peak = ads.iter().flatten().fold(0.0f64, |m, v| m.max(v.abs()));
-        e.into_iter().map(|x| x + 1e-12 * peak).collect()
-    };
-    let err_img = floor(fd_err(&rich_img, &round_img), &a_img);
-    let err_bin = floor(fd_err(&rich_bin, &round_bin), &a_bin);
-    let mut best_signal = 0.0f64;
-    for (what, d, a, e) in [("image", &d_img, &a_img, &err_img), ("bins", &d_bin, &a_bin, &err_bin)] {
-        let (chi2, zmax, n, signal) = z_stats(d, a, e);
-        best_signal = best_signal.max(signal);
-        let n_f = n as f64;
-        // Student t with ν dof: E[t²] = ν/(ν−2), Var[t²] = 2ν²(ν−1)/((ν−2)²(ν−4))
-        let mean = n_f * dof / (dof - 2.0);
-        let sd = (n_f * 2.0 * dof * dof * (dof - 1.0) / ((dof - 2.0).powi(2) * (dof - 4.0))).sqrt();
-        eprintln!(
-            "{name} {what}: Σz² = {chi2:.1} (expect {mean:.1} ± {sd:.1}), max|z| = {zmax:.2}, signal {signal:.1} se"
-        );
-        assert!(
-            chi2 <= mean + 5.0 * sd,
-            "{name} {what}: AD and FD disagree: Σz² = {chi2:.1} over {n} entries"
-        );
-        // family-wise: P(|t_11| > 8) ≈ 4e-6 per entry
-        assert!(zmax <= 8.0, "{name} {what}: an entry is {zmax:.1} standard errors off");
-    }
-    assert!(
-        best_signal > 5.0,
-        "{name}: the derivative is not distinguishable from zero ({best_signal:.1} se)"
-    );
-    let (m, se) = common::mean_se(&totals);
-    let total_fd_err: f64 = err_bin.iter().sum();
-    assert!(
-        m.abs() <= 3.0 * se + total_fd_err,
-        "{name}: total AD − FD = {m} (se {se}, fd error {total_fd_err})"
-    );
+    .check(name, value, h);
 }
 
 #[test]

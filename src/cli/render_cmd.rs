@@ -2,8 +2,8 @@
 
 use crate::film::Transient;
 use crate::output::{self, FilmView};
-use crate::render::{Lanes, RenderOptions, RenderStats, render, render_diff};
-use crate::scene::Scene;
+use crate::render::{Lanes, RenderOptions, RenderStats, render, render_diff, render_strategies};
+use crate::scene::{IntegratorKind, Scene};
 use crate::temporal::SPEED_OF_LIGHT_M_PER_S;
 use anyhow::{Context, bail};
 use serde_json::json;
@@ -42,6 +42,14 @@ pub struct RenderArgs {
     /// `dtr info`): writes PREFIX.d_NAME.npy, same shape as the transient.
     #[arg(long, value_delimiter = ',', value_name = "NAME[,NAME...]")]
     pub diff: Vec<String>,
+    /// Integrator (overrides the scene's [integrator] kind): `path` (unidirectional, the
+    /// default) or `bdpt` (bidirectional with MIS).
+    #[arg(long, value_name = "path|bdpt", value_parser = parse_integrator)]
+    pub integrator: Option<IntegratorKind>,
+    /// Also write one transient per BDPT strategy, PREFIX.s{S}_t{T}.npy (MIS-weighted
+    /// contributions; they sum to the transient). Needs the bdpt integrator.
+    #[arg(long)]
+    pub strategies: bool,
     /// Trace one path at a time instead of 8-wide packets (reference/debug).
     #[arg(long)]
     pub scalar: bool,
@@ -68,14 +76,28 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
         threads: a.threads,
         progress: !a.quiet,
         lanes: if a.scalar { Lanes::Scalar } else { Lanes::Simd8 },
+        integrator: a.integrator,
     };
-    let (film, derivs, stats) = if a.diff.is_empty() {
+    if a.strategies && !a.diff.is_empty() {
+        bail!("--strategies writes primal transients only; run it without --diff");
+    }
+    let mut strategies = Vec::new();
+    let (film, derivs, stats) = if a.strategies {
+        let (f, per, s) = render_strategies(&scene, &opts)?;
+        strategies = per;
+        (f, Vec::new(), s)
+    } else if a.diff.is_empty() {
         let (f, s) = render(&scene, &opts)?;
         (f, Vec::new(), s)
     } else {
         render_diff(&scene, &a.diff, &opts)?
     };
-    let bad = film.non_finite_count() + derivs.iter().map(Transient::non_finite_count).sum::<usize>();
+    let bad = film.non_finite_count()
+        + derivs
+            .iter()
+            .chain(strategies.iter().map(|s| &s.1))
+            .map(Transient::non_finite_count)
+            .sum::<usize>();
     if bad > 0 {
         bail!("internal error: {bad} non-finite values in the transient; nothing written");
     }
@@ -86,6 +108,9 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
     output::write_npy(&prefix("npy"), &film.shape(), &film.data)?;
     for (name, d) in a.diff.iter().zip(&derivs) {
         output::write_npy(&prefix(&format!("d_{name}.npy")), &d.shape(), &d.data)?;
+    }
+    for ((s, t), f) in &strategies {
+        output::write_npy(&prefix(&format!("s{s}_t{t}.npy")), &f.shape(), &f.data)?;
     }
     if a.exr {
         output::write_exr_layers(&prefix("exr"), view(&film))?;
@@ -108,6 +133,14 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
         );
     }
     Ok(())
+}
+
+fn parse_integrator(s: &str) -> Result<IntegratorKind, String> {
+    match s {
+        "path" => Ok(IntegratorKind::Path),
+        "bdpt" => Ok(IntegratorKind::Bdpt),
+        other => Err(format!("unknown integrator {other:?}: expected \"path\" or \"bdpt\"")),
+    }
 }
 
 fn view(film: &Transient) -> FilmView<'_> {
@@ -188,6 +221,7 @@ fn metadata(scene: &Scene, film: &Transient, stats: &RenderStats, a: &RenderArgs
             "speed_of_light_m_per_s": SPEED_OF_LIGHT_M_PER_S,
         },
         "unwarp": scene.film.unwarp,
+        "integrator": a.integrator.unwrap_or(scene.integrator.kind),
         "eta": scene.eta,
         "params": params,
         "derivatives": a.diff.iter().map(|n| json!({"param": n, "file": format!("{}.d_{n}.npy", a.output.display()), "estimator": "interior (Algorithm 1)"})).collect::<Vec<_>>(),

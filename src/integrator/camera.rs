@@ -133,6 +133,17 @@ pub struct CameraProjection {
     pub dist2: f32,
 }
 
+/// [`CameraProjection`] per lane, in the kernel's number type.
+#[derive(Clone, Copy, Debug)]
+pub struct LaneProjection<R: Real> {
+    pub fx: R,
+    pub fy: R,
+    /// 1 / (a cos³θ), per steradian.
+    pub importance: R,
+    pub dist2: R,
+    pub visible: R::Mask,
+}
+
 /// The pinhole camera in the form the kernel uses.
 #[derive(Clone, Debug)]
 pub struct CameraSampler {
@@ -229,6 +240,39 @@ impl CameraSampler {
                 px += 1.0;
             }
             py += 1.0;
+        }
+    }
+
+    /// [`project`](Self::project) in the kernel's number type, for connections whose scene
+    /// point moves with the parameters (light-tracing splats, BDPT t = 1): film coordinates,
+    /// importance 1/(a cos³θ) and squared distance all carry derivatives. `visible` marks
+    /// lanes in front of the camera and on the film (widened by the filter radius).
+    pub fn project_lanes<R: Real>(&self, p: &V3<R>) -> LaneProjection<R> {
+        let d = *p - V3::splat(self.position);
+        let z = d.dot(V3::splat(self.fwd));
+        let dist2 = d.length_squared();
+        let inv_z = R::safe_div(R::one(), z);
+        let sx = d.dot(V3::splat(self.right)) * inv_z;
+        let sy = d.dot(V3::splat(self.up)) * inv_z;
+        let fx = (sx.mul_f(1.0 / (self.tan_half * self.aspect)) + R::one()).mul_f(0.5 * self.width);
+        let fy = (R::one() - sy.mul_f(1.0 / self.tan_half)).mul_f(0.5 * self.height);
+        let cos = z * R::safe_div(R::one(), dist2.sqrt());
+        let a = (2.0 * self.tan_half * self.aspect / self.width) * (2.0 * self.tan_half / self.height);
+        let importance = R::safe_div(R::one(), (cos * cos * cos).mul_f(a));
+        let r = R::Value::splat(self.filter.radius);
+        let (fxv, fyv) = (fx.value(), fy.value());
+        let visible = z.value().gt(R::Value::zero())
+            & fxv.gt(-r)
+            & fxv.lt(R::Value::splat(self.width) + r)
+            & fyv.gt(-r)
+            & fyv.lt(R::Value::splat(self.height) + r)
+            & importance.value().is_finite();
+        LaneProjection {
+            fx,
+            fy,
+            importance,
+            dist2,
+            visible,
         }
     }
 

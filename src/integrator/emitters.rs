@@ -23,6 +23,8 @@ pub struct LaserSpot {
     pub distance: f32,
     /// Φ · albedo / π (W·sr⁻¹ per unit cos θ).
     pub intensity: [f32; 3],
+    /// ∂intensity/∂Φ = albedo / π, per channel.
+    pub intensity_per_power: [f32; 3],
     /// +1 if the triangle's winding normal faces the laser, else -1 (the lit side).
     pub side: f32,
     /// The laser's position and unit direction.
@@ -126,6 +128,7 @@ impl EmitterTable {
                                 v: h.v,
                                 distance: h.t * direction.length(),
                                 intensity: std::array::from_fn(|c| power[c] * albedo[c] * std::f32::consts::FRAC_1_PI),
+                                intensity_per_power: albedo.map(|a| a * std::f32::consts::FRAC_1_PI),
                             }
                         });
                     Entry::Laser { spot }
@@ -177,6 +180,7 @@ impl EmitterTable {
         let mut laser = [false; 8];
         let mut laser_o = [Vec3::ZERO; 8];
         let mut laser_d = [Vec3::ZERO; 8];
+        let mut per_power = [[0.0f32; 3]; 8];
         let mut pdf = [0.0f32; 8];
         let mut pre = [0.0f32; 8];
         let mut on_surface = [false; 8];
@@ -230,6 +234,7 @@ impl EmitterTable {
                     laser[i] = true;
                     laser_o[i] = s.origin;
                     laser_d[i] = s.direction;
+                    per_power[i] = s.intensity_per_power;
                     on_surface[i] = true;
                     valid[i] = true;
                 }
@@ -252,6 +257,9 @@ impl EmitterTable {
         let mut radiance = Spectrum::<R, C>::from_lane_rgb(&radiance_rgb[..R::LANES]);
         if R::DERIVS > 0 {
             ctx.motion.radiance_derivs(&emitter, &mut radiance);
+            if is_laser.any() {
+                laser_intensity_derivs(ctx, &prim, &radiance_rgb, &per_power, is_laser, &mut radiance);
+            }
         }
         // area samples move with their surface (material form): weight · J
         let area = has_cos & !is_laser;
@@ -266,5 +274,28 @@ impl EmitterTable {
             pre_length,
             valid: R::Mask::from_bools(&valid[..R::LANES]),
         }
+    }
+}
+
+/// A laser spot's intensity I = Φ·ρ/π in derivative form: `radiance_derivs` gave the power
+/// parameter ∂I/∂Φ = 1, which is ρ/π here, and the albedo ρ of the lit surface scales I too
+/// (∂I/∂ρ = I/ρ). Lanes outside `is_laser` are left alone.
+fn laser_intensity_derivs<R: Real, const C: usize>(
+    ctx: &RenderContext,
+    prim: &[u32; 8],
+    intensity: &[[f32; 3]; 8],
+    per_power: &[[f32; 3]; 8],
+    is_laser: R::Mask,
+    radiance: &mut Spectrum<R, C>,
+) {
+    let value = Spectrum::<R, C>::from_lane_rgb(&intensity[..R::LANES]);
+    let slope = Spectrum::<R, C>::from_lane_rgb(&per_power[..R::LANES]);
+    let albedo = super::bsdf::albedo::<R, C>(ctx, prim);
+    for c in 0..C {
+        // (radiance − value) carries only the power derivative (1); rescale it to ρ/π
+        let power_part = (radiance.0[c] - value.0[c]) * slope.0[c];
+        let albedo_ratio = R::safe_div(albedo.0[c], R::from_value(albedo.0[c].value()));
+        let laser = (value.0[c] + power_part) * albedo_ratio;
+        radiance.0[c] = R::select(is_laser, laser, radiance.0[c]);
     }
 }

@@ -2,14 +2,18 @@
 //!
 //! - [`path`]: unidirectional path tracing with next-event estimation and MIS, 8 paths per
 //!   packet, generic over the number type (`f32`, `f32x8`, duals).
+//! - [`bdpt`]: bidirectional path tracing with MIS over every (s, t) strategy (Algorithm 1),
+//!   the same number types.
 //!
 //! Shared pieces: [`trace`] turns lanes into Embree queries, [`surface`] rebuilds hit points
 //! from (primitive, u, v) in the kernel's number type, [`bsdf`] evaluates materials,
 //! [`emitters`] samples lights, [`camera`] samples primary rays.
 
+pub mod bdpt;
 pub mod bsdf;
 pub mod camera;
 pub mod context;
+pub mod deposit;
 pub mod emitters;
 pub mod motion;
 pub mod path;

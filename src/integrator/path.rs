@@ -14,6 +14,7 @@
 
 use super::bsdf::{albedo, cosine_pdf, diffuse_eval, sample_cosine};
 use super::context::RenderContext;
+use super::deposit::for_each_lane;
 use super::power_heuristic;
 use super::surface::{offset_origin, self_intersection_eps, surface_at};
 use super::trace::{RayCounts, intersect, unoccluded};
@@ -222,44 +223,9 @@ fn splat<R: Real, const C: usize>(
     mask: R::Mask,
     counts: &mut PathCounts,
 ) {
-    let t0 = crate::timing::ticks();
-    for i in 0..R::LANES {
-        if !mask.bit(i) || emitter[i] == u32::MAX {
-            continue;
-        }
-        let f: [f32; C] = std::array::from_fn(|c| contrib.0[c].lane(i));
-        let di = d.lane(i);
-        let mut finite = di.is_finite() && f.iter().all(|v| v.is_finite());
-        for k in 0..R::DERIVS {
-            finite &= d.deriv_lane(k, i).is_finite() && (0..C).all(|c| contrib.0[c].deriv_lane(k, i).is_finite());
-        }
-        if !finite {
-            counts.non_finite += 1;
-            continue;
-        }
-        if f.iter().all(|&v| v == 0.0) && R::DERIVS == 0 {
-            continue;
-        }
-        let corr = &ctx.correlations[emitter[i] as usize];
-        let offset_lane = |k: usize| ctx.motion.pulse_offset[k] == Some(emitter[i] as usize);
-        let (x, y) = (lanes.px[i] as usize, lanes.py[i] as usize);
-        if R::DERIVS == 0 {
-            film.add(x, y, corr, di, &f);
-            continue;
-        }
-        let n_k = R::DERIVS.min(ctx.motion.len()).min(16);
-        let mut fdot = [0.0f32; 48];
-        let mut ddot = [0.0f32; 16];
-        for k in 0..n_k {
-            for c in 0..C {
-                fdot[k * C + c] = contrib.0[c].deriv_lane(k, i);
-            }
-            // S_e depends on d + τ, so a pulse offset adds ∂d/∂τ = 1 (temporal.rs)
-            ddot[k] = d.deriv_lane(k, i) + if offset_lane(k) { 1.0 } else { 0.0 };
-        }
-        film.add_with_derivs(x, y, corr, di, &f, &fdot[..n_k * C], &ddot[..n_k]);
-    }
-    counts.film_ticks += crate::timing::ticks() - t0;
+    for_each_lane(ctx, emitter, d, contrib, mask, counts, |i, lc| {
+        lc.add_to(ctx, film, lanes.px[i] as usize, lanes.py[i] as usize, 1.0, &[]);
+    });
 }
 
 /// The point where the ray `o + t·ω` meets the plane through `p` with normal `n`, with `p`

@@ -342,6 +342,7 @@ impl fmt::Display for Scene {
             "  integrator: {}, max {} bounces, {} spp, seed {}, russian roulette {}",
             match it.kind {
                 super::IntegratorKind::Path => "path",
+                super::IntegratorKind::Bdpt => "bdpt (bidirectional, MIS)",
             },
             it.max_bounces,
             it.spp,

@@ -141,8 +141,11 @@ pub struct FilmSpec {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum IntegratorKind {
-    /// Unidirectional path tracing with next-event estimation and MIS.
+    /// Unidirectional path tracing with next-event estimation and MIS (the default).
     Path,
+    /// Bidirectional path tracing with MIS over every (s, t) strategy (Algorithm 1;
+    /// `integrator::bdpt`).
+    Bdpt,
 }
 
 #[derive(Clone, Debug)]

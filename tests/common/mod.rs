@@ -1,6 +1,8 @@
 //! Helpers shared by the integration tests.
 #![allow(dead_code)]
 
+pub mod fd;
+
 use difftransient::{RenderOptions, Scene, Transient, render};
 use std::path::PathBuf;
 
@@ -28,4 +30,31 @@ pub fn mean_se(xs: &[f64]) -> (f64, f64) {
     let m = xs.iter().sum::<f64>() / n;
     let var = xs.iter().map(|x| (x - m) * (x - m)).sum::<f64>() / (n - 1.0);
     (m, (var / n).sqrt())
+}
+
+/// E[Σ t²] and its standard deviation over `n` independent Student-t entries with `dof`
+/// degrees of freedom: E[t²] = ν/(ν−2), Var[t²] = 2ν²(ν−1)/((ν−2)²(ν−4)).
+pub fn t2_sum_moments(n: f64, dof: f64) -> (f64, f64) {
+    let mean = n * dof / (dof - 2.0);
+    let sd = (n * 2.0 * dof * dof * (dof - 1.0) / ((dof - 2.0).powi(2) * (dof - 4.0))).sqrt();
+    (mean, sd)
+}
+
+/// Two independent sets of K estimates per entry (`a[k][i]`, `b[k][i]`): Σz², max |z| and
+/// the number of entries where either varies, with z = (mean_a − mean_b) / √(se_a² + se_b²).
+pub fn two_sample_z(a: &[Vec<f64>], b: &[Vec<f64>]) -> (f64, f64, usize) {
+    let (mut chi2, mut zmax, mut n) = (0.0, 0.0f64, 0);
+    for i in 0..a[0].len() {
+        let (ma, sa) = mean_se(&a.iter().map(|r| r[i]).collect::<Vec<_>>());
+        let (mb, sb) = mean_se(&b.iter().map(|r| r[i]).collect::<Vec<_>>());
+        let se = (sa * sa + sb * sb).sqrt();
+        if se == 0.0 {
+            continue;
+        }
+        let z = (ma - mb) / se;
+        chi2 += z * z;
+        zmax = zmax.max(z.abs());
+        n += 1;
+    }
+    (chi2, zmax, n)
 }

@@ -1,0 +1,101 @@
+//! The strategies that end on the camera subpath's pixel: s = 0 (the camera subpath hits an
+//! emitter) and s ≥ 1, t ≥ 2 (the last light vertex q_s joined to the last camera vertex p_t
+//! by a shadow ray; s = 1 is next-event estimation).
+//!
+//! Contribution (Veach 1997, Eq. 10.8, area form): C = β_L(q_s) · f(q_s) · G(q_s ↔ p_t) ·
+//! f(p_t) · β_E(p_t), with G = cos θ_q cos θ_p / ‖q_s − p_t‖². The OPL is
+//! d = d_light(q_s) + d_camera(p_t) + η‖q_s − p_t‖. Positions carry derivatives (material
+//! form), so G and d are differentiated here; J is already inside each β.
+
+use super::Packet;
+use super::mis::{allowed, path_pdfs, ratio_sums, weight};
+use crate::integrator::surface::{offset_origin, self_intersection_eps};
+use crate::integrator::trace::unoccluded;
+use crate::kernel::{Mask, Real, Spectrum, V3};
+
+type V<R> = <R as Real>::Value;
+
+/// s = 0: emission found by the camera subpath at its vertex t − 1 (area emitters, front
+/// side only).
+pub fn emission<R: Real, const C: usize>(pk: &mut Packet<'_, '_, R, C>, t: usize) {
+    let ctx = pk.ctx;
+    let pt = pk.camera[t - 1];
+    let mut emitter = [u32::MAX; 8];
+    let mut le = [[0.0f32; 3]; 8];
+    let mut origin_pdf = [0.0f32; 8];
+    let mut has = [false; 8];
+    for i in 0..R::LANES {
+        if pt.alive.bit(i) && pt.front.bit(i) {
+            let e = ctx.tri_emitter[pt.prim[i] as usize];
+            if e != u32::MAX {
+                emitter[i] = e;
+                le[i] = ctx.emitters.radiance(e);
+                origin_pdf[i] = ctx.emitters.area_pdf(e);
+                has[i] = true;
+            }
+        }
+    }
+    let emits = R::Mask::from_bools(&has[..R::LANES]);
+    if emits.none() {
+        return;
+    }
+    let mut radiance = Spectrum::<R, C>::from_lane_rgb(&le[..R::LANES]);
+    if R::DERIVS > 0 {
+        ctx.motion.radiance_derivs(&emitter, &mut radiance);
+    }
+    path_pdfs(
+        &[],
+        &pk.camera[..t],
+        V::<R>::from_lanes(&origin_pdf),
+        V::<R>::zero(),
+        pk.pl,
+        pk.pe,
+    );
+    let t1 = pk.t1_enabled;
+    let (lower, higher) = ratio_sums(pk.pl, pk.pe, 0, |sp| allowed(t, sp, R::Mask::splat(false), t1));
+    let contrib = (pt.beta * radiance).scale(R::from_value(weight(lower, higher)));
+    pk.deposit_own_pixels((0, t), &emitter, pt.opl, &contrib, emits);
+}
+
+/// s ≥ 1, t ≥ 2: the light subpath's vertex s − 1 joined to the camera subpath's vertex t − 1.
+pub fn connect<R: Real, const C: usize>(pk: &mut Packet<'_, '_, R, C>, s: usize, t: usize) {
+    let ctx = pk.ctx;
+    let qs = pk.light[s - 1];
+    let pt = pk.camera[t - 1];
+    let (dir, dist, d2) = towards(&qs.p, &pt.p);
+    // q_s radiates (or reflects) into its own hemisphere; p_t reflects on its arrival side
+    let cos_q = R::select(qs.on_surface, qs.n.dot(dir), R::one());
+    let cos_p = -pt.n.dot(dir);
+    let zero = V::<R>::zero();
+    let ok = qs.alive & pt.alive & cos_q.value().gt(zero) & cos_p.value().gt(zero) & d2.value().gt(zero);
+    if ok.none() {
+        return;
+    }
+    let back = -dir.value();
+    let o = offset_origin(&pt.p.value(), &pt.n.value(), &back);
+    let to_o = qs.p.value() - o;
+    let len = to_o.length();
+    let ray_d = to_o * V::<R>::safe_div(V::<R>::one(), len);
+    let tfar = len - self_intersection_eps(&qs.p.value());
+    let ok = ok & unoccluded(&ctx.accel, &o, &ray_d, zero, tfar, ok, &mut pk.counts.rays);
+    if ok.none() {
+        return;
+    }
+    path_pdfs(&pk.light[..s], &pk.camera[..t], zero, zero, pk.pl, pk.pe);
+    let (delta, t1, n) = (pk.origin.delta, pk.t1_enabled, s + t);
+    let (lower, higher) = ratio_sums(pk.pl, pk.pe, s, |sp| allowed(n, sp, delta, t1));
+    let g = cos_q * cos_p / d2;
+    let contrib = (qs.beta * qs.f * pt.f * pt.beta).scale(g * R::from_value(weight(lower, higher)));
+    let d = qs.opl + pt.opl + pk.eta * dist;
+    let emitter = pk.origin.emitter;
+    pk.deposit_own_pixels((s, t), &emitter, d, &contrib, ok);
+}
+
+/// The unit vector and distance from `a` to `b`.
+#[inline(always)]
+pub fn towards<R: Real>(a: &V3<R>, b: &V3<R>) -> (V3<R>, R, R) {
+    let to = *b - *a;
+    let d2 = to.length_squared();
+    let dist = d2.sqrt();
+    (to * R::safe_div(R::one(), dist), dist, d2)
+}

@@ -1,0 +1,185 @@
+//! Bidirectional transient path tracing with multiple importance sampling: the interior
+//! estimator of Algorithm 1 (supplemental §2.4), eight paths per packet, written once for
+//! `f32`, `f32x8` and `Dual8<P>`.
+//!
+//! Per lane, a camera subpath (from the lane's pixel) and a light subpath (from a sampled
+//! emitter) are traced ([`walk`]); then every strategy (s, t) with s + t − 2 ≤ max_bounces
+//! joins their vertices:
+//! - s = 0: the camera subpath found an emitter ([`connect::emission`]);
+//! - s ≥ 1, t ≥ 2: a shadow ray between the two ends ([`connect::connect`]; s = 1 is NEE);
+//! - t = 1: the light vertex seen by the pinhole, splatted wherever it lands
+//!   ([`splat::splat_to_camera`]).
+//!
+//! Each contribution is weighted by the power heuristic over all strategies of its path
+//! ([`mis`], Veach 1997 Eq. 9.13 and §10.2), binned at its OPL d with S_e, and differentiated
+//! as I += w·f·s, İ += w·(ḟ·s + f·Ṡ_e·ḋ) (Algorithm 1), the weight w a constant.
+//!
+//! **Pixel filter.** With a box filter, a derivative render leaves out t = 1 (its splat
+//! weight is discontinuous in the moving film point); with tent or Gaussian filters t = 1
+//! runs and its splat weight is differentiated. Primal renders always use every strategy.
+//!
+//! (1, 1), an emitter seen straight through the pinhole by light tracing, is left out: s = 0
+//! covers area emitters (as in the path tracer), and points (point lights, laser spots) are
+//! not seen directly by either integrator.
+
+pub mod connect;
+pub mod film;
+pub mod mis;
+pub mod splat;
+pub mod vertex;
+pub mod walk;
+
+use super::context::RenderContext;
+use super::deposit::for_each_lane;
+use super::path::{PacketLanes, PathCounts};
+use crate::kernel::{PathSampler, Real, Spectrum};
+use film::BdptFilm;
+use vertex::Vertex;
+use walk::LightOrigin;
+
+/// Seed stream of the light subpaths (the camera subpaths use the render seed), so the two
+/// subpaths of a lane are independent.
+const LIGHT_STREAM: u64 = 0x6C69_6768_745F_7375;
+
+/// Vertex and density buffers reused from packet to packet.
+pub struct Scratch<R: Real, const C: usize> {
+    camera: Vec<Vertex<R, C>>,
+    light: Vec<Vertex<R, C>>,
+    pl: Vec<R::Value>,
+    pe: Vec<R::Value>,
+}
+
+impl<R: Real, const C: usize> Default for Scratch<R, C> {
+    fn default() -> Self {
+        Self {
+            camera: Vec::new(),
+            light: Vec::new(),
+            pl: Vec::new(),
+            pe: Vec::new(),
+        }
+    }
+}
+
+/// One packet's state while its strategies run.
+pub struct Packet<'p, 'c, R: Real, const C: usize> {
+    pub ctx: &'p RenderContext<'c>,
+    pub lanes: &'p PacketLanes,
+    pub camera: &'p [Vertex<R, C>],
+    pub light: &'p [Vertex<R, C>],
+    pub origin: LightOrigin<R>,
+    pub eta: R,
+    pub t1_enabled: bool,
+    pub pl: &'p mut Vec<R::Value>,
+    pub pe: &'p mut Vec<R::Value>,
+    pub film: &'p mut BdptFilm,
+    pub counts: &'p mut PathCounts,
+}
+
+impl<R: Real, const C: usize> Packet<'_, '_, R, C> {
+    /// Adds each lane's contribution to its own pixel (strategies with t ≥ 2).
+    pub fn deposit_own_pixels(
+        &mut self,
+        strategy: (usize, usize),
+        emitter: &[u32; 8],
+        d: R,
+        contrib: &Spectrum<R, C>,
+        mask: R::Mask,
+    ) {
+        let (ctx, lanes, film) = (self.ctx, self.lanes, &mut *self.film);
+        for_each_lane(ctx, emitter, d, contrib, mask, self.counts, |i, lc| {
+            let (x, y) = (lanes.px[i] as usize, lanes.py[i] as usize);
+            film.add(ctx, strategy, x, y, lc, 1.0, &[]);
+        });
+    }
+}
+
+/// Whether the t = 1 strategy runs: always in primal renders, and in derivative renders only
+/// with a continuous pixel filter (see the module docs).
+pub fn t1_enabled(ctx: &RenderContext, derivs: usize) -> bool {
+    derivs == 0 || ctx.camera.filter().is_smooth()
+}
+
+/// Traces one camera and one light subpath per lane and adds every strategy's weighted
+/// contribution (and derivatives) to `film`.
+pub fn trace_packet<R: Real, const C: usize>(
+    ctx: &RenderContext,
+    seed: u64,
+    lanes: &PacketLanes,
+    film: &mut BdptFilm,
+    counts: &mut PathCounts,
+    scratch: &mut Scratch<R, C>,
+) {
+    let max_bounces = ctx.scene.integrator.max_bounces as usize;
+    let ids = &lanes.ids[..lanes.count.max(1)];
+    let mut cam_sampler = PathSampler::new(seed, ids);
+    let mut light_sampler = PathSampler::new(seed ^ LIGHT_STREAM, ids);
+    let Scratch { camera, light, pl, pe } = scratch;
+    walk::camera_subpath(ctx, &mut cam_sampler, lanes, camera, max_bounces + 1, &mut counts.rays);
+    let origin = walk::light_subpath(ctx, &mut light_sampler, lanes, light, max_bounces, &mut counts.rays);
+    let mut pk = Packet {
+        ctx,
+        lanes,
+        camera,
+        light,
+        origin,
+        eta: ctx.motion.eta::<R>(ctx.scene.eta),
+        t1_enabled: t1_enabled(ctx, R::DERIVS.min(ctx.motion.len())),
+        pl,
+        pe,
+        film,
+        counts,
+    };
+    for t in 1..=pk.camera.len() {
+        for s in 0..=pk.light.len() {
+            if s + t < 2 || s + t - 2 > max_bounces || (s, t) == (1, 1) {
+                continue;
+            }
+            match (s, t) {
+                (0, _) => connect::emission(&mut pk, t),
+                (_, 1) if pk.t1_enabled => splat::splat_to_camera(&mut pk, s),
+                (_, 1) => {}
+                _ => connect::connect(&mut pk, s, t),
+            }
+        }
+    }
+}
+
+/// All samples of the tiles `tiles` (x0, y0 of each `tile`-sized tile), in order, into one
+/// chunk film: the BDPT counterpart of the path tracer's per-tile loop.
+pub fn render_tiles<R: Real, const C: usize>(
+    ctx: &RenderContext,
+    seed: u64,
+    spp: u32,
+    tiles: &[(usize, usize)],
+    tile: usize,
+    film: &mut BdptFilm,
+    counts: &mut PathCounts,
+) {
+    let (w, h) = (ctx.scene.film.width as usize, ctx.scene.film.height as usize);
+    let mut scratch = Scratch::<R, C>::default();
+    for &(x0, y0) in tiles {
+        let (tw, th) = (tile.min(w - x0), tile.min(h - y0));
+        for s in 0..spp as u64 {
+            for ty in 0..th {
+                let mut x = 0;
+                while x < tw {
+                    let n = R::LANES.min(tw - x);
+                    let mut lanes = PacketLanes {
+                        px: [0; 8],
+                        py: [0; 8],
+                        ids: [0; 8],
+                        count: n,
+                    };
+                    for i in 0..n {
+                        let (px, py) = (x0 + x + i, y0 + ty);
+                        lanes.px[i] = px as u32;
+                        lanes.py[i] = py as u32;
+                        lanes.ids[i] = (py * w + px) as u64 * spp as u64 + s;
+                    }
+                    trace_packet::<R, C>(ctx, seed, &lanes, film, counts, &mut scratch);
+                    x += n;
+                }
+            }
+        }
+    }
+}

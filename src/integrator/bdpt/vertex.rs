@@ -1,0 +1,119 @@
+//! Subpath vertices and the area-measure pdfs that link them (Veach 1997, §10.2; the
+//! `pdfFwd` / `pdfRev` bookkeeping of pbrt-v4's BDPT, STYLE example 7).
+//!
+//! Delta flags: pbrt-v4 marks vertices scattered by a specular lobe (`delta`) and lights that
+//! are deltas in position (`IsDeltaLight`). Our only BSDF is diffuse, so no surface vertex is
+//! a delta and none carries the flag; the light origin's flag is
+//! [`super::walk::LightOrigin::delta`] (point lights, laser spots), and zero (delta) densities
+//! are remapped to 1 in the MIS ratios as pbrt's `MISWeight` does. A specular lobe would add a
+//! per-vertex mask here and to [`super::mis::allowed`].
+//!
+//! Each vertex holds eight lanes (one subpath per lane). `pdf_fwd` is the area density with
+//! which the subpath's own walk generated the vertex, `pdf_rev` the density with which the
+//! other direction would generate it. The MIS weights ([`super::mis`]) read only these values;
+//! derivatives never flow through them (the weights are constants for differentiation, as in
+//! the paper's Algorithm 1).
+
+use crate::kernel::{Mask, Real, Spectrum, V3};
+use std::f32::consts::{FRAC_1_PI, PI};
+
+type V<R> = <R as Real>::Value;
+
+/// One vertex of a camera or light subpath, per lane.
+#[derive(Clone, Copy, Debug)]
+pub struct Vertex<R: Real, const C: usize> {
+    pub p: V3<R>,
+    /// Unit normal turned to the side the subpath arrived from (surface vertices) or to the
+    /// emitting side (light origin on a surface); zero for point-like vertices.
+    pub n: V3<R>,
+    /// Lanes whose vertex lies on a surface (a cosine applies there).
+    pub on_surface: R::Mask,
+    /// Lanes that arrived on the winding-front side (area emitters emit only there).
+    pub front: R::Mask,
+    /// Lanes whose vertex is a light origin with a uniform (point-light) direction density.
+    pub uniform_sphere: R::Mask,
+    /// Throughput up to this vertex, divided by the sampling pdfs (pbrt's `beta`).
+    pub beta: Spectrum<R, C>,
+    /// BSDF value albedo/π at surface vertices; 1 at a light origin (its emission is in
+    /// `beta`).
+    pub f: Spectrum<R, C>,
+    pub pdf_fwd: V<R>,
+    pub pdf_rev: V<R>,
+    /// Optical path length from the subpath's start to this vertex.
+    pub opl: R,
+    pub prim: [u32; 8],
+    pub alive: R::Mask,
+}
+
+/// Solid-angle density of the direction from `v` towards `to` under `v`'s own sampling:
+/// cos/π on the lit side of a surface (diffuse BSDF and area/laser-spot emission), 1/(4π) at
+/// a point light.
+#[inline(always)]
+pub fn dir_pdf<R: Real, const C: usize>(v: &Vertex<R, C>, to: &V3<V<R>>) -> V<R> {
+    let w = (*to - v.p.value()).normalize();
+    let cos = v.n.value().dot(w);
+    let surface = cos.abs().mul_f(FRAC_1_PI);
+    let surface = V::<R>::select(v.on_surface, surface, V::<R>::splat(0.25 / PI));
+    V::<R>::select(v.uniform_sphere, V::<R>::splat(0.25 / PI), surface)
+}
+
+/// Turns a solid-angle density at `from` into an area density at `to`: ·|cos θ_to| / r²
+/// (no cosine at point-like vertices).
+#[inline(always)]
+pub fn to_area<R: Real, const C: usize>(from: &V3<V<R>>, to: &Vertex<R, C>, pdf_dir: V<R>) -> V<R> {
+    let d = *from - to.p.value();
+    let r2 = d.length_squared();
+    let cos = V::<R>::select(
+        to.on_surface,
+        to.n.value().dot(d).abs() * V::<R>::safe_div(V::<R>::one(), r2.sqrt()),
+        V::<R>::one(),
+    );
+    V::<R>::safe_div(pdf_dir * cos, r2)
+}
+
+/// Area density of generating `to` from `from` by `from`'s own direction sampling.
+#[inline(always)]
+pub fn area_pdf<R: Real, const C: usize>(from: &Vertex<R, C>, to: &Vertex<R, C>) -> V<R> {
+    to_area(&from.p.value(), to, dir_pdf(from, &to.p.value()))
+}
+
+/// The pinhole's direction density towards film point u for pixel j, relative to the light
+/// subpaths: h_j(u) / (a cos³θ) / N. One light subpath is traced per camera subpath, so each
+/// pixel receives N (pixels) times as many light-tracing samples as camera samples; dividing
+/// the camera density by N is Veach's sample-count weighting (1997, Eq. 9.11).
+#[inline(always)]
+pub fn camera_dir_pdf<V: Real>(h: V, importance: V, pixels: f32) -> V {
+    (h * importance).mul_f(1.0 / pixels)
+}
+
+/// Records that `next` was reached from `cur` by sampling a direction with solid-angle
+/// density `pdf_dir` (one walk step): `next.pdf_fwd` is that density in area measure, and
+/// `cur.pdf_rev` the area density with which `next`'s own sampling would generate `cur`.
+/// The diffuse BSDF's density does not depend on the incoming direction, so `cur.pdf_rev`
+/// is final as soon as `next` exists.
+#[inline(always)]
+pub fn link<R: Real, const C: usize>(cur: &mut Vertex<R, C>, next: &mut Vertex<R, C>, pdf_dir: V<R>) {
+    next.pdf_fwd = to_area(&cur.p.value(), next, pdf_dir);
+    cur.pdf_rev = area_pdf(next, cur);
+}
+
+impl<R: Real, const C: usize> Vertex<R, C> {
+    /// A point-like vertex at `p` (the camera or a point light) with throughput `beta`.
+    pub fn point(p: V3<R>, beta: Spectrum<R, C>, alive: R::Mask) -> Self {
+        let no = R::Mask::from_bools(&[false; 8][..R::LANES]);
+        Self {
+            p,
+            n: V3::zero(),
+            on_surface: no,
+            front: no,
+            uniform_sphere: no,
+            beta,
+            f: Spectrum::splat(R::one()),
+            pdf_fwd: V::<R>::zero(),
+            pdf_rev: V::<R>::zero(),
+            opl: R::zero(),
+            prim: [u32::MAX; 8],
+            alive,
+        }
+    }
+}

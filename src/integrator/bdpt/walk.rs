@@ -1,0 +1,235 @@
+//! Camera and light subpaths: random walks that store every vertex with its throughput,
+//! its optical path length and its forward/reverse area densities (Veach 1997, §10.2).
+//!
+//! Vertex positions follow the path tracer's parameterisation (Algorithm 1): the first
+//! camera vertex in ray form (it slides along the fixed camera ray), every other vertex in
+//! material form (it moves with its surface), with the derivative of G·J carried by the
+//! ratio `[G·J]_dual / [G]_value` as in [`crate::integrator::path`].
+
+use super::vertex::{Vertex, camera_dir_pdf, link};
+use crate::integrator::bsdf::{albedo, diffuse_eval, sample_cosine};
+use crate::integrator::context::RenderContext;
+use crate::integrator::path::{PacketLanes, ray_plane_point};
+use crate::integrator::surface::{offset_origin, surface_at};
+use crate::integrator::trace::{RayCounts, intersect};
+use crate::kernel::{Mask, PathSampler, Real, Spectrum, V3};
+use glam::Vec3;
+
+type V<R> = <R as Real>::Value;
+
+/// What the light subpath started from, per lane.
+#[derive(Clone, Copy, Debug)]
+pub struct LightOrigin<R: Real> {
+    pub emitter: [u32; 8],
+    /// Delta in position (point light, laser spot): no camera path can hit it, so the
+    /// s = 0 strategy has density 0 for its paths.
+    pub delta: R::Mask,
+}
+
+/// Extends `path` (which holds its start vertex) by up to `new_vertices` surface vertices.
+/// `ray_d` was sampled at the last vertex with solid-angle density `pdf_dir`, and `beta` is
+/// the throughput carried along it. `camera` marks the camera subpath (first vertex in ray
+/// form; its segment leaves the OPL when the film is unwarped).
+#[allow(clippy::too_many_arguments)]
+fn random_walk<R: Real, const C: usize>(
+    ctx: &RenderContext,
+    sampler: &mut PathSampler,
+    path: &mut Vec<Vertex<R, C>>,
+    mut ray_o: V3<V<R>>,
+    mut ray_d: V3<V<R>>,
+    mut pdf_dir: V<R>,
+    mut beta: Spectrum<R, C>,
+    mut active: R::Mask,
+    new_vertices: usize,
+    camera: bool,
+    counts: &mut RayCounts,
+) {
+    let eta = ctx.motion.eta::<R>(ctx.scene.eta);
+    let all = R::Mask::from_bools(&[true; 8][..R::LANES]);
+    let none = R::Mask::from_bools(&[false; 8][..R::LANES]);
+    for depth in 1..=new_vertices {
+        let ray_form = camera && depth == 1;
+        let hit = intersect(
+            &ctx.accel,
+            &ray_o,
+            &ray_d,
+            V::<R>::zero(),
+            V::<R>::splat(f32::INFINITY),
+            active,
+            ray_form,
+            counts,
+        );
+        let hits: [bool; 8] = std::array::from_fn(|i| hit.prim[i] != u32::MAX);
+        active = active & R::Mask::from_bools(&hits[..R::LANES]);
+        if active.none() {
+            break;
+        }
+        let prev = *path.last().expect("a walk starts from a vertex");
+        let mut x = surface_at::<R>(ctx, &hit.prim, hit.u, hit.v);
+        if R::DERIVS > 0 && ray_form {
+            x.p = ray_plane_point(&prev.p, &V3::from_value(ray_d), &x.p, &x.n);
+        }
+        let seg = x.p - prev.p;
+        let r2 = seg.length_squared();
+        let r = r2.sqrt();
+        let w_in = seg * R::safe_div(R::one(), r);
+        if R::DERIVS > 0 && !ray_form {
+            let cos_prev = R::select(prev.on_surface, prev.n.dot(w_in).abs(), R::one());
+            let g = cos_prev * x.n.dot(w_in).abs() / r2;
+            beta = beta.scale(R::safe_div(g, R::from_value(g.value())) * x.jacobian);
+        }
+        let opl = if ray_form && ctx.scene.film.unwarp {
+            prev.opl
+        } else {
+            prev.opl + eta * r
+        };
+        let front = x.n.value().dot(ray_d).lt(V::<R>::zero());
+        let f = diffuse_eval(albedo::<R, C>(ctx, &x.prim));
+        let mut v = Vertex {
+            p: x.p,
+            n: V3::select(front, x.n, -x.n),
+            on_surface: all,
+            front,
+            uniform_sphere: none,
+            beta,
+            f,
+            pdf_fwd: V::<R>::zero(),
+            pdf_rev: V::<R>::zero(),
+            opl,
+            prim: hit.prim,
+            alive: active,
+        };
+        link(path.last_mut().expect("start vertex"), &mut v, pdf_dir);
+        path.push(v);
+        if depth == new_vertices {
+            break;
+        }
+        let (b1, b2) = sampler.next2::<V<R>>();
+        let n_v = x.n.value();
+        let (dir, pdf) = sample_cosine(&n_v, &-ray_d, b1, b2);
+        let cos_o = n_v.dot(dir).abs();
+        beta = (beta * f).scale(R::from_value(V::<R>::safe_div(cos_o, pdf)));
+        active = active & pdf.gt(V::<R>::zero());
+        if let Some(rr) = ctx.scene.integrator.rr_depth {
+            let u = sampler.next::<V<R>>();
+            if depth >= rr as usize {
+                let q = beta.max_value().min(V::<R>::one());
+                active = active & u.lt(q);
+                beta = beta.scale(R::from_value(V::<R>::safe_div(V::<R>::one(), q)));
+            }
+        }
+        ray_o = offset_origin(&x.p.value(), &n_v, &dir);
+        ray_d = dir;
+        pdf_dir = pdf;
+    }
+}
+
+/// The camera subpath of each lane's pixel: vertex 0 at the pinhole, then up to
+/// `new_vertices` surface vertices. The filter offset is importance sampled, so the camera
+/// throughput stays 1; its density h_j(u)/(a cos³θ)/N enters the MIS weights only.
+pub fn camera_subpath<R: Real, const C: usize>(
+    ctx: &RenderContext,
+    sampler: &mut PathSampler,
+    lanes: &PacketLanes,
+    path: &mut Vec<Vertex<R, C>>,
+    new_vertices: usize,
+    counts: &mut RayCounts,
+) {
+    let cam = &ctx.camera;
+    let pixels = (ctx.scene.film.width * ctx.scene.film.height) as f32;
+    let (u1, u2) = sampler.next2::<V<R>>();
+    let mut dirs = [Vec3::ZERO; 8];
+    let mut pdf = [0.0f32; 8];
+    for i in 0..R::LANES {
+        let (ox, oy) = (cam.filter().sample(u1.lane(i)), cam.filter().sample(u2.lane(i)));
+        dirs[i] = cam.direction(lanes.px[i] as f32 + 0.5 + ox, lanes.py[i] as f32 + 0.5 + oy);
+        let h = cam.filter().density(ox).0 * cam.filter().density(oy).0;
+        let importance = cam.project(cam.position + dirs[i]).map_or(0.0, |p| p.importance);
+        pdf[i] = camera_dir_pdf(h, importance, pixels);
+    }
+    let in_use: [bool; 8] = std::array::from_fn(|i| i < lanes.count);
+    let active = R::Mask::from_bools(&in_use[..R::LANES]);
+    path.clear();
+    path.push(Vertex::point(
+        V3::splat(cam.position),
+        Spectrum::splat(R::one()),
+        active,
+    ));
+    random_walk(
+        ctx,
+        sampler,
+        path,
+        V3::splat(cam.position),
+        V3::from_lane_vecs(&dirs[..R::LANES]),
+        V::<R>::from_lanes(&pdf),
+        Spectrum::splat(R::one()),
+        active,
+        new_vertices,
+        true,
+        counts,
+    );
+}
+
+/// Uniform direction on the sphere and its density 1/(4π).
+#[inline(always)]
+fn sample_sphere<V: Real>(u1: V, u2: V) -> (V3<V>, V) {
+    let z = V::one() - u1.mul_f(2.0);
+    let r = (V::one() - z * z).sqrt();
+    let (s, c) = u2.mul_f(2.0 * std::f32::consts::PI).sin_cos();
+    (V3::new(r * c, r * s, z), V::splat(0.25 * std::f32::consts::FRAC_1_PI))
+}
+
+/// The light subpath of each lane: vertex 0 on an emitter (area: point by area, direction
+/// by cosine; point light: direction uniform on the sphere; laser: its spot, which radiates
+/// like a small Lambertian source), then up to `new_vertices` surface vertices.
+pub fn light_subpath<R: Real, const C: usize>(
+    ctx: &RenderContext,
+    sampler: &mut PathSampler,
+    lanes: &PacketLanes,
+    path: &mut Vec<Vertex<R, C>>,
+    new_vertices: usize,
+    counts: &mut RayCounts,
+) -> LightOrigin<R> {
+    let in_use: [bool; 8] = std::array::from_fn(|i| i < lanes.count);
+    let active = R::Mask::from_bools(&in_use[..R::LANES]);
+    let (u0, u1) = sampler.next2::<V<R>>();
+    let u2 = sampler.next::<V<R>>();
+    let ls = ctx.emitters.sample::<R, C>(ctx, u0, u1, u2, active);
+    let alive = active & ls.valid;
+    let eta = ctx.motion.eta::<R>(ctx.scene.eta);
+    let mut v0 = Vertex::point(ls.p, ls.weight, alive);
+    v0.n = V3::select(ls.has_cos, ls.n, V3::zero());
+    v0.on_surface = ls.has_cos;
+    v0.front = ls.has_cos;
+    v0.uniform_sphere = !ls.has_cos;
+    v0.pdf_fwd = ls.pdf_area;
+    v0.opl = eta * ls.pre_length;
+    path.clear();
+    path.push(v0);
+    let (b1, b2) = sampler.next2::<V<R>>();
+    let (n_v, p_v) = (ls.n.value(), ls.p.value());
+    let (dir_c, pdf_c) = sample_cosine(&n_v, &n_v, b1, b2);
+    let (dir_s, pdf_s) = sample_sphere(b1, b2);
+    let dir = V3::select(ls.has_cos, dir_c, dir_s);
+    let pdf = V::<R>::select(ls.has_cos, pdf_c, pdf_s);
+    let cos0 = V::<R>::select(ls.has_cos, n_v.dot(dir).abs(), V::<R>::one());
+    let beta = ls.weight.scale(R::from_value(V::<R>::safe_div(cos0, pdf)));
+    let origin = V3::select(ls.has_cos, offset_origin(&p_v, &n_v, &dir), p_v);
+    random_walk(
+        ctx,
+        sampler,
+        path,
+        origin,
+        dir,
+        pdf,
+        beta,
+        alive,
+        new_vertices,
+        false,
+        counts,
+    );
+    LightOrigin {
+        emitter: ls.emitter,
+        delta: alive & !ls.pdf_area.gt(V::<R>::zero()),
+    }
+}

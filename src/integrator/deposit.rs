@@ -1,0 +1,116 @@
+//! One lane's contribution on its way to a film: its value, derivatives and OPL pulled out
+//! of the SIMD registers once, checked for finiteness, then added to one or more pixels.
+//!
+//! A pulse-offset parameter τ of the lane's emitter shifts S_e(d + τ), so it adds
+//! ∂d/∂τ = 1 to the OPL derivative (see `temporal.rs`).
+
+use super::context::RenderContext;
+use super::path::PathCounts;
+use crate::film::TileFilm;
+use crate::kernel::{Real, Spectrum};
+
+/// At most 16 derivative lanes of at most 3 channels.
+const MAX_K: usize = 16;
+
+/// A finite contribution of one lane: f (per channel), ḟ, d and ḋ.
+#[derive(Clone, Copy, Debug)]
+pub struct LaneContribution<const C: usize> {
+    pub emitter: u32,
+    pub d: f32,
+    pub f: [f32; C],
+    /// ḟ_k per channel: `fdot[k * C + c]`.
+    pub fdot: [f32; 48],
+    pub ddot: [f32; MAX_K],
+    pub n_k: usize,
+}
+
+impl<const C: usize> LaneContribution<C> {
+    /// Lane `i` of (`d`, `contrib`) from `emitter`. `None` when the lane is not finite (the
+    /// caller counts it and drops it, never writing it to the film).
+    pub fn extract<R: Real>(
+        ctx: &RenderContext,
+        emitter: u32,
+        d: R,
+        contrib: &Spectrum<R, C>,
+        i: usize,
+    ) -> Option<Self> {
+        let f: [f32; C] = std::array::from_fn(|c| contrib.0[c].lane(i));
+        let di = d.lane(i);
+        let mut finite = di.is_finite() && f.iter().all(|v| v.is_finite());
+        let n_k = R::DERIVS.min(ctx.motion.len()).min(MAX_K);
+        let mut fdot = [0.0f32; 48];
+        let mut ddot = [0.0f32; MAX_K];
+        for k in 0..n_k {
+            for c in 0..C {
+                fdot[k * C + c] = contrib.0[c].deriv_lane(k, i);
+                finite &= fdot[k * C + c].is_finite();
+            }
+            let shift = if ctx.motion.pulse_offset[k] == Some(emitter as usize) {
+                1.0
+            } else {
+                0.0
+            };
+            ddot[k] = d.deriv_lane(k, i) + shift;
+            finite &= ddot[k].is_finite();
+        }
+        finite.then_some(Self {
+            emitter,
+            d: di,
+            f,
+            fdot,
+            ddot,
+            n_k,
+        })
+    }
+
+    /// Whether nothing would reach the film (zero value and no derivative lanes).
+    pub fn is_empty(&self) -> bool {
+        self.n_k == 0 && self.f.iter().all(|&v| v == 0.0)
+    }
+
+    /// Adds h·f to pixel (x, y) of `film`, and h·ḟ_k + ḣ_k·f to derivative k (`hdot` holds
+    /// ḣ_k, or is empty when the weight h is a constant).
+    pub fn add_to(&self, ctx: &RenderContext, film: &mut TileFilm, x: usize, y: usize, h: f32, hdot: &[f32]) {
+        let corr = &ctx.correlations[self.emitter as usize];
+        let f: [f32; C] = self.f.map(|v| v * h);
+        if self.n_k == 0 {
+            film.add(x, y, corr, self.d, &f);
+            return;
+        }
+        let mut fdot = [0.0f32; 48];
+        for k in 0..self.n_k {
+            let hk = hdot.get(k).copied().unwrap_or(0.0);
+            for c in 0..C {
+                fdot[k * C + c] = self.fdot[k * C + c] * h + self.f[c] * hk;
+            }
+        }
+        film.add_with_derivs(x, y, corr, self.d, &f, &fdot[..self.n_k * C], &self.ddot[..self.n_k]);
+    }
+}
+
+/// Pulls every lane of `mask` with an emitter out of (`d`, `contrib`) and hands the finite,
+/// non-empty ones to `add(lane, contribution)`; non-finite lanes are counted in `counts` and
+/// dropped. The time spent is counted as film time.
+#[allow(clippy::too_many_arguments)]
+pub fn for_each_lane<R: Real, const C: usize>(
+    ctx: &RenderContext,
+    emitter: &[u32; 8],
+    d: R,
+    contrib: &Spectrum<R, C>,
+    mask: R::Mask,
+    counts: &mut PathCounts,
+    mut add: impl FnMut(usize, &LaneContribution<C>),
+) {
+    let t0 = crate::timing::ticks();
+    for i in 0..R::LANES {
+        if !crate::kernel::Mask::bit(mask, i) || emitter[i] == u32::MAX {
+            continue;
+        }
+        match LaneContribution::<C>::extract(ctx, emitter[i], d, contrib, i) {
+            Some(lc) if !lc.is_empty() => add(i, &lc),
+            Some(_) => {}
+            None => counts.non_finite += 1,
+        }
+    }
+    counts.film_ticks += crate::timing::ticks() - t0;
+}

@@ -1,0 +1,191 @@
+//! Bidirectional path tracing (Algorithm 1's interior estimator) against the path tracer
+//! on the forward transient: the same expectation, independent noise. For each scene, K
+//! independent seeds per integrator give a mean and standard error per entry of two
+//! aggregates (per-bin totals and the time-summed image); the difference of the means in
+//! units of its standard error must look like Student-t noise (Σz² against its expectation,
+//! every |z| against a family-wise bound, and the grand total within 3 standard errors).
+//! Scenes: the Cornell box (area light), confocal_plane.toml (point light, one bounce) and
+//! laser_room.toml (laser spot). Also: the per-strategy transients sum to the transient, and
+//! the hard cases stay finite under BDPT.
+
+mod common;
+use difftransient::render::render_strategies;
+use difftransient::scene::IntegratorKind;
+use difftransient::{RenderOptions, Scene, Transient, render};
+
+const K: u64 = 12;
+
+fn opts(kind: IntegratorKind, spp: u32, seed: u64) -> RenderOptions {
+    RenderOptions {
+        spp: Some(spp),
+        seed: Some(seed),
+        threads: Some(2),
+        integrator: Some(kind),
+        ..Default::default()
+    }
+}
+
+fn aggregates(t: &Transient) -> (Vec<f64>, Vec<f64>) {
+    let bins = t.bin_totals().into_iter().map(|v| v as f64).collect();
+    let image = t.steady.iter().map(|&v| v as f64).collect();
+    (bins, image)
+}
+
+fn agree(name: &str, scene: &Scene, spp: u32) {
+    let mut runs: [Vec<(Vec<f64>, Vec<f64>)>; 2] = [Vec::new(), Vec::new()];
+    for (j, kind) in [IntegratorKind::Path, IntegratorKind::Bdpt].into_iter().enumerate() {
+        for seed in 0..K {
+            let (t, stats) = render(scene, &opts(kind, spp, 1000 * j as u64 + seed)).unwrap();
+            assert_eq!(stats.non_finite_samples, 0, "{name} {kind:?}: non-finite samples");
+            assert_eq!(t.non_finite_count(), 0);
+            runs[j].push(aggregates(&t));
+        }
+    }
+    let totals: Vec<[f64; 2]> = (0..K as usize)
+        .map(|k| [runs[0][k].0.iter().sum(), runs[1][k].0.iter().sum()])
+        .collect();
+    for (what, pick) in [
+        (
+            "bins",
+            (|a: &(Vec<f64>, Vec<f64>)| a.0.clone()) as fn(&(Vec<f64>, Vec<f64>)) -> Vec<f64>,
+        ),
+        ("image", |a| a.1.clone()),
+    ] {
+        let a: Vec<Vec<f64>> = runs[0].iter().map(pick).collect();
+        let b: Vec<Vec<f64>> = runs[1].iter().map(pick).collect();
+        let (chi2, zmax, n) = common::two_sample_z(&a, &b);
+        let (mean, sd) = common::t2_sum_moments(n as f64, (K - 1) as f64);
+        eprintln!("{name} {what}: Σz² = {chi2:.1} (expect {mean:.1} ± {sd:.1}) over {n}, max|z| = {zmax:.2}");
+        assert!(n > 0, "{name} {what}: nothing rendered");
+        assert!(chi2 <= mean + 5.0 * sd, "{name} {what}: BDPT and path tracer disagree");
+        assert!(zmax <= 8.0, "{name} {what}: an entry is {zmax:.1} standard errors off");
+    }
+    let (mp, sp) = common::mean_se(&totals.iter().map(|t| t[0]).collect::<Vec<_>>());
+    let (mb, sb) = common::mean_se(&totals.iter().map(|t| t[1]).collect::<Vec<_>>());
+    eprintln!("{name} total: path {mp:.5} ± {sp:.5}, bdpt {mb:.5} ± {sb:.5}");
+    assert!(mp > 0.0);
+    assert!(
+        (mp - mb).abs() <= 3.0 * (sp * sp + sb * sb).sqrt(),
+        "{name}: total path {mp} ± {sp} vs bdpt {mb} ± {sb}"
+    );
+}
+
+fn small_cornell() -> Scene {
+    let mut s = common::load("cornell_box.toml");
+    s.film.width = 16;
+    s.film.height = 16;
+    s.integrator.max_bounces = 4;
+    s
+}
+
+#[test]
+fn bdpt_matches_path_tracer_on_the_cornell_box() {
+    agree("cornell", &small_cornell(), 16);
+}
+
+/// Unwarped film (the camera segment leaves the OPL): camera strategies drop their first
+/// segment, light tracing its connection to the pinhole.
+#[test]
+fn bdpt_matches_path_tracer_unwarped() {
+    let mut s = small_cornell();
+    s.film.unwarp = true;
+    agree("cornell unwarped", &s, 16);
+}
+
+#[test]
+fn bdpt_matches_path_tracer_with_a_point_light() {
+    agree("confocal_plane", &common::load("confocal_plane.toml"), 16);
+}
+
+#[test]
+fn bdpt_matches_path_tracer_with_a_laser() {
+    agree("laser_room", &common::load("laser_room.toml"), 16);
+}
+
+/// The per-strategy transients (`--strategies`) add up to the BDPT transient.
+#[test]
+fn strategies_sum_to_the_transient() {
+    let scene = small_cornell();
+    let o = opts(IntegratorKind::Bdpt, 2, 3);
+    let (full, per, _) = render_strategies(&scene, &o).unwrap();
+    assert_eq!(per.len(), difftransient::integrator::bdpt::film::strategy_list(4).len());
+    let mut sum = vec![0.0f64; full.data.len()];
+    for (_, t) in &per {
+        for (s, v) in sum.iter_mut().zip(&t.data) {
+            *s += *v as f64;
+        }
+    }
+    let peak = full.data.iter().fold(0.0f32, |m, v| m.max(v.abs())) as f64;
+    for (i, (s, f)) in sum.iter().zip(&full.data).enumerate() {
+        assert!(
+            (s - *f as f64).abs() <= 1e-5 * peak,
+            "entry {i}: strategies {s} vs transient {f}"
+        );
+    }
+    // more than one strategy carries energy, and the path tracer's option is refused
+    let carrying = per.iter().filter(|(_, t)| t.data.iter().any(|&v| v > 0.0)).count();
+    assert!(carrying >= 5, "only {carrying} strategies contribute");
+    assert!(render_strategies(&scene, &opts(IntegratorKind::Path, 1, 0)).is_err());
+}
+
+/// Same seed, same bytes, for any thread count (splats cross chunks, chunks merge in order).
+#[test]
+fn bdpt_is_deterministic_across_thread_counts() {
+    let scene = small_cornell();
+    let mut o = opts(IntegratorKind::Bdpt, 2, 5);
+    let (a, _) = render(&scene, &o).unwrap();
+    o.threads = Some(1);
+    let (b, _) = render(&scene, &o).unwrap();
+    assert!(a.data == b.data && a.steady == b.steady);
+}
+
+/// With a box filter a derivative render leaves out t = 1; the remaining strategies'
+/// weights still sum to 1, so its primal transient agrees with the full BDPT within noise.
+#[test]
+fn bdpt_without_t1_matches_full_bdpt() {
+    let scene = common::load("diff_room.toml");
+    let (mut full, mut without) = (Vec::new(), Vec::new());
+    for seed in 0..K {
+        let (t, _) = render(&scene, &opts(IntegratorKind::Bdpt, 4, seed)).unwrap();
+        full.push(aggregates(&t));
+        let o = opts(IntegratorKind::Bdpt, 4, 500 + seed);
+        let (t, _, _) = difftransient::render_diff(&scene, &["albedo".to_string()], &o).unwrap();
+        without.push(aggregates(&t));
+    }
+    for (what, a, b) in [
+        (
+            "bins",
+            full.iter().map(|r| r.0.clone()).collect::<Vec<_>>(),
+            without.iter().map(|r| r.0.clone()).collect::<Vec<_>>(),
+        ),
+        (
+            "image",
+            full.iter().map(|r| r.1.clone()).collect(),
+            without.iter().map(|r| r.1.clone()).collect(),
+        ),
+    ] {
+        let (chi2, zmax, n) = common::two_sample_z(&a, &b);
+        let (mean, sd) = common::t2_sum_moments(n as f64, (K - 1) as f64);
+        eprintln!("t1 off {what}: Σz² = {chi2:.1} (expect {mean:.1} ± {sd:.1}) over {n}, max|z| = {zmax:.2}");
+        assert!(
+            chi2 <= mean + 5.0 * sd && zmax <= 8.0,
+            "{what}: BDPT without t = 1 disagrees"
+        );
+    }
+}
+
+/// One path per packet (`f32`, `rtcIntersect1`) and eight (`f32x8`, `rtcIntersect8`) run the
+/// same subpaths with the same random numbers, so they give the same transient up to f32
+/// rounding (a lane never sees another lane's data).
+#[test]
+fn bdpt_scalar_and_simd_lanes_agree() {
+    let scene = small_cornell();
+    let mut o = opts(IntegratorKind::Bdpt, 2, 9);
+    let (a, _) = render(&scene, &o).unwrap();
+    o.lanes = difftransient::Lanes::Scalar;
+    let (b, _) = render(&scene, &o).unwrap();
+    let sum = |t: &Transient| t.data.iter().map(|&v| v as f64).sum::<f64>();
+    let diff: f64 = a.steady.iter().zip(&b.steady).map(|(x, y)| (x - y).abs() as f64).sum();
+    eprintln!("simd {} scalar {} steady L1 diff {diff}", sum(&a), sum(&b));
+    assert!(diff <= 1e-4 * sum(&a), "lanes disagree: L1 difference {diff}");
+}
