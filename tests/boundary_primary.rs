@@ -190,3 +190,31 @@ fn approaching_plate_matches_finite_differences() {
         spp_boundary: 8,
     });
 }
+
+#[test]
+fn turning_obj_pyramid_matches_finite_differences() {
+    check(&Case {
+        scene: "pyramid_turn.toml",
+        param: "pyramid_yaw",
+        value: 30.0,
+        h: 1.0,
+        seeds: 12,
+        spp: 16,
+        spp_fd: 256,
+        spp_boundary: 8,
+    });
+}
+
+#[test]
+fn stretching_obj_pyramid_matches_finite_differences() {
+    check(&Case {
+        scene: "pyramid_turn.toml",
+        param: "pyramid_height",
+        value: 0.5,
+        h: 0.01,
+        seeds: 12,
+        spp: 16,
+        spp_fd: 256,
+        spp_boundary: 8,
+    });
+}
