@@ -253,7 +253,7 @@ impl Estimator<'_> {
             let steady: [f32; C] =
                 std::array::from_fn(|c| sides.steady[2 * i * C + c] - sides.steady[(2 * i + 1) * C + c]);
             let lo = delta.iter().position(|&v| v != 0.0).unwrap_or(block);
-            let hi = delta.iter().rposition(|&v| v != 0.0).map_or(0, |h| h + 1);
+            let hi = delta.iter().rposition(|&v| v != 0.0).map_or(lo, |h| h + 1);
             if lo >= hi && steady.iter().all(|&v| v == 0.0) {
                 continue;
             }
@@ -265,13 +265,11 @@ impl Estimator<'_> {
                             continue;
                         }
                         let base = film.index(px as usize, py as usize, 0, 0);
-                        for j in lo..hi {
-                            film.data[base + j] += w * delta[j];
-                        }
+                        let bins = &mut film.data[base + lo..base + hi];
+                        bins.iter_mut().zip(&delta[lo..hi]).for_each(|(d, v)| *d += w * v);
                         let sb = (py as usize * film.width + px as usize) * C;
-                        for c in 0..C {
-                            film.steady[sb + c] += w * steady[c];
-                        }
+                        let pixel = &mut film.steady[sb..sb + C];
+                        pixel.iter_mut().zip(&steady).for_each(|(d, v)| *d += w * v);
                     }
                 });
         }

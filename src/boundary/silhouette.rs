@@ -284,7 +284,7 @@ impl SilhouetteSet {
     /// Picks an edge with probability ∝ projected length (`u_edge`) and a point uniformly
     /// along its visible part (`u_pos`): density 1 / total length per pixel of length.
     pub fn sample(&self, u_edge: f64, u_pos: f64) -> Option<EdgeSample> {
-        if self.edges.is_empty() || !(self.total_length > 0.0) {
+        if self.edges.is_empty() || self.total_length.is_nan() || self.total_length <= 0.0 {
             return None;
         }
         let target = u_edge * self.total_length;
