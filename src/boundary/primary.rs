@@ -27,8 +27,10 @@
 //! (ε = [`SIDE_OFFSET_PX`]) are traced by the ordinary path kernel with common random numbers
 //! (`trace_packet_from`, four samples per packet of eight lanes), and their difference is
 //! splatted with weight h_j(u)·V_k / (pdf · N) into every pixel j the filter reaches, in
-//! derivative film k. N = `spp_boundary` × pixels samples are split into fixed chunks merged in
-//! chunk order, so the same seed gives the same bytes for any thread count.
+//! derivative film k. N = `spp_boundary` × pixels samples are split into fixed chunks traced in
+//! parallel; each chunk keeps its jumps (only the bins the side paths reached) and they are
+//! splatted in chunk order, so the same seed gives the same bytes for any thread count, and no
+//! chunk holds a full-frame film.
 
 use super::edges::build_edges;
 use super::silhouette::{Pinhole, SilhouetteSet};
@@ -77,7 +79,7 @@ pub fn render_primary_with_stats(
     let scene = ctx.scene;
     let (w, h) = (scene.film.width as usize, scene.film.height as usize);
     let blank = Transient::zeros(w, h, scene.film.axis, scene.film.channels);
-    let mut out = vec![blank.clone(); ctx.motion.len().min(16)];
+    let mut out = vec![blank; ctx.motion.len().min(16)];
     let mut stats = PrimaryStats::default();
     if spp_boundary == 0 || out.is_empty() || !ctx.motion.moves_geometry() {
         return (out, stats);
@@ -100,15 +102,14 @@ pub fn render_primary_with_stats(
         pin: &pin,
         seed,
         weight: set.total_length / total as f64,
-        blank: &blank,
         derivs: out.len(),
     };
     let chunks: Vec<(u64, u64)> = (0..total.div_ceil(CHUNK))
         .map(|c| (c * CHUNK, ((c + 1) * CHUNK).min(total)))
         .collect();
-    // Waves of one chunk per thread bound the memory; merging is in chunk order regardless.
-    for wave in chunks.chunks(pool.current_num_threads().max(1)) {
-        let done: Vec<(Vec<Transient>, PrimaryStats)> = pool.install(|| {
+    // Waves of a few chunks per thread bound the memory; splats are added in chunk order.
+    for wave in chunks.chunks(4 * pool.current_num_threads().max(1)) {
+        let done: Vec<(Vec<Jump>, PrimaryStats)> = pool.install(|| {
             wave.par_iter()
                 .map(|&(a, b)| match scene.film.channels {
                     1 => est.chunk::<1>(a, b),
@@ -116,9 +117,9 @@ pub fn render_primary_with_stats(
                 })
                 .collect()
         });
-        for (films, s) in &done {
-            for (o, f) in out.iter_mut().zip(films) {
-                add_into(o, f);
+        for (jumps, s) in &done {
+            for jump in jumps {
+                jump.splat(ctx, &mut out);
             }
             stats.samples += s.samples;
             stats.traced += s.traced;
@@ -128,9 +129,36 @@ pub fn render_primary_with_stats(
     (out, stats)
 }
 
-fn add_into(dst: &mut Transient, src: &Transient) {
-    dst.data.iter_mut().zip(&src.data).for_each(|(d, s)| *d += s);
-    dst.steady.iter_mut().zip(&src.steady).for_each(|(d, s)| *d += s);
+/// The traced jump L⁻ − L⁺ of one sample, over bins `lo..` (channels interleaved), and of its
+/// time-integrated value, with the weight V_k / (pdf · N) of each parameter.
+struct Jump {
+    film: DVec2,
+    weight: [f32; 16],
+    lo: usize,
+    delta: Vec<f32>,
+    steady: [f32; 3],
+}
+
+impl Jump {
+    /// Adds h_j · weight_k · (L⁻ − L⁺) to every pixel j the filter reaches, in film k.
+    fn splat(&self, ctx: &RenderContext, films: &mut [Transient]) {
+        let c_n = ctx.scene.film.channels;
+        let (fx, fy) = (self.film.x as f32, self.film.y as f32);
+        ctx.camera.for_each_pixel(fx, fy, |px, py, hj, _, _| {
+            for (film, &wk) in films.iter_mut().zip(&self.weight) {
+                let w = hj * wk;
+                if w == 0.0 {
+                    continue;
+                }
+                let base = film.index(px as usize, py as usize, self.lo, 0);
+                let bins = &mut film.data[base..base + self.delta.len()];
+                bins.iter_mut().zip(&self.delta).for_each(|(d, v)| *d += w * v);
+                let sb = (py as usize * film.width + px as usize) * c_n;
+                let pixel = &mut film.steady[sb..sb + c_n];
+                pixel.iter_mut().zip(&self.steady).for_each(|(d, v)| *d += w * v);
+            }
+        });
+    }
 }
 
 /// A film point on an edge that the eye sees, with its weight per parameter.
@@ -150,13 +178,12 @@ struct Estimator<'a> {
     seed: u64,
     /// 1 / (pdf · N) = total projected length / N.
     weight: f64,
-    blank: &'a Transient,
     derivs: usize,
 }
 
 impl Estimator<'_> {
-    fn chunk<const C: usize>(&self, first: u64, end: u64) -> (Vec<Transient>, PrimaryStats) {
-        let mut films = vec![self.blank.clone(); self.derivs];
+    fn chunk<const C: usize>(&self, first: u64, end: u64) -> (Vec<Jump>, PrimaryStats) {
+        let mut jumps = Vec::new();
         let mut stats = PrimaryStats::default();
         let mut batch = Vec::with_capacity(4);
         for id in first..end {
@@ -165,15 +192,15 @@ impl Estimator<'_> {
                 stats.traced += 1;
                 batch.push(s);
                 if batch.len() == 4 {
-                    stats.non_finite += self.trace_sides::<C>(&batch, &mut films);
+                    stats.non_finite += self.trace_sides::<C>(&batch, &mut jumps);
                     batch.clear();
                 }
             }
         }
         if !batch.is_empty() {
-            stats.non_finite += self.trace_sides::<C>(&batch, &mut films);
+            stats.non_finite += self.trace_sides::<C>(&batch, &mut jumps);
         }
-        (films, stats)
+        (jumps, stats)
     }
 
     /// Draws film point `id` on the edges; None when the eye does not see it or it does not
@@ -213,9 +240,9 @@ impl Estimator<'_> {
     }
 
     /// Traces the −n and +n sides of up to four samples in one packet (lanes 2i and 2i + 1,
-    /// same path id: common random numbers) and splats h_j · weight_k · (L⁻ − L⁺). Returns the
+    /// same path id: common random numbers) and keeps their jumps L⁻ − L⁺. Returns the
     /// number of non-finite side contributions the kernel dropped.
-    fn trace_sides<const C: usize>(&self, batch: &[SideSample], films: &mut [Transient]) -> u64 {
+    fn trace_sides<const C: usize>(&self, batch: &[SideSample], jumps: &mut Vec<Jump>) -> u64 {
         let ctx = self.ctx;
         let axis = ctx.scene.film.axis;
         let mut lanes = PacketLanes {
@@ -250,28 +277,23 @@ impl Estimator<'_> {
         for (i, s) in batch.iter().enumerate() {
             let (m, p) = (2 * i * block, (2 * i + 1) * block);
             let delta: Vec<f32> = (0..block).map(|j| sides.data[m + j] - sides.data[p + j]).collect();
-            let steady: [f32; C] =
-                std::array::from_fn(|c| sides.steady[2 * i * C + c] - sides.steady[(2 * i + 1) * C + c]);
-            let lo = delta.iter().position(|&v| v != 0.0).unwrap_or(block);
-            let hi = delta.iter().rposition(|&v| v != 0.0).map_or(lo, |h| h + 1);
+            let mut steady = [0.0f32; 3];
+            for (c, v) in steady.iter_mut().enumerate().take(C) {
+                *v = sides.steady[2 * i * C + c] - sides.steady[(2 * i + 1) * C + c];
+            }
+            // Only the bins the two paths reached (S_e.range of their OPLs), whole bins.
+            let lo = delta.iter().position(|&v| v != 0.0).unwrap_or(block) / C;
+            let hi = delta.iter().rposition(|&v| v != 0.0).map_or(lo, |h| h / C + 1);
             if lo >= hi && steady.iter().all(|&v| v == 0.0) {
                 continue;
             }
-            ctx.camera
-                .for_each_pixel(s.film.x as f32, s.film.y as f32, |px, py, hj, _, _| {
-                    for (film, &wk) in films.iter_mut().zip(&s.weight) {
-                        let w = hj * wk;
-                        if w == 0.0 {
-                            continue;
-                        }
-                        let base = film.index(px as usize, py as usize, 0, 0);
-                        let bins = &mut film.data[base + lo..base + hi];
-                        bins.iter_mut().zip(&delta[lo..hi]).for_each(|(d, v)| *d += w * v);
-                        let sb = (py as usize * film.width + px as usize) * C;
-                        let pixel = &mut film.steady[sb..sb + C];
-                        pixel.iter_mut().zip(&steady).for_each(|(d, v)| *d += w * v);
-                    }
-                });
+            jumps.push(Jump {
+                film: s.film,
+                weight: s.weight,
+                lo,
+                delta: delta[lo * C..hi.max(lo) * C].to_vec(),
+                steady,
+            });
         }
         counts.non_finite
     }
