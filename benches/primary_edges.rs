@@ -4,9 +4,11 @@
 //! parameter `cube_x`. Reports, for spp_boundary ∈ {1, 4, 16}: edge samples per second (and
 //! how many were traced: seen by the eye), wall time against the primal render at the scene's
 //! spp, and the relative standard deviation across seeds of the time-summed derivative in 8×8
-//! pixel blocks (it should fall as 1/√spp_boundary: the error reached next to the time).
+//! pixel blocks (the error reached next to the time; film points are jittered over the edges
+//! and this scene has no path noise (one bounce, point light), so it falls faster than
+//! 1/√spp_boundary).
 //!
-//! Run: `cargo bench --bench primary_edges` (DTR_BENCH_THREADS; about 20 s on 2 cores).
+//! Run: `cargo bench --bench primary_edges` (DTR_BENCH_THREADS; a few seconds on 2 cores).
 
 use difftransient::accel::Device;
 use difftransient::boundary::primary::render_primary_with_stats;
@@ -73,7 +75,7 @@ fn main() {
         }
         println!(
             "  spp_boundary {spp_b:2}: {:.3} s wall (×{:.2} primal), {:.3e} edge samples/s, {:.0}% traced, \
-             relative sd of 8x8 block sums {:.3}, non-finite {}",
+             relative sd of 8x8 block sums {:.2e}, non-finite {}",
             secs,
             secs / primal.wall_seconds,
             s.samples as f64 / secs,

@@ -22,7 +22,8 @@
 //! first segment of Eqs. 30–31, with x₀ the eye.
 //!
 //! Estimator: a film point u is drawn on the edges with density 1/ℓ_total per pixel of
-//! projected length ([`SilhouetteSet`]); an edge point hidden from the eye is skipped (both
+//! projected length ([`SilhouetteSet`]), jittered: sample i of N in the i-th of N equal parts
+//! of the concatenated length; an edge point hidden from the eye is skipped (both
 //! sides would see the same occluder, ΔL = 0); otherwise two camera rays through u ∓ ε·n
 //! (ε = [`SIDE_OFFSET_PX`]) are traced by the ordinary path kernel with common random numbers
 //! (`trace_packet_from`, four samples per packet of eight lanes), and their difference is
@@ -102,6 +103,7 @@ pub fn render_primary_with_stats(
         pin: &pin,
         seed,
         weight: set.total_length / total as f64,
+        samples: total,
         derivs: out.len(),
     };
     let chunks: Vec<(u64, u64)> = (0..total.div_ceil(CHUNK))
@@ -178,6 +180,8 @@ struct Estimator<'a> {
     seed: u64,
     /// 1 / (pdf · N) = total projected length / N.
     weight: f64,
+    /// N, the number of film points drawn on the edges.
+    samples: u64,
     derivs: usize,
 }
 
@@ -206,9 +210,9 @@ impl Estimator<'_> {
     /// Draws film point `id` on the edges; None when the eye does not see it or it does not
     /// move under any parameter.
     fn sample(&self, id: u64) -> Option<SideSample> {
-        let mut rng = PathSampler::new(self.seed ^ EDGE_STREAM, &[id]);
-        let (u0, u1) = rng.next2::<f32>();
-        let e = self.set.sample(u0 as f64, u1 as f64)?;
+        // Jittered: sample i lies in the i-th of N equal parts of the concatenated length.
+        let xi = PathSampler::new(self.seed ^ EDGE_STREAM, &[id]).next::<f32>();
+        let e = self.set.sample_at((id as f64 + xi as f64) / self.samples as f64)?;
         let shape = self.set.edges[e.index].shape as usize;
         let x = e.world.as_vec3();
         let mut weight = [0.0f32; 16];

@@ -284,20 +284,38 @@ impl SilhouetteSet {
     /// Picks an edge with probability ∝ projected length (`u_edge`) and a point uniformly
     /// along its visible part (`u_pos`): density 1 / total length per pixel of length.
     pub fn sample(&self, u_edge: f64, u_pos: f64) -> Option<EdgeSample> {
+        let index = self.pick(u_edge)?;
+        Some(self.at(index, u_pos))
+    }
+
+    /// The point at fraction `u` of the concatenated projected length of all edges: the same
+    /// density as [`Self::sample`] from one number, so that N samples at u = (i + ξ_i) / N
+    /// stratify the whole length (a jittered 1-D sampling of the edges).
+    pub fn sample_at(&self, u: f64) -> Option<EdgeSample> {
+        let index = self.pick(u)?;
+        let e = &self.edges[index];
+        let start = self.cdf[index] - e.length;
+        let u_pos = ((u * self.total_length - start) / e.length).clamp(0.0, 1.0);
+        Some(self.at(index, u_pos))
+    }
+
+    fn pick(&self, u: f64) -> Option<usize> {
         if self.edges.is_empty() || self.total_length.is_nan() || self.total_length <= 0.0 {
             return None;
         }
-        let target = u_edge * self.total_length;
-        let index = self.cdf.partition_point(|&c| c <= target).min(self.edges.len() - 1);
+        let target = u * self.total_length;
+        Some(self.cdf.partition_point(|&c| c <= target).min(self.edges.len() - 1))
+    }
+
+    fn at(&self, index: usize, u_pos: f64) -> EdgeSample {
         let e = &self.edges[index];
-        let s = e.s_lo + (e.s_hi - e.s_lo) * u_pos;
-        let (film, world) = e.point(s);
-        Some(EdgeSample {
+        let (film, world) = e.point(e.s_lo + (e.s_hi - e.s_lo) * u_pos);
+        EdgeSample {
             index,
             film,
             world,
             normal: e.normal(),
             pdf: 1.0 / self.total_length,
-        })
+        }
     }
 }

@@ -185,3 +185,28 @@ fn normal_velocity_matches_finite_differences_of_the_projected_edge() {
         assert!(analytic.abs() > 0.1, "a test that cannot fail: velocity {analytic}");
     }
 }
+
+/// One number per sample: N jittered numbers put ⌊N·ℓ_e/ℓ_total⌋ or one more samples on each
+/// edge, and each point projects to its film point.
+#[test]
+fn jittered_samples_stratify_the_edges() {
+    let geo = cube();
+    let edges = build_edges(&geo);
+    let pin = Pinhole::new(&camera(), 40, 30);
+    let set = SilhouetteSet::build(&geo, &edges, &pin, 1.0, |_| true);
+    let n = 10_000usize;
+    let mut per_edge = vec![0usize; set.edges.len()];
+    for i in 0..n {
+        let u = (i as f64 + hash_to_unit(i as u64) as f64) / n as f64;
+        let s = set.sample_at(u).unwrap();
+        per_edge[s.index] += 1;
+        assert!((pin.film(s.world) - s.film).length() < 1e-6);
+        let e = &set.edges[s.index];
+        let frac = (s.film - e.p0).length() / (e.p1 - e.p0).length();
+        assert!(frac >= e.s_lo - 1e-9 && frac <= e.s_hi + 1e-9);
+    }
+    for (c, e) in per_edge.iter().zip(&set.edges) {
+        let expect = n as f64 * e.length / set.total_length;
+        assert!((*c as f64 - expect).abs() <= 2.0, "{c} samples, expected {expect}");
+    }
+}
