@@ -242,3 +242,18 @@ fn primary_term_is_deterministic_and_per_parameter() {
     let none = primary_on(&room, &["albedo"], 2, 7, 2);
     assert!(none[0].data.iter().all(|&v| v == 0.0));
 }
+
+/// Creases seen from inside a closed mesh (back-facing edges that are not hidden).
+#[test]
+fn room_corner_creases_match_finite_differences() {
+    check(&Case {
+        scene: "room_corner.toml",
+        param: "room_x",
+        value: 0.0,
+        h: 0.01,
+        seeds: 12,
+        spp: 16,
+        spp_fd: 256,
+        spp_boundary: 8,
+    });
+}

@@ -90,7 +90,8 @@ pub enum EdgeView {
     Silhouette,
     /// Two faces both facing the eye: a shading discontinuity (flat normals).
     FrontCrease,
-    /// Two faces both facing away: hidden on a closed mesh, seen from behind on an open one.
+    /// Two faces both facing away: hidden behind the mesh when the eye is outside a closed
+    /// mesh, but seen from inside one (a room) or from behind an open one.
     BackCrease,
     /// A face contains the eye: measure zero, skipped.
     EdgeOn,
@@ -228,27 +229,19 @@ pub struct SilhouetteSet {
 
 impl SilhouetteSet {
     /// Projects the edges of shapes for which `wanted(shape)` holds and that can be
-    /// discontinuities from the pinhole's eye: boundary edges, silhouettes, front creases,
-    /// and back creases of open shapes (on a closed shape a back-facing face is hidden).
-    /// `margin` widens the film (the filter radius, in pixels).
+    /// discontinuities from the pinhole's eye: every edge but the edge-on ones. Back creases
+    /// are kept: whether one is hidden depends on the eye being outside a closed mesh, which
+    /// the estimator's visibility ray decides per sample. `margin` widens the film (the filter
+    /// radius, in pixels).
     pub fn build(geo: &Geometry, edges: &[Edge], pin: &Pinhole, margin: f64, wanted: impl Fn(u32) -> bool) -> Self {
         let shape_of = |e: &Edge| geo.tri_shape[e.face0 as usize];
-        let mut open = vec![false; geo.tri_shape.iter().map(|&s| s as usize + 1).max().unwrap_or(0)];
-        for e in edges.iter().filter(|e| e.is_boundary()) {
-            open[shape_of(e) as usize] = true;
-        }
         let mut set = Self::default();
         for (i, e) in edges.iter().enumerate() {
             let shape = shape_of(e);
             if !wanted(shape) {
                 continue;
             }
-            let keep = match classify(geo, e, pin.eye) {
-                EdgeView::Boundary | EdgeView::Silhouette | EdgeView::FrontCrease => true,
-                EdgeView::BackCrease => open[shape as usize],
-                EdgeView::EdgeOn => false,
-            };
-            if !keep {
+            if classify(geo, e, pin.eye) == EdgeView::EdgeOn {
                 continue;
             }
             let (a, b) = (

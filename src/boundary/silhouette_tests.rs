@@ -87,7 +87,11 @@ fn sampling_follows_projected_length() {
     let edges = build_edges(&geo);
     let pin = Pinhole::new(&camera(), 40, 30);
     let set = SilhouetteSet::build(&geo, &edges, &pin, 1.0, |_| true);
-    assert_eq!(set.edges.len(), 9, "six silhouette edges and three creases");
+    assert_eq!(
+        set.edges.len(),
+        12,
+        "six silhouette edges, three front and three back creases"
+    );
     let n = 200_000usize;
     let mut per_edge = vec![0usize; set.edges.len()];
     let mut along = vec![[0usize; 10]; set.edges.len()];
