@@ -60,7 +60,7 @@ pub struct PrimaryStats {
     pub samples: u64,
     /// Of those, seen by the eye and moving (two paths traced each).
     pub traced: u64,
-    /// Side-path contributions dropped because they were not finite.
+    /// Side-path contributions and edge weights dropped because they were not finite.
     pub non_finite: u64,
 }
 
@@ -192,7 +192,7 @@ impl Estimator<'_> {
         let mut batch = Vec::with_capacity(4);
         for id in first..end {
             stats.samples += 1;
-            if let Some(s) = self.sample(id) {
+            if let Some(s) = self.sample(id, &mut stats) {
                 stats.traced += 1;
                 batch.push(s);
                 if batch.len() == 4 {
@@ -207,9 +207,9 @@ impl Estimator<'_> {
         (jumps, stats)
     }
 
-    /// Draws film point `id` on the edges; None when the eye does not see it or it does not
-    /// move under any parameter.
-    fn sample(&self, id: u64) -> Option<SideSample> {
+    /// Draws film point `id` on the edges; None when the eye does not see it, it does not
+    /// move under any parameter, or its weight is not finite (counted, never splatted).
+    fn sample(&self, id: u64, stats: &mut PrimaryStats) -> Option<SideSample> {
         // Jittered: sample i lies in the i-th of N equal parts of the concatenated length.
         let xi = PathSampler::new(self.seed ^ EDGE_STREAM, &[id]).next::<f32>();
         let e = self.set.sample_at((id as f64 + xi as f64) / self.samples as f64)?;
@@ -221,7 +221,11 @@ impl Estimator<'_> {
             let vn = self.pin.film_velocity(e.world, v).dot(e.normal);
             *wk = (vn * self.weight) as f32;
         }
-        if weight.iter().all(|&w| w == 0.0) || !weight.iter().all(|w| w.is_finite()) {
+        if !weight.iter().all(|w| w.is_finite()) {
+            stats.non_finite += 1;
+            return None;
+        }
+        if weight.iter().all(|&w| w == 0.0) {
             return None;
         }
         let to = e.world - self.pin.eye;
