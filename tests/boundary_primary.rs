@@ -257,3 +257,18 @@ fn room_corner_creases_match_finite_differences() {
         spp_boundary: 8,
     });
 }
+
+/// Edges crossing the camera's plane are clipped at the near plane and to the film.
+#[test]
+fn panel_crossing_the_camera_plane_matches_finite_differences() {
+    check(&Case {
+        scene: "near_plane_panel.toml",
+        param: "panel_x",
+        value: -0.6,
+        h: 0.01,
+        seeds: 12,
+        spp: 16,
+        spp_fd: 256,
+        spp_boundary: 8,
+    });
+}
