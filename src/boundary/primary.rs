@@ -65,7 +65,10 @@ pub struct PrimaryStats {
 }
 
 /// The primary boundary term of every parameter in `ctx.motion` order: one derivative
-/// transient each, `[H, W, T, C]` like the interior's. Zero when nothing moves geometry.
+/// transient each, `[H, W, T, C]` like the interior's, to be added to it. `spp_boundary` × W × H
+/// film points are drawn on the edges (two side paths each where the eye sees them); `seed`
+/// may be the interior's: this stage derives its own streams. Zero (and nothing traced) when
+/// no parameter moves geometry or `spp_boundary` is 0.
 pub fn render_primary(ctx: &RenderContext, spp_boundary: u32, seed: u64, pool: &rayon::ThreadPool) -> Vec<Transient> {
     render_primary_with_stats(ctx, spp_boundary, seed, pool).0
 }
