@@ -1,5 +1,6 @@
 //! The primary boundary term: silhouettes (and flat-shading creases) seen from the camera are
-//! discontinuities of the pixel integrand, sampled in image space (Li et al. 2018, §4).
+//! discontinuities of the pixel integrand, sampled in image space (Li et al. 2018, "Differentiable
+//! Monte Carlo ray tracing through edge sampling", primary visibility).
 //!
 //! The interior estimator keeps each camera ray fixed on the film (its first vertex moves
 //! along the ray), so pixel j measures I_j(θ) = ∫ h_j(u) L(u, θ) du over a fixed film, with

@@ -1,6 +1,6 @@
 //! Discontinuity edges of the pixel integrand, seen from the camera, and sampling them in
 //! proportion to their projected length (Li et al. 2018, "Differentiable Monte Carlo ray
-//! tracing through edge sampling", §4: primary edges are sampled in image space).
+//! tracing through edge sampling": primary edges are sampled in image space).
 //!
 //! A film point u sees radiance L(u) that jumps where the projection of a mesh edge separates
 //! two different surfaces: silhouettes (boundary edges, and sharp edges whose faces lie on the
