@@ -43,11 +43,34 @@ pub struct PathCounts {
     pub total_ticks: u64,
 }
 
+/// Camera rays chosen by the caller instead of filter samples through each lane's pixel: the
+/// primary-edge estimator traces both sides of a silhouette point (`boundary::primary`). Each
+/// lane still splats into `lanes.px/py` of the film it is given.
+#[derive(Clone, Copy, Debug)]
+pub struct PrimaryRays {
+    /// Unit directions from the camera position, one per lane.
+    pub dirs: [glam::Vec3; 8],
+}
+
 /// Traces `R::LANES` paths and adds their contributions to `film`.
+#[inline]
 pub fn trace_packet<R: Real, const C: usize>(
     ctx: &RenderContext,
     seed: u64,
     lanes: &PacketLanes,
+    film: &mut TileFilm,
+    counts: &mut PathCounts,
+) {
+    trace_packet_from::<R, C>(ctx, seed, lanes, None, film, counts)
+}
+
+/// [`trace_packet`] with the camera rays given by `primary` (when `Some`); the filter sample
+/// is still drawn, so the random numbers of every later dimension are the same either way.
+pub fn trace_packet_from<R: Real, const C: usize>(
+    ctx: &RenderContext,
+    seed: u64,
+    lanes: &PacketLanes,
+    primary: Option<&PrimaryRays>,
     film: &mut TileFilm,
     counts: &mut PathCounts,
 ) {
@@ -61,7 +84,10 @@ pub fn trace_packet<R: Real, const C: usize>(
     let mut active = R::Mask::from_bools(&in_use[..R::LANES]);
 
     let (f1, f2) = sampler.next2::<V<R>>();
-    let mut ray_d: V3<V<R>> = ctx.camera.sample(&lanes.px, &lanes.py, f1, f2);
+    let mut ray_d: V3<V<R>> = match primary {
+        Some(p) => V3::from_lane_vecs(&p.dirs[..R::LANES]),
+        None => ctx.camera.sample(&lanes.px, &lanes.py, f1, f2),
+    };
     let mut ray_o: V3<V<R>> = V3::splat(ctx.camera.position);
     let mut prev_p: V3<R> = V3::splat(ctx.camera.position);
     let mut prev_n: V3<R> = V3::zero();

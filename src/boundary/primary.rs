@@ -1,0 +1,312 @@
+//! The primary boundary term: silhouettes (and flat-shading creases) seen from the camera are
+//! discontinuities of the pixel integrand, sampled in image space (Li et al. 2018, "Differentiable
+//! Monte Carlo ray tracing through edge sampling", primary visibility).
+//!
+//! The interior estimator keeps each camera ray fixed on the film (its first vertex moves
+//! along the ray), so pixel j measures I_j(θ) = ∫ h_j(u) L(u, θ) du over a fixed film, with
+//! h_j the normalised pixel filter and L the transient radiance through film point u. L jumps
+//! across the projected discontinuity edges, which move with the geometry. The transport
+//! theorem with discontinuities (supplemental Eq. 18, on the film: it does not move, so only
+//! the boundary integral is new) adds
+//!
+//! ```text
+//!   dI_j/dθ ⊇ ∫_{projected edges} h_j(u) · ΔL(u) · V(u) dℓ(u),   ΔL = L⁻ − L⁺  (Eq. 19)
+//! ```
+//!
+//! with n the film normal of the projected edge, L^∓ the radiance just on the −n and +n sides,
+//! and V = u̇ · n the film normal velocity: u̇ = (∂π/∂x) · ẋ, the pinhole projection's
+//! Jacobian applied to the edge point's 3-D velocity ẋ = `motion.velocity(k, shape, x)`.
+//! The product ΔL·V does not depend on which of the two normals is n, so no inside/outside
+//! convention is needed. Both L⁻ and L⁺ are transients: each side's path is binned by its own
+//! optical path length through S_e, so a plate moving towards the camera changes its arrival
+//! time (interior) and its silhouette (this term). In path space this is the boundary of the
+//! first segment of Eqs. 30–31, with x₀ the eye.
+//!
+//! Estimator: a film point u is drawn on the edges with density 1/ℓ_total per pixel of
+//! projected length ([`SilhouetteSet`]), jittered: sample i of N in the i-th of N equal parts
+//! of the concatenated length; an edge point hidden from the eye is skipped (both
+//! sides would see the same occluder, ΔL = 0); otherwise two camera rays through u ∓ ε·n
+//! (ε = [`SIDE_OFFSET_PX`]) are traced by the ordinary path kernel with common random numbers
+//! (`trace_packet_from`, four samples per packet of eight lanes), and their difference is
+//! splatted with weight h_j(u)·V_k / (pdf · N) into every pixel j the filter reaches, in
+//! derivative film k. N = `spp_boundary` × pixels samples are split into fixed chunks traced in
+//! parallel; each chunk keeps its jumps (only the bins the side paths reached) and they are
+//! splatted in chunk order, so the same seed gives the same bytes for any thread count, and no
+//! chunk holds a full-frame film.
+
+use super::edges::build_edges;
+use super::silhouette::{Pinhole, SilhouetteSet};
+use crate::film::{TileFilm, Transient};
+use crate::integrator::RenderContext;
+use crate::integrator::path::{PacketLanes, PathCounts, PrimaryRays, trace_packet_from};
+use crate::kernel::{PathSampler, f32x8};
+use glam::{DVec2, Vec3};
+use rayon::prelude::*;
+
+/// Offset of the two side rays from the projected edge, pixels.
+pub const SIDE_OFFSET_PX: f64 = 1e-3;
+/// Samples per chunk (the unit of parallel work and of the fixed merge order).
+const CHUNK: u64 = 2048;
+/// Seed streams: edge points and side paths are independent of the interior's paths.
+const EDGE_STREAM: u64 = 0x5052_494D_4544_4745;
+const PATH_STREAM: u64 = 0x5052_494D_5041_5448;
+/// Relative margin before the edge point when testing whether the eye sees it: a false
+/// "visible" only costs two rays (both sides then agree), a false "hidden" would bias.
+const VISIBILITY_MARGIN: f64 = 1e-3;
+
+/// What the primary-edge stage did.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct PrimaryStats {
+    /// Film points drawn on edges.
+    pub samples: u64,
+    /// Of those, seen by the eye and moving (two paths traced each).
+    pub traced: u64,
+    /// Side-path contributions and edge weights dropped because they were not finite.
+    pub non_finite: u64,
+}
+
+/// The primary boundary term of every parameter in `ctx.motion` order: one derivative
+/// transient each, `[H, W, T, C]` like the interior's, to be added to it. `spp_boundary` × W × H
+/// film points are drawn on the edges (two side paths each where the eye sees them); `seed`
+/// may be the interior's: this stage derives its own streams. Zero (and nothing traced) when
+/// no parameter moves geometry or `spp_boundary` is 0.
+pub fn render_primary(ctx: &RenderContext, spp_boundary: u32, seed: u64, pool: &rayon::ThreadPool) -> Vec<Transient> {
+    render_primary_with_stats(ctx, spp_boundary, seed, pool).0
+}
+
+/// [`render_primary`] with its tallies.
+pub fn render_primary_with_stats(
+    ctx: &RenderContext,
+    spp_boundary: u32,
+    seed: u64,
+    pool: &rayon::ThreadPool,
+) -> (Vec<Transient>, PrimaryStats) {
+    let scene = ctx.scene;
+    let (w, h) = (scene.film.width as usize, scene.film.height as usize);
+    let blank = Transient::zeros(w, h, scene.film.axis, scene.film.channels);
+    let mut out = vec![blank; ctx.motion.len().min(16)];
+    let mut stats = PrimaryStats::default();
+    if spp_boundary == 0 || out.is_empty() || !ctx.motion.moves_geometry() {
+        return (out, stats);
+    }
+    let mut moving = vec![false; scene.shapes.len()];
+    for (s, _) in ctx.motion.fields.iter().flatten() {
+        moving[*s] = true;
+    }
+    let edges = build_edges(&scene.geometry);
+    let pin = Pinhole::new(&scene.camera, scene.film.width, scene.film.height);
+    let margin = ctx.camera.filter().radius() as f64;
+    let set = SilhouetteSet::build(&scene.geometry, &edges, &pin, margin, |s| moving[s as usize]);
+    if set.is_empty() {
+        return (out, stats);
+    }
+    let total = spp_boundary as u64 * (w * h) as u64;
+    let est = Estimator {
+        ctx,
+        set: &set,
+        pin: &pin,
+        seed,
+        weight: set.total_length / total as f64,
+        samples: total,
+        derivs: out.len(),
+    };
+    let chunks: Vec<(u64, u64)> = (0..total.div_ceil(CHUNK))
+        .map(|c| (c * CHUNK, ((c + 1) * CHUNK).min(total)))
+        .collect();
+    // Waves of a few chunks per thread bound the memory; splats are added in chunk order.
+    for wave in chunks.chunks(4 * pool.current_num_threads().max(1)) {
+        let done: Vec<(Vec<Jump>, PrimaryStats)> = pool.install(|| {
+            wave.par_iter()
+                .map(|&(a, b)| match scene.film.channels {
+                    1 => est.chunk::<1>(a, b),
+                    _ => est.chunk::<3>(a, b),
+                })
+                .collect()
+        });
+        for (jumps, s) in &done {
+            for jump in jumps {
+                jump.splat(ctx, &mut out);
+            }
+            stats.samples += s.samples;
+            stats.traced += s.traced;
+            stats.non_finite += s.non_finite;
+        }
+    }
+    (out, stats)
+}
+
+/// The traced jump L⁻ − L⁺ of one sample, over bins `lo..` (channels interleaved), and of its
+/// time-integrated value, with the weight V_k / (pdf · N) of each parameter.
+struct Jump {
+    film: DVec2,
+    weight: [f32; 16],
+    lo: usize,
+    delta: Vec<f32>,
+    steady: [f32; 3],
+}
+
+impl Jump {
+    /// Adds h_j · weight_k · (L⁻ − L⁺) to every pixel j the filter reaches, in film k.
+    fn splat(&self, ctx: &RenderContext, films: &mut [Transient]) {
+        let c_n = ctx.scene.film.channels;
+        let (fx, fy) = (self.film.x as f32, self.film.y as f32);
+        ctx.camera.for_each_pixel(fx, fy, |px, py, hj, _, _| {
+            for (film, &wk) in films.iter_mut().zip(&self.weight) {
+                let w = hj * wk;
+                if w == 0.0 {
+                    continue;
+                }
+                let base = film.index(px as usize, py as usize, self.lo, 0);
+                let bins = &mut film.data[base..base + self.delta.len()];
+                bins.iter_mut().zip(&self.delta).for_each(|(d, v)| *d += w * v);
+                let sb = (py as usize * film.width + px as usize) * c_n;
+                let pixel = &mut film.steady[sb..sb + c_n];
+                pixel.iter_mut().zip(&self.steady).for_each(|(d, v)| *d += w * v);
+            }
+        });
+    }
+}
+
+/// A film point on an edge that the eye sees, with its weight per parameter.
+#[derive(Clone, Copy, Debug)]
+struct SideSample {
+    id: u64,
+    film: DVec2,
+    normal: DVec2,
+    /// V_k / (pdf · N) per parameter.
+    weight: [f32; 16],
+}
+
+struct Estimator<'a> {
+    ctx: &'a RenderContext<'a>,
+    set: &'a SilhouetteSet,
+    pin: &'a Pinhole,
+    seed: u64,
+    /// 1 / (pdf · N) = total projected length / N.
+    weight: f64,
+    /// N, the number of film points drawn on the edges.
+    samples: u64,
+    derivs: usize,
+}
+
+impl Estimator<'_> {
+    fn chunk<const C: usize>(&self, first: u64, end: u64) -> (Vec<Jump>, PrimaryStats) {
+        let mut jumps = Vec::new();
+        let mut stats = PrimaryStats::default();
+        let mut batch = Vec::with_capacity(4);
+        for id in first..end {
+            stats.samples += 1;
+            if let Some(s) = self.sample(id, &mut stats) {
+                stats.traced += 1;
+                batch.push(s);
+                if batch.len() == 4 {
+                    stats.non_finite += self.trace_sides::<C>(&batch, &mut jumps);
+                    batch.clear();
+                }
+            }
+        }
+        if !batch.is_empty() {
+            stats.non_finite += self.trace_sides::<C>(&batch, &mut jumps);
+        }
+        (jumps, stats)
+    }
+
+    /// Draws film point `id` on the edges; None when the eye does not see it, it does not
+    /// move under any parameter, or its weight is not finite (counted, never splatted).
+    fn sample(&self, id: u64, stats: &mut PrimaryStats) -> Option<SideSample> {
+        // Jittered: sample i lies in the i-th of N equal parts of the concatenated length.
+        let xi = PathSampler::new(self.seed ^ EDGE_STREAM, &[id]).next::<f32>();
+        let e = self.set.sample_at((id as f64 + xi as f64) / self.samples as f64)?;
+        let shape = self.set.edges[e.index].shape as usize;
+        let x = e.world.as_vec3();
+        let mut weight = [0.0f32; 16];
+        for (k, wk) in weight.iter_mut().enumerate().take(self.derivs) {
+            let v = self.ctx.motion.velocity(k, shape, x).as_dvec3();
+            let vn = self.pin.film_velocity(e.world, v).dot(e.normal);
+            *wk = (vn * self.weight) as f32;
+        }
+        if !weight.iter().all(|w| w.is_finite()) {
+            stats.non_finite += 1;
+            return None;
+        }
+        if weight.iter().all(|&w| w == 0.0) {
+            return None;
+        }
+        let to = e.world - self.pin.eye;
+        let dist = to.length();
+        let dir = (to / dist).as_vec3().to_array();
+        let tfar = (dist * (1.0 - VISIBILITY_MARGIN)) as f32;
+        if self
+            .ctx
+            .accel
+            .occluded1(self.pin.eye.as_vec3().to_array(), dir, 0.0, tfar)
+        {
+            return None;
+        }
+        Some(SideSample {
+            id,
+            film: e.film,
+            normal: e.normal,
+            weight,
+        })
+    }
+
+    /// Traces the −n and +n sides of up to four samples in one packet (lanes 2i and 2i + 1,
+    /// same path id: common random numbers) and keeps their jumps L⁻ − L⁺. Returns the
+    /// number of non-finite side contributions the kernel dropped.
+    fn trace_sides<const C: usize>(&self, batch: &[SideSample], jumps: &mut Vec<Jump>) -> u64 {
+        let ctx = self.ctx;
+        let axis = ctx.scene.film.axis;
+        let mut lanes = PacketLanes {
+            px: std::array::from_fn(|i| i as u32),
+            py: [0; 8],
+            ids: [0; 8],
+            count: 2 * batch.len(),
+        };
+        let mut dirs = [Vec3::Z; 8];
+        for (i, s) in batch.iter().enumerate() {
+            for (side, sign) in [(0, -1.0), (1, 1.0)] {
+                let f = s.film + s.normal * (sign * SIDE_OFFSET_PX);
+                dirs[2 * i + side] = ctx.camera.direction(f.x as f32, f.y as f32);
+                lanes.ids[2 * i + side] = s.id;
+            }
+        }
+        let mut scratch = TileFilm::new(0, 0, 8, 1, &axis, C, 0);
+        let mut counts = PathCounts::default();
+        let rays = PrimaryRays { dirs };
+        trace_packet_from::<f32x8, C>(
+            ctx,
+            self.seed ^ PATH_STREAM,
+            &lanes,
+            Some(&rays),
+            &mut scratch,
+            &mut counts,
+        );
+        let mut sides = [Transient::zeros(8, 1, axis, C)];
+        scratch.merge_into(&mut sides);
+        let sides = &sides[0];
+        let block = axis.bins * C;
+        for (i, s) in batch.iter().enumerate() {
+            let (m, p) = (2 * i * block, (2 * i + 1) * block);
+            let delta: Vec<f32> = (0..block).map(|j| sides.data[m + j] - sides.data[p + j]).collect();
+            let mut steady = [0.0f32; 3];
+            for (c, v) in steady.iter_mut().enumerate().take(C) {
+                *v = sides.steady[2 * i * C + c] - sides.steady[(2 * i + 1) * C + c];
+            }
+            // Only the bins the two paths reached (S_e.range of their OPLs), whole bins.
+            let lo = delta.iter().position(|&v| v != 0.0).unwrap_or(block) / C;
+            let hi = delta.iter().rposition(|&v| v != 0.0).map_or(lo, |h| h / C + 1);
+            if lo >= hi && steady.iter().all(|&v| v == 0.0) {
+                continue;
+            }
+            jumps.push(Jump {
+                film: s.film,
+                weight: s.weight,
+                lo,
+                delta: delta[lo * C..hi.max(lo) * C].to_vec(),
+                steady,
+            });
+        }
+        counts.non_finite
+    }
+}
