@@ -912,12 +912,12 @@ mod tests {
             &[],
             &["integrator: field 'rr_depth'", "must be at least 1"],
         );
-        let text = format!("[integrator]\nkind = \"bdpt\"\n{MINI}");
+        let text = format!("[integrator]\nkind = \"volpath\"\n{MINI}");
         expect_err(
             "kind.toml",
             &text,
             &[],
-            &["integrator: field 'kind'", "unknown variant 'bdpt'", "'path'"],
+            &["integrator: field 'kind'", "unknown variant 'volpath'", "'path'", "'bdpt'"],
         );
         let text = mini_with("bins = 10", "bins = 0");
         expect_err(
