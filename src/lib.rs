@@ -26,5 +26,5 @@ pub mod timing;
 
 pub use error::Error;
 pub use film::Transient;
-pub use render::{Lanes, RenderOptions, RenderStats, render, render_diff};
+pub use render::{BoundaryMode, Lanes, RenderOptions, RenderStats, render, render_diff};
 pub use scene::Scene;

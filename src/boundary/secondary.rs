@@ -1,0 +1,362 @@
+//! Secondary edges: the boundary integral over visibility discontinuities of path segments
+//! anywhere in the scene (Algorithm 2; supplemental Eqs. 18–19, 30–32).
+//!
+//! A boundary ray (x_B, ω) on a silhouette edge (Eq. 32) is traced both ways: x_S = first hit
+//! along ω, x_L = first hit along −ω. The segment x_L → x_S grazes the edge: it lies on the
+//! discontinuity set of G·V (Eqs. 30–31), where V jumps from 1 (the segment passes beside the
+//! edge's faces) to 0 (it passes through them). With x_L held fixed, Eq. 18 on the surface of
+//! x_S gives ∫ Δ(f) V_∂ dℓ(x_S) along the edge's shadow from x_L; Δf (Eq. 19) is the
+//! unoccluded path throughput f_L · G(x_L, x_S) · f_S on the free side and 0 on the blocked
+//! one. Changing variables from dA(x_L) dℓ(x_S) to dℓ(x_B) dω (the Jacobian J_B):
+//!
+//!   dA(x_L) dℓ(x_S) = t_L (t_L + t_S) sin α / (|cos_L| sin β) · dℓ(x_B) dω,
+//!
+//! (α: angle between edge and ω; β: between ω and the shadow curve). With the normal
+//! velocity of `velocity.rs`, G · J_B · V_∂ collapses to
+//!
+//!   −s_o · (dh̃/dθ) / (ℓ_e (t_L + t_S)),
+//!
+//! where s_o = ±1 is the side of Π(x_L, edge) holding the edge's faces (the blocked side) and
+//! ℓ_e the edge length; sin α, the cosines and |N| cancel. Divided by the sampling density
+//! p_e/ℓ_e · p_ω (and the guiding density), each boundary ray contributes
+//!
+//!   f_L · f_S · (−s_o · dh̃/dθ) / ((t_L + t_S) · p_e · p_ω · p_guide)
+//!
+//! per parameter, binned through S_e at d = d_L + η(t_L + t_S) + d_S into the pixel the
+//! sensor subpath reaches. dh̃/dθ uses the velocity of each point's own parameterisation, as
+//! the interior does: material form for x_L, the edge and x_S, except that x_S moves along its
+//! camera ray (ray form) when it is the vertex connected to the camera.
+//!
+//! Not covered: segments that start at a point light or a laser spot (a ray from an edge
+//! never hits those points; they need a strategy of their own).
+
+use super::edge_sampler::EdgeSampler;
+use super::guiding::{GuideGrid, RESOLUTION, UNIFORM_MIX};
+use super::subpaths::{SensorTerm, SourceTerm, sensor_subpath, source_subpath, trace};
+use super::velocity::{Crossing, ray_form_velocity};
+use crate::film::{TileFilm, Transient};
+use crate::integrator::context::RenderContext;
+use crate::integrator::surface::self_intersection_eps;
+use crate::integrator::trace::RayCounts;
+use crate::kernel::{PathSampler, V3};
+use rayon::prelude::*;
+use std::time::Instant;
+
+/// Boundary samples per work unit (fixed, so results do not depend on the thread count).
+const CHUNK: u64 = 4096;
+/// Work units run at once; their films are merged in order before the next batch.
+const BATCH: u64 = 8;
+/// Largest parameter count the splat buffers hold (render_diff allows 16).
+const MAX_PARAMS: usize = 16;
+
+/// What the secondary-edge pass did.
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct SecondaryStats {
+    pub samples: u64,
+    pub pilot_samples: u64,
+    /// Boundary rays whose segment found a surface at both ends.
+    pub valid_segments: u64,
+    pub rays: u64,
+    pub non_finite: u64,
+    pub seconds: f64,
+}
+
+/// One full boundary path: where it reaches the film, its OPL and emitter, its throughput
+/// f_L·f_S (per channel, before the pixel filter) and its derivative weight per parameter.
+#[derive(Clone, Copy, Debug)]
+pub struct BoundaryPath {
+    pub fx: f32,
+    pub fy: f32,
+    pub opl: f32,
+    pub emitter: u32,
+    pub rgb: [f32; 3],
+    pub weight: [f32; MAX_PARAMS],
+}
+
+#[derive(Default)]
+struct Scratch {
+    source: Vec<SourceTerm>,
+    sensor: Vec<SensorTerm>,
+    rays: RayCounts,
+    valid: u64,
+}
+
+/// The estimator's fixed inputs.
+pub struct Secondary<'a> {
+    ctx: &'a RenderContext<'a>,
+    edges: EdgeSampler,
+    params: usize,
+}
+
+impl<'a> Secondary<'a> {
+    pub fn new(ctx: &'a RenderContext<'a>) -> Self {
+        Self {
+            ctx,
+            edges: EdgeSampler::new(&ctx.scene.geometry),
+            params: ctx.motion.len().min(MAX_PARAMS),
+        }
+    }
+
+    /// Evaluates boundary sample `id` of stream `seed`, with the boundary ray's inputs drawn
+    /// from `grid`; calls `emit` for each full path. Returns the point of the unit cube used.
+    fn evaluate(
+        &self,
+        seed: u64,
+        id: u64,
+        grid: &GuideGrid,
+        scratch: &mut Scratch,
+        mut emit: impl FnMut(&BoundaryPath),
+    ) -> Option<[f32; 3]> {
+        let ctx = self.ctx;
+        let mut rng = PathSampler::new(seed, &[id]);
+        let pick = rng.next::<f32>();
+        let inner = [rng.next::<f32>(), rng.next::<f32>(), rng.next::<f32>()];
+        let (u, p_guide) = grid.sample(pick, inner);
+        let br = self.edges.sample(u[0], u[1], u[2])?;
+        let rec = &self.edges.edges[br.index];
+        let geo = &ctx.scene.geometry;
+        let n_pi = (rec.v1 - rec.v0).cross(br.omega);
+        let side = |o: u32| n_pi.dot(geo.positions[o as usize] - rec.v0);
+        let s0 = side(rec.edge.opposite0);
+        if let Some(o1) = rec.edge.opposite1 {
+            if s0 * side(o1) <= 0.0 {
+                return Some(u); // not a silhouette for ω (only at the set's rim, in rounding)
+            }
+        }
+        if s0 == 0.0 || !s0.is_finite() {
+            return Some(u);
+        }
+        let s_o = s0.signum();
+        // start just off the edge, on the side away from its faces
+        let eps = self_intersection_eps(&V3::<f32>::splat(br.x_b));
+        let o = br.x_b - n_pi.normalize() * (s_o * eps);
+        let x_s = trace(ctx, o, br.omega, &mut scratch.rays)?;
+        let x_l = trace(ctx, o, -br.omega, &mut scratch.rays)?;
+        scratch.valid += 1;
+        let seg = x_l.t + x_s.t;
+        if !(seg > 0.0) {
+            return Some(u);
+        }
+
+        // dh̃/dθ_k, material form and ray form for x_S
+        let motion = &ctx.motion;
+        let shape = |prim: u32| geo.tri_shape[prim as usize] as usize;
+        let omega_c = (x_s.p - ctx.camera.position).normalize_or_zero();
+        let mut rate_mat = [0.0f32; MAX_PARAMS];
+        let mut rate_ray = [0.0f32; MAX_PARAMS];
+        for k in 0..self.params {
+            let v_s = motion.velocity(k, shape(x_s.prim), x_s.p);
+            let mut c = Crossing {
+                v0: rec.v0,
+                v1: rec.v1,
+                x_l: x_l.p,
+                y: x_s.p,
+                dv0: motion.velocity(k, rec.shape as usize, rec.v0),
+                dv1: motion.velocity(k, rec.shape as usize, rec.v1),
+                dx_l: motion.velocity(k, shape(x_l.prim), x_l.p),
+                dy: v_s,
+            };
+            rate_mat[k] = c.rate();
+            c.dy = ray_form_velocity(omega_c, x_s.n, v_s);
+            rate_ray[k] = c.rate();
+        }
+        if rate_mat[..self.params]
+            .iter()
+            .chain(&rate_ray[..self.params])
+            .all(|&r| r == 0.0)
+        {
+            return Some(u);
+        }
+        let common = -s_o / (seg * br.pdf_edge_dir * p_guide);
+
+        let max_bounces = ctx.scene.integrator.max_bounces;
+        scratch.source.clear();
+        scratch.sensor.clear();
+        source_subpath(
+            ctx,
+            &x_l,
+            br.omega,
+            max_bounces.saturating_sub(1),
+            &mut rng,
+            &mut scratch.rays,
+            &mut scratch.source,
+        );
+        if scratch.source.is_empty() {
+            return Some(u);
+        }
+        let min_source = scratch.source.iter().map(|t| t.scatters).min().unwrap_or(0);
+        sensor_subpath(
+            ctx,
+            &x_s,
+            br.omega,
+            max_bounces.saturating_sub(min_source),
+            &mut rng,
+            &mut scratch.rays,
+            &mut scratch.sensor,
+        );
+        let d_b = ctx.scene.eta * seg;
+        for sen in &scratch.sensor {
+            let rates = if sen.direct { &rate_ray } else { &rate_mat };
+            let mut weight = [0.0f32; MAX_PARAMS];
+            for k in 0..self.params {
+                weight[k] = common * rates[k];
+            }
+            for src in &scratch.source {
+                if src.scatters + sen.scatters > max_bounces {
+                    continue;
+                }
+                emit(&BoundaryPath {
+                    fx: sen.fx,
+                    fy: sen.fy,
+                    opl: src.opl + d_b + sen.opl,
+                    emitter: src.emitter,
+                    rgb: std::array::from_fn(|c| src.rgb[c] * sen.rgb[c]),
+                    weight,
+                });
+            }
+        }
+        Some(u)
+    }
+
+    /// Pilot pass: Σ |f_L f_S| · Σ_k |weight_k| per guiding cell, over `samples` uniform
+    /// boundary rays of stream `seed`.
+    fn pilot(&self, samples: u64, seed: u64, pool: &rayon::ThreadPool) -> (GuideGrid, u64) {
+        let uniform = GuideGrid::uniform(RESOLUTION);
+        let cells = uniform.cells();
+        let chunks: Vec<u64> = (0..samples.div_ceil(CHUNK)).collect();
+        let parts: Vec<(Vec<f64>, u64)> = pool.install(|| {
+            chunks
+                .par_iter()
+                .map(|&c| {
+                    let mut sums = vec![0.0f64; cells];
+                    let mut scratch = Scratch::default();
+                    for id in c * CHUNK..((c + 1) * CHUNK).min(samples) {
+                        let mut mag = 0.0f64;
+                        let u = self.evaluate(seed, id, &uniform, &mut scratch, |p| {
+                            let f: f32 = p.rgb.iter().map(|v| v.abs()).sum();
+                            let w: f32 = p.weight[..self.params].iter().map(|v| v.abs()).sum();
+                            mag += (f * w) as f64;
+                        });
+                        if let Some(u) = u
+                            && mag.is_finite()
+                        {
+                            sums[uniform.cell_of(u)] += mag;
+                        }
+                    }
+                    (sums, scratch.rays.intersect + scratch.rays.occluded)
+                })
+                .collect()
+        });
+        let mut sums = vec![0.0f64; cells];
+        let mut rays = 0;
+        for (s, r) in &parts {
+            sums.iter_mut().zip(s).for_each(|(a, b)| *a += b);
+            rays += r;
+        }
+        (GuideGrid::from_pilot(RESOLUTION, &sums, UNIFORM_MIX), rays)
+    }
+
+    /// Runs `samples` boundary rays of stream `seed` (with a pilot pass of `pilot` samples on
+    /// a stream derived from it when `pilot > 0`) and returns one derivative transient per
+    /// parameter, averaged over the samples.
+    pub fn render(
+        &self,
+        samples: u64,
+        pilot: u64,
+        seed: u64,
+        pool: &rayon::ThreadPool,
+    ) -> (Vec<Transient>, SecondaryStats) {
+        let t0 = Instant::now();
+        let ctx = self.ctx;
+        let film = &ctx.scene.film;
+        let (w, h) = (film.width as usize, film.height as usize);
+        let channels = film.channels;
+        let mut out = vec![Transient::zeros(w, h, film.axis, channels); 1 + self.params];
+        let mut stats = SecondaryStats {
+            samples,
+            pilot_samples: pilot,
+            ..Default::default()
+        };
+        if self.edges.is_empty() || samples == 0 || self.params == 0 {
+            out.remove(0);
+            return (out, stats);
+        }
+        let grid = if pilot > 0 {
+            let (g, rays) = self.pilot(pilot, seed ^ 0x7049_1A7B_0000_0001, pool);
+            stats.rays += rays;
+            g
+        } else {
+            GuideGrid::uniform(RESOLUTION)
+        };
+        let chunks = samples.div_ceil(CHUNK);
+        let mut batch0 = 0;
+        while batch0 < chunks {
+            let ids: Vec<u64> = (batch0..(batch0 + BATCH).min(chunks)).collect();
+            let films: Vec<(TileFilm, Scratch, u64)> = pool.install(|| {
+                ids.par_iter()
+                    .map(|&c| self.render_chunk(c * CHUNK..((c + 1) * CHUNK).min(samples), seed, &grid))
+                    .collect()
+            });
+            for (f, s, bad) in &films {
+                f.merge_into(&mut out);
+                stats.rays += s.rays.intersect + s.rays.occluded;
+                stats.valid_segments += s.valid;
+                stats.non_finite += bad;
+            }
+            batch0 += BATCH;
+        }
+        out.remove(0);
+        out.iter_mut().for_each(|t| t.scale(1.0 / samples as f32));
+        stats.seconds = t0.elapsed().as_secs_f64();
+        (out, stats)
+    }
+
+    fn render_chunk(&self, ids: std::ops::Range<u64>, seed: u64, grid: &GuideGrid) -> (TileFilm, Scratch, u64) {
+        let ctx = self.ctx;
+        let film = &ctx.scene.film;
+        let c_n = film.channels;
+        let p = self.params;
+        let mut tile = TileFilm::new(0, 0, film.width as usize, film.height as usize, &film.axis, c_n, p);
+        let mut scratch = Scratch::default();
+        let mut non_finite = 0u64;
+        let zeros = [0.0f32; 3];
+        let ddot = [0.0f32; MAX_PARAMS];
+        let mut fdot = [0.0f32; MAX_PARAMS * 3];
+        for id in ids {
+            self.evaluate(seed, id, grid, &mut scratch, |bp| {
+                let finite = bp.opl.is_finite()
+                    && bp.rgb.iter().all(|v| v.is_finite())
+                    && bp.weight[..p].iter().all(|v| v.is_finite());
+                if !finite {
+                    non_finite += 1;
+                    return;
+                }
+                let corr = &ctx.correlations[bp.emitter as usize];
+                ctx.camera.for_each_pixel(bp.fx, bp.fy, |px, py, hw, _, _| {
+                    if hw == 0.0 {
+                        return;
+                    }
+                    for k in 0..p {
+                        for c in 0..c_n {
+                            fdot[k * c_n + c] = bp.rgb[c] * bp.weight[k] * hw;
+                        }
+                    }
+                    tile.add_with_derivs(
+                        px as usize,
+                        py as usize,
+                        corr,
+                        bp.opl,
+                        &zeros[..c_n],
+                        &fdot[..p * c_n],
+                        &ddot[..p],
+                    );
+                });
+            });
+        }
+        (tile, scratch, non_finite)
+    }
+
+    pub fn edge_count(&self) -> usize {
+        self.edges.edges.len()
+    }
+}
