@@ -30,15 +30,17 @@
 //! Not covered: segments that start at a point light or a laser spot (a ray from an edge
 //! never hits those points; they need a strategy of their own).
 
-use super::edge_sampler::EdgeSampler;
+use super::edge_sampler::{EdgeRecord, EdgeSampler};
 use super::guiding::{GuideGrid, RESOLUTION, UNIFORM_MIX};
-use super::subpaths::{SensorTerm, SourceTerm, sensor_subpath, source_subpath, trace};
+use super::subpaths::{SensorTerm, SourceTerm, SurfaceHit, sensor_subpath, source_subpath, trace};
 use super::velocity::{Crossing, ray_form_velocity};
 use crate::film::{TileFilm, Transient};
 use crate::integrator::context::RenderContext;
 use crate::integrator::surface::self_intersection_eps;
 use crate::integrator::trace::RayCounts;
 use crate::kernel::{PathSampler, V3};
+use crate::scene::EmitterKind;
+use glam::Vec3;
 use rayon::prelude::*;
 use std::time::Instant;
 
@@ -46,6 +48,8 @@ use std::time::Instant;
 const CHUNK: u64 = 4096;
 /// Work units run at once; their films are merged in order before the next batch.
 const BATCH: u64 = 8;
+/// Stream of strategy B (light-directed boundary rays), relative to strategy A's.
+const LIGHT_STREAM: u64 = 0x11D1_2EC7_0000_0003;
 /// Largest parameter count the splat buffers hold (render_diff allows 16).
 const MAX_PARAMS: usize = 16;
 
@@ -73,6 +77,21 @@ pub struct BoundaryPath {
     pub weight: [f32; MAX_PARAMS],
 }
 
+/// dh̃/dθ_k with x_S in material form and in ray form (the camera-connected vertex).
+struct Rates {
+    material: [f32; MAX_PARAMS],
+    ray: [f32; MAX_PARAMS],
+}
+
+impl Rates {
+    fn is_zero(&self, params: usize) -> bool {
+        self.material[..params]
+            .iter()
+            .chain(&self.ray[..params])
+            .all(|&r| r == 0.0)
+    }
+}
+
 #[derive(Default)]
 struct Scratch {
     source: Vec<SourceTerm>,
@@ -97,109 +116,92 @@ impl<'a> Secondary<'a> {
         }
     }
 
-    /// Evaluates boundary sample `id` of stream `seed`, with the boundary ray's inputs drawn
-    /// from `grid`; calls `emit` for each full path. Returns the point of the unit cube used.
-    fn evaluate(
-        &self,
-        seed: u64,
-        id: u64,
-        grid: &GuideGrid,
-        scratch: &mut Scratch,
-        mut emit: impl FnMut(&BoundaryPath),
-    ) -> Option<[f32; 3]> {
-        let ctx = self.ctx;
-        let mut rng = PathSampler::new(seed, &[id]);
-        let pick = rng.next::<f32>();
-        let inner = [rng.next::<f32>(), rng.next::<f32>(), rng.next::<f32>()];
-        let (u, p_guide) = grid.sample(pick, inner);
-        let br = self.edges.sample(u[0], u[1], u[2])?;
-        let rec = &self.edges.edges[br.index];
-        let geo = &ctx.scene.geometry;
-        let n_pi = (rec.v1 - rec.v0).cross(br.omega);
+    /// The silhouette side test of Eq. 32 for edge `rec` and direction ω: s_o = ±1, the side
+    /// of the plane Π(edge, ω) that holds the edge's faces, or None when ω is not a silhouette
+    /// direction (faces on both sides).
+    fn blocked_side(&self, rec: &EdgeRecord, omega: Vec3) -> Option<f32> {
+        let geo = &self.ctx.scene.geometry;
+        let n_pi = (rec.v1 - rec.v0).cross(omega);
         let side = |o: u32| n_pi.dot(geo.positions[o as usize] - rec.v0);
         let s0 = side(rec.edge.opposite0);
-        if let Some(o1) = rec.edge.opposite1 {
-            if s0 * side(o1) <= 0.0 {
-                return Some(u); // not a silhouette for ω (only at the set's rim, in rounding)
-            }
+        if let Some(o1) = rec.edge.opposite1
+            && s0 * side(o1) <= 0.0
+        {
+            return None;
         }
-        if s0 == 0.0 || !s0.is_finite() {
-            return Some(u);
-        }
-        let s_o = s0.signum();
-        // start just off the edge, on the side away from its faces
-        let eps = self_intersection_eps(&V3::<f32>::splat(br.x_b));
-        let o = br.x_b - n_pi.normalize() * (s_o * eps);
-        let x_s = trace(ctx, o, br.omega, &mut scratch.rays)?;
-        let x_l = trace(ctx, o, -br.omega, &mut scratch.rays)?;
-        scratch.valid += 1;
-        let seg = x_l.t + x_s.t;
-        if !(seg > 0.0) {
-            return Some(u);
-        }
+        (s0 != 0.0 && s0.is_finite()).then_some(s0.signum())
+    }
 
-        // dh̃/dθ_k, material form and ray form for x_S
+    /// A ray origin just off x_B on the side of Π away from the edge's faces.
+    fn edge_origin(&self, rec: &EdgeRecord, x_b: Vec3, omega: Vec3, s_o: f32) -> Vec3 {
+        let eps = self_intersection_eps(&V3::<f32>::splat(x_b));
+        x_b - (rec.v1 - rec.v0).cross(omega).normalize_or_zero() * (s_o * eps)
+    }
+
+    /// dh̃/dθ_k (velocity.rs) with x_S in material form and in ray form. `shape_l`: the shape
+    /// under x_L (None: a point light, which no parameter moves).
+    fn rates(&self, rec: &EdgeRecord, x_l: Vec3, shape_l: Option<usize>, x_s: &SurfaceHit) -> Rates {
+        let ctx = self.ctx;
         let motion = &ctx.motion;
-        let shape = |prim: u32| geo.tri_shape[prim as usize] as usize;
+        let shape_s = ctx.scene.geometry.tri_shape[x_s.prim as usize] as usize;
         let omega_c = (x_s.p - ctx.camera.position).normalize_or_zero();
-        let mut rate_mat = [0.0f32; MAX_PARAMS];
-        let mut rate_ray = [0.0f32; MAX_PARAMS];
+        let mut r = Rates {
+            material: [0.0; MAX_PARAMS],
+            ray: [0.0; MAX_PARAMS],
+        };
         for k in 0..self.params {
-            let v_s = motion.velocity(k, shape(x_s.prim), x_s.p);
+            let v_s = motion.velocity(k, shape_s, x_s.p);
             let mut c = Crossing {
                 v0: rec.v0,
                 v1: rec.v1,
-                x_l: x_l.p,
+                x_l,
                 y: x_s.p,
                 dv0: motion.velocity(k, rec.shape as usize, rec.v0),
                 dv1: motion.velocity(k, rec.shape as usize, rec.v1),
-                dx_l: motion.velocity(k, shape(x_l.prim), x_l.p),
+                dx_l: shape_l.map_or(Vec3::ZERO, |s| motion.velocity(k, s, x_l)),
                 dy: v_s,
             };
-            rate_mat[k] = c.rate();
+            r.material[k] = c.rate();
             c.dy = ray_form_velocity(omega_c, x_s.n, v_s);
-            rate_ray[k] = c.rate();
+            r.ray[k] = c.rate();
         }
-        if rate_mat[..self.params]
-            .iter()
-            .chain(&rate_ray[..self.params])
-            .all(|&r| r == 0.0)
-        {
-            return Some(u);
-        }
-        let common = -s_o / (seg * br.pdf_edge_dir * p_guide);
+        r
+    }
 
+    /// Completes the sensor side from x_S and emits every (source term, sensor term) pair
+    /// within the bounce budget, with derivative weight `common · dh̃/dθ_k`.
+    #[allow(clippy::too_many_arguments)]
+    fn finish(
+        &self,
+        x_s: &SurfaceHit,
+        omega: Vec3,
+        d_b: f32,
+        common: f32,
+        rates: &Rates,
+        rng: &mut PathSampler,
+        scratch: &mut Scratch,
+        emit: &mut impl FnMut(&BoundaryPath),
+    ) {
+        let ctx = self.ctx;
         let max_bounces = ctx.scene.integrator.max_bounces;
-        scratch.source.clear();
+        let Some(min_source) = scratch.source.iter().map(|t| t.scatters).min() else {
+            return;
+        };
         scratch.sensor.clear();
-        source_subpath(
-            ctx,
-            &x_l,
-            br.omega,
-            max_bounces.saturating_sub(1),
-            &mut rng,
-            &mut scratch.rays,
-            &mut scratch.source,
-        );
-        if scratch.source.is_empty() {
-            return Some(u);
-        }
-        let min_source = scratch.source.iter().map(|t| t.scatters).min().unwrap_or(0);
         sensor_subpath(
             ctx,
-            &x_s,
-            br.omega,
+            x_s,
+            omega,
             max_bounces.saturating_sub(min_source),
-            &mut rng,
+            rng,
             &mut scratch.rays,
             &mut scratch.sensor,
         );
-        let d_b = ctx.scene.eta * seg;
         for sen in &scratch.sensor {
-            let rates = if sen.direct { &rate_ray } else { &rate_mat };
+            let r = if sen.direct { &rates.ray } else { &rates.material };
             let mut weight = [0.0f32; MAX_PARAMS];
             for k in 0..self.params {
-                weight[k] = common * rates[k];
+                weight[k] = common * r[k];
             }
             for src in &scratch.source {
                 if src.scatters + sen.scatters > max_bounces {
@@ -215,7 +217,139 @@ impl<'a> Secondary<'a> {
                 });
             }
         }
+    }
+
+    /// Strategy A, boundary sample `id` of stream `seed`: a boundary ray drawn from `grid` and
+    /// the edge sampler, traced both ways; x_L's emission is left to strategy B (a partition
+    /// of the integrand, so no MIS is needed), its reflected light is estimated here. Calls
+    /// `emit` for each full path; returns the point of the unit cube used.
+    fn evaluate(
+        &self,
+        seed: u64,
+        id: u64,
+        grid: &GuideGrid,
+        scratch: &mut Scratch,
+        mut emit: impl FnMut(&BoundaryPath),
+    ) -> Option<[f32; 3]> {
+        let ctx = self.ctx;
+        let mut rng = PathSampler::new(seed, &[id]);
+        let pick = rng.next::<f32>();
+        let inner = [rng.next::<f32>(), rng.next::<f32>(), rng.next::<f32>()];
+        let (u, p_guide) = grid.sample(pick, inner);
+        let br = self.edges.sample(u[0], u[1], u[2])?;
+        let rec = &self.edges.edges[br.index];
+        let Some(s_o) = self.blocked_side(rec, br.omega) else {
+            return Some(u);
+        };
+        let o = self.edge_origin(rec, br.x_b, br.omega, s_o);
+        let x_s = trace(ctx, o, br.omega, &mut scratch.rays)?;
+        let x_l = trace(ctx, o, -br.omega, &mut scratch.rays)?;
+        scratch.valid += 1;
+        let seg = x_l.t + x_s.t;
+        let shape_l = ctx.scene.geometry.tri_shape[x_l.prim as usize] as usize;
+        let rates = self.rates(rec, x_l.p, Some(shape_l), &x_s);
+        if rates.is_zero(self.params) || !(seg > 0.0) {
+            return Some(u);
+        }
+        scratch.source.clear();
+        let max_bounces = ctx.scene.integrator.max_bounces;
+        source_subpath(
+            ctx,
+            &x_l,
+            br.omega,
+            max_bounces.saturating_sub(1),
+            false,
+            &mut rng,
+            &mut scratch.rays,
+            &mut scratch.source,
+        );
+        let common = -s_o / (seg * br.pdf_edge_dir * p_guide);
+        self.finish(
+            &x_s,
+            br.omega,
+            ctx.scene.eta * seg,
+            common,
+            &rates,
+            &mut rng,
+            scratch,
+            &mut emit,
+        );
         Some(u)
+    }
+
+    /// Strategy B, boundary sample `id` of stream `seed`: shadow edges of direct light. A
+    /// point x_B on an edge (same edge pmf) and a point y on an emitter (next-event sampling)
+    /// fix ω = (x_B − y)/t_L; x_L = y when nothing blocks y → x_B. The density of ω per
+    /// steradian is pdf_A(y) · t_L² / |cos_L|, so the weight of strategy A becomes
+    /// −s_o · (L_e / pdf_A) · |cos_L| / (t_L² (t_L + t_S) p_e); for a point light L_e/pdf_A · |cos_L|
+    /// is I / p_select (the density is a delta in ω). Laser spots are left out.
+    fn evaluate_light(&self, seed: u64, id: u64, scratch: &mut Scratch, mut emit: impl FnMut(&BoundaryPath)) {
+        let ctx = self.ctx;
+        let mut rng = PathSampler::new(seed, &[id]);
+        let (u0, u1) = rng.next2::<f32>();
+        let (e0, e1) = rng.next2::<f32>();
+        let e2 = rng.next::<f32>();
+        let Some(br) = self.edges.sample(u0, u1, 0.5) else {
+            return;
+        };
+        let rec = &self.edges.edges[br.index];
+        let ls = ctx.emitters.sample::<f32, 3>(ctx, e0, e1, e2, true);
+        if !ls.valid {
+            return;
+        }
+        let e = ls.emitter[0] as usize;
+        let shape_l = match ctx.scene.emitters[e].kind {
+            EmitterKind::Area { shape, .. } => Some(shape as usize),
+            EmitterKind::Point { .. } => None,
+            EmitterKind::Laser { .. } => return,
+        };
+        let y = ls.p.lane(0);
+        let to = br.x_b - y;
+        let t_l = to.length();
+        if !(t_l > 0.0) {
+            return;
+        }
+        let omega = to / t_l;
+        let cos_l = if ls.has_cos { ls.n.lane(0).dot(omega) } else { 1.0 };
+        if !(cos_l > 0.0) {
+            return;
+        }
+        let Some(s_o) = self.blocked_side(rec, omega) else {
+            return;
+        };
+        let o = self.edge_origin(rec, br.x_b, omega, s_o);
+        scratch.rays.occluded += 1;
+        let tfar = (o - y).length() - self_intersection_eps(&V3::<f32>::splat(y));
+        if !(tfar > 0.0) || ctx.accel.occluded1(o.to_array(), (-omega).to_array(), 0.0, tfar) {
+            return;
+        }
+        let Some(x_s) = trace(ctx, o, omega, &mut scratch.rays) else {
+            return;
+        };
+        scratch.valid += 1;
+        let rates = self.rates(rec, y, shape_l, &x_s);
+        let seg = t_l + x_s.t;
+        if rates.is_zero(self.params) {
+            return;
+        }
+        scratch.source.clear();
+        scratch.source.push(SourceTerm {
+            rgb: ls.weight.0,
+            opl: ctx.scene.eta * ls.pre_length,
+            emitter: e as u32,
+            scatters: 0,
+        });
+        let common = -s_o * cos_l / (t_l * t_l * seg * self.edges.edge_pmf(br.index));
+        self.finish(
+            &x_s,
+            omega,
+            ctx.scene.eta * seg,
+            common,
+            &rates,
+            &mut rng,
+            scratch,
+            &mut emit,
+        );
     }
 
     /// Pilot pass: Σ |f_L f_S| · Σ_k |weight_k| per guiding cell, over `samples` uniform
@@ -323,7 +457,7 @@ impl<'a> Secondary<'a> {
         let ddot = [0.0f32; MAX_PARAMS];
         let mut fdot = [0.0f32; MAX_PARAMS * 3];
         for id in ids {
-            self.evaluate(seed, id, grid, &mut scratch, |bp| {
+            let mut splat = |bp: &BoundaryPath| {
                 let finite = bp.opl.is_finite()
                     && bp.rgb.iter().all(|v| v.is_finite())
                     && bp.weight[..p].iter().all(|v| v.is_finite());
@@ -351,7 +485,9 @@ impl<'a> Secondary<'a> {
                         &ddot[..p],
                     );
                 });
-            });
+            };
+            self.evaluate(seed, id, grid, &mut scratch, &mut splat);
+            self.evaluate_light(seed ^ LIGHT_STREAM, id, &mut scratch, &mut splat);
         }
         (tile, scratch, non_finite)
     }

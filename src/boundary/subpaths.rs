@@ -88,20 +88,21 @@ pub struct SourceTerm {
 }
 
 /// Radiance leaving x_L in direction `out` (towards x_S): emission when x_L is on the front
-/// of an area emitter, plus reflected light by next-event estimation and BSDF sampling over
+/// of an area emitter (if `with_emission`), plus reflected light by next-event estimation and BSDF sampling over
 /// at most `max_scatters` scattering vertices.
 pub fn source_subpath(
     ctx: &RenderContext,
     x_l: &SurfaceHit,
     out: Vec3,
     max_scatters: u32,
+    with_emission: bool,
     sampler: &mut PathSampler,
     counts: &mut RayCounts,
     terms: &mut Vec<SourceTerm>,
 ) {
     let eta = ctx.scene.eta;
     let e = ctx.tri_emitter[x_l.prim as usize];
-    if e != u32::MAX && x_l.n.dot(out) > 0.0 {
+    if with_emission && e != u32::MAX && x_l.n.dot(out) > 0.0 {
         terms.push(SourceTerm {
             rgb: ctx.emitters.radiance(e),
             opl: 0.0,
