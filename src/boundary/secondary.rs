@@ -27,8 +27,18 @@
 //! the interior does: material form for x_L, the edge and x_S, except that x_S moves along its
 //! camera ray (ray form) when it is the vertex connected to the camera.
 //!
-//! Not covered: segments that start at a point light or a laser spot (a ray from an edge
-//! never hits those points; they need a strategy of their own).
+//! Two strategies split the integrand between them (a partition, so no MIS weights):
+//! - A, edge-directed: ω from the silhouette directions of the edge (`edge_sampler.rs`),
+//!   refined by the guiding grid; it estimates every term whose x_L reflects (x_L's
+//!   radiance from next-event estimation and BSDF-sampled bounces).
+//! - B, light-directed: x_B on an edge and y on an emitter (next-event sampling) fix
+//!   ω = (x_B − y)/|x_B − y| and x_L = y; it estimates every term where x_L emits, i.e. the
+//!   edges of direct shadows, which A would find only when a random ray happens to hit a small
+//!   light (and never for a point light). Laser spots are not covered (they are ray-form
+//!   points fixed by the laser's own ray; a strategy for them is future work).
+//!
+//! Each boundary sample runs both strategies. Paths are recorded per chunk of samples and
+//! binned into one derivative film in chunk order (same bytes for any thread count).
 
 use super::edge_sampler::{EdgeRecord, EdgeSampler};
 use super::guiding::{GuideGrid, RESOLUTION, UNIFORM_MIX};
@@ -46,7 +56,7 @@ use std::time::Instant;
 
 /// Boundary samples per work unit (fixed, so results do not depend on the thread count).
 const CHUNK: u64 = 4096;
-/// Work units run at once; their films are merged in order before the next batch.
+/// Work units traced at once; their paths are binned in order before the next batch.
 const BATCH: u64 = 8;
 /// Stream of strategy B (light-directed boundary rays), relative to strategy A's.
 const LIGHT_STREAM: u64 = 0x11D1_2EC7_0000_0003;
@@ -422,74 +432,84 @@ impl<'a> Secondary<'a> {
         } else {
             GuideGrid::uniform(RESOLUTION)
         };
+        // Chunks trace in parallel and record their paths; the paths are then binned into one
+        // film in chunk order, so the bytes do not depend on the thread count, and memory
+        // stays one film plus a batch of path lists whatever the film size.
+        let mut tile = TileFilm::new(0, 0, w, h, &film.axis, channels, self.params);
         let chunks = samples.div_ceil(CHUNK);
         let mut batch0 = 0;
         while batch0 < chunks {
             let ids: Vec<u64> = (batch0..(batch0 + BATCH).min(chunks)).collect();
-            let films: Vec<(TileFilm, Scratch, u64)> = pool.install(|| {
+            let parts: Vec<(Vec<BoundaryPath>, Scratch)> = pool.install(|| {
                 ids.par_iter()
-                    .map(|&c| self.render_chunk(c * CHUNK..((c + 1) * CHUNK).min(samples), seed, &grid))
+                    .map(|&c| self.trace_chunk(c * CHUNK..((c + 1) * CHUNK).min(samples), seed, &grid))
                     .collect()
             });
-            for (f, s, bad) in &films {
-                f.merge_into(&mut out);
+            for (paths, s) in &parts {
+                for bp in paths {
+                    if !self.splat(&mut tile, bp) {
+                        stats.non_finite += 1;
+                    }
+                }
                 stats.rays += s.rays.intersect + s.rays.occluded;
                 stats.valid_segments += s.valid;
-                stats.non_finite += bad;
             }
             batch0 += BATCH;
         }
+        tile.merge_into(&mut out);
         out.remove(0);
         out.iter_mut().for_each(|t| t.scale(1.0 / samples as f32));
         stats.seconds = t0.elapsed().as_secs_f64();
         (out, stats)
     }
 
-    fn render_chunk(&self, ids: std::ops::Range<u64>, seed: u64, grid: &GuideGrid) -> (TileFilm, Scratch, u64) {
-        let ctx = self.ctx;
-        let film = &ctx.scene.film;
-        let c_n = film.channels;
-        let p = self.params;
-        let mut tile = TileFilm::new(0, 0, film.width as usize, film.height as usize, &film.axis, c_n, p);
+    /// Both strategies for boundary samples `ids`: the full paths they found, in order.
+    fn trace_chunk(&self, ids: std::ops::Range<u64>, seed: u64, grid: &GuideGrid) -> (Vec<BoundaryPath>, Scratch) {
         let mut scratch = Scratch::default();
-        let mut non_finite = 0u64;
+        let mut paths = Vec::new();
+        for id in ids {
+            let mut keep = |bp: &BoundaryPath| paths.push(*bp);
+            self.evaluate(seed, id, grid, &mut scratch, &mut keep);
+            self.evaluate_light(seed ^ LIGHT_STREAM, id, &mut scratch, &mut keep);
+        }
+        (paths, scratch)
+    }
+
+    /// Bins one boundary path into the derivative channels of `tile` (its primal stays 0):
+    /// İ_k += f_L·f_S·weight_k·h_j · S_e(d) at each pixel j the filter reaches. False (and
+    /// nothing added) when a value is not finite.
+    fn splat(&self, tile: &mut TileFilm, bp: &BoundaryPath) -> bool {
+        let ctx = self.ctx;
+        let (c_n, p) = (ctx.scene.film.channels, self.params);
+        let finite =
+            bp.opl.is_finite() && bp.rgb.iter().all(|v| v.is_finite()) && bp.weight[..p].iter().all(|v| v.is_finite());
+        if !finite {
+            return false;
+        }
+        let corr = &ctx.correlations[bp.emitter as usize];
         let zeros = [0.0f32; 3];
         let ddot = [0.0f32; MAX_PARAMS];
         let mut fdot = [0.0f32; MAX_PARAMS * 3];
-        for id in ids {
-            let mut splat = |bp: &BoundaryPath| {
-                let finite = bp.opl.is_finite()
-                    && bp.rgb.iter().all(|v| v.is_finite())
-                    && bp.weight[..p].iter().all(|v| v.is_finite());
-                if !finite {
-                    non_finite += 1;
-                    return;
+        ctx.camera.for_each_pixel(bp.fx, bp.fy, |px, py, hw, _, _| {
+            if hw == 0.0 {
+                return;
+            }
+            for k in 0..p {
+                for c in 0..c_n {
+                    fdot[k * c_n + c] = bp.rgb[c] * bp.weight[k] * hw;
                 }
-                let corr = &ctx.correlations[bp.emitter as usize];
-                ctx.camera.for_each_pixel(bp.fx, bp.fy, |px, py, hw, _, _| {
-                    if hw == 0.0 {
-                        return;
-                    }
-                    for k in 0..p {
-                        for c in 0..c_n {
-                            fdot[k * c_n + c] = bp.rgb[c] * bp.weight[k] * hw;
-                        }
-                    }
-                    tile.add_with_derivs(
-                        px as usize,
-                        py as usize,
-                        corr,
-                        bp.opl,
-                        &zeros[..c_n],
-                        &fdot[..p * c_n],
-                        &ddot[..p],
-                    );
-                });
-            };
-            self.evaluate(seed, id, grid, &mut scratch, &mut splat);
-            self.evaluate_light(seed ^ LIGHT_STREAM, id, &mut scratch, &mut splat);
-        }
-        (tile, scratch, non_finite)
+            }
+            tile.add_with_derivs(
+                px as usize,
+                py as usize,
+                corr,
+                bp.opl,
+                &zeros[..c_n],
+                &fdot[..p * c_n],
+                &ddot[..p],
+            );
+        });
+        true
     }
 
     pub fn edge_count(&self) -> usize {
