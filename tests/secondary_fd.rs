@@ -243,3 +243,42 @@ fn boundary_is_deterministic_and_runs_only_for_geometry() {
     assert_eq!(s.boundary_samples, 0, "albedo moves no geometry: no boundary stage");
     assert!(s.boundary.is_none());
 }
+
+/// Guiding changes only the density of the edge-directed boundary rays: with and without it,
+/// the boundary estimates agree within their standard errors (blocks of the image, K seeds
+/// each). Four bounces, so that edge-directed rays (reflecting x_L) carry part of the result.
+#[test]
+fn guided_and_unguided_boundary_estimates_agree() {
+    let mut scene = load("shadow_hidden_pyramid.toml", "pyramid_height", None);
+    scene.integrator.max_bounces = 4;
+    let p = ["pyramid_height".to_string()];
+    let run = |seed: u64, guiding: bool| {
+        let o = RenderOptions {
+            guiding,
+            ..opts(seed, 1, BoundaryMode::BoundaryOnly)
+        };
+        aggregate(&render_diff(&scene, &p, &o).unwrap().1[0])
+    };
+    let guided: Vec<Vec<f64>> = (0..K).map(|s| run(100 + s, true)).collect();
+    let plain: Vec<Vec<f64>> = (0..K).map(|s| run(200 + s, false)).collect();
+    let mut chi2 = 0.0;
+    let mut used = 0;
+    for i in 0..guided[0].len() {
+        let (mg, sg) = common::mean_se(&guided.iter().map(|r| r[i]).collect::<Vec<_>>());
+        let (mp, sp) = common::mean_se(&plain.iter().map(|r| r[i]).collect::<Vec<_>>());
+        let se = (sg * sg + sp * sp).sqrt();
+        if se == 0.0 {
+            continue;
+        }
+        let z = (mg - mp) / se;
+        eprintln!("entry {i}: guided {mg:.4e} ± {sg:.2e}, unguided {mp:.4e} ± {sp:.2e}, z {z:.2}");
+        assert!(z.abs() < 6.0, "entry {i}: guided and unguided differ by {z:.1} se");
+        chi2 += z * z;
+        used += 1;
+    }
+    // z of two means of 16 seeds each: about normal; Σz² ~ χ²(used)
+    assert!(
+        chi2 < used as f64 + 5.0 * (2.0 * used as f64).sqrt(),
+        "Σz² = {chi2:.1} over {used}"
+    );
+}

@@ -15,7 +15,8 @@
 //!
 //! An edge's weight is its length times the fraction of the sphere where it is a silhouette
 //! (1 for a boundary edge, (π − ψ)/π for a sharp one): the measure of the boundary rays it
-//! carries. The pdf of a sample is p_e/ℓ_e per unit length times p_ω per steradian.
+//! carries, times a caller's factor per shape (the secondary pass favours edges that move).
+//! The pdf of a sample is p_e/ℓ_e per unit length times p_ω per steradian.
 
 use super::edges::{Edge, build_edges};
 use crate::scene::Geometry;
@@ -61,8 +62,14 @@ pub struct EdgeSampler {
 }
 
 impl EdgeSampler {
-    /// Builds the edge table of the scene's world-space geometry.
+    /// Builds the edge table of the scene's world-space geometry, every edge weighted alike.
     pub fn new(geo: &Geometry) -> Self {
+        Self::with_shape_factor(geo, |_| 1.0)
+    }
+
+    /// Builds the edge table with each edge's weight multiplied by `factor(shape)` (> 0 keeps
+    /// every edge reachable, so any factor leaves the estimator unbiased).
+    pub fn with_shape_factor(geo: &Geometry, factor: impl Fn(u32) -> f32) -> Self {
         let mut edges = Vec::new();
         let mut weights = Vec::new();
         for e in build_edges(geo) {
@@ -95,7 +102,7 @@ impl EdgeSampler {
                 }
             };
             let frac = if e.is_boundary() { 1.0 } else { (PI - psi) / PI };
-            let w = len * frac;
+            let w = len * frac * factor(geo.tri_shape[e.face0 as usize]);
             if !(w > 0.0) {
                 continue;
             }

@@ -8,7 +8,7 @@
 //! mixes the pilot estimate with a uniform floor: P_c = (1 − α) m_c / Σm + α / cells.
 
 /// Cells along (u0, u1, u2).
-pub const RESOLUTION: [usize; 3] = [64, 8, 8];
+pub const RESOLUTION: [usize; 3] = [32, 4, 4];
 /// Weight of the uniform floor in the mixture.
 pub const UNIFORM_MIX: f32 = 0.2;
 

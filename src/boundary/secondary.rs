@@ -58,6 +58,10 @@ use std::time::Instant;
 const CHUNK: u64 = 4096;
 /// Work units traced at once; their paths are binned in order before the next batch.
 const BATCH: u64 = 8;
+/// Edges of shapes that a parameter moves are drawn this many times more often per metre: their
+/// shadows move whatever else does (edges of static shapes contribute only where x_L or x_S
+/// moves). Any positive factor keeps the estimator unbiased.
+const MOVING_EDGE_FACTOR: f32 = 8.0;
 /// Stream of strategy B (light-directed boundary rays), relative to strategy A's.
 const LIGHT_STREAM: u64 = 0x11D1_2EC7_0000_0003;
 /// Largest parameter count the splat buffers hold (render_diff allows 16).
@@ -121,7 +125,10 @@ impl<'a> Secondary<'a> {
     pub fn new(ctx: &'a RenderContext<'a>) -> Self {
         Self {
             ctx,
-            edges: EdgeSampler::new(&ctx.scene.geometry),
+            edges: EdgeSampler::with_shape_factor(&ctx.scene.geometry, |s| {
+                let moves = (0..ctx.motion.len()).any(|k| ctx.motion.fields[k].iter().any(|(m, _)| *m == s as usize));
+                if moves { MOVING_EDGE_FACTOR } else { 1.0 }
+            }),
             params: ctx.motion.len().min(MAX_PARAMS),
         }
     }
