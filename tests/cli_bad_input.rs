@@ -157,3 +157,14 @@ fn first_material_name() -> String {
     let q2 = q1 + t[q1..].find('"').unwrap();
     t[q1..q2].to_string()
 }
+
+#[test]
+fn nonpositive_spp_boundary_is_refused() {
+    for n in ["0", "-2"] {
+        let (e, _d) = render_fails(
+            &scenes().join("shadow_hidden_occluder.toml"),
+            &["--diff", "occluder_x", "--spp-boundary", n],
+        );
+        assert!(e.contains("--spp-boundary"), "{e}");
+    }
+}

@@ -6,7 +6,8 @@
 //! - [`guiding`]: a grid over the sampler's inputs fitted by a pilot pass.
 //! - [`velocity`]: how fast a discontinuity sweeps over a path vertex (V_∂Ω).
 //! - [`subpaths`]: source and sensor subpaths without derivatives.
-//! - [`secondary`]: secondary edges, Algorithm 2 with Eqs. 18–19 and 30–32.
+//! - [`secondary`]: secondary edges, Algorithm 2 with Eqs. 18–19 and 30–32: two strategies.
+//! - [`pass`]: the secondary pass: pilot (budget split, guiding), chunks, ordered binning.
 //! - [`primary`]: silhouettes seen from the camera (filled on another branch).
 //!
 //! [`render_boundary`] runs both estimators, each with its own seed stream, and returns their
@@ -15,6 +16,7 @@
 pub mod edge_sampler;
 pub mod edges;
 pub mod guiding;
+pub mod pass;
 pub mod primary;
 pub mod secondary;
 pub mod subpaths;
@@ -37,7 +39,8 @@ pub struct BoundarySettings {
     pub spp_boundary: u32,
     /// The render seed (each estimator derives its own stream).
     pub seed: u64,
-    /// Fit a guiding grid with a pilot pass of 1/8 of the samples (`false`: uniform).
+    /// Fit a guiding grid for the edge-directed rays with a pilot of 1/8 of the samples (else
+    /// the pilot, 1/16 of the samples, only splits the budget between the strategies).
     pub guiding: bool,
 }
 
@@ -54,7 +57,7 @@ pub struct BoundaryParts {
 pub struct BoundaryStats {
     pub spp_boundary: u32,
     pub primary_seconds: f64,
-    pub secondary: secondary::SecondaryStats,
+    pub secondary: pass::SecondaryStats,
     pub edges: usize,
 }
 
@@ -66,8 +69,8 @@ pub fn render_boundary(ctx: &RenderContext, settings: &BoundarySettings, pool: &
     let sec = secondary::Secondary::new(ctx);
     let film = &ctx.scene.film;
     let samples = settings.spp_boundary as u64 * film.width as u64 * film.height as u64;
-    let pilot = if settings.guiding { (samples / 8).max(1024) } else { 0 };
-    let (secondary, sstats) = sec.render(samples, pilot, settings.seed ^ SECONDARY_SEED, pool);
+    let pilot = (samples / if settings.guiding { 8 } else { 16 }).max(1024);
+    let (secondary, sstats) = sec.render(samples, pilot, settings.guiding, settings.seed ^ SECONDARY_SEED, pool);
     BoundaryParts {
         primary,
         secondary,

@@ -37,47 +37,27 @@
 //!   light (and never for a point light). Laser spots are not covered (they are ray-form
 //!   points fixed by the laser's own ray; a strategy for them is future work).
 //!
-//! Each boundary sample runs both strategies. Paths are recorded per chunk of samples and
-//! binned into one derivative film in chunk order (same bytes for any thread count).
+//! `pass.rs` runs the strategies (budget split by a pilot) and bins their paths.
 
 use super::edge_sampler::{EdgeRecord, EdgeSampler};
-use super::guiding::{GuideGrid, RESOLUTION, UNIFORM_MIX};
+use super::guiding::GuideGrid;
 use super::subpaths::{SensorTerm, SourceTerm, SurfaceHit, sensor_subpath, source_subpath, trace};
 use super::velocity::{Crossing, ray_form_velocity};
-use crate::film::{TileFilm, Transient};
 use crate::integrator::context::RenderContext;
 use crate::integrator::surface::self_intersection_eps;
 use crate::integrator::trace::RayCounts;
 use crate::kernel::{PathSampler, V3};
 use crate::scene::EmitterKind;
 use glam::Vec3;
-use rayon::prelude::*;
-use std::time::Instant;
 
-/// Boundary samples per work unit (fixed, so results do not depend on the thread count).
-const CHUNK: u64 = 4096;
-/// Work units traced at once; their paths are binned in order before the next batch.
-const BATCH: u64 = 8;
 /// Edges of shapes that a parameter moves are drawn this many times more often per metre: their
 /// shadows move whatever else does (edges of static shapes contribute only where x_L or x_S
 /// moves). Any positive factor keeps the estimator unbiased.
 const MOVING_EDGE_FACTOR: f32 = 8.0;
 /// Stream of strategy B (light-directed boundary rays), relative to strategy A's.
-const LIGHT_STREAM: u64 = 0x11D1_2EC7_0000_0003;
+pub(super) const LIGHT_STREAM: u64 = 0x11D1_2EC7_0000_0003;
 /// Largest parameter count the splat buffers hold (render_diff allows 16).
-const MAX_PARAMS: usize = 16;
-
-/// What the secondary-edge pass did.
-#[derive(Clone, Debug, Default, serde::Serialize)]
-pub struct SecondaryStats {
-    pub samples: u64,
-    pub pilot_samples: u64,
-    /// Boundary rays whose segment found a surface at both ends.
-    pub valid_segments: u64,
-    pub rays: u64,
-    pub non_finite: u64,
-    pub seconds: f64,
-}
+pub(super) const MAX_PARAMS: usize = 16;
 
 /// One full boundary path: where it reaches the film, its OPL and emitter, its throughput
 /// f_L·f_S (per channel, before the pixel filter) and its derivative weight per parameter.
@@ -107,18 +87,18 @@ impl Rates {
 }
 
 #[derive(Default)]
-struct Scratch {
+pub(super) struct Scratch {
     source: Vec<SourceTerm>,
     sensor: Vec<SensorTerm>,
-    rays: RayCounts,
-    valid: u64,
+    pub(super) rays: RayCounts,
+    pub(super) valid: u64,
 }
 
 /// The estimator's fixed inputs.
 pub struct Secondary<'a> {
-    ctx: &'a RenderContext<'a>,
-    edges: EdgeSampler,
-    params: usize,
+    pub(super) ctx: &'a RenderContext<'a>,
+    pub(super) edges: EdgeSampler,
+    pub(super) params: usize,
 }
 
 impl<'a> Secondary<'a> {
@@ -240,11 +220,12 @@ impl<'a> Secondary<'a> {
     /// the edge sampler, traced both ways; x_L's emission is left to strategy B (a partition
     /// of the integrand, so no MIS is needed), its reflected light is estimated here. Calls
     /// `emit` for each full path; returns the point of the unit cube used.
-    fn evaluate(
+    pub(super) fn evaluate(
         &self,
         seed: u64,
         id: u64,
         grid: &GuideGrid,
+        scale: f32,
         scratch: &mut Scratch,
         mut emit: impl FnMut(&BoundaryPath),
     ) -> Option<[f32; 3]> {
@@ -280,7 +261,7 @@ impl<'a> Secondary<'a> {
             &mut scratch.rays,
             &mut scratch.source,
         );
-        let common = -s_o / (seg * br.pdf_edge_dir * p_guide);
+        let common = -s_o * scale / (seg * br.pdf_edge_dir * p_guide);
         self.finish(
             &x_s,
             br.omega,
@@ -300,7 +281,14 @@ impl<'a> Secondary<'a> {
     /// steradian is pdf_A(y) · t_L² / |cos_L|, so the weight of strategy A becomes
     /// −s_o · (L_e / pdf_A) · |cos_L| / (t_L² (t_L + t_S) p_e); for a point light L_e/pdf_A · |cos_L|
     /// is I / p_select (the density is a delta in ω). Laser spots are left out.
-    fn evaluate_light(&self, seed: u64, id: u64, scratch: &mut Scratch, mut emit: impl FnMut(&BoundaryPath)) {
+    pub(super) fn evaluate_light(
+        &self,
+        seed: u64,
+        id: u64,
+        scale: f32,
+        scratch: &mut Scratch,
+        mut emit: impl FnMut(&BoundaryPath),
+    ) {
         let ctx = self.ctx;
         let mut rng = PathSampler::new(seed, &[id]);
         let (u0, u1) = rng.next2::<f32>();
@@ -356,7 +344,7 @@ impl<'a> Secondary<'a> {
             emitter: e as u32,
             scatters: 0,
         });
-        let common = -s_o * cos_l / (t_l * t_l * seg * self.edges.edge_pmf(br.index));
+        let common = -s_o * scale * cos_l / (t_l * t_l * seg * self.edges.edge_pmf(br.index));
         self.finish(
             &x_s,
             omega,
@@ -367,156 +355,6 @@ impl<'a> Secondary<'a> {
             scratch,
             &mut emit,
         );
-    }
-
-    /// Pilot pass: Σ |f_L f_S| · Σ_k |weight_k| per guiding cell, over `samples` uniform
-    /// boundary rays of stream `seed`.
-    fn pilot(&self, samples: u64, seed: u64, pool: &rayon::ThreadPool) -> (GuideGrid, u64) {
-        let uniform = GuideGrid::uniform(RESOLUTION);
-        let cells = uniform.cells();
-        let chunks: Vec<u64> = (0..samples.div_ceil(CHUNK)).collect();
-        let parts: Vec<(Vec<f64>, u64)> = pool.install(|| {
-            chunks
-                .par_iter()
-                .map(|&c| {
-                    let mut sums = vec![0.0f64; cells];
-                    let mut scratch = Scratch::default();
-                    for id in c * CHUNK..((c + 1) * CHUNK).min(samples) {
-                        let mut mag = 0.0f64;
-                        let u = self.evaluate(seed, id, &uniform, &mut scratch, |p| {
-                            let f: f32 = p.rgb.iter().map(|v| v.abs()).sum();
-                            let w: f32 = p.weight[..self.params].iter().map(|v| v.abs()).sum();
-                            mag += (f * w) as f64;
-                        });
-                        if let Some(u) = u
-                            && mag.is_finite()
-                        {
-                            sums[uniform.cell_of(u)] += mag;
-                        }
-                    }
-                    (sums, scratch.rays.intersect + scratch.rays.occluded)
-                })
-                .collect()
-        });
-        let mut sums = vec![0.0f64; cells];
-        let mut rays = 0;
-        for (s, r) in &parts {
-            sums.iter_mut().zip(s).for_each(|(a, b)| *a += b);
-            rays += r;
-        }
-        (GuideGrid::from_pilot(RESOLUTION, &sums, UNIFORM_MIX), rays)
-    }
-
-    /// Runs `samples` boundary rays of stream `seed` (with a pilot pass of `pilot` samples on
-    /// a stream derived from it when `pilot > 0`) and returns one derivative transient per
-    /// parameter, averaged over the samples.
-    pub fn render(
-        &self,
-        samples: u64,
-        pilot: u64,
-        seed: u64,
-        pool: &rayon::ThreadPool,
-    ) -> (Vec<Transient>, SecondaryStats) {
-        let t0 = Instant::now();
-        let ctx = self.ctx;
-        let film = &ctx.scene.film;
-        let (w, h) = (film.width as usize, film.height as usize);
-        let channels = film.channels;
-        let mut out = vec![Transient::zeros(w, h, film.axis, channels); 1 + self.params];
-        let mut stats = SecondaryStats {
-            samples,
-            pilot_samples: pilot,
-            ..Default::default()
-        };
-        if self.edges.is_empty() || samples == 0 || self.params == 0 {
-            out.remove(0);
-            return (out, stats);
-        }
-        let grid = if pilot > 0 {
-            let (g, rays) = self.pilot(pilot, seed ^ 0x7049_1A7B_0000_0001, pool);
-            stats.rays += rays;
-            g
-        } else {
-            GuideGrid::uniform(RESOLUTION)
-        };
-        // Chunks trace in parallel and record their paths; the paths are then binned into one
-        // film in chunk order, so the bytes do not depend on the thread count, and memory
-        // stays one film plus a batch of path lists whatever the film size.
-        let mut tile = TileFilm::new(0, 0, w, h, &film.axis, channels, self.params);
-        let chunks = samples.div_ceil(CHUNK);
-        let mut batch0 = 0;
-        while batch0 < chunks {
-            let ids: Vec<u64> = (batch0..(batch0 + BATCH).min(chunks)).collect();
-            let parts: Vec<(Vec<BoundaryPath>, Scratch)> = pool.install(|| {
-                ids.par_iter()
-                    .map(|&c| self.trace_chunk(c * CHUNK..((c + 1) * CHUNK).min(samples), seed, &grid))
-                    .collect()
-            });
-            for (paths, s) in &parts {
-                for bp in paths {
-                    if !self.splat(&mut tile, bp) {
-                        stats.non_finite += 1;
-                    }
-                }
-                stats.rays += s.rays.intersect + s.rays.occluded;
-                stats.valid_segments += s.valid;
-            }
-            batch0 += BATCH;
-        }
-        tile.merge_into(&mut out);
-        out.remove(0);
-        out.iter_mut().for_each(|t| t.scale(1.0 / samples as f32));
-        stats.seconds = t0.elapsed().as_secs_f64();
-        (out, stats)
-    }
-
-    /// Both strategies for boundary samples `ids`: the full paths they found, in order.
-    fn trace_chunk(&self, ids: std::ops::Range<u64>, seed: u64, grid: &GuideGrid) -> (Vec<BoundaryPath>, Scratch) {
-        let mut scratch = Scratch::default();
-        let mut paths = Vec::new();
-        for id in ids {
-            let mut keep = |bp: &BoundaryPath| paths.push(*bp);
-            self.evaluate(seed, id, grid, &mut scratch, &mut keep);
-            self.evaluate_light(seed ^ LIGHT_STREAM, id, &mut scratch, &mut keep);
-        }
-        (paths, scratch)
-    }
-
-    /// Bins one boundary path into the derivative channels of `tile` (its primal stays 0):
-    /// İ_k += f_L·f_S·weight_k·h_j · S_e(d) at each pixel j the filter reaches. False (and
-    /// nothing added) when a value is not finite.
-    fn splat(&self, tile: &mut TileFilm, bp: &BoundaryPath) -> bool {
-        let ctx = self.ctx;
-        let (c_n, p) = (ctx.scene.film.channels, self.params);
-        let finite =
-            bp.opl.is_finite() && bp.rgb.iter().all(|v| v.is_finite()) && bp.weight[..p].iter().all(|v| v.is_finite());
-        if !finite {
-            return false;
-        }
-        let corr = &ctx.correlations[bp.emitter as usize];
-        let zeros = [0.0f32; 3];
-        let ddot = [0.0f32; MAX_PARAMS];
-        let mut fdot = [0.0f32; MAX_PARAMS * 3];
-        ctx.camera.for_each_pixel(bp.fx, bp.fy, |px, py, hw, _, _| {
-            if hw == 0.0 {
-                return;
-            }
-            for k in 0..p {
-                for c in 0..c_n {
-                    fdot[k * c_n + c] = bp.rgb[c] * bp.weight[k] * hw;
-                }
-            }
-            tile.add_with_derivs(
-                px as usize,
-                py as usize,
-                corr,
-                bp.opl,
-                &zeros[..c_n],
-                &fdot[..p * c_n],
-                &ddot[..p],
-            );
-        });
-        true
     }
 
     pub fn edge_count(&self) -> usize {
