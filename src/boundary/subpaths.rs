@@ -90,6 +90,7 @@ pub struct SourceTerm {
 /// Radiance leaving x_L in direction `out` (towards x_S): emission when x_L is on the front
 /// of an area emitter (if `with_emission`), plus reflected light by next-event estimation and BSDF sampling over
 /// at most `max_scatters` scattering vertices.
+#[allow(clippy::too_many_arguments)]
 pub fn source_subpath(
     ctx: &RenderContext,
     x_l: &SurfaceHit,
