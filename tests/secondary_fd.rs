@@ -5,7 +5,8 @@
 //! - scenes/shadow_hidden_occluder.toml: an occluder translated between an area light and the
 //!   floor (issue scene 1);
 //! - scenes/shadow_hidden_pyramid.toml: an OBJ pyramid rotated and scaled (issue scene 4),
-//!   and scenes/shadow_hidden_pyramid_point.toml, the same under a point light (hard shadow).
+//!   and scenes/shadow_hidden_pyramid_point.toml, the same under a point light (hard shadow);
+//! - scenes/shadow_hidden_laser.toml: the occluder's shadow cast by a laser spot.
 //!
 //! For each of K seeds, D = (interior + boundary) − FD on two aggregates: 4×4 blocks of the
 //! time-summed image and groups of 5 time bins of the whole image. The mean of D over seeds
@@ -183,6 +184,20 @@ fn check(scene: &str, hidden: &str, name: &str, value: f32, h: f32) {
 #[test]
 fn occluder_shadow_edge_matches_finite_differences() {
     check("shadow_hidden_occluder.toml", "occluder", "occluder_x", 0.1, 0.02);
+}
+
+/// A laser spot on the ceiling lights the floor past the occluder (light-directed rays from
+/// the spot, a point source with a cosine).
+#[test]
+fn laser_spot_shadow_matches_finite_differences() {
+    check("shadow_hidden_laser.toml", "occluder", "occluder_x", 0.1, 0.02);
+}
+
+/// The ceiling moves: the laser spot slides along the oblique beam (ray form, not with the
+/// ceiling's material points), and its shadow edge moves with it.
+#[test]
+fn moving_laser_spot_matches_finite_differences() {
+    check("shadow_hidden_laser.toml", "ceiling", "ceiling_y", 2.0, 0.02);
 }
 
 /// The light moves: x_L of the shadow-edge paths carries the emitter's velocity.

@@ -34,8 +34,8 @@
 //! - B, light-directed: x_B on an edge and y on an emitter (next-event sampling) fix
 //!   ω = (x_B − y)/|x_B − y| and x_L = y; it estimates every term where x_L emits, i.e. the
 //!   edges of direct shadows, which A would find only when a random ray happens to hit a small
-//!   light (and never for a point light). Laser spots are not covered (they are ray-form
-//!   points fixed by the laser's own ray; a strategy for them is future work).
+//!   light (and never for a point light or a laser spot). A laser spot moves along its beam
+//!   (ray form, as in the interior). Not covered: an edge crossing the laser beam itself.
 //!
 //! `pass.rs` runs the strategies (budget split by a pilot) and bins their paths.
 
@@ -71,6 +71,16 @@ pub struct BoundaryPath {
     pub weight: [f32; MAX_PARAMS],
 }
 
+/// How x_L moves with the parameters: not at all (point light), with its surface (material
+/// form), or along a fixed laser ray as its surface moves (ray form, as the interior's laser
+/// spot).
+#[derive(Clone, Copy, Debug)]
+pub(super) enum SourceMotion {
+    Fixed,
+    Material(usize),
+    Ray { shape: usize, dir: Vec3, n: Vec3 },
+}
+
 /// dh̃/dθ_k with x_S in material form and in ray form (the camera-connected vertex).
 struct Rates {
     material: [f32; MAX_PARAMS],
@@ -99,6 +109,8 @@ pub struct Secondary<'a> {
     pub(super) ctx: &'a RenderContext<'a>,
     pub(super) edges: EdgeSampler,
     pub(super) params: usize,
+    /// Per emitter: how its laser spot moves (None: not a laser, or the beam hits nothing).
+    laser_spots: Vec<Option<SourceMotion>>,
 }
 
 impl<'a> Secondary<'a> {
@@ -110,6 +122,28 @@ impl<'a> Secondary<'a> {
                 if moves { MOVING_EDGE_FACTOR } else { 1.0 }
             }),
             params: ctx.motion.len().min(MAX_PARAMS),
+            laser_spots: ctx
+                .scene
+                .emitters
+                .iter()
+                .map(|e| match e.kind {
+                    EmitterKind::Laser {
+                        position, direction, ..
+                    } => {
+                        let dir = direction.normalize();
+                        let hit = ctx
+                            .accel
+                            .intersect1(position.to_array(), dir.to_array(), 0.0, f32::INFINITY)?;
+                        let [p0, p1, p2] = ctx.tri_verts[hit.prim as usize];
+                        Some(SourceMotion::Ray {
+                            shape: ctx.scene.geometry.tri_shape[hit.prim as usize] as usize,
+                            dir,
+                            n: (p1 - p0).cross(p2 - p0).normalize_or_zero(),
+                        })
+                    }
+                    _ => None,
+                })
+                .collect(),
         }
     }
 
@@ -135,9 +169,10 @@ impl<'a> Secondary<'a> {
         x_b - (rec.v1 - rec.v0).cross(omega).normalize_or_zero() * (s_o * eps)
     }
 
-    /// dh̃/dθ_k (velocity.rs) with x_S in material form and in ray form. `shape_l`: the shape
+    /// dh̃/dθ_k (velocity.rs) with x_S in material form and in ray form; x_L moves as `motion_l`
+    /// says.
     /// under x_L (None: a point light, which no parameter moves).
-    fn rates(&self, rec: &EdgeRecord, x_l: Vec3, shape_l: Option<usize>, x_s: &SurfaceHit) -> Rates {
+    fn rates(&self, rec: &EdgeRecord, x_l: Vec3, motion_l: SourceMotion, x_s: &SurfaceHit) -> Rates {
         let ctx = self.ctx;
         let motion = &ctx.motion;
         let shape_s = ctx.scene.geometry.tri_shape[x_s.prim as usize] as usize;
@@ -155,7 +190,11 @@ impl<'a> Secondary<'a> {
                 y: x_s.p,
                 dv0: motion.velocity(k, rec.shape as usize, rec.v0),
                 dv1: motion.velocity(k, rec.shape as usize, rec.v1),
-                dx_l: shape_l.map_or(Vec3::ZERO, |s| motion.velocity(k, s, x_l)),
+                dx_l: match motion_l {
+                    SourceMotion::Fixed => Vec3::ZERO,
+                    SourceMotion::Material(s) => motion.velocity(k, s, x_l),
+                    SourceMotion::Ray { shape, dir, n } => ray_form_velocity(dir, n, motion.velocity(k, shape, x_l)),
+                },
                 dy: v_s,
             };
             r.material[k] = c.rate();
@@ -245,7 +284,7 @@ impl<'a> Secondary<'a> {
         scratch.valid += 1;
         let seg = x_l.t + x_s.t;
         let shape_l = ctx.scene.geometry.tri_shape[x_l.prim as usize] as usize;
-        let rates = self.rates(rec, x_l.p, Some(shape_l), &x_s);
+        let rates = self.rates(rec, x_l.p, SourceMotion::Material(shape_l), &x_s);
         if rates.is_zero(self.params) || !(seg > 0.0) {
             return Some(u);
         }
@@ -280,7 +319,8 @@ impl<'a> Secondary<'a> {
     /// fix ω = (x_B − y)/t_L; x_L = y when nothing blocks y → x_B. The density of ω per
     /// steradian is pdf_A(y) · t_L² / |cos_L|, so the weight of strategy A becomes
     /// −s_o · (L_e / pdf_A) · |cos_L| / (t_L² (t_L + t_S) p_e); for a point light L_e/pdf_A · |cos_L|
-    /// is I / p_select (the density is a delta in ω). Laser spots are left out.
+    /// is I / p_select (the density is a delta in ω); a laser spot is such a point source with
+    /// intensity ∝ cos_L, moving along the beam (ray form).
     pub(super) fn evaluate_light(
         &self,
         seed: u64,
@@ -303,10 +343,13 @@ impl<'a> Secondary<'a> {
             return;
         }
         let e = ls.emitter[0] as usize;
-        let shape_l = match ctx.scene.emitters[e].kind {
-            EmitterKind::Area { shape, .. } => Some(shape as usize),
-            EmitterKind::Point { .. } => None,
-            EmitterKind::Laser { .. } => return,
+        let motion_l = match ctx.scene.emitters[e].kind {
+            EmitterKind::Area { shape, .. } => SourceMotion::Material(shape as usize),
+            EmitterKind::Point { .. } => SourceMotion::Fixed,
+            EmitterKind::Laser { .. } => match self.laser_spots[e] {
+                Some(m) => m,
+                None => return,
+            },
         };
         let y = ls.p.lane(0);
         let to = br.x_b - y;
@@ -332,7 +375,7 @@ impl<'a> Secondary<'a> {
             return;
         };
         scratch.valid += 1;
-        let rates = self.rates(rec, y, shape_l, &x_s);
+        let rates = self.rates(rec, y, motion_l, &x_s);
         let seg = t_l + x_s.t;
         if rates.is_zero(self.params) {
             return;
