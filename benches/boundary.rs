@@ -185,10 +185,11 @@ fn main() {
     println!(
         "3. shadow_hidden_occluder 64x64, {spp} spp: primal {best_p:.4} s wall (best of {reps}), rel. L2 {e_p:.3}"
     );
-    println!("   spp_boundary  interior+boundary s  (boundary s)  rel. L2 of dI/dθ  time ratio");
-    for spp_b in [4u32, 16, 64] {
+    println!("   guiding  spp_boundary  interior+boundary s  (boundary s)  rel. L2 of dI/dθ  time ratio");
+    for (guiding, spp_b) in [(false, 4u32), (false, 16), (false, 64), (true, 4), (true, 16)] {
         let ob = RenderOptions {
             spp_boundary: Some(spp_b),
+            guiding,
             ..o.clone()
         };
         let mut best_d = f64::MAX;
@@ -200,7 +201,8 @@ fn main() {
         }
         let (d, sd) = last.unwrap();
         println!(
-            "   {spp_b:>12}  {best_d:>19.4}  {:>12.4}  {:>16.3}  {:>9.2}x",
+            "   {:>7}  {spp_b:>12}  {best_d:>19.4}  {:>12.4}  {:>16.3}  {:>9.2}x",
+            if guiding { "on" } else { "off" },
             sd.boundary_seconds,
             common::rel_l2(&d.data, &reference_d),
             best_d / best_p

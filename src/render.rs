@@ -45,8 +45,8 @@ pub struct RenderOptions {
     pub spp_boundary: Option<u32>,
     /// Which estimators `render_diff` runs (default: all).
     pub boundary: BoundaryMode,
-    /// Guide the edge-directed boundary rays with a grid fitted by a pilot pass (default off:
-    /// `cargo bench --bench boundary` shows no gain on our scenes; kept for comparison).
+    /// Guide the boundary rays with grids fitted by a pilot pass (default off; see
+    /// [`crate::boundary::BoundarySettings::guiding`] for the trade-off).
     pub guiding: bool,
 }
 

@@ -9,8 +9,9 @@
 
 /// Cells along (u0, u1, u2).
 pub const RESOLUTION: [usize; 3] = [32, 4, 4];
-/// Weight of the uniform floor in the mixture.
-pub const UNIFORM_MIX: f32 = 0.2;
+/// Weight of the uniform floor in the mixture: a cell is drawn at least half as often as
+/// without guiding, which bounds the weight of paths the pilot missed by 2.
+pub const UNIFORM_MIX: f32 = 0.5;
 
 #[derive(Clone, Debug)]
 pub struct GuideGrid {

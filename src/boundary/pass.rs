@@ -6,7 +6,9 @@
 //!   variance per unit cost is lowest with n_s ∝ σ_s / √c_s (σ_s: root second moment of a
 //!   sample's total |contribution|, c_s: rays per sample); each strategy keeps at least 1/8 of
 //!   the budget, so neither is ever starved (any n_s ≥ 1 keeps the sum unbiased);
-//! - with guiding on, the grid of `guiding.rs` for the edge-directed strategy.
+//! - with guiding on, a grid of `guiding.rs` for each strategy: over (edge coordinate,
+//!   azimuth, cos θ) for the edge-directed rays, over (edge coordinate, emitter choice, point
+//!   on the emitter) for the light-directed ones.
 //!
 //! `samples` boundary samples stand for 2·samples strategy evaluations, split as above.
 
@@ -42,7 +44,9 @@ pub struct SecondaryStats {
 
 /// What a pilot pass learned.
 struct Pilot {
+    /// Guiding grids of the edge-directed and the light-directed strategy.
     grid: GuideGrid,
+    grid_light: GuideGrid,
     /// Share of the budget for the edge-directed strategy.
     share_a: f64,
     rays: u64,
@@ -50,7 +54,7 @@ struct Pilot {
 
 /// Per-chunk pilot tallies: guiding cell sums, then per strategy Σ mag², rays.
 struct PilotPart {
-    cells: Vec<f64>,
+    cells: [Vec<f64>; 2],
     m2: [f64; 2],
     rays: [u64; 2],
 }
@@ -72,7 +76,7 @@ impl Secondary<'_> {
                 .par_iter()
                 .map(|&c| {
                     let mut part = PilotPart {
-                        cells: vec![0.0; cells],
+                        cells: [vec![0.0; cells], vec![0.0; cells]],
                         m2: [0.0; 2],
                         rays: [0; 2],
                     };
@@ -86,15 +90,16 @@ impl Secondary<'_> {
                         let mid = scratch.rays.intersect + scratch.rays.occluded;
                         if mag.is_finite() {
                             if let Some(u) = u {
-                                part.cells[uniform.cell_of(u)] += mag;
+                                part.cells[0][uniform.cell_of(u)] += mag;
                             }
                             part.m2[0] += mag * mag;
                         }
                         let mut mag_b = 0.0f64;
-                        self.evaluate_light(seed ^ LIGHT_STREAM, id, 1.0, &mut scratch, |p| {
+                        let u_b = self.evaluate_light(seed ^ LIGHT_STREAM, id, &uniform, 1.0, &mut scratch, |p| {
                             mag_b += magnitude(p, self.params)
                         });
                         if mag_b.is_finite() {
+                            part.cells[1][uniform.cell_of(u_b)] += mag_b;
                             part.m2[1] += mag_b * mag_b;
                         }
                         let after = scratch.rays.intersect + scratch.rays.occluded;
@@ -105,10 +110,12 @@ impl Secondary<'_> {
                 })
                 .collect()
         });
-        let mut sums = vec![0.0f64; cells];
+        let mut sums = [vec![0.0f64; cells], vec![0.0f64; cells]];
         let (mut m2, mut rays) = ([0.0f64; 2], [0u64; 2]);
         for p in &parts {
-            sums.iter_mut().zip(&p.cells).for_each(|(a, b)| *a += b);
+            for s in 0..2 {
+                sums[s].iter_mut().zip(&p.cells[s]).for_each(|(a, b)| *a += b);
+            }
             for s in 0..2 {
                 m2[s] += p.m2[s];
                 rays[s] += p.rays[s];
@@ -124,7 +131,12 @@ impl Secondary<'_> {
         };
         Pilot {
             grid: if guiding {
-                GuideGrid::from_pilot(RESOLUTION, &sums, UNIFORM_MIX)
+                GuideGrid::from_pilot(RESOLUTION, &sums[0], UNIFORM_MIX)
+            } else {
+                uniform.clone()
+            },
+            grid_light: if guiding {
+                GuideGrid::from_pilot(RESOLUTION, &sums[1], UNIFORM_MIX)
             } else {
                 uniform
             },
@@ -190,7 +202,14 @@ impl Secondary<'_> {
                                 self.evaluate(seed, id, &pl.grid, scale[0], &mut scratch, &mut keep);
                             }
                             if id < n_b {
-                                self.evaluate_light(seed ^ LIGHT_STREAM, id, scale[1], &mut scratch, &mut keep);
+                                self.evaluate_light(
+                                    seed ^ LIGHT_STREAM,
+                                    id,
+                                    &pl.grid_light,
+                                    scale[1],
+                                    &mut scratch,
+                                    &mut keep,
+                                );
                             }
                         }
                         (paths, scratch)

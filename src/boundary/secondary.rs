@@ -325,16 +325,33 @@ impl<'a> Secondary<'a> {
         &self,
         seed: u64,
         id: u64,
+        grid: &GuideGrid,
         scale: f32,
         scratch: &mut Scratch,
         mut emit: impl FnMut(&BoundaryPath),
+    ) -> [f32; 3] {
+        let mut rng = PathSampler::new(seed, &[id]);
+        let pick = rng.next::<f32>();
+        let inner = [rng.next::<f32>(), rng.next::<f32>(), rng.next::<f32>()];
+        let (u, p_guide) = grid.sample(pick, inner);
+        let e2 = rng.next::<f32>();
+        self.light_path(u, e2, scale / p_guide, &mut rng, scratch, &mut emit);
+        u
+    }
+
+    /// Strategy B for the point (u0, e0, e1) of the unit cube (u0: edge coordinate, e0 and
+    /// e1: emitter choice and point) and e2, each path's weight multiplied by `scale`.
+    fn light_path(
+        &self,
+        [u0, e0, e1]: [f32; 3],
+        e2: f32,
+        scale: f32,
+        rng: &mut PathSampler,
+        scratch: &mut Scratch,
+        emit: &mut impl FnMut(&BoundaryPath),
     ) {
         let ctx = self.ctx;
-        let mut rng = PathSampler::new(seed, &[id]);
-        let (u0, u1) = rng.next2::<f32>();
-        let (e0, e1) = rng.next2::<f32>();
-        let e2 = rng.next::<f32>();
-        let Some(br) = self.edges.sample(u0, u1, 0.5) else {
+        let Some(br) = self.edges.sample(u0, 0.5, 0.5) else {
             return;
         };
         let rec = &self.edges.edges[br.index];
@@ -388,16 +405,7 @@ impl<'a> Secondary<'a> {
             scatters: 0,
         });
         let common = -s_o * scale * cos_l / (t_l * t_l * seg * self.edges.edge_pmf(br.index));
-        self.finish(
-            &x_s,
-            omega,
-            ctx.scene.eta * seg,
-            common,
-            &rates,
-            &mut rng,
-            scratch,
-            &mut emit,
-        );
+        self.finish(&x_s, omega, ctx.scene.eta * seg, common, &rates, rng, scratch, emit);
     }
 
     pub fn edge_count(&self) -> usize {
