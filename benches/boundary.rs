@@ -49,10 +49,10 @@ fn boundary_only(base: &RenderOptions, spp_b: u32, seed: u64, guiding: bool) -> 
 /// seeds, per sample count, guided and unguided.
 fn variance_table(label: &str, scene: &Scene, param: &str, base: &RenderOptions, counts: &[u32], reference_spp: u32) {
     let (reference, _) = diff_of(scene, param, &boundary_only(base, reference_spp, 1000, true));
-    let (_, s) = diff_of(scene, param, &boundary_only(base, counts[counts.len() - 1], 7, true));
+    let (_, s) = diff_of(scene, param, &boundary_only(base, counts[counts.len() - 1], 7, false));
     let b = s.boundary.clone().unwrap();
     println!(
-        "{label}: {:.3e} boundary samples/s ({} samples + {} pilot in {:.3} s wall, {:.3e} rays/s, {} edges)",
+        "{label}: {:.3e} boundary samples/s unguided ({} samples + {} pilot in {:.3} s wall, {:.3e} rays/s, {} edges)",
         b.secondary.samples as f64 / b.secondary.seconds,
         b.secondary.samples,
         b.secondary.pilot_samples,
