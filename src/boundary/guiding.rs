@@ -16,6 +16,8 @@ pub const UNIFORM_MIX: f32 = 0.5;
 #[derive(Clone, Debug)]
 pub struct GuideGrid {
     res: [usize; 3],
+    /// Every cell equally likely: `sample` returns `inner` itself (no table search).
+    uniform: bool,
     pmf: Vec<f32>,
     cdf: Vec<f32>,
 }
@@ -46,6 +48,7 @@ impl GuideGrid {
         cdf.iter_mut().for_each(|c| *c /= last);
         Self {
             res,
+            uniform: mix == 1.0,
             pmf: pmf.iter().map(|p| p / last).collect(),
             cdf,
         }
@@ -69,6 +72,9 @@ impl GuideGrid {
     /// Draws a cell with `pick` and a point inside it with `inner`; returns the point and its
     /// density on the unit cube (P_c · cells).
     pub fn sample(&self, pick: f32, inner: [f32; 3]) -> ([f32; 3], f32) {
+        if self.uniform {
+            return (inner, 1.0);
+        }
         let c = self.cdf.partition_point(|&x| x <= pick).min(self.cdf.len() - 1);
         let (i2, rest) = (c % self.res[2], c / self.res[2]);
         let (i1, i0) = (rest % self.res[1], rest / self.res[1]);

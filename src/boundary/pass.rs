@@ -22,6 +22,8 @@ use std::time::Instant;
 const CHUNK: u64 = 4096;
 /// Work units traced at once; their paths are binned in order before the next batch.
 const BATCH: u64 = 8;
+/// Bands of film rows that bin paths in parallel.
+const BANDS: usize = 8;
 /// Stream of the pilot pass, relative to the pass's seed.
 const PILOT_STREAM: u64 = 0x7049_1A7B_0000_0001;
 /// Smallest share of the budget either strategy gets.
@@ -181,10 +183,16 @@ impl Secondary<'_> {
         // over its own count
         let scale = [samples as f32 / n_a as f32, samples as f32 / n_b as f32];
 
-        // Chunks trace in parallel and record their paths; the paths are then binned into one
-        // film in chunk order, so the bytes do not depend on the thread count, and memory
-        // stays one film plus a batch of path lists whatever the film size.
-        let mut tile = TileFilm::new(0, 0, w, h, &film.axis, channels, self.params);
+        // Chunks trace in parallel and record their paths; then bands of film rows bin the
+        // paths in parallel, each band every path in chunk order, so the bytes do not depend
+        // on the thread count, and memory stays one film plus a batch of path lists.
+        let bands = h.clamp(1, BANDS);
+        let mut tiles: Vec<TileFilm> = (0..bands)
+            .map(|b| {
+                let (y0, y1) = (b * h / bands, (b + 1) * h / bands);
+                TileFilm::new(0, y0, w, y1 - y0, &film.axis, channels, self.params)
+            })
+            .collect();
         let ids = n_a.max(n_b);
         let chunks = ids.div_ceil(CHUNK);
         let mut batch0 = 0;
@@ -216,18 +224,28 @@ impl Secondary<'_> {
                     })
                     .collect()
             });
-            for (paths, s) in &parts {
-                for bp in paths {
-                    if !self.splat(&mut tile, bp) {
-                        stats.non_finite += 1;
-                    }
-                }
+            let dropped: Vec<u64> = pool.install(|| {
+                tiles
+                    .par_iter_mut()
+                    .map(|tile| {
+                        let mut bad = 0;
+                        for bp in parts.iter().flat_map(|(paths, _)| paths) {
+                            bad += u64::from(!self.splat(tile, bp));
+                        }
+                        bad
+                    })
+                    .collect()
+            });
+            stats.non_finite += dropped[0];
+            for (_, s) in &parts {
                 stats.rays += s.rays.intersect + s.rays.occluded;
                 stats.valid_segments += s.valid;
             }
             batch0 += BATCH;
         }
-        tile.merge_into(&mut out);
+        for tile in &tiles {
+            tile.merge_into(&mut out);
+        }
         out.remove(0);
         out.iter_mut().for_each(|t| t.scale(1.0 / samples as f32));
         stats.seconds = t0.elapsed().as_secs_f64();
@@ -235,8 +253,8 @@ impl Secondary<'_> {
     }
 
     /// Bins one boundary path into the derivative channels of `tile` (its primal stays 0):
-    /// İ_k += f_L·f_S·weight_k·h_j · S_e(d) at each pixel j the filter reaches. False (and
-    /// nothing added) when a value is not finite.
+    /// İ_k += f_L·f_S·weight_k·h_j · S_e(d) at each pixel j of the tile's rows that the filter
+    /// reaches. False (and nothing added) when a value is not finite.
     fn splat(&self, tile: &mut TileFilm, bp: &BoundaryPath) -> bool {
         let ctx = self.ctx;
         let (c_n, p) = (ctx.scene.film.channels, self.params);
@@ -249,8 +267,9 @@ impl Secondary<'_> {
         let zeros = [0.0f32; 3];
         let ddot = [0.0f32; MAX_PARAMS];
         let mut fdot = [0.0f32; MAX_PARAMS * 3];
+        let rows = tile.y0..tile.y0 + tile.h;
         ctx.camera.for_each_pixel(bp.fx, bp.fy, |px, py, hw, _, _| {
-            if hw == 0.0 {
+            if hw == 0.0 || !rows.contains(&(py as usize)) {
                 return;
             }
             for k in 0..p {
