@@ -74,6 +74,16 @@ fn assert_hidden(scene: &Scene, name: &str) {
 }
 
 fn check(scene: &str, hidden: &str, name: &str, value: f32, h: f32) {
+    check_with(scene, hidden, name, value, h, |_| {});
+}
+
+/// `check` on the scene as changed by `tweak` (applied to every loaded copy).
+fn check_with(scene: &str, hidden: &str, name: &str, value: f32, h: f32, tweak: fn(&mut Scene)) {
+    let load = |scene: &str, name: &str, value: Option<f32>| {
+        let mut s = load(scene, name, value);
+        tweak(&mut s);
+        s
+    };
     let base = load(scene, name, None);
     for v in [value - 2.0 * h, value, value + 2.0 * h] {
         assert_hidden(&load(scene, name, Some(v)), hidden);
@@ -198,6 +208,23 @@ fn laser_spot_shadow_matches_finite_differences() {
 #[test]
 fn moving_laser_spot_matches_finite_differences() {
     check("shadow_hidden_laser.toml", "ceiling", "ceiling_y", 2.0, 0.02);
+}
+
+/// RGB film and a tent filter: paths splat into up to four pixels with filter weights, and
+/// every channel carries its own throughput.
+#[test]
+fn occluder_shadow_rgb_tent_filter_matches_finite_differences() {
+    check_with(
+        "shadow_hidden_occluder.toml",
+        "occluder",
+        "occluder_x",
+        0.1,
+        0.02,
+        |s| {
+            s.film.channels = 3;
+            s.film.filter = difftransient::scene::PixelFilter::Tent { radius: 1.0 };
+        },
+    );
 }
 
 /// The light moves: x_L of the shadow-edge paths carries the emitter's velocity.
