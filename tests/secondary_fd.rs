@@ -74,11 +74,12 @@ fn assert_hidden(scene: &Scene, name: &str) {
 }
 
 fn check(scene: &str, hidden: &str, name: &str, value: f32, h: f32) {
-    check_with(scene, hidden, name, value, h, |_| {});
+    check_with(scene, hidden, name, value, h, |_| {}, &[]);
 }
 
-/// `check` on the scene as changed by `tweak` (applied to every loaded copy).
-fn check_with(scene: &str, hidden: &str, name: &str, value: f32, h: f32, tweak: fn(&mut Scene)) {
+/// `check` on the scene as changed by `tweak` (applied to every loaded copy), with the
+/// parameters `also` differentiated in the same render before `name`.
+fn check_with(scene: &str, hidden: &str, name: &str, value: f32, h: f32, tweak: fn(&mut Scene), also: &[&str]) {
     let load = |scene: &str, name: &str, value: Option<f32>| {
         let mut s = load(scene, name, value);
         tweak(&mut s);
@@ -98,12 +99,14 @@ fn check_with(scene: &str, hidden: &str, name: &str, value: f32, h: f32, tweak: 
     let (mut d_full, mut d_int, mut rich, mut full_ad) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     let mut samples = 0u64;
     for seed in 0..K {
-        let p = [name.to_string()];
+        // the checked parameter comes last, after any co-rendered ones
+        let p: Vec<String> = also.iter().map(|s| s.to_string()).chain([name.to_string()]).collect();
+        let k = also.len();
         let (_, interior, _) = render_diff(&base, &p, &opts(seed, SPP, BoundaryMode::InteriorOnly)).unwrap();
         let (_, boundary, stats) = render_diff(&base, &p, &opts(seed, SPP, BoundaryMode::BoundaryOnly)).unwrap();
         samples = stats.boundary_samples;
         assert_eq!(stats.non_finite_samples, 0);
-        let (a_int, a_bnd) = (aggregate(&interior[0]), aggregate(&boundary[0]));
+        let (a_int, a_bnd) = (aggregate(&interior[k]), aggregate(&boundary[k]));
         let a_full: Vec<f64> = a_int.iter().zip(&a_bnd).map(|(a, b)| a + b).collect();
         let f1 = fd(&renders(value + h, seed), &renders(value - h, seed), h);
         let f2 = fd(
@@ -224,6 +227,21 @@ fn occluder_shadow_rgb_tent_filter_matches_finite_differences() {
             s.film.channels = 3;
             s.film.filter = difftransient::scene::PixelFilter::Tent { radius: 1.0 };
         },
+        &[],
+    );
+}
+
+/// Three parameters in one render (derivative lanes 0..2; the checked one is lane 2).
+#[test]
+fn third_of_three_parameters_matches_finite_differences() {
+    check_with(
+        "shadow_hidden_pyramid.toml",
+        "pyramid",
+        "pyramid_height",
+        0.6,
+        0.02,
+        |_| {},
+        &["floor_y", "pyramid_yaw"],
     );
 }
 
