@@ -28,16 +28,18 @@
 //! camera ray (ray form) when it is the vertex connected to the camera.
 //!
 //! Two strategies split the integrand between them (a partition, so no MIS weights):
-//! - A, edge-directed: ω from the silhouette directions of the edge (`edge_sampler.rs`),
-//!   refined by the guiding grid; it estimates every term whose x_L reflects (x_L's
-//!   radiance from next-event estimation and BSDF-sampled bounces).
+//! - A, edge-directed: ω from the silhouette directions of the edge (`edge_sampler.rs`);
+//!   it estimates every term whose x_L reflects (x_L's radiance from next-event estimation
+//!   and BSDF-sampled bounces).
 //! - B, light-directed: x_B on an edge and y on an emitter (next-event sampling) fix
 //!   ω = (x_B − y)/|x_B − y| and x_L = y; it estimates every term where x_L emits, i.e. the
 //!   edges of direct shadows, which A would find only when a random ray happens to hit a small
 //!   light (and never for a point light or a laser spot). A laser spot moves along its beam
 //!   (ray form, as in the interior). Not covered: an edge crossing the laser beam itself.
 //!
-//! `pass.rs` runs the strategies (budget split by a pilot) and bins their paths.
+//! Each strategy draws its inputs through a guiding grid (`guiding.rs`; uniform unless
+//! guiding is on). `pass.rs` runs the strategies (budget split by a pilot) and bins their
+//! paths.
 
 use super::edge_sampler::{EdgeRecord, EdgeSampler};
 use super::guiding::GuideGrid;
