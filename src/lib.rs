@@ -9,7 +9,9 @@
 //! optical path length through the correlation S_e of [`temporal`]) → [`output`] (`.npy`,
 //! EXR, previews).
 //!
-//! [`render::render`] runs it all on a rayon pool.
+//! [`render::render`] runs it all on a rayon pool. [`render::render_diff`] adds the derivative:
+//! the interior (Algorithm 1, dual numbers in the same kernel) plus, when a parameter moves
+//! geometry, the [`boundary`] integral (Algorithm 2: primary and secondary edges).
 
 pub mod accel;
 pub mod boundary;
@@ -26,5 +28,5 @@ pub mod timing;
 
 pub use error::Error;
 pub use film::Transient;
-pub use render::{Lanes, RenderOptions, RenderStats, render, render_diff, render_strategies};
+pub use render::{BoundaryMode, Lanes, RenderOptions, RenderStats, render, render_diff, render_strategies};
 pub use scene::Scene;

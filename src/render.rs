@@ -43,6 +43,27 @@ pub struct RenderOptions {
     pub lanes: Lanes,
     /// Overrides the scene's `[integrator] kind` (`dtr render --integrator`).
     pub integrator: Option<IntegratorKind>,
+    /// Boundary samples per pixel for `render_diff` (default: the interior's spp). The
+    /// secondary-edge pass draws this many boundary rays per pixel of the film.
+    pub spp_boundary: Option<u32>,
+    /// Which estimators `render_diff` runs (default: all).
+    pub boundary: BoundaryMode,
+    /// Guide the boundary rays with grids fitted by a pilot pass (default off; see
+    /// [`crate::boundary::BoundarySettings::guiding`] for the trade-off).
+    pub guiding: bool,
+}
+
+/// Which parts of the gradient `render_diff` estimates. Tests use the parts to show that the
+/// interior alone misses what moving visibility contributes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum BoundaryMode {
+    /// Interior (Algorithm 1) + primary + secondary boundary (Algorithm 2).
+    #[default]
+    Full,
+    /// The interior only: wrong wherever a parameter moves a visibility boundary.
+    InteriorOnly,
+    /// Primary + secondary boundary only; the interior pass is skipped and the primal is zero.
+    BoundaryOnly,
 }
 
 /// What a render did and how fast.
@@ -65,6 +86,12 @@ pub struct RenderStats {
     /// Where the CPU time went: Embree queries, shading/sampling (the rest of the kernel and
     /// driver), and film binning; seconds, summing to `cpu_seconds` of the tiles.
     pub phase_seconds: PhaseSeconds,
+    /// Boundary rays drawn by the secondary-edge pass (0 when the boundary stage did not run:
+    /// no requested parameter moves geometry, or `BoundaryMode::InteriorOnly`).
+    pub boundary_samples: u64,
+    /// Wall time of the boundary stage (primary + secondary, pilot included).
+    pub boundary_seconds: f64,
+    pub boundary: Option<crate::boundary::BoundaryStats>,
 }
 
 #[derive(Clone, Debug, Default, serde::Serialize)]
@@ -227,6 +254,12 @@ fn render_films(
             scene.source.display()
         )));
     }
+    if opts.spp_boundary == Some(0) {
+        return Err(Error::Invalid(format!(
+            "{}: spp_boundary must be at least 1 (got 0)",
+            scene.source.display()
+        )));
+    }
     let seed = opts.seed.unwrap_or(scene.integrator.seed);
     set_flush_denormals();
     let device = Device::new("")?;
@@ -240,7 +273,8 @@ fn render_films(
     let (w, h) = (scene.film.width as usize, scene.film.height as usize);
     let axis = scene.film.axis;
     let channels = scene.film.channels;
-    let tiles: Vec<(usize, usize)> = (0..h.div_ceil(TILE))
+    let interior = opts.boundary != BoundaryMode::BoundaryOnly || derivs == 0;
+    let tiles: Vec<(usize, usize)> = (0..if interior { h.div_ceil(TILE) } else { 0 })
         .flat_map(|ty| (0..w.div_ceil(TILE)).map(move |tx| (tx * TILE, ty * TILE)))
         .collect();
     let bar = progress_bar(opts.progress, tiles.len() as u64);
@@ -324,7 +358,7 @@ fn render_films(
         threads: pool.current_num_threads(),
         wall_seconds: wall,
         cpu_seconds: cpu,
-        paths: (w * h) as u64 * spp as u64,
+        paths: if interior { (w * h) as u64 * spp as u64 } else { 0 },
         bvh_build_seconds,
         ..Default::default()
     };
@@ -350,6 +384,27 @@ fn render_films(
     stats.paths_per_cpu_second = stats.paths as f64 / cpu;
     stats.rays_per_second = rays / wall.max(1e-9);
     stats.rays_per_cpu_second = rays / cpu;
+    if derivs > 0 && ctx.motion.moves_geometry() && opts.boundary != BoundaryMode::InteriorOnly {
+        let settings = crate::boundary::BoundarySettings {
+            spp_boundary: opts.spp_boundary.unwrap_or(spp),
+            seed,
+            guiding: opts.guiding,
+        };
+        let t_b = Instant::now();
+        let parts = crate::boundary::render_boundary(&ctx, &settings, &pool);
+        for (film, (p, q)) in out[1..].iter_mut().zip(parts.primary.iter().zip(&parts.secondary)) {
+            for (d, (a, b)) in film.data.iter_mut().zip(p.data.iter().zip(&q.data)) {
+                *d += a + b;
+            }
+            for (d, (a, b)) in film.steady.iter_mut().zip(p.steady.iter().zip(&q.steady)) {
+                *d += a + b;
+            }
+        }
+        stats.non_finite_samples += parts.stats.secondary.non_finite;
+        stats.boundary_samples = parts.stats.secondary.samples;
+        stats.boundary_seconds = t_b.elapsed().as_secs_f64();
+        stats.boundary = Some(parts.stats);
+    }
     Ok((out, strategy_out, stats))
 }
 

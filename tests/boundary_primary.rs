@@ -17,7 +17,7 @@ use difftransient::boundary::primary::render_primary;
 use difftransient::integrator::RenderContext;
 use difftransient::integrator::motion::Motion;
 use difftransient::render::thread_pool;
-use difftransient::{RenderOptions, Scene, Transient, render, render_diff};
+use difftransient::{BoundaryMode, RenderOptions, Scene, Transient, render, render_diff};
 
 struct Case {
     scene: &'static str,
@@ -38,6 +38,8 @@ fn opts(spp: u32, seed: u64) -> RenderOptions {
         spp: Some(spp),
         seed: Some(seed),
         threads: Some(2),
+        // the interior alone: this file adds the primary term itself, from `render_primary`
+        boundary: BoundaryMode::InteriorOnly,
         ..Default::default()
     }
 }

@@ -175,3 +175,14 @@ fn strategies_that_would_not_fit_in_memory_are_refused() {
     let (e, _d) = render_fails(&p, &["--integrator", "bdpt", "--strategies"]);
     assert!(e.contains("max_bounces"), "{e}");
 }
+
+#[test]
+fn nonpositive_spp_boundary_is_refused() {
+    for n in ["0", "-2"] {
+        let (e, _d) = render_fails(
+            &scenes().join("shadow_hidden_occluder.toml"),
+            &["--diff", "occluder_x", "--spp-boundary", n],
+        );
+        assert!(e.contains("--spp-boundary"), "{e}");
+    }
+}

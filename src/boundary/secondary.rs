@@ -1,0 +1,416 @@
+//! Secondary edges: the boundary integral over visibility discontinuities of path segments
+//! anywhere in the scene (Algorithm 2; supplemental Eqs. 18–19, 30–32).
+//!
+//! A boundary ray (x_B, ω) on a silhouette edge (Eq. 32) is traced both ways: x_S = first hit
+//! along ω, x_L = first hit along −ω. The segment x_L → x_S grazes the edge: it lies on the
+//! discontinuity set of G·V (Eqs. 30–31), where V jumps from 1 (the segment passes beside the
+//! edge's faces) to 0 (it passes through them). With x_L held fixed, Eq. 18 on the surface of
+//! x_S gives ∫ Δ(f) V_∂ dℓ(x_S) along the edge's shadow from x_L; Δf (Eq. 19) is the
+//! unoccluded path throughput f_L · G(x_L, x_S) · f_S on the free side and 0 on the blocked
+//! one. Changing variables from dA(x_L) dℓ(x_S) to dℓ(x_B) dω (the Jacobian J_B):
+//!
+//!   dA(x_L) dℓ(x_S) = t_L (t_L + t_S) sin α / (|cos_L| sin β) · dℓ(x_B) dω,
+//!
+//! (α: angle between edge and ω; β: between ω and the shadow curve). With the normal
+//! velocity of `velocity.rs`, G · J_B · V_∂ collapses to
+//!
+//!   −s_o · (dh̃/dθ) / (ℓ_e (t_L + t_S)),
+//!
+//! where s_o = ±1 is the side of Π(x_L, edge) holding the edge's faces (the blocked side) and
+//! ℓ_e the edge length; sin α, the cosines and |N| cancel. Divided by the sampling density
+//! p_e/ℓ_e · p_ω (and the guiding density), each boundary ray contributes
+//!
+//!   f_L · f_S · (−s_o · dh̃/dθ) / ((t_L + t_S) · p_e · p_ω · p_guide)
+//!
+//! per parameter, binned through S_e at d = d_L + η(t_L + t_S) + d_S into the pixel the
+//! sensor subpath reaches. dh̃/dθ uses the velocity of each point's own parameterisation, as
+//! the interior does: material form for x_L, the edge and x_S, except that x_S moves along its
+//! camera ray (ray form) when it is the vertex connected to the camera.
+//!
+//! Two strategies split the integrand between them (a partition, so no MIS weights):
+//! - A, edge-directed: ω from the silhouette directions of the edge (`edge_sampler.rs`);
+//!   it estimates every term whose x_L reflects (x_L's radiance from next-event estimation
+//!   and BSDF-sampled bounces).
+//! - B, light-directed: x_B on an edge and y on an emitter (next-event sampling) fix
+//!   ω = (x_B − y)/|x_B − y| and x_L = y; it estimates every term where x_L emits, i.e. the
+//!   edges of direct shadows, which A would find only when a random ray happens to hit a small
+//!   light (and never for a point light or a laser spot). A laser spot moves along its beam
+//!   (ray form, as in the interior). Not covered: an edge crossing the laser beam itself.
+//!
+//! Each strategy draws its inputs through a guiding grid (`guiding.rs`; uniform unless
+//! guiding is on). `pass.rs` runs the strategies (budget split by a pilot) and bins their
+//! paths.
+
+use super::edge_sampler::{EdgeRecord, EdgeSampler};
+use super::guiding::GuideGrid;
+use super::subpaths::{SensorTerm, SourceTerm, SurfaceHit, sensor_subpath, source_subpath, trace};
+use super::velocity::{Crossing, ray_form_velocity};
+use crate::integrator::context::RenderContext;
+use crate::integrator::surface::self_intersection_eps;
+use crate::integrator::trace::RayCounts;
+use crate::kernel::{PathSampler, V3};
+use crate::scene::EmitterKind;
+use glam::Vec3;
+
+/// Edges of shapes that a parameter moves are drawn this many times more often per metre: their
+/// shadows move whatever else does (edges of static shapes contribute only where x_L or x_S
+/// moves). Any positive factor keeps the estimator unbiased.
+const MOVING_EDGE_FACTOR: f32 = 8.0;
+/// Stream of strategy B (light-directed boundary rays), relative to strategy A's.
+pub(super) const LIGHT_STREAM: u64 = 0x11D1_2EC7_0000_0003;
+/// Largest parameter count the splat buffers hold (render_diff allows 16).
+pub(super) const MAX_PARAMS: usize = 16;
+
+/// One full boundary path: where it reaches the film, its OPL and emitter, its throughput
+/// f_L·f_S (per channel, before the pixel filter) and its derivative weight per parameter.
+#[derive(Clone, Copy, Debug)]
+pub struct BoundaryPath {
+    pub fx: f32,
+    pub fy: f32,
+    pub opl: f32,
+    pub emitter: u32,
+    pub rgb: [f32; 3],
+    pub weight: [f32; MAX_PARAMS],
+}
+
+/// How x_L moves with the parameters: not at all (point light), with its surface (material
+/// form), or along a fixed laser ray as its surface moves (ray form, as the interior's laser
+/// spot).
+#[derive(Clone, Copy, Debug)]
+pub(super) enum SourceMotion {
+    Fixed,
+    Material(usize),
+    Ray { shape: usize, dir: Vec3, n: Vec3 },
+}
+
+/// dh̃/dθ_k with x_S in material form and in ray form (the camera-connected vertex).
+struct Rates {
+    material: [f32; MAX_PARAMS],
+    ray: [f32; MAX_PARAMS],
+}
+
+impl Rates {
+    fn is_zero(&self, params: usize) -> bool {
+        self.material[..params]
+            .iter()
+            .chain(&self.ray[..params])
+            .all(|&r| r == 0.0)
+    }
+}
+
+#[derive(Default)]
+pub(super) struct Scratch {
+    source: Vec<SourceTerm>,
+    sensor: Vec<SensorTerm>,
+    pub(super) rays: RayCounts,
+    pub(super) valid: u64,
+}
+
+/// The estimator's fixed inputs.
+pub struct Secondary<'a> {
+    pub(super) ctx: &'a RenderContext<'a>,
+    pub(super) edges: EdgeSampler,
+    pub(super) params: usize,
+    /// Per emitter: how its laser spot moves (None: not a laser, or the beam hits nothing).
+    laser_spots: Vec<Option<SourceMotion>>,
+}
+
+impl<'a> Secondary<'a> {
+    pub fn new(ctx: &'a RenderContext<'a>) -> Self {
+        Self {
+            ctx,
+            edges: EdgeSampler::with_shape_factor(&ctx.scene.geometry, |s| {
+                let moves = (0..ctx.motion.len()).any(|k| ctx.motion.fields[k].iter().any(|(m, _)| *m == s as usize));
+                if moves { MOVING_EDGE_FACTOR } else { 1.0 }
+            }),
+            params: ctx.motion.len().min(MAX_PARAMS),
+            laser_spots: ctx
+                .scene
+                .emitters
+                .iter()
+                .map(|e| match e.kind {
+                    EmitterKind::Laser {
+                        position, direction, ..
+                    } => {
+                        let dir = direction.normalize();
+                        let hit = ctx
+                            .accel
+                            .intersect1(position.to_array(), dir.to_array(), 0.0, f32::INFINITY)?;
+                        let [p0, p1, p2] = ctx.tri_verts[hit.prim as usize];
+                        Some(SourceMotion::Ray {
+                            shape: ctx.scene.geometry.tri_shape[hit.prim as usize] as usize,
+                            dir,
+                            n: (p1 - p0).cross(p2 - p0).normalize_or_zero(),
+                        })
+                    }
+                    _ => None,
+                })
+                .collect(),
+        }
+    }
+
+    /// The silhouette side test of Eq. 32 for edge `rec` and direction ω: s_o = ±1, the side
+    /// of the plane Π(edge, ω) that holds the edge's faces, or None when ω is not a silhouette
+    /// direction (faces on both sides).
+    fn blocked_side(&self, rec: &EdgeRecord, omega: Vec3) -> Option<f32> {
+        let geo = &self.ctx.scene.geometry;
+        let n_pi = (rec.v1 - rec.v0).cross(omega);
+        let side = |o: u32| n_pi.dot(geo.positions[o as usize] - rec.v0);
+        let s0 = side(rec.edge.opposite0);
+        if let Some(o1) = rec.edge.opposite1
+            && s0 * side(o1) <= 0.0
+        {
+            return None;
+        }
+        (s0 != 0.0 && s0.is_finite()).then_some(s0.signum())
+    }
+
+    /// A ray origin just off x_B on the side of Π away from the edge's faces.
+    fn edge_origin(&self, rec: &EdgeRecord, x_b: Vec3, omega: Vec3, s_o: f32) -> Vec3 {
+        let eps = self_intersection_eps(&V3::<f32>::splat(x_b));
+        x_b - (rec.v1 - rec.v0).cross(omega).normalize_or_zero() * (s_o * eps)
+    }
+
+    /// dh̃/dθ_k (velocity.rs) with x_S in material form and in ray form; x_L moves as `motion_l`
+    /// says.
+    /// under x_L (None: a point light, which no parameter moves).
+    fn rates(&self, rec: &EdgeRecord, x_l: Vec3, motion_l: SourceMotion, x_s: &SurfaceHit) -> Rates {
+        let ctx = self.ctx;
+        let motion = &ctx.motion;
+        let shape_s = ctx.scene.geometry.tri_shape[x_s.prim as usize] as usize;
+        let omega_c = (x_s.p - ctx.camera.position).normalize_or_zero();
+        let mut r = Rates {
+            material: [0.0; MAX_PARAMS],
+            ray: [0.0; MAX_PARAMS],
+        };
+        for k in 0..self.params {
+            let v_s = motion.velocity(k, shape_s, x_s.p);
+            let mut c = Crossing {
+                v0: rec.v0,
+                v1: rec.v1,
+                x_l,
+                y: x_s.p,
+                dv0: motion.velocity(k, rec.shape as usize, rec.v0),
+                dv1: motion.velocity(k, rec.shape as usize, rec.v1),
+                dx_l: match motion_l {
+                    SourceMotion::Fixed => Vec3::ZERO,
+                    SourceMotion::Material(s) => motion.velocity(k, s, x_l),
+                    SourceMotion::Ray { shape, dir, n } => ray_form_velocity(dir, n, motion.velocity(k, shape, x_l)),
+                },
+                dy: v_s,
+            };
+            r.material[k] = c.rate();
+            c.dy = ray_form_velocity(omega_c, x_s.n, v_s);
+            r.ray[k] = c.rate();
+        }
+        r
+    }
+
+    /// Completes the sensor side from x_S and emits every (source term, sensor term) pair
+    /// within the bounce budget, with derivative weight `common · dh̃/dθ_k`.
+    #[allow(clippy::too_many_arguments)]
+    fn finish(
+        &self,
+        x_s: &SurfaceHit,
+        omega: Vec3,
+        d_b: f32,
+        common: f32,
+        rates: &Rates,
+        rng: &mut PathSampler,
+        scratch: &mut Scratch,
+        emit: &mut impl FnMut(&BoundaryPath),
+    ) {
+        let ctx = self.ctx;
+        let max_bounces = ctx.scene.integrator.max_bounces;
+        let Some(min_source) = scratch.source.iter().map(|t| t.scatters).min() else {
+            return;
+        };
+        scratch.sensor.clear();
+        sensor_subpath(
+            ctx,
+            x_s,
+            omega,
+            max_bounces.saturating_sub(min_source),
+            rng,
+            &mut scratch.rays,
+            &mut scratch.sensor,
+        );
+        for sen in &scratch.sensor {
+            let r = if sen.direct { &rates.ray } else { &rates.material };
+            let mut weight = [0.0f32; MAX_PARAMS];
+            for k in 0..self.params {
+                weight[k] = common * r[k];
+            }
+            for src in &scratch.source {
+                if src.scatters + sen.scatters > max_bounces {
+                    continue;
+                }
+                emit(&BoundaryPath {
+                    fx: sen.fx,
+                    fy: sen.fy,
+                    opl: src.opl + d_b + sen.opl,
+                    emitter: src.emitter,
+                    rgb: std::array::from_fn(|c| src.rgb[c] * sen.rgb[c]),
+                    weight,
+                });
+            }
+        }
+    }
+
+    /// Strategy A, boundary sample `id` of stream `seed`: a boundary ray drawn from `grid` and
+    /// the edge sampler, traced both ways; x_L's emission is left to strategy B (a partition
+    /// of the integrand, so no MIS is needed), its reflected light is estimated here. Calls
+    /// `emit` for each full path; returns the point of the unit cube used.
+    pub(super) fn evaluate(
+        &self,
+        seed: u64,
+        id: u64,
+        grid: &GuideGrid,
+        scale: f32,
+        scratch: &mut Scratch,
+        mut emit: impl FnMut(&BoundaryPath),
+    ) -> Option<[f32; 3]> {
+        let ctx = self.ctx;
+        let mut rng = PathSampler::new(seed, &[id]);
+        let pick = rng.next::<f32>();
+        let inner = [rng.next::<f32>(), rng.next::<f32>(), rng.next::<f32>()];
+        let (u, p_guide) = grid.sample(pick, inner);
+        let br = self.edges.sample(u[0], u[1], u[2])?;
+        let rec = &self.edges.edges[br.index];
+        let Some(s_o) = self.blocked_side(rec, br.omega) else {
+            return Some(u);
+        };
+        let o = self.edge_origin(rec, br.x_b, br.omega, s_o);
+        let x_s = trace(ctx, o, br.omega, &mut scratch.rays)?;
+        let x_l = trace(ctx, o, -br.omega, &mut scratch.rays)?;
+        scratch.valid += 1;
+        let seg = x_l.t + x_s.t;
+        let shape_l = ctx.scene.geometry.tri_shape[x_l.prim as usize] as usize;
+        let rates = self.rates(rec, x_l.p, SourceMotion::Material(shape_l), &x_s);
+        if rates.is_zero(self.params) || !(seg > 0.0) {
+            return Some(u);
+        }
+        scratch.source.clear();
+        let max_bounces = ctx.scene.integrator.max_bounces;
+        source_subpath(
+            ctx,
+            &x_l,
+            br.omega,
+            max_bounces.saturating_sub(1),
+            false,
+            &mut rng,
+            &mut scratch.rays,
+            &mut scratch.source,
+        );
+        let common = -s_o * scale / (seg * br.pdf_edge_dir * p_guide);
+        self.finish(
+            &x_s,
+            br.omega,
+            ctx.scene.eta * seg,
+            common,
+            &rates,
+            &mut rng,
+            scratch,
+            &mut emit,
+        );
+        Some(u)
+    }
+
+    /// Strategy B, boundary sample `id` of stream `seed`: shadow edges of direct light. A
+    /// point x_B on an edge (same edge pmf) and a point y on an emitter (next-event sampling)
+    /// fix ω = (x_B − y)/t_L; x_L = y when nothing blocks y → x_B. The density of ω per
+    /// steradian is pdf_A(y) · t_L² / |cos_L|, so the weight of strategy A becomes
+    /// −s_o · (L_e / pdf_A) · |cos_L| / (t_L² (t_L + t_S) p_e); for a point light L_e/pdf_A · |cos_L|
+    /// is I / p_select (the density is a delta in ω); a laser spot is such a point source with
+    /// intensity ∝ cos_L, moving along the beam (ray form).
+    pub(super) fn evaluate_light(
+        &self,
+        seed: u64,
+        id: u64,
+        grid: &GuideGrid,
+        scale: f32,
+        scratch: &mut Scratch,
+        mut emit: impl FnMut(&BoundaryPath),
+    ) -> [f32; 3] {
+        let mut rng = PathSampler::new(seed, &[id]);
+        let pick = rng.next::<f32>();
+        let inner = [rng.next::<f32>(), rng.next::<f32>(), rng.next::<f32>()];
+        let (u, p_guide) = grid.sample(pick, inner);
+        let e2 = rng.next::<f32>();
+        self.light_path(u, e2, scale / p_guide, &mut rng, scratch, &mut emit);
+        u
+    }
+
+    /// Strategy B for the point (u0, e0, e1) of the unit cube (u0: edge coordinate, e0 and
+    /// e1: emitter choice and point) and e2, each path's weight multiplied by `scale`.
+    fn light_path(
+        &self,
+        [u0, e0, e1]: [f32; 3],
+        e2: f32,
+        scale: f32,
+        rng: &mut PathSampler,
+        scratch: &mut Scratch,
+        emit: &mut impl FnMut(&BoundaryPath),
+    ) {
+        let ctx = self.ctx;
+        let Some(br) = self.edges.sample(u0, 0.5, 0.5) else {
+            return;
+        };
+        let rec = &self.edges.edges[br.index];
+        let ls = ctx.emitters.sample::<f32, 3>(ctx, e0, e1, e2, true);
+        if !ls.valid {
+            return;
+        }
+        let e = ls.emitter[0] as usize;
+        let motion_l = match ctx.scene.emitters[e].kind {
+            EmitterKind::Area { shape, .. } => SourceMotion::Material(shape as usize),
+            EmitterKind::Point { .. } => SourceMotion::Fixed,
+            EmitterKind::Laser { .. } => match self.laser_spots[e] {
+                Some(m) => m,
+                None => return,
+            },
+        };
+        let y = ls.p.lane(0);
+        let to = br.x_b - y;
+        let t_l = to.length();
+        if !(t_l > 0.0) {
+            return;
+        }
+        let omega = to / t_l;
+        let cos_l = if ls.has_cos { ls.n.lane(0).dot(omega) } else { 1.0 };
+        if !(cos_l > 0.0) {
+            return;
+        }
+        let Some(s_o) = self.blocked_side(rec, omega) else {
+            return;
+        };
+        let o = self.edge_origin(rec, br.x_b, omega, s_o);
+        scratch.rays.occluded += 1;
+        let tfar = (o - y).length() - self_intersection_eps(&V3::<f32>::splat(y));
+        if !(tfar > 0.0) || ctx.accel.occluded1(o.to_array(), (-omega).to_array(), 0.0, tfar) {
+            return;
+        }
+        let Some(x_s) = trace(ctx, o, omega, &mut scratch.rays) else {
+            return;
+        };
+        scratch.valid += 1;
+        let rates = self.rates(rec, y, motion_l, &x_s);
+        let seg = t_l + x_s.t;
+        if rates.is_zero(self.params) {
+            return;
+        }
+        scratch.source.clear();
+        scratch.source.push(SourceTerm {
+            rgb: ls.weight.0,
+            opl: ctx.scene.eta * ls.pre_length,
+            emitter: e as u32,
+            scatters: 0,
+        });
+        let common = -s_o * scale * cos_l / (t_l * t_l * seg * self.edges.edge_pmf(br.index));
+        self.finish(&x_s, omega, ctx.scene.eta * seg, common, &rates, rng, scratch, emit);
+    }
+
+    pub fn edge_count(&self) -> usize {
+        self.edges.edges.len()
+    }
+}
