@@ -74,20 +74,23 @@ fn assert_hidden(scene: &Scene, name: &str) {
 }
 
 fn check(scene: &str, hidden: &str, name: &str, value: f32, h: f32) {
-    check_with(scene, hidden, name, value, h, |_| {}, &[]);
+    check_with(scene, Some(hidden), name, value, h, |_| {}, &[]);
 }
 
 /// `check` on the scene as changed by `tweak` (applied to every loaded copy), with the
-/// parameters `also` differentiated in the same render before `name`.
-fn check_with(scene: &str, hidden: &str, name: &str, value: f32, h: f32, tweak: fn(&mut Scene), also: &[&str]) {
+/// parameters `also` differentiated in the same render before `name`. With `hidden` None the
+/// moving shape may be in view: the full gradient then needs primary and secondary edges.
+fn check_with(scene: &str, hidden: Option<&str>, name: &str, value: f32, h: f32, tweak: fn(&mut Scene), also: &[&str]) {
     let load = |scene: &str, name: &str, value: Option<f32>| {
         let mut s = load(scene, name, value);
         tweak(&mut s);
         s
     };
     let base = load(scene, name, None);
-    for v in [value - 2.0 * h, value, value + 2.0 * h] {
-        assert_hidden(&load(scene, name, Some(v)), hidden);
+    if let Some(hidden) = hidden {
+        for v in [value - 2.0 * h, value, value + 2.0 * h] {
+            assert_hidden(&load(scene, name, Some(v)), hidden);
+        }
     }
     let renders = |v: f32, seed: u64| {
         let (t, _) = render(&load(scene, name, Some(v)), &opts(seed, SPP_FD, BoundaryMode::Full)).unwrap();
@@ -219,7 +222,7 @@ fn moving_laser_spot_matches_finite_differences() {
 fn occluder_shadow_rgb_tent_filter_matches_finite_differences() {
     check_with(
         "shadow_hidden_occluder.toml",
-        "occluder",
+        Some("occluder"),
         "occluder_x",
         0.1,
         0.02,
@@ -236,7 +239,7 @@ fn occluder_shadow_rgb_tent_filter_matches_finite_differences() {
 fn third_of_three_parameters_matches_finite_differences() {
     check_with(
         "shadow_hidden_pyramid.toml",
-        "pyramid",
+        Some("pyramid"),
         "pyramid_height",
         0.6,
         0.02,
@@ -341,4 +344,38 @@ fn guided_and_unguided_boundary_estimates_agree() {
         chi2 < used as f64 + 5.0 * (2.0 * used as f64).sqrt(),
         "Σz² = {chi2:.1} over {used}"
     );
+}
+
+/// The whole gradient through `render_diff`: the camera sees the moving occluder AND its
+/// shadow (scenes/occluder_shadow.toml, issue 4's scene 1), so interior + primary + secondary
+/// must all be there to match the finite differences.
+#[test]
+fn visible_occluder_and_its_shadow_need_every_term() {
+    check_with("occluder_shadow.toml", None, "occluder_x", 0.1, 0.02, |_| {}, &[]);
+}
+
+/// The OBJ pyramid in view, with its shadow, under a point light (scenes/obj_mesh.toml: tent
+/// filter, Gaussian gate, box pulse): rotation and scale through the full gradient.
+#[test]
+fn visible_obj_rotation_and_scale_need_every_term() {
+    check_with("obj_mesh.toml", None, "pyramid_yaw", 30.0, 1.0, lift_pyramid, &[]);
+    // scale in y keeps the base on the floor (no contact motion): the scene as it is
+    check_with("obj_mesh.toml", None, "pyramid_height", 0.6, 0.02, |_| {}, &[]);
+}
+
+/// Lifts the pyramid 5 cm off the floor. Resting on it, its base edges are contact edges: a
+/// turning base sweeps the floor region it covers, a discontinuity whose boundary segment has
+/// zero length on one side (x_S = x_B), which edge sampling does not reach (a known bias; see
+/// README: with the pyramid resting on the floor this test's yaw misses by Σz² ≈ 59 against a
+/// bound of 66 at 48 seeds, entries 4σ off in the late bins; lifted, Σz² ≈ 21). The lift is
+/// applied after loading, so the scale parameter's field (about y = 0) would not match it.
+fn lift_pyramid(s: &mut Scene) {
+    let shape = s.shapes.iter().find(|x| x.name == "pyramid").unwrap();
+    let tris = shape.first_tri..shape.first_tri + shape.tri_count;
+    let mut verts: Vec<u32> = tris.flat_map(|t| s.geometry.indices[t as usize]).collect();
+    verts.sort_unstable();
+    verts.dedup();
+    for v in verts {
+        s.geometry.positions[v as usize].y += 0.05;
+    }
 }

@@ -917,7 +917,12 @@ mod tests {
             "kind.toml",
             &text,
             &[],
-            &["integrator: field 'kind'", "unknown variant 'volpath'", "'path'", "'bdpt'"],
+            &[
+                "integrator: field 'kind'",
+                "unknown variant 'volpath'",
+                "'path'",
+                "'bdpt'",
+            ],
         );
         let text = mini_with("bins = 10", "bins = 0");
         expect_err(
