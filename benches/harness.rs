@@ -9,15 +9,17 @@
 //! bench-out/error_vs_time.png (one line per workload and estimator).
 //!
 //! Run: `cargo bench --bench harness` (DTR_HARNESS_QUICK=1 for a short run).
-//! Workloads: the Cornell box (forward, path tracer); the Cornell box with a Gaussian pulse and
-//! one pose parameter (interior derivative); the Cornell box plus a ~1M-triangle bumpy sphere.
+//! Workloads: the Cornell box (forward: path tracer and BDPT); the Cornell box with a Gaussian
+//! pulse and one pose parameter (derivative: interior alone, and interior + primary + secondary
+//! boundary, both against a full-gradient reference); the Cornell box plus a ~1M-triangle
+//! bumpy sphere.
 
 mod common;
 use common::{bare_seconds, bounce_rays, camera_rays, rel_l2, shadow_rays};
 use difftransient::accel::{Accel, Device, Ray8};
-use difftransient::scene::{Axis, Param, ParamKind};
+use difftransient::scene::{Axis, IntegratorKind, Param, ParamKind};
 use difftransient::temporal::Pulse;
-use difftransient::{RenderOptions, RenderStats, Scene, Transient, render, render_diff};
+use difftransient::{BoundaryMode, RenderOptions, RenderStats, Scene, Transient, render, render_diff};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
@@ -25,6 +27,16 @@ struct Workload {
     name: &'static str,
     scene: Scene,
     diff: Vec<String>,
+    /// The interior estimator (the scene's kind unless set).
+    integrator: Option<IntegratorKind>,
+    /// Which parts of the gradient run (derivative workloads).
+    mode: BoundaryMode,
+    /// Label in the CSV and the plot.
+    estimator: &'static str,
+    /// Workloads with the same reference key share one cached reference. References are
+    /// always the path tracer with the full gradient (interior + primary + secondary), so every
+    /// estimator is measured against the same converged answer.
+    reference: &'static str,
 }
 
 fn main() {
@@ -40,22 +52,36 @@ fn main() {
     let out = root.join("bench-out");
     std::fs::create_dir_all(&out).unwrap();
     let cornell = Scene::load(&root.join("scenes/cornell_box.toml"), &[]).unwrap();
+    let forward = |name, scene: Scene, integrator, estimator, reference| Workload {
+        name,
+        scene,
+        diff: vec![],
+        integrator,
+        mode: BoundaryMode::Full,
+        estimator,
+        reference,
+    };
+    let diff = |mode, estimator| Workload {
+        name: "cornell_diff",
+        scene: with_pose_param(cornell.clone()),
+        diff: vec!["tall_box_x".into()],
+        integrator: None,
+        mode,
+        estimator,
+        reference: "cornell_diff_full",
+    };
     let workloads = vec![
-        Workload {
-            name: "cornell",
-            scene: cornell.clone(),
-            diff: vec![],
-        },
-        Workload {
-            name: "cornell_diff",
-            scene: with_pose_param(cornell.clone()),
-            diff: vec!["tall_box_x".into()],
-        },
-        Workload {
-            name: "million",
-            scene: million(&root),
-            diff: vec![],
-        },
+        forward("cornell", cornell.clone(), None, "path", "cornell"),
+        forward(
+            "cornell",
+            cornell.clone(),
+            Some(IntegratorKind::Bdpt),
+            "bdpt",
+            "cornell",
+        ),
+        diff(BoundaryMode::InteriorOnly, "path+interior"),
+        diff(BoundaryMode::Full, "path+interior+boundary"),
+        forward("million", million(&root), None, "path", "million"),
     ];
     let mut csv = String::from(
         "workload,estimator,spp,threads,wall_s,cpu_s,paths_per_cpu_s,rays_per_s,bare_embree_rays_per_s,ratio_to_bare,\
@@ -65,13 +91,15 @@ fn main() {
     for w in &workloads {
         let tris = w.scene.geometry.indices.len();
         let reference = cached_reference(&root, w, ref_spp);
-        let estimator = if w.diff.is_empty() { "path" } else { "path+interior" };
+        let estimator = w.estimator;
         let mut pts = Vec::new();
         for &spp in &spps {
             let opts = RenderOptions {
                 spp: Some(spp),
                 seed: Some(1),
                 threads: Some(threads),
+                integrator: w.integrator,
+                boundary: w.mode,
                 ..Default::default()
             };
             let (t, d, st) = run(w, &opts);
@@ -89,8 +117,8 @@ fn main() {
                 estimator,
                 spp,
                 threads,
-                st.wall_seconds,
-                st.cpu_seconds,
+                st.total_wall_seconds,
+                st.total_cpu_seconds,
                 st.paths_per_cpu_second,
                 st.rays_per_second,
                 bare,
@@ -107,7 +135,7 @@ fn main() {
             );
             print!("{} ({tris} triangles): {line}", w.name);
             csv.push_str(&line);
-            pts.push((st.wall_seconds, e_d.unwrap_or(e_t)));
+            pts.push((st.total_wall_seconds, e_d.unwrap_or(e_t)));
         }
         let what = if w.diff.is_empty() { "transient" } else { "derivative" };
         series.push((format!("{} {estimator} ({what})", w.name), pts));
@@ -205,7 +233,7 @@ fn cached_reference(root: &Path, w: &Workload, spp: u32) -> (Transient, Vec<Tran
     let f = &w.scene.film;
     let key = format!(
         "{}_{}x{}_{}x{}_b{}_spp{spp}_seed777",
-        w.name, f.width, f.height, f.axis.bins, f.axis.bin_width_opl, w.scene.integrator.max_bounces
+        w.reference, f.width, f.height, f.axis.bins, f.axis.bin_width_opl, w.scene.integrator.max_bounces
     );
     let path = root.join("target/bench-cache").join(format!("{key}.bin"));
     let n = f.width as usize * f.height as usize;
@@ -235,6 +263,8 @@ fn cached_reference(root: &Path, w: &Workload, spp: u32) -> (Transient, Vec<Tran
     let opts = RenderOptions {
         spp: Some(spp),
         seed: Some(777),
+        integrator: Some(IntegratorKind::Path),
+        boundary: BoundaryMode::Full,
         ..Default::default()
     };
     let (t, d, _) = run(w, &opts);

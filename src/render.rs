@@ -72,8 +72,13 @@ pub struct RenderStats {
     pub spp: u32,
     pub seed: u64,
     pub threads: usize,
+    /// Wall and CPU seconds of the interior pass (the path or BDPT tiles); the boundary stage
+    /// is in `boundary_seconds`, and the whole render in `total_*`.
     pub wall_seconds: f64,
     pub cpu_seconds: f64,
+    /// The whole render: interior pass + boundary stage.
+    pub total_wall_seconds: f64,
+    pub total_cpu_seconds: f64,
     pub paths: u64,
     pub intersect_rays: u64,
     pub occluded_rays: u64,
@@ -384,6 +389,8 @@ fn render_films(
     stats.paths_per_cpu_second = stats.paths as f64 / cpu;
     stats.rays_per_second = rays / wall.max(1e-9);
     stats.rays_per_cpu_second = rays / cpu;
+    stats.total_wall_seconds = wall;
+    stats.total_cpu_seconds = cpu;
     if derivs > 0 && ctx.motion.moves_geometry() && opts.boundary != BoundaryMode::InteriorOnly {
         let settings = crate::boundary::BoundarySettings {
             spp_boundary: opts.spp_boundary.unwrap_or(spp),
@@ -391,6 +398,7 @@ fn render_films(
             guiding: opts.guiding,
         };
         let t_b = Instant::now();
+        let cpu_b = cpu_seconds();
         let parts = crate::boundary::render_boundary(&ctx, &settings, &pool);
         for (film, (p, q)) in out[1..].iter_mut().zip(parts.primary.iter().zip(&parts.secondary)) {
             for (d, (a, b)) in film.data.iter_mut().zip(p.data.iter().zip(&q.data)) {
@@ -403,6 +411,8 @@ fn render_films(
         stats.non_finite_samples += parts.stats.secondary.non_finite;
         stats.boundary_samples = parts.stats.secondary.samples;
         stats.boundary_seconds = t_b.elapsed().as_secs_f64();
+        stats.total_wall_seconds += stats.boundary_seconds;
+        stats.total_cpu_seconds += cpu_seconds() - cpu_b;
         stats.boundary = Some(parts.stats);
     }
     Ok((out, strategy_out, stats))
