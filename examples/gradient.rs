@@ -1,10 +1,14 @@
 //! Render a transient and its derivative with respect to two scene parameters, from Rust.
 //!
-//! `cargo run --release --example gradient`
+//! `cargo run --release --example gradient [path|bdpt]`
 //!
 //! Loads scenes/diff_room.toml, renders the transient and ∂I/∂θ for the room's z position and
-//! the wall albedo in one pass (interior estimator, Algorithm 1), and prints per-bin totals.
+//! the wall albedo in one pass (interior estimator, Algorithm 1, with the path tracer or BDPT),
+//! and prints per-bin totals. The room is convex with the camera and light inside, so moving it
+//! moves no visibility boundary and the boundary stage (Algorithm 2) adds nothing; it still
+//! runs, since `room_z` moves geometry (`RenderOptions::boundary` can switch it off).
 
+use difftransient::scene::IntegratorKind;
 use difftransient::{RenderOptions, Scene, render_diff};
 
 fn main() -> Result<(), difftransient::Error> {
@@ -12,14 +16,19 @@ fn main() -> Result<(), difftransient::Error> {
     // `--set`-style overrides can be passed here: &[("room_z".into(), 0.1)]
     let scene = Scene::load(&path, &[])?;
     let params = ["room_z".to_string(), "albedo".to_string()];
+    let integrator = match std::env::args().nth(1).as_deref() {
+        Some("bdpt") => IntegratorKind::Bdpt,
+        _ => IntegratorKind::Path,
+    };
     let opts = RenderOptions {
         spp: Some(16),
+        integrator: Some(integrator),
         ..Default::default()
     };
     let (transient, derivatives, stats) = render_diff(&scene, &params, &opts)?;
     println!(
-        "{}x{} pixels, {} bins of {} m OPL, {:.2} s",
-        transient.width, transient.height, transient.axis.bins, transient.axis.bin_width_opl, stats.wall_seconds
+        "{integrator:?}: {}x{} pixels, {} bins of {} m OPL, {:.2} s",
+        transient.width, transient.height, transient.axis.bins, transient.axis.bin_width_opl, stats.total_wall_seconds
     );
     let totals = transient.bin_totals();
     let d: Vec<Vec<f32>> = derivatives.iter().map(|t| t.bin_totals()).collect();

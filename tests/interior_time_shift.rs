@@ -4,6 +4,7 @@
 //! with a delta pulse and box gate is refused, and unknown names list the parameters.
 
 mod common;
+use difftransient::scene::IntegratorKind;
 use difftransient::temporal::Pulse;
 use difftransient::{RenderOptions, Scene, Transient, render, render_diff};
 
@@ -14,10 +15,15 @@ fn scene(eta: f32) -> Scene {
 }
 
 fn opts(seed: u64) -> RenderOptions {
+    opts_with(seed, IntegratorKind::Path)
+}
+
+fn opts_with(seed: u64, integrator: IntegratorKind) -> RenderOptions {
     RenderOptions {
         spp: Some(4),
         seed: Some(seed),
         threads: Some(2),
+        integrator: Some(integrator),
         ..Default::default()
     }
 }
@@ -36,6 +42,18 @@ fn moments(t: &Transient) -> (f64, f64) {
 
 #[test]
 fn eta_moves_the_peak_as_predicted_and_the_derivative_predicts_it() {
+    eta_shift(IntegratorKind::Path);
+}
+
+/// The same with BDPT: every strategy carries its OPL derivative (light tracing included:
+/// the confocal plane's point light is sampled by the light subpath too).
+#[test]
+fn bdpt_eta_moves_the_peak_as_predicted_and_the_derivative_predicts_it() {
+    eta_shift(IntegratorKind::Bdpt);
+}
+
+fn eta_shift(integrator: IntegratorKind) {
+    let opts = |seed| opts_with(seed, integrator);
     let k = 8;
     let (eta0, eta1) = (1.0f32, 1.05f32);
     let mut means0 = Vec::new();
