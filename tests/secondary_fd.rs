@@ -8,6 +8,10 @@
 //!   and scenes/shadow_hidden_pyramid_point.toml, the same under a point light (hard shadow);
 //! - scenes/shadow_hidden_laser.toml: the occluder's shadow cast by a laser spot.
 //!
+//! The last tests see the moving object too (interior + primary + secondary), among them
+//! contact edges: a pyramid resting on the floor and turning on it (scenes/obj_mesh.toml,
+//! scenes/contact_pyramid.toml), and one sliding on it off camera (scenes/contact_wall.toml).
+//!
 //! For each of K seeds, D = (interior + boundary) − FD on two aggregates: 4×4 blocks of the
 //! time-summed image and groups of 5 time bins of the whole image. The mean of D over seeds
 //! must vanish within its standard error (widened by the FD's own truncation error, estimated
@@ -81,6 +85,21 @@ fn check(scene: &str, hidden: &str, name: &str, value: f32, h: f32) {
 /// parameters `also` differentiated in the same render before `name`. With `hidden` None the
 /// moving shape may be in view: the full gradient then needs primary and secondary edges.
 fn check_with(scene: &str, hidden: Option<&str>, name: &str, value: f32, h: f32, tweak: fn(&mut Scene), also: &[&str]) {
+    check_seeds(K, scene, hidden, name, value, h, tweak, also);
+}
+
+/// `check_with` over `seeds` independent seeds.
+#[allow(clippy::too_many_arguments)]
+fn check_seeds(
+    seeds: u64,
+    scene: &str,
+    hidden: Option<&str>,
+    name: &str,
+    value: f32,
+    h: f32,
+    tweak: fn(&mut Scene),
+    also: &[&str],
+) {
     let load = |scene: &str, name: &str, value: Option<f32>| {
         let mut s = load(scene, name, value);
         tweak(&mut s);
@@ -101,7 +120,7 @@ fn check_with(scene: &str, hidden: Option<&str>, name: &str, value: f32, h: f32,
     };
     let (mut d_full, mut d_int, mut rich, mut full_ad) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     let mut samples = 0u64;
-    for seed in 0..K {
+    for seed in 0..seeds {
         // the checked parameter comes last, after any co-rendered ones
         let p: Vec<String> = also.iter().map(|s| s.to_string()).chain([name.to_string()]).collect();
         let k = also.len();
@@ -151,7 +170,7 @@ fn check_with(scene: &str, hidden: Option<&str>, name: &str, value: f32, h: f32,
         }
         (chi2, zmax, used)
     };
-    let dof = (K - 1) as f64;
+    let dof = (seeds - 1) as f64;
     // Student t with ν dof: E[t²] = ν/(ν−2), Var[t²] = 2ν²(ν−1)/((ν−2)²(ν−4))
     let bound = |used: usize| {
         let mean = used as f64 * dof / (dof - 2.0);
@@ -358,24 +377,31 @@ fn visible_occluder_and_its_shadow_need_every_term() {
 /// filter, Gaussian gate, box pulse): rotation and scale through the full gradient.
 #[test]
 fn visible_obj_rotation_and_scale_need_every_term() {
-    check_with("obj_mesh.toml", None, "pyramid_yaw", 30.0, 1.0, lift_pyramid, &[]);
-    // scale in y keeps the base on the floor (no contact motion): the scene as it is
+    // the pyramid rests on the floor: turning, its base edges sweep it (contact edges)
+    check_with("obj_mesh.toml", None, "pyramid_yaw", 30.0, 1.0, |_| {}, &[]);
+    // scale in y keeps the base on the floor (the contact does not move)
     check_with("obj_mesh.toml", None, "pyramid_height", 0.6, 0.02, |_| {}, &[]);
 }
 
-/// Lifts the pyramid 5 cm off the floor. Resting on it, its base edges are contact edges: a
-/// turning base sweeps the floor region it covers, a discontinuity whose boundary segment has
-/// zero length on one side (x_S = x_B), which edge sampling does not reach (a known bias; see
-/// README: with the pyramid resting on the floor this test's yaw misses by Σz² ≈ 59 against a
-/// bound of 66 at 48 seeds, entries 4σ off in the late bins; lifted, Σz² ≈ 21). The lift is
-/// applied after loading, so the scale parameter's field (about y = 0) would not match it.
-fn lift_pyramid(s: &mut Scene) {
-    let shape = s.shapes.iter().find(|x| x.name == "pyramid").unwrap();
-    let tris = shape.first_tri..shape.first_tri + shape.tri_count;
-    let mut verts: Vec<u32> = tris.flat_map(|t| s.geometry.indices[t as usize]).collect();
-    verts.sort_unstable();
-    verts.dedup();
-    for v in verts {
-        s.geometry.positions[v as usize].y += 0.05;
-    }
+/// Contact edges (src/boundary/contact.rs): a cube resting on the floor under an area light
+/// turns about y, so its bottom edges sweep the floor while the camera sees them. The floor
+/// next to each edge is counted once, by the primary term (the camera segment) or by the
+/// departing segment of a secondary path, never also by the segment arriving from the light.
+/// 48 seeds (about 3 s): counting that light twice, as before contact edges were handled,
+/// gave Σz² ≈ 68 against a bound of 77 at 16 seeds (entries 4.6σ off), a bias that more seeds
+/// expose.
+#[test]
+fn pyramid_turning_on_the_floor_matches_finite_differences() {
+    check_seeds(48, "contact_pyramid.toml", None, "pyramid_yaw", 20.0, 1.0, |_| {}, &[]);
+}
+
+/// Contact edges off camera: a black pyramid resting on the floor slides towards a wall, and
+/// the camera sees only the wall, lit directly and by the floor. The base edges sweep the
+/// floor, so the floor light reaching the wall changes: nearly all of the boundary term here
+/// is the contact term (x_L on the edge, the departing segment towards the wall; without it,
+/// interior + boundary fails like the interior alone, Σz² ≈ 3860 against a bound of 61).
+/// 48 seeds, about 4 s.
+#[test]
+fn pyramid_sliding_towards_a_wall_matches_finite_differences() {
+    check_seeds(48, "contact_wall.toml", None, "pyramid_z", 0.3, 0.02, |_| {}, &[]);
 }

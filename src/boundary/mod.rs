@@ -1,6 +1,8 @@
 //! The boundary integral (Algorithm 2): discontinuities of the path integrand where visibility
 //! changes, as the part of the gradient that the interior (Algorithm 1) cannot see.
 //!
+//! - [`contact`]: the ends x_L, x_S of a boundary segment; contact edges (an object resting on
+//!   a surface) counted once, by the product rule.
 //! - [`edges`]: edge topology, built once (boundary and sharp edges, coplanar ones dropped).
 //! - [`edge_sampler`]: boundary rays (x_B, ω_B) on silhouette directions, by edge importance.
 //! - [`guiding`]: a grid over the sampler's inputs fitted by a pilot pass.
@@ -14,6 +16,7 @@
 //! [`render_boundary`] runs both estimators, each with its own seed stream, and returns their
 //! derivative transients separately; `render::render_diff` adds them to the interior.
 
+pub mod contact;
 pub mod edge_sampler;
 pub mod edges;
 pub mod guiding;

@@ -27,6 +27,11 @@
 //! the interior does: material form for x_L, the edge and x_S, except that x_S moves along its
 //! camera ray (ray form) when it is the vertex connected to the camera.
 //!
+//! `contact.rs` finds x_S and x_L, and handles **contact edges** (an edge lying on another
+//! surface, e.g. the base of an object resting on the floor), where one side of the segment has
+//! zero length: the contact vertex counts once, with its departing segment and a weight of its
+//! own (x_L = x_B makes N vanish, so the collapsed form above does not apply there).
+//!
 //! Two strategies split the integrand between them (a partition, so no MIS weights):
 //! - A, edge-directed: ω from the silhouette directions of the edge (`edge_sampler.rs`);
 //!   it estimates every term whose x_L reflects (x_L's radiance from next-event estimation
@@ -41,9 +46,10 @@
 //! guiding is on). `pass.rs` runs the strategies (budget split by a pilot) and bins their
 //! paths.
 
+use super::contact::SegmentEnds;
 use super::edge_sampler::{EdgeRecord, EdgeSampler};
 use super::guiding::GuideGrid;
-use super::subpaths::{SensorTerm, SourceTerm, SurfaceHit, sensor_subpath, source_subpath, trace};
+use super::subpaths::{SensorTerm, SourceTerm, SurfaceHit, sensor_subpath, source_subpath};
 use super::velocity::{Crossing, ray_form_velocity};
 use crate::integrator::context::RenderContext;
 use crate::integrator::surface::self_intersection_eps;
@@ -165,12 +171,6 @@ impl<'a> Secondary<'a> {
         (s0 != 0.0 && s0.is_finite()).then_some(s0.signum())
     }
 
-    /// A ray origin just off x_B on the side of Π away from the edge's faces.
-    fn edge_origin(&self, rec: &EdgeRecord, x_b: Vec3, omega: Vec3, s_o: f32) -> Vec3 {
-        let eps = self_intersection_eps(&V3::<f32>::splat(x_b));
-        x_b - (rec.v1 - rec.v0).cross(omega).normalize_or_zero() * (s_o * eps)
-    }
-
     /// dh̃/dθ_k (velocity.rs) with x_S in material form and in ray form; x_L moves as `motion_l`
     /// says.
     /// under x_L (None: a point light, which no parameter moves).
@@ -204,6 +204,22 @@ impl<'a> Secondary<'a> {
             r.ray[k] = c.rate();
         }
         r
+    }
+
+    /// The contact edge's derivative rates (contact.rs): −(v_edge − v_surface)·u_out at x_L,
+    /// whichever vertex the sensor subpath connects to the camera.
+    fn contact_rates(&self, rec: &EdgeRecord, x_l: &SurfaceHit, outward: Vec3) -> Rates {
+        let motion = &self.ctx.motion;
+        let surface = self.ctx.scene.geometry.tri_shape[x_l.prim as usize] as usize;
+        let mut material = [0.0; MAX_PARAMS];
+        for (k, m) in material.iter_mut().enumerate().take(self.params) {
+            let v = motion.velocity(k, rec.shape as usize, x_l.p) - motion.velocity(k, surface, x_l.p);
+            *m = -v.dot(outward);
+        }
+        Rates {
+            material,
+            ray: material,
+        }
     }
 
     /// Completes the sensor side from x_S and emits every (source term, sensor term) pair
@@ -280,14 +296,23 @@ impl<'a> Secondary<'a> {
         let Some(s_o) = self.blocked_side(rec, br.omega) else {
             return Some(u);
         };
-        let o = self.edge_origin(rec, br.x_b, br.omega, s_o);
-        let x_s = trace(ctx, o, br.omega, &mut scratch.rays)?;
-        let x_l = trace(ctx, o, -br.omega, &mut scratch.rays)?;
+        let (x_l, x_s, rates, common) = match self.segment_ends(rec, br.x_b, br.omega, s_o, &mut scratch.rays)? {
+            SegmentEnds::Open { x_s, x_l } => {
+                let x_l = x_l?;
+                let seg = x_l.t + x_s.t;
+                let shape_l = ctx.scene.geometry.tri_shape[x_l.prim as usize] as usize;
+                let rates = self.rates(rec, x_l.p, SourceMotion::Material(shape_l), &x_s);
+                (x_l, x_s, rates, -s_o / seg)
+            }
+            SegmentEnds::Contact { x_l, x_s, outward } => {
+                let rates = self.contact_rates(rec, &x_l, outward);
+                let cos_l = br.omega.dot(x_l.n).abs();
+                (x_l, x_s, rates, cos_l * (rec.v1 - rec.v0).length())
+            }
+        };
         scratch.valid += 1;
         let seg = x_l.t + x_s.t;
-        let shape_l = ctx.scene.geometry.tri_shape[x_l.prim as usize] as usize;
-        let rates = self.rates(rec, x_l.p, SourceMotion::Material(shape_l), &x_s);
-        if rates.is_zero(self.params) || !(seg > 0.0) {
+        if rates.is_zero(self.params) || !(seg > 0.0) || !common.is_finite() {
             return Some(u);
         }
         scratch.source.clear();
@@ -302,7 +327,7 @@ impl<'a> Secondary<'a> {
             &mut scratch.rays,
             &mut scratch.source,
         );
-        let common = -s_o * scale / (seg * br.pdf_edge_dir * p_guide);
+        let common = common * scale / (br.pdf_edge_dir * p_guide);
         self.finish(
             &x_s,
             br.omega,
@@ -384,15 +409,15 @@ impl<'a> Secondary<'a> {
         let Some(s_o) = self.blocked_side(rec, omega) else {
             return;
         };
-        let o = self.edge_origin(rec, br.x_b, omega, s_o);
-        scratch.rays.occluded += 1;
-        let tfar = (o - y).length() - self_intersection_eps(&V3::<f32>::splat(y));
-        if !(tfar > 0.0) || ctx.accel.occluded1(o.to_array(), (-omega).to_array(), 0.0, tfar) {
-            return;
-        }
-        let Some(x_s) = trace(ctx, o, omega, &mut scratch.rays) else {
+        // y → x_B must be free (a hit short of y, ε from its surface, blocks it); a contact
+        // edge has x_L = x_B, never y (contact.rs)
+        let Some(SegmentEnds::Open { x_s, x_l }) = self.segment_ends(rec, br.x_b, omega, s_o, &mut scratch.rays) else {
             return;
         };
+        let reach = t_l - self_intersection_eps(&V3::<f32>::splat(y));
+        if !(reach > 0.0) || x_l.is_some_and(|h| h.t < reach) {
+            return;
+        }
         scratch.valid += 1;
         let rates = self.rates(rec, y, motion_l, &x_s);
         let seg = t_l + x_s.t;

@@ -1,0 +1,143 @@
+//! The two ends x_S and x_L of a boundary segment through x_B, contact edges included.
+//!
+//! A **contact edge** lies on another surface: the base edge of a pyramid resting on the floor.
+//! Every silhouette direction ω through such an edge meets that surface at x_B itself, so one
+//! side of the boundary segment has zero length. Supplemental Eqs. 31–32 ask for an edge point
+//! z in the *open* segment (x, y), which excludes this case: here z = x_B is an end point. Its
+//! discontinuity is the one of V(x_{i−1}, x_i)·V(x_i, x_{i+1}) as the path vertex x_i on the
+//! supporting surface crosses the edge into the region the object covers, where both segments
+//! are blocked at once. The product rule (supplemental Eq. 20, as Eq. 30 applies it to the
+//! segments of a path, light to sensor) splits the jump as V_i⁺ · ΔV_{i+1} + ΔV_i · V_{i+1}⁻,
+//! with ⁺ the free side and ⁻ the covered one. V_{i+1}⁻ = 0, so the contact vertex counts
+//! **once**, with its departing segment (towards the sensor) and the light arriving at it
+//! evaluated on the free side. The primary estimator does the same for the camera segment (its
+//! outer side ray sees the lit floor next to the edge), which is why the arriving segment must
+//! not count too: doing so adds the direct light at the contact a second time.
+//!
+//! - ω enters the supporting surface from the object's side (x_S = x_B): no contribution.
+//! - ω leaves it (x_L = x_B): x_L is taken a hair off the edge on the free side, x_S is the
+//!   first hit along ω. The collapsed weight of `secondary.rs` degenerates here (Π contains
+//!   x_L, N = 0), so the limit is taken directly: with x_S in area measure,
+//!   G(x_L, x_S) dA(x_S) = |cos_L| dω, and the free region of the surface, whose boundary is
+//!   the edge, changes at the rate −(v_edge − v_surface)·u_out per unit length (u_out: in the
+//!   surface, ⊥ edge, away from the object). Per boundary ray of density p_e p_ω / ℓ_e the
+//!   derivative weight is −((v_edge − v_surface)·u_out) |cos_L| ℓ_e / (p_e p_ω), times the
+//!   source and sensor subpaths. Only the in-surface motion counts: lifting or sinking an
+//!   object off its support is not differentiable there (a gap opens one way, the surfaces
+//!   interpenetrate the other).
+//!
+//! Not covered: a contact vertex that emits (an object resting on an area light).
+//!
+//! Tracing: ray origins are moved off x_B by ε to the free side of the plane Π(edge, ω) (so no
+//! ray meets the edge's own faces) and backed off by `BACK_OFF`·ε along the ray, so a surface
+//! through x_B is hit at t ≈ `BACK_OFF`·ε whichever side of it the offset origin fell on. A hit
+//! whose plane passes within 2ε of x_B (or any hit closer than the back-off) is a supporting
+//! surface. Its side holding the edge's faces orients it; the x_S ray then starts on that side,
+//! λ = 2ε/|ω·n| along the line. Where that exceeds `REACH`·ε (|cos_L| < 2/`REACH`) the sample
+//! is dropped: its weight carries |cos_L|, so the loss is of order (2/`REACH`)².
+use super::edge_sampler::EdgeRecord;
+use super::secondary::Secondary;
+use super::subpaths::{SurfaceHit, trace};
+use crate::integrator::surface::self_intersection_eps;
+use crate::integrator::trace::RayCounts;
+use crate::kernel::V3;
+use glam::Vec3;
+
+/// Back-off of the ray origins behind x_B, in units of the self-intersection ε.
+const BACK_OFF: f32 = 8.0;
+/// Farthest a supporting surface may be hit from x_B (and x_L's ray start), in units of ε.
+const REACH: f32 = 256.0;
+
+/// The ends of a boundary segment, distances t measured from x_B.
+#[derive(Clone, Copy, Debug)]
+pub(super) enum SegmentEnds {
+    /// An ordinary segment: x_S along ω, x_L along −ω (None: the ray leaves the scene).
+    Open { x_s: SurfaceHit, x_l: Option<SurfaceHit> },
+    /// A contact edge: x_L = x_B on the supporting surface (on the free side of the edge),
+    /// x_S along ω; `outward` lies in the surface, ⊥ edge, away from the object.
+    Contact {
+        x_l: SurfaceHit,
+        x_s: SurfaceHit,
+        outward: Vec3,
+    },
+}
+
+fn shifted(h: SurfaceHit, dt: f32) -> SurfaceHit {
+    SurfaceHit { t: h.t + dt, ..h }
+}
+
+impl Secondary<'_> {
+    /// x_S along ω and x_L along −ω through x_B on edge `rec` (s_o: the side of Π holding the
+    /// edge's faces), contact edges handled as the module documentation says. None: no x_S,
+    /// or no contribution (x_S at x_B on a supporting surface, a grazing or penetrating
+    /// contact).
+    pub(super) fn segment_ends(
+        &self,
+        rec: &EdgeRecord,
+        x_b: Vec3,
+        omega: Vec3,
+        s_o: f32,
+        rays: &mut RayCounts,
+    ) -> Option<SegmentEnds> {
+        let ctx = self.ctx;
+        let eps = self_intersection_eps(&V3::<f32>::splat(x_b));
+        let back = BACK_OFF * eps;
+        let free = (rec.v1 - rec.v0).cross(omega).normalize_or_zero() * -s_o;
+        let o = x_b + free * eps;
+        let s_hit = trace(ctx, o - omega * back, omega, rays);
+        let l_hit = trace(ctx, o + omega * back, -omega, rays);
+        let supports =
+            |h: &SurfaceHit| h.t <= back || (h.n.dot(x_b - h.p).abs() <= 2.0 * eps && h.t <= back + REACH * eps);
+        match s_hit.filter(supports).or(l_hit.filter(supports)) {
+            None => Some(SegmentEnds::Open {
+                x_s: shifted(s_hit?, -back),
+                x_l: l_hit.map(|h| shifted(h, -back)),
+            }),
+            Some(support) => self.contact_ends(rec, x_b, omega, free, eps, &support, rays),
+        }
+    }
+
+    /// The ends when `support` passes through x_B (a contact edge).
+    #[allow(clippy::too_many_arguments)]
+    fn contact_ends(
+        &self,
+        rec: &EdgeRecord,
+        x_b: Vec3,
+        omega: Vec3,
+        free: Vec3,
+        eps: f32,
+        support: &SurfaceHit,
+        rays: &mut RayCounts,
+    ) -> Option<SegmentEnds> {
+        let geo = &self.ctx.scene.geometry;
+        let n = support.n;
+        // the edge's faces must lie on one side of the supporting plane (their opposite
+        // vertices on it or beyond it on one side; none beyond: a flat face lying on it)
+        let tol = BACK_OFF * eps;
+        let (mut above, mut below) = (false, false);
+        for o in std::iter::once(rec.edge.opposite0).chain(rec.edge.opposite1) {
+            let h = n.dot(geo.positions[o as usize] - x_b);
+            above |= h > tol;
+            below |= h < -tol;
+        }
+        let n_obj = match (above, below) {
+            (true, false) => n,
+            (false, true) => -n,
+            _ => return None,
+        };
+        let cos = omega.dot(n_obj);
+        // cos < 0: x_S = x_B, the ΔV_i · V_{i+1}⁻ term of the product rule, zero
+        let lambda = 2.0 * eps / cos;
+        if !(cos > 0.0 && lambda <= REACH * eps) {
+            return None;
+        }
+        let outward = (free - n_obj * free.dot(n_obj)).normalize_or_zero();
+        let x_l = SurfaceHit {
+            p: x_b + outward * (2.0 * eps),
+            t: 0.0,
+            ..*support
+        };
+        let x_s = shifted(trace(self.ctx, x_b + free * eps + omega * lambda, omega, rays)?, lambda);
+        Some(SegmentEnds::Contact { x_l, x_s, outward })
+    }
+}
