@@ -9,7 +9,7 @@
 
 mod common;
 use common::{bare_seconds, bounce_rays, camera_rays, rel_l2, shadow_rays};
-use difftransient::accel::{Accel, Device, Ray8};
+use difftransient::accel::{Accel, BuildQuality, Device, Ray8};
 use difftransient::{RenderOptions, Scene, Transient, render};
 use std::path::PathBuf;
 
@@ -48,7 +48,8 @@ fn main() {
     // bare Embree on rays of the same number and kind
     let dev = Device::new("").unwrap();
     let pos: Vec<[f32; 3]> = scene.geometry.positions.iter().map(|p| p.to_array()).collect();
-    let accel = Accel::build(&dev, &pos, &scene.geometry.indices).unwrap();
+    // the renderer's forward mode: Embree's default (non-robust) traversal
+    let accel = Accel::build_with(&dev, &pos, &scene.geometry.indices, BuildQuality::High, false).unwrap();
     let primary = camera_rays(&scene);
     let n_primary = (scene.film.width * scene.film.height) as u64 * spp as u64;
     let n_bounce = stats.intersect_rays.saturating_sub(n_primary);

@@ -16,7 +16,7 @@
 
 mod common;
 use common::{bare_seconds, bounce_rays, camera_rays, rel_l2, shadow_rays};
-use difftransient::accel::{Accel, Device, Ray8};
+use difftransient::accel::{Accel, BuildQuality, Device, Ray8};
 use difftransient::scene::{Axis, IntegratorKind, Param, ParamKind};
 use difftransient::temporal::Pulse;
 use difftransient::{BoundaryMode, RenderOptions, RenderStats, Scene, Transient, render, render_diff};
@@ -103,7 +103,7 @@ fn main() {
                 ..Default::default()
             };
             let (t, d, st) = run(w, &opts);
-            let bare = bare_embree_rate(&w.scene, &st, threads);
+            let bare = bare_embree_rate(&w.scene, &st, threads, !w.diff.is_empty());
             let (med, worst) = per_bin(&t, &reference.0);
             let e_t = rel_l2(&t.data, &reference.0.data);
             let e_d = d
@@ -303,11 +303,12 @@ fn per_bin(t: &Transient, r: &Transient) -> (f64, f64) {
     (errs[errs.len() / 2], *errs.last().unwrap())
 }
 
-/// Bare Embree rays/s (wall, `threads` threads) on rays of the same kinds and counts as `st`.
-fn bare_embree_rate(scene: &Scene, st: &RenderStats, threads: usize) -> f64 {
+/// Bare Embree rays/s (wall, `threads` threads) on rays of the same kinds and counts as `st`,
+/// in the renderer's traversal mode (`robust` for derivative renders, see `render.rs`).
+fn bare_embree_rate(scene: &Scene, st: &RenderStats, threads: usize, robust: bool) -> f64 {
     let dev = Device::new("").unwrap();
     let pos: Vec<[f32; 3]> = scene.geometry.positions.iter().map(|p| p.to_array()).collect();
-    let accel = Accel::build(&dev, &pos, &scene.geometry.indices).unwrap();
+    let accel = Accel::build_with(&dev, &pos, &scene.geometry.indices, BuildQuality::High, robust).unwrap();
     let n_primary = (scene.film.width * scene.film.height) as u64 * st.spp as u64;
     let n_bounce = st.intersect_rays.saturating_sub(n_primary);
     let (primary, bounce, shadow) = (

@@ -105,6 +105,19 @@ impl TileFilm {
         }
     }
 
+    /// Empties the film and moves it to the rectangle at (x0, y0) of w × h pixels, reusing
+    /// its memory (a worker renders many tiles into one film; fresh zeroed pages cost page
+    /// faults on every tile).
+    pub fn reset(&mut self, x0: usize, y0: usize, w: usize, h: usize) {
+        let n = w * h * self.bins * self.channels * (1 + self.derivs);
+        let sn = w * h * self.channels * (1 + self.derivs);
+        (self.x0, self.y0, self.w, self.h) = (x0, y0, w, h);
+        self.data.clear();
+        self.data.resize(n, 0.0);
+        self.steady.clear();
+        self.steady.resize(sn, 0.0);
+    }
+
     #[inline]
     fn block(&self) -> usize {
         self.w * self.h * self.bins * self.channels

@@ -269,8 +269,11 @@ fn render_films(
     set_flush_denormals();
     let device = Device::new("")?;
     let t_build = Instant::now();
-    let mut ctx = RenderContext::new(scene, &device)?;
     let derivs = motion.len();
+    // Forward renders trace in Embree's default mode (13% faster on the Cornell box); any
+    // render with derivative lanes keeps watertight traversal, which the boundary stage's
+    // rays aimed at edges rely on.
+    let mut ctx = RenderContext::with_traversal(scene, &device, derivs > 0)?;
     ctx.motion = motion;
     let bvh_build_seconds = t_build.elapsed().as_secs_f64();
     let pool = thread_pool(opts.threads)?;
@@ -291,27 +294,38 @@ fn render_films(
     let mut strategy_out = Vec::new();
     let counts: Vec<PathCounts> = match kind {
         IntegratorKind::Path => {
-            let results: Vec<(TileFilm, PathCounts)> = pool.install(|| {
+            // Tiles cover disjoint pixels and `out` starts at zero, so each pixel receives
+            // exactly one tile's sums (0 + x = x): merging as tiles finish gives the same bytes
+            // for any order and thread count. Each worker reuses one film across its tiles.
+            let merged = std::sync::Mutex::new(&mut out);
+            pool.install(|| {
                 tiles
                     .par_iter()
-                    .map(|&(x0, y0)| {
-                        let tw = TILE.min(w - x0);
-                        let th = TILE.min(h - y0);
-                        let mut film = TileFilm::new(x0, y0, tw, th, &axis, channels, derivs);
-                        let mut counts = PathCounts::default();
-                        let tick0 = crate::timing::ticks();
-                        let (f, c) = (&mut film, &mut counts);
-                        dispatch!(derivs, opts.lanes, channels, render_tile(&ctx, seed, spp, w, f, c));
-                        counts.total_ticks = crate::timing::ticks() - tick0;
-                        bar.inc(1);
-                        (film, counts)
-                    })
+                    .map_init(
+                        || None::<TileFilm>,
+                        |spare, &(x0, y0)| {
+                            let tw = TILE.min(w - x0);
+                            let th = TILE.min(h - y0);
+                            let mut film = match spare.take() {
+                                Some(mut f) => {
+                                    f.reset(x0, y0, tw, th);
+                                    f
+                                }
+                                None => TileFilm::new(x0, y0, tw, th, &axis, channels, derivs),
+                            };
+                            let mut counts = PathCounts::default();
+                            let tick0 = crate::timing::ticks();
+                            let (f, c) = (&mut film, &mut counts);
+                            dispatch!(derivs, opts.lanes, channels, render_tile(&ctx, seed, spp, w, f, c));
+                            counts.total_ticks = crate::timing::ticks() - tick0;
+                            film.merge_into(&mut merged.lock().unwrap_or_else(|e| e.into_inner()));
+                            *spare = Some(film);
+                            bar.inc(1);
+                            counts
+                        },
+                    )
                     .collect()
-            });
-            for (tile, _) in &results {
-                tile.merge_into(&mut out);
-            }
-            results.into_iter().map(|r| r.1).collect()
+            })
         }
         IntegratorKind::Bdpt => {
             let max_b = scene.integrator.max_bounces;

@@ -4,7 +4,7 @@
 use super::camera::CameraSampler;
 use super::emitters::EmitterTable;
 use super::motion::Motion;
-use crate::accel::{Accel, Device};
+use crate::accel::{Accel, BuildQuality, Device};
 use crate::error::Error;
 use crate::scene::Scene;
 use crate::temporal::Correlation;
@@ -26,10 +26,16 @@ pub struct RenderContext<'a> {
 }
 
 impl<'a> RenderContext<'a> {
+    /// A context whose BVH has robust (watertight) traversal.
     pub fn new(scene: &'a Scene, device: &Device) -> Result<Self, Error> {
+        Self::with_traversal(scene, device, true)
+    }
+
+    /// A context whose BVH is robust or not (see [`Accel::build_with`]).
+    pub fn with_traversal(scene: &'a Scene, device: &Device, robust: bool) -> Result<Self, Error> {
         let geo = &scene.geometry;
         let positions: Vec<[f32; 3]> = geo.positions.iter().map(|p| p.to_array()).collect();
-        let accel = Accel::build(device, &positions, &geo.indices)?;
+        let accel = Accel::build_with(device, &positions, &geo.indices, BuildQuality::High, robust)?;
         let tri_verts = geo
             .indices
             .iter()

@@ -22,26 +22,21 @@ pub struct RayCounts {
 }
 
 fn pack<V: Real>(o: &V3<V>, d: &V3<V>, tnear: V, tfar: V) -> Ray8 {
-    let mut r = Ray8::default();
-    for i in 0..V::LANES {
-        r.org_x[i] = o.x.lane(i);
-        r.org_y[i] = o.y.lane(i);
-        r.org_z[i] = o.z.lane(i);
-        r.dir_x[i] = d.x.lane(i);
-        r.dir_y[i] = d.y.lane(i);
-        r.dir_z[i] = d.z.lane(i);
-        r.tnear[i] = tnear.lane(i);
-        r.tfar[i] = tfar.lane(i);
+    Ray8 {
+        org_x: o.x.to_array8(),
+        org_y: o.y.to_array8(),
+        org_z: o.z.to_array8(),
+        dir_x: d.x.to_array8(),
+        dir_y: d.y.to_array8(),
+        dir_z: d.z.to_array8(),
+        tnear: tnear.to_array8(),
+        tfar: tfar.to_array8(),
     }
-    r
 }
 
 fn bools<M: Mask>(m: M, lanes: usize) -> [bool; 8] {
-    let mut a = [false; 8];
-    for (i, o) in a.iter_mut().enumerate().take(lanes) {
-        *o = m.bit(i);
-    }
-    a
+    let bits = m.bits();
+    std::array::from_fn(|i| i < lanes && (bits >> i) & 1 == 1)
 }
 
 /// Closest hits for the active lanes. One lane goes through `rtcIntersect1`, eight through
@@ -76,15 +71,12 @@ pub fn intersect<V: Real>(
     } else {
         let act = bools(active, V::LANES);
         counts.intersect += act.iter().filter(|&&a| a).count() as u64;
+        // Misses and inactive lanes come back with prim = u32::MAX and u = v = 0.
         let h = accel.intersect8(&pack(o, d, tnear, tfar), act, coherent);
-        for i in 0..8 {
-            if act[i] {
-                prim[i] = h.prim[i];
-                t[i] = h.t[i];
-                u[i] = h.u[i];
-                v[i] = h.v[i];
-            }
-        }
+        prim = h.prim;
+        t = std::array::from_fn(|i| if h.prim[i] != u32::MAX { h.t[i] } else { 0.0 });
+        u = h.u;
+        v = h.v;
     }
     counts.trace_ticks += crate::timing::ticks() - t0;
     HitLanes {

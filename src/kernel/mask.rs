@@ -15,6 +15,11 @@ pub trait Mask:
     fn none(self) -> bool {
         !self.any()
     }
+    /// Bit `i` set where lane `i` is true.
+    #[inline(always)]
+    fn bits(self) -> u32 {
+        (0..8).fold(0, |b, i| b | ((self.bit(i) as u32) << i))
+    }
     /// `self & !other`.
     fn and_not(self, other: Self) -> Self {
         self & !other
@@ -62,6 +67,10 @@ impl Mask for f32x8 {
     #[inline(always)]
     fn bit(self, i: usize) -> bool {
         (self.move_mask() >> i) & 1 == 1
+    }
+    #[inline(always)]
+    fn bits(self) -> u32 {
+        self.move_mask() as u32
     }
     #[inline(always)]
     fn any(self) -> bool {

@@ -213,6 +213,10 @@ impl Real for f32x8 {
         self.as_array_ref()[i]
     }
     #[inline(always)]
+    fn to_array8(self) -> [f32; 8] {
+        self.to_array()
+    }
+    #[inline(always)]
     fn deriv_lane(self, _p: usize, _i: usize) -> f32 {
         0.0
     }
