@@ -449,18 +449,7 @@ fn render_tile<R: Real, const C: usize>(
             let mut x = 0;
             while x < film.w {
                 let n = lanes_per_packet.min(film.w - x);
-                let mut lanes = PacketLanes {
-                    px: [0; 8],
-                    py: [0; 8],
-                    ids: [0; 8],
-                    count: n,
-                };
-                for i in 0..n {
-                    let (px, py) = (film.x0 + x + i, film.y0 + ty);
-                    lanes.px[i] = px as u32;
-                    lanes.py[i] = py as u32;
-                    lanes.ids[i] = (py * width + px) as u64 * spp as u64 + s;
-                }
+                let lanes = PacketLanes::row(film.x0 + x, film.y0 + ty, n, width, spp, s);
                 trace_packet::<R, C>(ctx, seed, &lanes, film, counts);
                 x += n;
             }

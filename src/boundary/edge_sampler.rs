@@ -200,17 +200,9 @@ impl EdgeSampler {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::boundary::edges::tests::geometry;
     use crate::kernel::PathSampler;
     use crate::scene::shapes;
-
-    fn geometry(mesh: shapes::Mesh) -> Geometry {
-        Geometry {
-            positions: mesh.positions.clone(),
-            indices: mesh.tris.clone(),
-            tri_shape: vec![0; mesh.tris.len()],
-            ..Default::default()
-        }
-    }
 
     /// A cube's edges have ψ = π/2: silhouette for half the sphere; every sampled direction
     /// passes the geometric test of Eq. 32 (both faces on one side of the plane of edge and ω).

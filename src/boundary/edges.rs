@@ -76,11 +76,12 @@ fn is_coplanar(geo: &Geometry, e: &Edge) -> bool {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::scene::shapes;
 
-    fn geometry(mesh: shapes::Mesh) -> Geometry {
+    /// A one-shape scene geometry of `mesh` (shared by the boundary tests).
+    pub(crate) fn geometry(mesh: shapes::Mesh) -> Geometry {
         Geometry {
             positions: mesh.positions.clone(),
             indices: mesh.tris.clone(),

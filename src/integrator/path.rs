@@ -31,6 +31,27 @@ pub struct PacketLanes {
     pub count: usize,
 }
 
+impl PacketLanes {
+    /// `n` (≤ 8) consecutive pixels of film row `py` starting at column `px0`, for sample `s`
+    /// of `spp`: path id = (py · width + px) · spp + s, so every path's random numbers depend
+    /// only on its pixel and sample index.
+    pub fn row(px0: usize, py: usize, n: usize, width: usize, spp: u32, s: u64) -> Self {
+        let mut lanes = PacketLanes {
+            px: [0; 8],
+            py: [0; 8],
+            ids: [0; 8],
+            count: n,
+        };
+        for i in 0..n {
+            let px = px0 + i;
+            lanes.px[i] = px as u32;
+            lanes.py[i] = py as u32;
+            lanes.ids[i] = (py * width + px) as u64 * spp as u64 + s;
+        }
+        lanes
+    }
+}
+
 /// Per-packet tallies.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct PathCounts {

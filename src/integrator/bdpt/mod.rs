@@ -164,18 +164,7 @@ pub fn render_tiles<R: Real, const C: usize>(
                 let mut x = 0;
                 while x < tw {
                     let n = R::LANES.min(tw - x);
-                    let mut lanes = PacketLanes {
-                        px: [0; 8],
-                        py: [0; 8],
-                        ids: [0; 8],
-                        count: n,
-                    };
-                    for i in 0..n {
-                        let (px, py) = (x0 + x + i, y0 + ty);
-                        lanes.px[i] = px as u32;
-                        lanes.py[i] = py as u32;
-                        lanes.ids[i] = (py * w + px) as u64 * spp as u64 + s;
-                    }
+                    let lanes = PacketLanes::row(x0 + x, y0 + ty, n, w, spp, s);
                     trace_packet::<R, C>(ctx, seed, &lanes, film, counts, &mut scratch);
                     x += n;
                 }
