@@ -63,6 +63,26 @@ fn offset(p: Vec3, n: Vec3, dir: Vec3) -> Vec3 {
     offset_origin::<f32>(&V3::splat(p), &V3::splat(n), &V3::splat(dir)).lane(0)
 }
 
+/// Samples a cosine-weighted direction on the `side` of x and traces it: the next vertex and
+/// the direction and its solid-angle pdf, or None when the sample or the ray goes nowhere. With a Lambertian BSDF the
+/// weight f·cos/pdf is the albedo, which the caller multiplies in.
+fn scatter(
+    ctx: &RenderContext,
+    sampler: &mut PathSampler,
+    x: &SurfaceHit,
+    side: Vec3,
+    counts: &mut RayCounts,
+) -> Option<(SurfaceHit, Vec3, f32)> {
+    let (b1, b2) = sampler.next2::<f32>();
+    let (dir, pdf) = sample_cosine(&V3::splat(x.n), &V3::splat(side), b1, b2);
+    let dir = dir.lane(0);
+    if !(pdf > 0.0) {
+        return None;
+    }
+    let y = trace(ctx, offset(x.p, x.n, dir), dir, counts)?;
+    Some((y, dir, pdf))
+}
+
 fn albedo(ctx: &RenderContext, prim: u32) -> [f32; 3] {
     let Material::Diffuse { albedo } = ctx.scene.materials[ctx.tri_material[prim as usize] as usize].material;
     albedo
@@ -149,15 +169,8 @@ pub fn source_subpath(
             });
         }
         // BSDF sampling; emission found this way counts i scattering vertices
-        let (b1, b2) = sampler.next2::<f32>();
-        let (dir, pdf) = sample_cosine(&V3::splat(x.n), &V3::splat(side), b1, b2);
-        let dir = dir.lane(0);
-        if !(pdf > 0.0) {
-            break;
-        }
         beta = mul(beta, alb);
-        let o = offset(x.p, x.n, dir);
-        let Some(y) = trace(ctx, o, dir, counts) else {
+        let Some((y, dir, pdf)) = scatter(ctx, sampler, &x, side, counts) else {
             break;
         };
         opl += eta * y.t;
@@ -237,15 +250,8 @@ pub fn sensor_subpath(
         if j == max_scatters {
             break;
         }
-        let (b1, b2) = sampler.next2::<f32>();
-        let (dir, pdf) = sample_cosine(&V3::splat(x.n), &V3::splat(side), b1, b2);
-        let dir = dir.lane(0);
-        if !(pdf > 0.0) {
-            break;
-        }
         beta = mul(beta, alb);
-        let o = offset(x.p, x.n, dir);
-        let Some(y) = trace(ctx, o, dir, counts) else {
+        let Some((y, dir, _)) = scatter(ctx, sampler, &x, side, counts) else {
             break;
         };
         opl += eta * y.t;
