@@ -12,8 +12,7 @@
 //! DTR_BENCH_THREADS).
 
 mod common;
-use difftransient::scene::{Axis, IntegratorKind, Param, ParamKind, PixelFilter};
-use difftransient::temporal::Pulse;
+use difftransient::scene::{IntegratorKind, PixelFilter};
 use difftransient::{RenderOptions, Scene, render, render_diff};
 use std::path::PathBuf;
 
@@ -71,22 +70,7 @@ fn main() {
         );
     }
 
-    for e in &mut scene.emitters {
-        e.pulse = Pulse::Gaussian { sigma_opl: 0.01 };
-    }
-    let tall = scene
-        .shapes
-        .iter()
-        .position(|s| s.name == "tall_box")
-        .expect("tall_box") as u32;
-    scene.params.push(Param {
-        name: "tall_box_x".into(),
-        kind: ParamKind::Translate {
-            shape: tall,
-            axis: Axis::X,
-        },
-        value: scene.shapes[tall as usize].transform.translate.x,
-    });
+    let mut scene = common::with_pose_param(scene);
     let names = ["tall_box_x".to_string()];
     let diff_spp: u32 = env_or("DTR_BENCH_DIFF_SPP", 64);
     for (label, filter) in [

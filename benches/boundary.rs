@@ -14,8 +14,6 @@
 //! Run: `cargo bench --bench boundary` (DTR_BENCH_THREADS; takes about half a minute).
 
 mod common;
-use difftransient::scene::{Axis, Param, ParamKind};
-use difftransient::temporal::Pulse;
 use difftransient::{BoundaryMode, RenderOptions, Scene, Transient, render, render_diff};
 use std::path::PathBuf;
 
@@ -116,23 +114,8 @@ fn main() {
         &[1, 4, 16],
         256,
     );
-    let mut cornell = Scene::load(&root.join("scenes/cornell_box.toml"), &[]).expect("scene");
-    for e in &mut cornell.emitters {
-        e.pulse = Pulse::Gaussian { sigma_opl: 0.01 };
-    }
-    let tall = cornell
-        .shapes
-        .iter()
-        .position(|s| s.name == "tall_box")
-        .expect("tall_box") as u32;
-    cornell.params.push(Param {
-        name: "tall_box_x".into(),
-        kind: ParamKind::Translate {
-            shape: tall,
-            axis: Axis::X,
-        },
-        value: cornell.shapes[tall as usize].transform.translate.x,
-    });
+    let cornell = Scene::load(&root.join("scenes/cornell_box.toml"), &[]).expect("scene");
+    let cornell = common::with_pose_param(cornell);
     variance_table(
         "cornell_box 64x64 (secondary edges only; max 8 bounces), d/dtall_box_x",
         &cornell,

@@ -15,10 +15,9 @@
 //! bumpy sphere.
 
 mod common;
-use common::{bare_seconds, bounce_rays, camera_rays, rel_l2, shadow_rays};
+use common::{bare_seconds, bounce_rays, camera_rays, rel_l2, shadow_rays, with_pose_param};
 use difftransient::accel::{Accel, BuildQuality, Device, Ray8};
-use difftransient::scene::{Axis, IntegratorKind, Param, ParamKind};
-use difftransient::temporal::Pulse;
+use difftransient::scene::IntegratorKind;
 use difftransient::{BoundaryMode, RenderOptions, RenderStats, Scene, Transient, render, render_diff};
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -159,24 +158,6 @@ fn run(w: &Workload, opts: &RenderOptions) -> (Transient, Vec<Transient>, Render
     } else {
         render_diff(&w.scene, &w.diff, opts).unwrap()
     }
-}
-
-/// The Cornell box with a Gaussian pulse and the tall box's x position as a parameter.
-fn with_pose_param(mut s: Scene) -> Scene {
-    for e in &mut s.emitters {
-        e.pulse = Pulse::Gaussian { sigma_opl: 0.01 };
-    }
-    let tall = s.shapes.iter().position(|x| x.name == "tall_box").unwrap() as u32;
-    let value = s.shapes[tall as usize].transform.translate.x;
-    s.params.push(Param {
-        name: "tall_box_x".into(),
-        kind: ParamKind::Translate {
-            shape: tall,
-            axis: Axis::X,
-        },
-        value,
-    });
-    s
 }
 
 /// The Cornell box plus a bumpy sphere of ~1M triangles (an OBJ generated once into the cache).

@@ -8,8 +8,7 @@
 //!
 //! Run: `cargo bench --bench interior_diff` (DTR_BENCH_SPP, DTR_BENCH_THREADS).
 
-use difftransient::scene::{Axis, Param, ParamKind};
-use difftransient::temporal::Pulse;
+mod common;
 use difftransient::{RenderOptions, Scene, render, render_diff};
 use std::path::PathBuf;
 
@@ -19,23 +18,8 @@ fn env_or<T: std::str::FromStr>(k: &str, d: T) -> T {
 
 fn main() {
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
-    let mut scene = Scene::load(&root.join("scenes/cornell_box.toml"), &[]).expect("scene");
-    for e in &mut scene.emitters {
-        e.pulse = Pulse::Gaussian { sigma_opl: 0.01 };
-    }
-    let tall = scene
-        .shapes
-        .iter()
-        .position(|s| s.name == "tall_box")
-        .expect("tall_box") as u32;
-    scene.params.push(Param {
-        name: "tall_box_x".into(),
-        kind: ParamKind::Translate {
-            shape: tall,
-            axis: Axis::X,
-        },
-        value: scene.shapes[tall as usize].transform.translate.x,
-    });
+    let scene = Scene::load(&root.join("scenes/cornell_box.toml"), &[]).expect("scene");
+    let scene = common::with_pose_param(scene);
     let spp: u32 = env_or("DTR_BENCH_SPP", 32);
     let threads: usize = env_or(
         "DTR_BENCH_THREADS",

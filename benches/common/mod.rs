@@ -143,3 +143,25 @@ pub fn bare_seconds(pool: &rayon::ThreadPool, rays: &[Ray8], count: u64, f: &(dy
     });
     t0.elapsed().as_secs_f64()
 }
+
+/// The Cornell box made differentiable in pose: a Gaussian pulse (σ = 0.01 m, so time shifts
+/// have a derivative) and the parameter `tall_box_x` (translate x of the tall box, at its
+/// current value). The derivative workload of the harness and the derivative benches.
+#[allow(dead_code)]
+pub fn with_pose_param(mut s: Scene) -> Scene {
+    use difftransient::scene::{Axis, Param, ParamKind};
+    for e in &mut s.emitters {
+        e.pulse = difftransient::temporal::Pulse::Gaussian { sigma_opl: 0.01 };
+    }
+    let tall = s.shapes.iter().position(|x| x.name == "tall_box").expect("tall_box") as u32;
+    let value = s.shapes[tall as usize].transform.translate.x;
+    s.params.push(Param {
+        name: "tall_box_x".into(),
+        kind: ParamKind::Translate {
+            shape: tall,
+            axis: Axis::X,
+        },
+        value,
+    });
+    s
+}
