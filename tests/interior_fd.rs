@@ -15,7 +15,6 @@ fn check_param(name: &str, value: f32, h: f32) {
         spp: 4,
         integrator: None,
         edit: |_| {},
-        fd_from_diff_render: false,
         require_signal: true,
     }
     .check(name, value, h);

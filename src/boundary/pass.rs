@@ -268,7 +268,7 @@ impl Secondary<'_> {
         let ddot = [0.0f32; MAX_PARAMS];
         let mut fdot = [0.0f32; MAX_PARAMS * 3];
         let rows = tile.y0..tile.y0 + tile.h;
-        ctx.camera.for_each_pixel(bp.fx, bp.fy, |px, py, hw, _, _| {
+        ctx.camera.for_each_pixel(bp.fx, bp.fy, |px, py, hw| {
             if hw == 0.0 || !rows.contains(&(py as usize)) {
                 return;
             }

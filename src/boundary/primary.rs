@@ -150,7 +150,7 @@ impl Jump {
     fn splat(&self, ctx: &RenderContext, films: &mut [Transient]) {
         let c_n = ctx.scene.film.channels;
         let (fx, fy) = (self.film.x as f32, self.film.y as f32);
-        ctx.camera.for_each_pixel(fx, fy, |px, py, hj, _, _| {
+        ctx.camera.for_each_pixel(fx, fy, |px, py, hj| {
             for (film, &wk) in films.iter_mut().zip(&self.weight) {
                 let w = hj * wk;
                 if w == 0.0 {

@@ -69,34 +69,27 @@ impl FilterSampler {
     }
 
     /// The normalised 1-D filter density h(x) (∫h = 1) at offset `x` pixels from a pixel
-    /// centre, and its derivative dh/dx. The box has h = 1 on [-½, ½) and dh/dx = 0 almost
-    /// everywhere: its jumps are why derivative splats need a smooth filter.
+    /// centre. The box has h = 1 on [-½, ½). No estimator differentiates it: film points
+    /// stay fixed under the parameters (the vertex the pinhole sees moves along its ray).
     #[inline]
-    pub fn density(&self, x: f32) -> (f32, f32) {
+    pub fn density(&self, x: f32) -> f32 {
         match self.filter {
-            PixelFilter::Box => (if (-0.5..0.5).contains(&x) { 1.0 } else { 0.0 }, 0.0),
-            PixelFilter::Tent { radius } => {
-                if x.abs() >= radius {
-                    (0.0, 0.0)
+            PixelFilter::Box => {
+                if (-0.5..0.5).contains(&x) {
+                    1.0
                 } else {
-                    ((radius - x.abs()) * self.norm, -x.signum() * self.norm)
+                    0.0
                 }
             }
+            PixelFilter::Tent { radius } => (radius - x.abs()).max(0.0) * self.norm,
             PixelFilter::Gaussian { sigma, radius } => {
                 if x.abs() >= radius {
-                    return (0.0, 0.0);
+                    return 0.0;
                 }
                 let inv = 1.0 / (2.0 * sigma * sigma);
-                let g = (-x * x * inv).exp();
-                let edge = (-radius * radius * inv).exp();
-                ((g - edge) * self.norm, -2.0 * x * inv * g * self.norm)
+                ((-x * x * inv).exp() - (-radius * radius * inv).exp()) * self.norm
             }
         }
-    }
-
-    /// Is the density continuous (tent, Gaussian), so that splat weights can be differentiated?
-    pub fn is_smooth(&self) -> bool {
-        !matches!(self.filter, PixelFilter::Box)
     }
 
     /// Offset in pixels for uniform `u`.
@@ -215,10 +208,10 @@ impl CameraSampler {
         })
     }
 
-    /// Calls `f(px, py, h, dh/dfx, dh/dfy)` for every pixel whose filter reaches film point
-    /// (fx, fy), with the separable filter weight h = h(fx − px − ½)·h(fy − py − ½) and its
-    /// gradient in film coordinates. The weights of one point sum to 1 over the film's interior.
-    pub fn for_each_pixel(&self, fx: f32, fy: f32, mut f: impl FnMut(u32, u32, f32, f32, f32)) {
+    /// Calls `f(px, py, h)` for every pixel whose filter reaches film point (fx, fy), with the
+    /// separable filter weight h = h(fx − px − ½)·h(fy − py − ½). The weights of one point
+    /// sum to 1 over the film's interior.
+    pub fn for_each_pixel(&self, fx: f32, fy: f32, mut f: impl FnMut(u32, u32, f32)) {
         let r = self.filter.radius;
         let (x0, x1) = (
             (fx - 0.5 - r).floor().max(0.0),
@@ -230,12 +223,12 @@ impl CameraSampler {
         );
         let mut py = y0;
         while py <= y1 {
-            let (hy, dhy) = self.filter.density(fy - py - 0.5);
+            let hy = self.filter.density(fy - py - 0.5);
             let mut px = x0;
             while px <= x1 {
-                let (hx, dhx) = self.filter.density(fx - px - 0.5);
-                if hx * hy != 0.0 || dhx * hy != 0.0 || hx * dhy != 0.0 {
-                    f(px as u32, py as u32, hx * hy, dhx * hy, hx * dhy);
+                let hx = self.filter.density(fx - px - 0.5);
+                if hx * hy != 0.0 {
+                    f(px as u32, py as u32, hx * hy);
                 }
                 px += 1.0;
             }
@@ -313,9 +306,9 @@ mod tests {
         assert!((g - 0.25).abs() < 3e-3, "gaussian variance {g}");
     }
 
-    /// The filter density integrates to 1 and its derivative matches central differences.
+    /// The filter density integrates to 1.
     #[test]
-    fn filter_density_is_normalised_and_differentiable() {
+    fn filter_density_is_normalised() {
         for filter in [
             PixelFilter::Box,
             PixelFilter::Tent { radius: 1.0 },
@@ -329,23 +322,9 @@ mod tests {
             let n = 40_000;
             let h = 2.0 * fs.radius() as f64 / n as f64;
             let total: f64 = (0..n)
-                .map(|i| fs.density(-fs.radius() + (i as f32 + 0.5) * h as f32).0 as f64 * h)
+                .map(|i| fs.density(-fs.radius() + (i as f32 + 0.5) * h as f32) as f64 * h)
                 .sum();
             assert!((total - 1.0).abs() < 1e-3, "{filter:?}: integral {total}");
-            if fs.is_smooth() {
-                for &x in &[-1.2f32, -0.3, 0.2, 0.77, 1.1] {
-                    if x.abs() >= fs.radius() - 0.01 || x.abs() < 0.01 {
-                        continue;
-                    }
-                    let e = 1e-3;
-                    let fd = (fs.density(x + e).0 - fs.density(x - e).0) / (2.0 * e);
-                    let an = fs.density(x).1;
-                    assert!(
-                        (fd - an).abs() < 2e-3 * (1.0 + an.abs()),
-                        "{filter:?} at {x}: {fd} vs {an}"
-                    );
-                }
-            }
         }
     }
 
@@ -370,7 +349,7 @@ mod tests {
                     "{fx},{fy} -> {pr:?}"
                 );
                 let mut sum = 0.0;
-                cs.for_each_pixel(pr.fx, pr.fy, |_, _, h, _, _| sum += h);
+                cs.for_each_pixel(pr.fx, pr.fy, |_, _, h| sum += h);
                 if fx > 1.0 && fy > 1.0 && fx < 39.0 && fy < 29.0 {
                     assert!((sum - 1.0).abs() < 1e-4, "{filter:?}: weights sum {sum}");
                 }

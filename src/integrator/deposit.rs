@@ -68,9 +68,9 @@ impl<const C: usize> LaneContribution<C> {
         self.n_k == 0 && self.f.iter().all(|&v| v == 0.0)
     }
 
-    /// Adds h·f to pixel (x, y) of `film`, and h·ḟ_k + ḣ_k·f to derivative k (`hdot` holds
-    /// ḣ_k, or is empty when the weight h is a constant).
-    pub fn add_to(&self, ctx: &RenderContext, film: &mut TileFilm, x: usize, y: usize, h: f32, hdot: &[f32]) {
+    /// Adds h·f to pixel (x, y) of `film`, and h·ḟ_k to derivative k (the pixel weight h is a
+    /// constant: film points never move).
+    pub fn add_to(&self, ctx: &RenderContext, film: &mut TileFilm, x: usize, y: usize, h: f32) {
         let corr = &ctx.correlations[self.emitter as usize];
         let f: [f32; C] = self.f.map(|v| v * h);
         if self.n_k == 0 {
@@ -78,11 +78,8 @@ impl<const C: usize> LaneContribution<C> {
             return;
         }
         let mut fdot = [0.0f32; 48];
-        for k in 0..self.n_k {
-            let hk = hdot.get(k).copied().unwrap_or(0.0);
-            for c in 0..C {
-                fdot[k * C + c] = self.fdot[k * C + c] * h + self.f[c] * hk;
-            }
+        for (o, &v) in fdot.iter_mut().zip(&self.fdot[..self.n_k * C]) {
+            *o = v * h;
         }
         film.add_with_derivs(x, y, corr, self.d, &f, &fdot[..self.n_k * C], &self.ddot[..self.n_k]);
     }

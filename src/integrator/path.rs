@@ -271,7 +271,7 @@ fn splat<R: Real, const C: usize>(
     counts: &mut PathCounts,
 ) {
     for_each_lane(ctx, emitter, d, contrib, mask, counts, |i, lc| {
-        lc.add_to(ctx, film, lanes.px[i] as usize, lanes.py[i] as usize, 1.0, &[]);
+        lc.add_to(ctx, film, lanes.px[i] as usize, lanes.py[i] as usize, 1.0);
     });
 }
 

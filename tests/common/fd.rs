@@ -20,9 +20,6 @@ pub struct FdCheck {
     pub spp: u32,
     pub integrator: Option<IntegratorKind>,
     pub edit: fn(&mut Scene),
-    /// Take the finite differences of the primal that a derivative render computes alongside
-    /// (same estimator as the derivative: BDPT with a box filter leaves out t = 1 there).
-    pub fd_from_diff_render: bool,
     /// Require the derivative to stand out from its noise (off for parameters whose true
     /// derivative is 0, where the test is that every term cancels).
     pub require_signal: bool,
@@ -39,12 +36,8 @@ impl FdCheck {
         }
     }
 
-    fn primal(&self, scene: &Scene, name: &str, seed: u64) -> Transient {
-        if self.fd_from_diff_render {
-            render_diff(scene, &[name.to_string()], &self.opts(seed)).unwrap().0
-        } else {
-            render(scene, &self.opts(seed)).unwrap().0
-        }
+    fn primal(&self, scene: &Scene, seed: u64) -> Transient {
+        render(scene, &self.opts(seed)).unwrap().0
     }
 
     fn load_with(&self, name: &str, value: Option<f32>) -> Scene {
@@ -118,8 +111,8 @@ impl FdCheck {
         for seed in 0..k_seeds {
             let (_, d, _) = render_diff(&base, &[name.to_string()], &self.opts(seed)).unwrap();
             let ad = &d[0];
-            let p = self.primal(&plus, name, seed);
-            let m = self.primal(&minus, name, seed);
+            let p = self.primal(&plus, seed);
+            let m = self.primal(&minus, seed);
             let fd_img: Vec<f64> = image(&p)
                 .iter()
                 .zip(image(&m))
@@ -130,8 +123,8 @@ impl FdCheck {
                 .zip(bins(&m))
                 .map(|(a, b)| (a - b) / (2.0 * h as f64))
                 .collect();
-            let p2 = self.primal(&plus2, name, seed);
-            let m2 = self.primal(&minus2, name, seed);
+            let p2 = self.primal(&plus2, seed);
+            let m2 = self.primal(&minus2, seed);
             let fd2_img: Vec<f64> = image(&p2)
                 .iter()
                 .zip(image(&m2))
@@ -218,5 +211,98 @@ impl FdCheck {
             m.abs() <= 3.0 * se + total_fd_err,
             "{name}: total AD − FD = {m} (se {se}, fd error {total_fd_err})"
         );
+    }
+}
+
+/// Coarse aggregates of a transient, for tests whose statistics must expose a bias of a few
+/// percent: the grand total, the four image halves (left, right, top, bottom), the four
+/// quadrants and the bin totals grouped into eight time slices (channels summed).
+pub fn coarse_aggregates(t: &Transient) -> Vec<(String, f64)> {
+    let (w, h) = (t.width, t.height);
+    let img = image(t);
+    let region = |f: &dyn Fn(usize, usize) -> bool| -> f64 {
+        (0..h)
+            .flat_map(|y| (0..w).map(move |x| (x, y)))
+            .filter(|&(x, y)| f(x, y))
+            .map(|(x, y)| img[y * w + x])
+            .sum()
+    };
+    let mut out = vec![
+        ("total".to_string(), img.iter().sum()),
+        ("left".into(), region(&|x, _| x < w / 2)),
+        ("right".into(), region(&|x, _| x >= w / 2)),
+        ("top".into(), region(&|_, y| y < h / 2)),
+        ("bottom".into(), region(&|_, y| y >= h / 2)),
+    ];
+    for (qx, qy) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
+        let v = region(&|x, y| (x >= w / 2) as usize == qx && (y >= h / 2) as usize == qy);
+        out.push((format!("quadrant {qx}{qy}"), v));
+    }
+    let b = bins(t);
+    let slices = 8.min(b.len());
+    for k in 0..slices {
+        let (lo, hi) = (k * b.len() / slices, (k + 1) * b.len() / slices);
+        out.push((format!("bins {lo}..{hi}"), b[lo..hi].iter().sum()));
+    }
+    out
+}
+
+impl FdCheck {
+    /// Checks ∂I/∂`name` at `value` on [`coarse_aggregates`] against central differences with
+    /// step `h` and common random numbers: per seed D = AD − FD, and its mean over the K seeds
+    /// must lie within 4 standard errors (widened by the finite difference's Richardson
+    /// truncation estimate and f32 rounding) for every aggregate. Returns the largest |z| and
+    /// the resolution: the smallest relative bias of an aggregate's derivative that this run
+    /// would see at 4 standard errors (min over aggregates of 4·sd(AD − FD) / |AD|).
+    pub fn check_aggregates(&self, name: &str, value: f32, h: f32) -> (f64, f64) {
+        let base = self.load_with(name, None);
+        let steps = [h, -h, 2.0 * h, -2.0 * h].map(|s| self.load_with(name, Some(value + s)));
+        let agg = |t: &Transient| -> Vec<f64> { coarse_aggregates(t).into_iter().map(|(_, v)| v).collect() };
+        let labels: Vec<String> = coarse_aggregates(&render(&base, &self.opts(0)).unwrap().0)
+            .into_iter()
+            .map(|(l, _)| l)
+            .collect();
+        let (mut diffs, mut ads, mut rich, mut round) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+        for seed in 0..self.k {
+            let (_, d, _) = render_diff(&base, &[name.to_string()], &self.opts(seed)).unwrap();
+            let ad = agg(&d[0]);
+            let p: Vec<Vec<f64>> = steps.iter().map(|s| agg(&self.primal(s, seed))).collect();
+            let fd: Vec<f64> = (0..ad.len()).map(|i| (p[0][i] - p[1][i]) / (2.0 * h as f64)).collect();
+            let fd2: Vec<f64> = (0..ad.len()).map(|i| (p[2][i] - p[3][i]) / (4.0 * h as f64)).collect();
+            rich.push(fd2.iter().zip(&fd).map(|(a, b)| (a - b) / 3.0).collect::<Vec<_>>());
+            let eps = f32::EPSILON as f64;
+            round.push(
+                (0..ad.len())
+                    .map(|i| 4.0 * eps * (p[0][i].abs() + p[1][i].abs()) / (2.0 * h as f64))
+                    .collect::<Vec<_>>(),
+            );
+            diffs.push(ad.iter().zip(&fd).map(|(a, f)| a - f).collect::<Vec<_>>());
+            ads.push(ad);
+        }
+        let col = |m: &[Vec<f64>], i: usize| -> Vec<f64> { m.iter().map(|r| r[i]).collect() };
+        let mut zmax = 0.0f64;
+        let mut resolution = f64::INFINITY;
+        let mut failures = Vec::new();
+        for (i, label) in labels.iter().enumerate() {
+            let (m, se) = super::mean_se(&col(&diffs, i));
+            let (ma, sea) = super::mean_se(&col(&ads, i));
+            let (mr, ser) = super::mean_se(&col(&rich, i));
+            let fd_err = mr.abs() + 2.0 * ser + col(&round, i).iter().sum::<f64>() / self.k as f64;
+            let sd = (se * se + fd_err * fd_err).sqrt();
+            if sd == 0.0 && m == 0.0 {
+                continue;
+            }
+            let z = m / sd.max(1e-12 * ma.abs().max(1e-30));
+            eprintln!(
+                "{name} {label}: AD {ma:.5e} ± {sea:.1e}, AD − FD {m:.3e} (se {se:.1e}, fd err {fd_err:.1e}), z {z:.2}"
+            );
+            zmax = zmax.max(z.abs());
+            resolution = resolution.min(4.0 * sd / ma.abs());
+            if z.abs() > 4.0 {
+                failures.push(format!("{label}: z = {z:.1}"));
+            }
+        }
+        assert!(failures.is_empty(), "{name}: AD and FD disagree on {failures:?}");
+        (zmax, resolution)
     }
 }

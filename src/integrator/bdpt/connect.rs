@@ -51,8 +51,7 @@ pub fn emission<R: Real, const C: usize>(pk: &mut Packet<'_, '_, R, C>, t: usize
         pk.pl,
         pk.pe,
     );
-    let t1 = pk.t1_enabled;
-    let (lower, higher) = ratio_sums(pk.pl, pk.pe, 0, |sp| allowed(t, sp, R::Mask::splat(false), t1));
+    let (lower, higher) = ratio_sums(pk.pl, pk.pe, 0, |sp| allowed(t, sp, R::Mask::splat(false)));
     let contrib = (pt.beta * radiance).scale(R::from_value(weight(lower, higher)));
     pk.deposit_own_pixels((0, t), &emitter, pt.opl, &contrib, emits);
 }
@@ -82,8 +81,8 @@ pub fn connect<R: Real, const C: usize>(pk: &mut Packet<'_, '_, R, C>, s: usize,
         return;
     }
     path_pdfs(&pk.light[..s], &pk.camera[..t], zero, zero, pk.pl, pk.pe);
-    let (delta, t1, n) = (pk.origin.delta, pk.t1_enabled, s + t);
-    let (lower, higher) = ratio_sums(pk.pl, pk.pe, s, |sp| allowed(n, sp, delta, t1));
+    let (delta, n) = (pk.origin.delta, s + t);
+    let (lower, higher) = ratio_sums(pk.pl, pk.pe, s, |sp| allowed(n, sp, delta));
     let g = cos_q * cos_p / d2;
     let contrib = (qs.beta * qs.f * pt.f * pt.beta).scale(g * R::from_value(weight(lower, higher)));
     let d = qs.opl + pt.opl + pk.eta * dist;

@@ -60,8 +60,7 @@ impl BdptFilm {
         }
     }
 
-    /// Adds `lc` with pixel weight `h` (and its derivatives `hdot`) to pixel (x, y), for
-    /// strategy (s, t).
+    /// Adds `lc` with pixel weight `h` to pixel (x, y), for strategy (s, t).
     #[allow(clippy::too_many_arguments)]
     #[inline]
     pub fn add<const C: usize>(
@@ -72,12 +71,11 @@ impl BdptFilm {
         y: usize,
         lc: &LaneContribution<C>,
         h: f32,
-        hdot: &[f32],
     ) {
-        lc.add_to(ctx, &mut self.film, x, y, h, hdot);
+        lc.add_to(ctx, &mut self.film, x, y, h);
         if !self.strategies.is_empty() {
             let k = self.index[s * self.stride + t];
-            lc.add_to(ctx, &mut self.strategies[k], x, y, h, &[]);
+            lc.add_to(ctx, &mut self.strategies[k], x, y, h);
         }
     }
 }

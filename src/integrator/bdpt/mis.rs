@@ -8,7 +8,7 @@
 //! (Veach Eq. 10.9), so the weight of strategy s is 1 / Σ_{s'} (p_{s'} / p_s)², computed from
 //! these ratios without ever forming the (tiny) full-path densities. Zero densities are
 //! remapped to 1 in ratios, as pbrt-v4's `MISWeight` does; strategies that cannot make the
-//! path (a camera path cannot hit a delta light; a disabled t = 1) are left out of the sum,
+//! path (a camera path cannot hit a delta light) are left out of the sum,
 //! so the weights of the strategies that run still sum to 1.
 //!
 //! Weights are computed on values only: they are constants for the derivative (Algorithm 1).
@@ -53,15 +53,14 @@ pub fn weight<V: Real>(lower: V, higher: V) -> V {
 }
 
 /// Which strategies can make a path of `n` vertices, per lane: s' = 0 needs a light that a
-/// camera path can hit (not a delta in position), t' = 1 needs `t1_enabled` and at least one
-/// bounce (the light seen directly through the pinhole is left to s = 0, as in the path
-/// tracer).
+/// camera path can hit (not a delta in position), t' = 1 needs at least one bounce (the
+/// light seen directly through the pinhole is left to s = 0, as in the path tracer).
 #[inline(always)]
-pub fn allowed<M: Mask>(n: usize, sp: usize, delta_light: M, t1_enabled: bool) -> M {
+pub fn allowed<M: Mask>(n: usize, sp: usize, delta_light: M) -> M {
     if sp == 0 {
         !delta_light
     } else if n - sp == 1 {
-        M::splat(t1_enabled && n >= 3)
+        M::splat(n >= 3)
     } else {
         M::splat(true)
     }

@@ -2,7 +2,7 @@
 //! (s, t), each split's subpaths are linked exactly as the random walks link them
 //! ([`link`]), the connection densities come from [`path_pdfs`], and the weights of the
 //! strategies that run must add up to 1 — with area and delta (point, laser-spot) lights,
-//! with t = 1 on and off, and with a smooth filter's h ≠ 1 in the camera density.
+//! and with a filter's h ≠ 1 in the camera density.
 
 use super::super::vertex::{Vertex, camera_dir_pdf, dir_pdf, link, to_area};
 use super::*;
@@ -40,14 +40,14 @@ fn cam_dir_pdf(cam: Vec3, x: Vec3, h: f32) -> f32 {
 }
 
 /// The weight of every strategy of `xs` (x_0 light origin … x_{n−1} camera).
-fn weights(xs: &[Vx], delta: bool, t1_on: bool, h: f32) -> Vec<(usize, f32)> {
+fn weights(xs: &[Vx], delta: bool, h: f32) -> Vec<(usize, f32)> {
     let n = xs.len();
     let cam = xs[n - 1].p.lane(0);
     let mut out = Vec::new();
     let (mut pl, mut pe) = (Vec::new(), Vec::new());
     for s in 0..n {
         let t = n - s;
-        if !allowed::<bool>(n, s, delta, t1_on) {
+        if !allowed::<bool>(n, s, delta) {
             continue;
         }
         // light subpath x_0..x_{s-1}, linked in order
@@ -79,7 +79,7 @@ fn weights(xs: &[Vx], delta: bool, t1_on: bool, h: f32) -> Vec<(usize, f32)> {
             0.0
         };
         path_pdfs(&light, &camera, origin_pdf, camera_pdf, &mut pl, &mut pe);
-        let (mut lower, higher) = ratio_sums(&pl, &pe, s, |sp| allowed::<bool>(n, sp, delta, t1_on));
+        let (mut lower, higher) = ratio_sums(&pl, &pe, s, |sp| allowed::<bool>(n, sp, delta));
         if t == 1 {
             // the kernel computes the t = 1 sums with h = 1 and scales them per pixel by h²
             lower *= h * h;
@@ -113,16 +113,16 @@ fn weights_of_all_strategies_sum_to_one() {
             true,
         ));
         let delta = kind != 0;
-        for t1_on in [true, false] {
+        for _ in 0..2 {
             let h = if trial % 2 == 0 { 1.0 } else { 0.2 + u() };
-            let ws = weights(&xs, delta, t1_on, h);
+            let ws = weights(&xs, delta, h);
             if ws.is_empty() {
                 continue;
             }
             let sum: f32 = ws.iter().map(|w| w.1).sum();
             assert!(
                 (sum - 1.0).abs() < 1e-4,
-                "n {n}, light kind {kind}, t1 {t1_on}, h {h}: weights {ws:?} sum to {sum}"
+                "n {n}, light kind {kind}, h {h}: weights {ws:?} sum to {sum}"
             );
             assert!(ws.iter().all(|w| (0.0..=1.0 + 1e-6).contains(&w.1)));
             checked += 1;
@@ -131,18 +131,15 @@ fn weights_of_all_strategies_sum_to_one() {
     assert!(checked > 1000, "{checked}");
 }
 
-/// A two-vertex path (light seen directly) is made only by s = 0; a delta light's direct
-/// view has no strategy at all, and with t = 1 disabled the t = 1 strategy gets no weight.
+/// A two-vertex path (light seen directly) is made only by s = 0, and a delta light's direct
+/// view has no strategy at all.
 #[test]
 fn excluded_strategies_get_no_weight() {
     let light = origin(0, Vec3::new(0.0, 1.0, 0.0), Vec3::Z, 0.5);
     let cam = Vx::point(V3::splat(Vec3::new(0.0, 0.0, 5.0)), Spectrum::splat(1.0), true);
-    let ws = weights(&[light, cam], false, true, 1.0);
+    let ws = weights(&[light, cam], false, 1.0);
     assert_eq!(ws.len(), 1);
     assert_eq!(ws[0].0, 0);
     assert!((ws[0].1 - 1.0).abs() < 1e-6);
-    assert!(weights(&[origin(1, Vec3::Y, Vec3::Z, 0.0), cam], true, true, 1.0).is_empty());
-    let mid = surface(Vec3::new(0.3, 0.2, 0.0), Vec3::Z);
-    let ws = weights(&[light, mid, cam], false, false, 1.0);
-    assert!(ws.iter().all(|w| w.0 != 2), "t = 1 ran: {ws:?}");
+    assert!(weights(&[origin(1, Vec3::Y, Vec3::Z, 0.0), cam], true, 1.0).is_empty());
 }

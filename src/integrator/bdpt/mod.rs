@@ -14,9 +14,9 @@
 //! ([`mis`], Veach 1997 Eq. 9.13 and §10.2), binned at its OPL d with S_e, and differentiated
 //! as I += w·f·s, İ += w·(ḟ·s + f·Ṡ_e·ḋ) (Algorithm 1), the weight w a constant.
 //!
-//! **Pixel filter.** With a box filter, a derivative render leaves out t = 1 (its splat
-//! weight is discontinuous in the moving film point); with tent or Gaussian filters t = 1
-//! runs and its splat weight is differentiated. Primal renders always use every strategy.
+//! **One parameterisation.** Every strategy moves the vertex next to the pinhole along its
+//! fixed camera ray and every other vertex with its surface (t = 1 included, see [`splat`]),
+//! so constant MIS weights give the derivative of the image, for any pixel filter.
 //!
 //! (1, 1), an emitter seen straight through the pinhole by light tracing, is left out: s = 0
 //! covers area emitters (as in the path tracer), and points (point lights, laser spots) are
@@ -68,7 +68,6 @@ pub struct Packet<'p, 'c, R: Real, const C: usize> {
     pub light: &'p [Vertex<R, C>],
     pub origin: LightOrigin<R>,
     pub eta: R,
-    pub t1_enabled: bool,
     pub pl: &'p mut Vec<R::Value>,
     pub pe: &'p mut Vec<R::Value>,
     pub film: &'p mut BdptFilm,
@@ -88,15 +87,9 @@ impl<R: Real, const C: usize> Packet<'_, '_, R, C> {
         let (ctx, lanes, film) = (self.ctx, self.lanes, &mut *self.film);
         for_each_lane(ctx, emitter, d, contrib, mask, self.counts, |i, lc| {
             let (x, y) = (lanes.px[i] as usize, lanes.py[i] as usize);
-            film.add(ctx, strategy, x, y, lc, 1.0, &[]);
+            film.add(ctx, strategy, x, y, lc, 1.0);
         });
     }
-}
-
-/// Whether the t = 1 strategy runs: always in primal renders, and in derivative renders only
-/// with a continuous pixel filter (see the module docs).
-pub fn t1_enabled(ctx: &RenderContext, derivs: usize) -> bool {
-    derivs == 0 || ctx.camera.filter().is_smooth()
 }
 
 /// Traces one camera and one light subpath per lane and adds every strategy's weighted
@@ -123,7 +116,6 @@ pub fn trace_packet<R: Real, const C: usize>(
         light,
         origin,
         eta: ctx.motion.eta::<R>(ctx.scene.eta),
-        t1_enabled: t1_enabled(ctx, R::DERIVS.min(ctx.motion.len())),
         pl,
         pe,
         film,
@@ -136,8 +128,7 @@ pub fn trace_packet<R: Real, const C: usize>(
             }
             match (s, t) {
                 (0, _) => connect::emission(&mut pk, t),
-                (_, 1) if pk.t1_enabled => splat::splat_to_camera(&mut pk, s),
-                (_, 1) => {}
+                (_, 1) => splat::splat_to_camera(&mut pk, s),
                 _ => connect::connect(&mut pk, s, t),
             }
         }

@@ -6,18 +6,28 @@
 //! W_j = h_j(u) / (a cos³θ) (`CameraProjection`) and N pixels (one light subpath per camera
 //! subpath, so each pixel gets N times more light-tracing samples than camera samples).
 //!
-//! Derivatives: q_s moves with its surface, so its film point u moves too. The splat weight
-//! h_j(u(θ)) is differentiated through the filter, ḣ_j = ∂h/∂u_x·u̇_x + ∂h/∂u_y·u̇_y, which
-//! needs a continuous filter (tent, Gaussian). A box filter's h_j jumps at pixel borders,
-//! where the derivative would be a boundary term that we do not estimate; so with a box
-//! filter a derivative render disables t = 1 altogether (density 0 in the MIS, so the other
-//! strategies' weights still sum to 1, see [`super::mis::allowed`]).
+//! **Derivatives: one parameterisation for every strategy.** The MIS weights are constants
+//! for the derivative (Algorithm 1), and Σ_s w_s = 1 makes the weighted sum of the
+//! strategies' derivatives the derivative of the image only when every strategy moves a
+//! path the same way as θ changes (the weights' derivatives then sum to 0 along that one
+//! motion). The path tracer and the strategies with t ≥ 2 move the vertex next to the
+//! pinhole along its fixed camera ray and every other vertex with its surface. So here too
+//! the vertex q that the pinhole sees is moved along the camera ray through its film point
+//! u: y(θ) = o + t(θ)·ω (`ray_plane_point`), with u, and so h_j(u), fixed. In film
+//! coordinates W_j·G(y ↔ pinhole)·dA(y)/du depends on u alone, so that factor (the
+//! importance, cos θ_q / r² and q's area Jacobian) is a constant, and the derivative comes
+//! from the rest of the path through y: the geometry term of the segment q_{s−2} → y (q's
+//! material-form carrier `geo` is divided out of β_L and y's put in), the BSDF at y, and the
+//! OPL d = d(q_{s−2}) + η(‖y − q_{s−2}‖ + ‖pinhole − y‖). Any pixel filter, box included,
+//! then gives the derivative of the rendered image (tests/bdpt_fd.rs).
 
 use super::Packet;
 use super::connect::towards;
 use super::mis::{allowed, path_pdfs, ratio_sums};
 use super::vertex::{camera_dir_pdf, to_area};
+use super::walk::geometry_carrier;
 use crate::integrator::deposit::LaneContribution;
+use crate::integrator::path::ray_plane_point;
 use crate::integrator::surface::offset_origin;
 use crate::integrator::trace::unoccluded;
 use crate::kernel::{Mask, Real, V3};
@@ -29,16 +39,18 @@ pub fn splat_to_camera<R: Real, const C: usize>(pk: &mut Packet<'_, '_, R, C>, s
     let ctx = pk.ctx;
     let cam = &ctx.camera;
     let qs = pk.light[s - 1];
-    let proj = cam.project_lanes(&qs.p);
-    let (dir, dist, _) = towards(&qs.p, &V3::splat(cam.position));
-    let cos_q = qs.n.dot(dir);
+    let q = qs.p.value();
+    let eye = V3::splat(cam.position);
+    let proj = cam.project_lanes(&q);
+    let (dir, _, _) = towards(&q, &eye);
+    let cos_q = qs.n.value().dot(dir);
     let zero = V::<R>::zero();
-    let ok = qs.alive & proj.visible & cos_q.value().gt(zero);
+    let ok = qs.alive & proj.visible & cos_q.gt(zero);
     if ok.none() {
         return;
     }
-    let o = offset_origin(&qs.p.value(), &qs.n.value(), &dir.value());
-    let to_o = V3::splat(cam.position) - o;
+    let o = offset_origin(&q, &qs.n.value(), &dir);
+    let to_o = eye - o;
     let len = to_o.length();
     let ray_d = to_o * V::<R>::safe_div(V::<R>::one(), len);
     let ok = ok & unoccluded(&ctx.accel, &o, &ray_d, zero, len, ok, &mut pk.counts.rays);
@@ -48,22 +60,25 @@ pub fn splat_to_camera<R: Real, const C: usize>(pk: &mut Packet<'_, '_, R, C>, s
     let pixels = (ctx.scene.film.width * ctx.scene.film.height) as f32;
     // camera density at q_s with h = 1; the light-side ratio sums all carry pe[s−1]², so the
     // weight for pixel j is 1 / (1 + h_j² · lower)
-    let camera_pdf = to_area(
-        &V3::splat(cam.position),
-        &qs,
-        camera_dir_pdf(V::<R>::one(), proj.importance.value(), pixels),
-    );
+    let camera_pdf = to_area(&eye, &qs, camera_dir_pdf(V::<R>::one(), proj.importance, pixels));
     path_pdfs(&pk.light[..s], &pk.camera[..1], zero, camera_pdf, pk.pl, pk.pe);
-    let (delta, t1, n) = (pk.origin.delta, pk.t1_enabled, s + 1);
-    let (lower, _) = ratio_sums(pk.pl, pk.pe, s, |sp| allowed(n, sp, delta, t1));
-    let g = cos_q * proj.importance / proj.dist2;
-    let contrib = (qs.beta * qs.f).scale(g.mul_f(1.0 / pixels));
-    let d = if ctx.scene.film.unwarp {
-        qs.opl
+    let (delta, n) = (pk.origin.delta, s + 1);
+    let (lower, _) = ratio_sums(pk.pl, pk.pe, s, |sp| allowed(n, sp, delta));
+    let pinhole = (cos_q * proj.importance / proj.dist2).mul_f(1.0 / pixels);
+    let (beta, d) = if R::DERIVS > 0 {
+        // q slides along its camera ray (module docs): y(θ), with q's own motion divided out
+        let prev = &pk.light[s - 2];
+        let y = ray_plane_point(&V3::from_value(eye), &V3::from_value(-dir), &qs.p, &qs.n);
+        let carrier = geometry_carrier(prev, &y, &qs.n);
+        let beta = qs.beta.scale(R::safe_div(carrier, qs.geo));
+        (
+            beta,
+            prev.opl + pk.eta * (y - prev.p).length() + camera_leg(ctx, pk.eta, &y, &eye),
+        )
     } else {
-        qs.opl + pk.eta * dist
+        (qs.beta, qs.opl + camera_leg(ctx, pk.eta, &qs.p, &eye))
     };
-    let n_k = R::DERIVS.min(ctx.motion.len()).min(16);
+    let contrib = (beta * qs.f).scale(R::from_value(pinhole));
     for i in 0..R::LANES {
         if !ok.bit(i) {
             continue;
@@ -72,20 +87,22 @@ pub fn splat_to_camera<R: Real, const C: usize>(pk: &mut Packet<'_, '_, R, C>, s
             pk.counts.non_finite += 1;
             continue;
         };
-        let (fx, fy) = (proj.fx.lane(i), proj.fy.lane(i));
-        let dfx: [f32; 16] = std::array::from_fn(|k| if k < n_k { proj.fx.deriv_lane(k, i) } else { 0.0 });
-        let dfy: [f32; 16] = std::array::from_fn(|k| if k < n_k { proj.fy.deriv_lane(k, i) } else { 0.0 });
-        if !dfx.iter().chain(&dfy).all(|v| v.is_finite()) {
-            pk.counts.non_finite += 1;
-            continue;
-        }
         let lower_i = lower.lane(i);
         let film = &mut *pk.film;
-        cam.for_each_pixel(fx, fy, |px, py, h, dh_dx, dh_dy| {
+        cam.for_each_pixel(proj.fx.lane(i), proj.fy.lane(i), |px, py, h| {
             let w = 1.0 / (1.0 + h * h * lower_i);
-            let hdot: [f32; 16] = std::array::from_fn(|k| (dh_dx * dfx[k] + dh_dy * dfy[k]) * w);
-            film.add(ctx, (s, 1), px as usize, py as usize, &lc, h * w, &hdot[..n_k]);
+            film.add(ctx, (s, 1), px as usize, py as usize, &lc, h * w);
         });
+    }
+}
+
+/// η‖pinhole − y‖, the last leg of a light-tracing path, or 0 when the film is unwarped.
+#[inline(always)]
+fn camera_leg<R: Real>(ctx: &crate::integrator::context::RenderContext, eta: R, y: &V3<R>, eye: &V3<V<R>>) -> R {
+    if ctx.scene.film.unwarp {
+        R::zero()
+    } else {
+        eta * (V3::from_value(*eye) - *y).length()
     }
 }
 

@@ -39,6 +39,11 @@ pub struct Vertex<R: Real, const C: usize> {
     pub f: Spectrum<R, C>,
     pub pdf_fwd: V<R>,
     pub pdf_rev: V<R>,
+    /// The derivative carrier of this vertex's material-form motion that `beta` holds:
+    /// `[G·J]_dual / [G]_value` of the segment that reached it (value 1; exactly 1 for the
+    /// ray-form first camera vertex, light origins and plain numbers). Light tracing
+    /// (`splat.rs`) divides it out to move the vertex along its camera ray instead.
+    pub geo: R,
     /// Optical path length from the subpath's start to this vertex.
     pub opl: R,
     pub prim: [u32; 8],
@@ -111,6 +116,7 @@ impl<R: Real, const C: usize> Vertex<R, C> {
             f: Spectrum::splat(R::one()),
             pdf_fwd: V::<R>::zero(),
             pdf_rev: V::<R>::zero(),
+            geo: R::one(),
             opl: R::zero(),
             prim: [u32::MAX; 8],
             alive,

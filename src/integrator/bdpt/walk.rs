@@ -72,11 +72,10 @@ fn random_walk<R: Real, const C: usize>(
         let seg = x.p - prev.p;
         let r2 = seg.length_squared();
         let r = r2.sqrt();
-        let w_in = seg * R::safe_div(R::one(), r);
+        let mut geo = R::one();
         if R::DERIVS > 0 && !ray_form {
-            let cos_prev = R::select(prev.on_surface, prev.n.dot(w_in).abs(), R::one());
-            let g = cos_prev * x.n.dot(w_in).abs() / r2;
-            beta = beta.scale(R::safe_div(g, R::from_value(g.value())) * x.jacobian);
+            geo = geometry_carrier(&prev, &x.p, &x.n) * x.jacobian;
+            beta = beta.scale(geo);
         }
         let opl = if ray_form && ctx.scene.film.unwarp {
             prev.opl
@@ -95,6 +94,7 @@ fn random_walk<R: Real, const C: usize>(
             f,
             pdf_fwd: V::<R>::zero(),
             pdf_rev: V::<R>::zero(),
+            geo,
             opl,
             prim: hit.prim,
             alive: active,
@@ -124,6 +124,19 @@ fn random_walk<R: Real, const C: usize>(
     }
 }
 
+/// `[G]_dual / [G]_value` of the segment from `prev` to the surface point `p` with normal
+/// `n` (G = |cos θ_prev| |cos θ_p| / r², no cosine at point-like vertices): value 1, and the
+/// derivative of the segment's geometry term relative to its value.
+#[inline(always)]
+pub fn geometry_carrier<R: Real, const C: usize>(prev: &Vertex<R, C>, p: &V3<R>, n: &V3<R>) -> R {
+    let seg = *p - prev.p;
+    let r2 = seg.length_squared();
+    let w = seg * R::safe_div(R::one(), r2.sqrt());
+    let cos_prev = R::select(prev.on_surface, prev.n.dot(w).abs(), R::one());
+    let g = cos_prev * n.dot(w).abs() / r2;
+    R::safe_div(g, R::from_value(g.value()))
+}
+
 /// The camera subpath of each lane's pixel: vertex 0 at the pinhole, then up to
 /// `new_vertices` surface vertices. The filter offset is importance sampled, so the camera
 /// throughput stays 1; its density h_j(u)/(a cos³θ)/N enters the MIS weights only.
@@ -143,7 +156,7 @@ pub fn camera_subpath<R: Real, const C: usize>(
     for i in 0..R::LANES {
         let (ox, oy) = (cam.filter().sample(u1.lane(i)), cam.filter().sample(u2.lane(i)));
         dirs[i] = cam.direction(lanes.px[i] as f32 + 0.5 + ox, lanes.py[i] as f32 + 0.5 + oy);
-        let h = cam.filter().density(ox).0 * cam.filter().density(oy).0;
+        let h = cam.filter().density(ox) * cam.filter().density(oy);
         let importance = cam.project(cam.position + dirs[i]).map_or(0.0, |p| p.importance);
         pdf[i] = camera_dir_pdf(h, importance, pixels);
     }
