@@ -51,6 +51,11 @@ pub struct RenderOptions {
     /// Guide the boundary rays with grids fitted by a pilot pass (default off; see
     /// [`crate::boundary::BoundarySettings::guiding`] for the trade-off).
     pub guiding: bool,
+    /// Trace forward renders in Embree's default (non-watertight) mode: about 13% faster on
+    /// the Cornell box, but a ray through exactly a shared edge may miss both triangles, so
+    /// light can slip out of a closed object (about 1e-5 of the image in
+    /// tests/closed_containers.rs). Off by default; derivative renders always trace robustly.
+    pub fast_traversal: bool,
 }
 
 /// Which parts of the gradient `render_diff` estimates. Tests use the parts to show that the
@@ -97,6 +102,8 @@ pub struct RenderStats {
     /// Wall time of the boundary stage (primary + secondary, pilot included).
     pub boundary_seconds: f64,
     pub boundary: Option<crate::boundary::BoundaryStats>,
+    /// Embree traversal mode: "robust" (watertight) or "fast" (`--fast-traversal`).
+    pub traversal: &'static str,
 }
 
 #[derive(Clone, Debug, Default, serde::Serialize)]
@@ -270,10 +277,10 @@ fn render_films(
     let device = Device::new("")?;
     let t_build = Instant::now();
     let derivs = motion.len();
-    // Forward renders trace in Embree's default mode (13% faster on the Cornell box); any
-    // render with derivative lanes keeps watertight traversal, which the boundary stage's
-    // rays aimed at edges rely on.
-    let mut ctx = RenderContext::with_traversal(scene, &device, derivs > 0)?;
+    // Watertight traversal unless a forward render opts out (`fast_traversal`); renders with
+    // derivative lanes always keep it, since the boundary stage aims rays at edges.
+    let robust = derivs > 0 || !opts.fast_traversal;
+    let mut ctx = RenderContext::with_traversal(scene, &device, robust)?;
     ctx.motion = motion;
     let bvh_build_seconds = t_build.elapsed().as_secs_f64();
     let pool = thread_pool(opts.threads)?;
@@ -379,6 +386,7 @@ fn render_films(
         cpu_seconds: cpu,
         paths: if interior { (w * h) as u64 * spp as u64 } else { 0 },
         bvh_build_seconds,
+        traversal: if robust { "robust" } else { "fast" },
         ..Default::default()
     };
     let mut ticks = (0u64, 0u64, 0u64);

@@ -62,6 +62,10 @@ pub struct RenderArgs {
     /// samples): lower mean error from ~16k samples on, heavier tails (see README).
     #[arg(long)]
     pub guiding: bool,
+    /// Forward renders: trace in Embree's faster, non-watertight mode (a ray through exactly a
+    /// shared edge may slip through; light can leak out of closed objects at the 1e-5 level).
+    #[arg(long = "fast-traversal")]
+    pub fast_traversal: bool,
     /// Trace one path at a time instead of 8-wide packets (reference/debug).
     #[arg(long)]
     pub scalar: bool,
@@ -103,6 +107,7 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
         integrator: a.integrator,
         spp_boundary,
         guiding: a.guiding,
+        fast_traversal: a.fast_traversal,
         boundary: match a.estimators {
             Estimators::Full => BoundaryMode::Full,
             Estimators::Interior => BoundaryMode::InteriorOnly,

@@ -16,8 +16,8 @@ use super::bsdf::{albedo, cosine_pdf, diffuse_eval, sample_cosine};
 use super::context::RenderContext;
 use super::deposit::for_each_lane;
 use super::power_heuristic;
-use super::surface::{offset_origin, self_intersection_eps, surface_at};
-use super::trace::{RayCounts, intersect, unoccluded};
+use super::surface::surface_at;
+use super::trace::{RayCounts, SegmentEnd, intersect, shadow_segment, spawn_point, unoccluded};
 use crate::film::TileFilm;
 use crate::kernel::{Mask, PathSampler, Real, Spectrum, V3};
 
@@ -214,12 +214,18 @@ pub fn trace_packet_from<R: Real, const C: usize>(
                 power_heuristic(p_l, p_bsdf),
                 V::<R>::one(),
             );
-            let o = offset_origin(&x.p.value(), &x.n.value(), &wl.value());
-            let to_o = ls.p.value() - o;
-            let len = to_o.length();
-            let dir = to_o * V::<R>::safe_div(V::<R>::one(), len);
-            let tfar = len - self_intersection_eps(&ls.p.value());
-            let visible = unoccluded(&ctx.accel, &o, &dir, V::<R>::zero(), tfar, lit, &mut counts.rays);
+            let here = SegmentEnd {
+                p: x.p.value(),
+                n: x.n.value(),
+                w_in: ray_d,
+            };
+            let light = SegmentEnd {
+                p: ls.p.value(),
+                n: V3::select(ls.has_cos, ls.n.value(), V3::zero()),
+                w_in: V3::zero(),
+            };
+            let (o, dir, len) = shadow_segment(&here, &light);
+            let visible = unoccluded(&ctx.accel, &o, &dir, V::<R>::zero(), len, lit, &mut counts.rays);
             let lit = lit & visible;
             if lit.any() {
                 let g = cos_x_signed.abs() * cos_y / d2;
@@ -249,7 +255,7 @@ pub fn trace_packet_from<R: Real, const C: usize>(
                 beta = beta.scale(R::from_value(V::<R>::safe_div(V::<R>::one(), q)));
             }
         }
-        ray_o = offset_origin(&x.p.value(), &n_v, &dir);
+        ray_o = spawn_point(&x.p.value(), &n_v, &ray_d, &dir);
         ray_d = dir;
         prev_p = x.p;
         prev_n = x.n;

@@ -1,5 +1,6 @@
 //! Lanes to Embree and back. Embree sees plain `f32` rays only (STYLE example 1).
 
+use super::surface::{offset_origin, self_intersection_eps};
 use crate::accel::{Accel, Ray8};
 use crate::kernel::{Mask, Real, V3};
 
@@ -115,4 +116,44 @@ pub fn unoccluded<V: Real>(
     }
     counts.trace_ticks += crate::timing::ticks() - t0;
     V::Mask::from_bools(&free[..V::LANES])
+}
+
+/// A ray origin for leaving surface point `p` (unit geometric normal `n`, reached along the
+/// unit direction `w_in`) in direction `dir`: offset off the surface to `dir`'s side
+/// ([`offset_origin`]) and stepped back along the arrival direction by the same distance.
+/// The arriving segment is free space, so the step back keeps the origin on the side the
+/// path came from even where `p` lies on an edge shared with another surface (a floor under a
+/// box resting on it, two faces of a closed container): rays that leave a closed object's
+/// inside from such a point then still meet its walls instead of starting outside them.
+/// Point-like ends (n = 0, w_in = 0: the pinhole, a point light) are their own origin.
+#[inline(always)]
+pub fn spawn_point<V: Real>(p: &V3<V>, n: &V3<V>, w_in: &V3<V>, dir: &V3<V>) -> V3<V> {
+    let o = offset_origin(p, n, dir);
+    let back = w_in.dot(*w_in).gt(V::zero());
+    V3::select(back, o.add_scaled(*w_in, -self_intersection_eps(p)), o)
+}
+
+/// One end of a shadow segment: the vertex, its unit geometric normal (zero at point-like
+/// vertices) and the unit direction along which its path reached it (zero at path starts).
+#[derive(Clone, Copy, Debug)]
+pub struct SegmentEnd<V: Real> {
+    pub p: V3<V>,
+    pub n: V3<V>,
+    pub w_in: V3<V>,
+}
+
+/// The shadow ray joining two path vertices: origin, unit direction and length. Both ends
+/// are moved off their surfaces by [`spawn_point`], towards each other, and the ray runs the
+/// whole way between them. Cutting a fixed length off the far end instead (as before
+/// 2026-11-23) missed any wall crossed within that length of the target: a vertex on a
+/// closed box's inner wall next to an edge was then joined to points outside the box, and
+/// BDPT leaked light out of closed containers (issue 9, part 2; tests/closed_containers.rs).
+#[inline(always)]
+pub fn shadow_segment<V: Real>(from: &SegmentEnd<V>, to: &SegmentEnd<V>) -> (V3<V>, V3<V>, V) {
+    let ab = to.p - from.p;
+    let o = spawn_point(&from.p, &from.n, &from.w_in, &ab);
+    let target = spawn_point(&to.p, &to.n, &to.w_in, &-ab);
+    let to_t = target - o;
+    let len = to_t.length();
+    (o, to_t * V::safe_div(V::one(), len), len)
 }

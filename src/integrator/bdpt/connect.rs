@@ -9,8 +9,8 @@
 
 use super::Packet;
 use super::mis::{allowed, path_pdfs, ratio_sums, weight};
-use crate::integrator::surface::{offset_origin, self_intersection_eps};
-use crate::integrator::trace::unoccluded;
+use super::vertex::segment_end;
+use crate::integrator::trace::{shadow_segment, unoccluded};
 use crate::kernel::{Mask, Real, Spectrum, V3};
 
 type V<R> = <R as Real>::Value;
@@ -70,13 +70,8 @@ pub fn connect<R: Real, const C: usize>(pk: &mut Packet<'_, '_, R, C>, s: usize,
     if ok.none() {
         return;
     }
-    let back = -dir.value();
-    let o = offset_origin(&pt.p.value(), &pt.n.value(), &back);
-    let to_o = qs.p.value() - o;
-    let len = to_o.length();
-    let ray_d = to_o * V::<R>::safe_div(V::<R>::one(), len);
-    let tfar = len - self_intersection_eps(&qs.p.value());
-    let ok = ok & unoccluded(&ctx.accel, &o, &ray_d, zero, tfar, ok, &mut pk.counts.rays);
+    let (o, ray_d, len) = shadow_segment(&segment_end(pk.camera, t - 1), &segment_end(pk.light, s - 1));
+    let ok = ok & unoccluded(&ctx.accel, &o, &ray_d, zero, len, ok, &mut pk.counts.rays);
     if ok.none() {
         return;
     }

@@ -24,12 +24,12 @@
 use super::Packet;
 use super::connect::towards;
 use super::mis::{allowed, path_pdfs, ratio_sums};
+use super::vertex::segment_end;
 use super::vertex::{camera_dir_pdf, to_area};
 use super::walk::geometry_carrier;
 use crate::integrator::deposit::LaneContribution;
 use crate::integrator::path::ray_plane_point;
-use crate::integrator::surface::offset_origin;
-use crate::integrator::trace::unoccluded;
+use crate::integrator::trace::{SegmentEnd, shadow_segment, unoccluded};
 use crate::kernel::{Mask, Real, V3};
 
 type V<R> = <R as Real>::Value;
@@ -49,10 +49,12 @@ pub fn splat_to_camera<R: Real, const C: usize>(pk: &mut Packet<'_, '_, R, C>, s
     if ok.none() {
         return;
     }
-    let o = offset_origin(&q, &qs.n.value(), &dir);
-    let to_o = eye - o;
-    let len = to_o.length();
-    let ray_d = to_o * V::<R>::safe_div(V::<R>::one(), len);
+    let pinhole = SegmentEnd {
+        p: eye,
+        n: V3::zero(),
+        w_in: V3::zero(),
+    };
+    let (o, ray_d, len) = shadow_segment(&segment_end(pk.light, s - 1), &pinhole);
     let ok = ok & unoccluded(&ctx.accel, &o, &ray_d, zero, len, ok, &mut pk.counts.rays);
     if ok.none() {
         return;
@@ -64,7 +66,7 @@ pub fn splat_to_camera<R: Real, const C: usize>(pk: &mut Packet<'_, '_, R, C>, s
     path_pdfs(&pk.light[..s], &pk.camera[..1], zero, camera_pdf, pk.pl, pk.pe);
     let (delta, n) = (pk.origin.delta, s + 1);
     let (lower, _) = ratio_sums(pk.pl, pk.pe, s, |sp| allowed(n, sp, delta));
-    let pinhole = (cos_q * proj.importance / proj.dist2).mul_f(1.0 / pixels);
+    let camera_factor = (cos_q * proj.importance / proj.dist2).mul_f(1.0 / pixels);
     let (beta, d) = if R::DERIVS > 0 {
         // q slides along its camera ray (module docs): y(θ), with q's own motion divided out
         let prev = &pk.light[s - 2];
@@ -78,7 +80,7 @@ pub fn splat_to_camera<R: Real, const C: usize>(pk: &mut Packet<'_, '_, R, C>, s
     } else {
         (qs.beta, qs.opl + camera_leg(ctx, pk.eta, &qs.p, &eye))
     };
-    let contrib = (beta * qs.f).scale(R::from_value(pinhole));
+    let contrib = (beta * qs.f).scale(R::from_value(camera_factor));
     for i in 0..R::LANES {
         if !ok.bit(i) {
             continue;

@@ -14,6 +14,7 @@
 //! derivatives never flow through them (the weights are constants for differentiation, as in
 //! the paper's Algorithm 1).
 
+use crate::integrator::trace::SegmentEnd;
 use crate::kernel::{Mask, Real, Spectrum, V3};
 use std::f32::consts::{FRAC_1_PI, PI};
 
@@ -121,5 +122,23 @@ impl<R: Real, const C: usize> Vertex<R, C> {
             prim: [u32::MAX; 8],
             alive,
         }
+    }
+}
+
+/// Vertex `k` of a subpath as one end of a shadow segment: its position, its normal (zero at
+/// point-like vertices) and the direction along which the subpath reached it (zero at the
+/// subpath's start).
+#[inline(always)]
+pub fn segment_end<R: Real, const C: usize>(path: &[Vertex<R, C>], k: usize) -> SegmentEnd<V<R>> {
+    let v = &path[k];
+    let w_in = if k == 0 {
+        V3::zero()
+    } else {
+        (v.p.value() - path[k - 1].p.value()).normalize()
+    };
+    SegmentEnd {
+        p: v.p.value(),
+        n: V3::select(v.on_surface, v.n.value(), V3::zero()),
+        w_in,
     }
 }

@@ -11,7 +11,7 @@ use crate::integrator::bsdf::{albedo, diffuse_eval, sample_cosine};
 use crate::integrator::context::RenderContext;
 use crate::integrator::path::{PacketLanes, ray_plane_point};
 use crate::integrator::surface::{offset_origin, surface_at};
-use crate::integrator::trace::{RayCounts, intersect};
+use crate::integrator::trace::{RayCounts, intersect, spawn_point};
 use crate::kernel::{Mask, PathSampler, Real, Spectrum, V3};
 use glam::Vec3;
 
@@ -118,7 +118,7 @@ fn random_walk<R: Real, const C: usize>(
                 beta = beta.scale(R::from_value(V::<R>::safe_div(V::<R>::one(), q)));
             }
         }
-        ray_o = offset_origin(&x.p.value(), &n_v, &dir);
+        ray_o = spawn_point(&x.p.value(), &n_v, &ray_d, &dir);
         ray_d = dir;
         pdf_dir = pdf;
     }
