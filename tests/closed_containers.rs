@@ -66,19 +66,17 @@ value = 0.0
     Scene::from_str(&text, Format::Toml, Path::new("closed_containers.toml"), &[]).unwrap()
 }
 
-const RESTING: &str = r#"[[shape]]
+/// A 1 m cube centred at height `y` (0.5: resting on the floor).
+fn cube(y: f32) -> String {
+    format!(
+        r#"[[shape]]
 name = "box"
 type = "cube"
 material = "grey"
-translate = [0.0, 0.5, 0.0]
-scale = 0.5"#;
-
-const FLOATING: &str = r#"[[shape]]
-name = "box"
-type = "cube"
-material = "grey"
-translate = [0.0, 0.8, 0.0]
-scale = 0.5"#;
+translate = [0.0, {y}, 0.0]
+scale = 0.5"#
+    )
+}
 
 const SPHERE: &str = r#"[[shape]]
 name = "box"
@@ -88,17 +86,15 @@ translate = [0.0, 0.9, 0.0]
 scale = 0.6
 subdivisions = 3"#;
 
-const POINT: &str = r#"[[emitter]]
+fn point(y: f32) -> String {
+    format!(
+        r#"[[emitter]]
 name = "lamp"
 type = "point"
-position = [0.1, 0.45, 0.05]
-intensity = 10.0"#;
-
-const POINT_HIGH: &str = r#"[[emitter]]
-name = "lamp"
-type = "point"
-position = [0.1, 0.75, 0.05]
-intensity = 10.0"#;
+position = [0.1, {y}, 0.05]
+intensity = 10.0"#
+    )
+}
 
 /// A small panel inside the container, emitting downwards.
 fn area(y: f32) -> String {
@@ -133,12 +129,12 @@ power = 10.0"#
 
 fn cases() -> Vec<(&'static str, Scene)> {
     vec![
-        ("point in resting cube", scene(RESTING, POINT)),
-        ("point in floating cube", scene(FLOATING, POINT_HIGH)),
-        ("area in resting cube", scene(RESTING, &area(0.5))),
+        ("point in resting cube", scene(&cube(0.5), &point(0.45))),
+        ("point in floating cube", scene(&cube(0.8), &point(0.75))),
+        ("area in resting cube", scene(&cube(0.5), &area(0.5))),
         ("area in icosphere", scene(SPHERE, &area(0.9))),
-        ("laser in resting cube", scene(RESTING, &laser(0.6))),
-        ("laser in floating cube", scene(FLOATING, &laser(0.9))),
+        ("laser in resting cube", scene(&cube(0.5), &laser(0.6))),
+        ("laser in floating cube", scene(&cube(0.8), &laser(0.9))),
     ]
 }
 
