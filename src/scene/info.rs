@@ -182,6 +182,7 @@ impl Scene {
             "dropped_degenerate_triangles": self.geometry.dropped_degenerate,
             // positions below are relative to it (src/scene/origin.rs)
             "render_origin": self.render_origin,
+            "lifted_emitters": self.lifted_emitters,
             "shapes": shapes,
             "materials": materials,
             "emitters": emitters,
@@ -419,7 +420,7 @@ mod tests {
             for (p, q) in ps.iter().zip(&s.params) {
                 assert_eq!(p["name"], q.name.as_str());
                 assert_eq!(p["kind"], q.kind.name());
-                assert_eq!(p["value"], q.value as f64);
+                assert_eq!(p["value"], q.value);
                 assert!(!p["target"].as_str().unwrap().is_empty());
             }
             let text = s.to_string();

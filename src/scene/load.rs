@@ -234,6 +234,11 @@ mod tests {
                 assert!(s.geometry.positions.iter().all(|p| p.is_finite()));
                 // every shipped scene contains the world origin, so it renders unmoved
                 assert_eq!(s.render_origin, [0.0; 3], "{}", p.display());
+                assert!(
+                    s.lifted_emitters.is_empty(),
+                    "{}: no shipped emitter is flush",
+                    p.display()
+                );
                 n += 1;
             }
         }

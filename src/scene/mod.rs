@@ -9,6 +9,7 @@ mod camera;
 pub use camera::{Camera, PixelFilter};
 mod desc;
 mod error;
+mod flush;
 mod info;
 mod load;
 mod origin;
@@ -106,7 +107,9 @@ pub struct NamedMaterial {
 /// Emission in space; its time profile is in [`Emitter::pulse`].
 #[derive(Clone, Debug, PartialEq)]
 pub enum EmitterKind {
-    /// One-sided (front = geometric normal side) diffuse emitter covering a shape.
+    /// One-sided (front = geometric normal side) diffuse emitter covering a shape. Where the
+    /// shape is coplanar with another surface it overlaps, the emitting face wins: the loader
+    /// moves it a tiny distance off that surface towards its front (`flush.rs`).
     /// Radiance in W·sr⁻¹·m⁻².
     Area { shape: u32, radiance: [f32; 3] },
     /// Isotropic point light with intensity in W·sr⁻¹.
@@ -222,4 +225,7 @@ pub struct Scene {
     /// struct (geometry, transforms, camera, emitters) is the file's position minus this
     /// origin, subtracted in f64 (`origin.rs`). OPL does not depend on it.
     pub render_origin: [f64; 3],
+    /// Area-emitter shapes that lay flush on another surface and were moved off it towards
+    /// their emitting side (`flush.rs`: the emitting face wins).
+    pub lifted_emitters: Vec<String>,
 }

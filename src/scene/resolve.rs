@@ -134,7 +134,8 @@ pub(crate) fn resolve(mut desc: SceneDesc, path: &Path, overrides: &[(String, f6
     let emitters = emitters(&desc, &names, origin, &ctx)?;
     let channels = channels(&desc, &params, &ctx)?;
     let film = film(&desc.film, width, height, channels, filter, &ctx)?;
-    let (shapes, geometry) = super::shapes::build(&desc, &names, &emitters, &ctx, meshes, origin)?;
+    let (mut shapes, mut geometry) = super::shapes::build(&desc, &names, &emitters, &ctx, meshes, origin)?;
+    let lifted_emitters = super::flush::lift_flush_emitters(&mut shapes, &mut geometry);
 
     Ok(Scene {
         source: path.to_path_buf(),
@@ -148,6 +149,7 @@ pub(crate) fn resolve(mut desc: SceneDesc, path: &Path, overrides: &[(String, f6
         integrator,
         params,
         render_origin: origin.to_array(),
+        lifted_emitters,
     })
 }
 
