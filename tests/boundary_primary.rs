@@ -45,7 +45,9 @@ fn opts(spp: u32, seed: u64) -> RenderOptions {
 }
 
 fn load(case: &Case, value: Option<f32>) -> Scene {
-    let set: Vec<(String, f32)> = value.map(|v| vec![(case.param.to_string(), v)]).unwrap_or_default();
+    let set: Vec<(String, f64)> = value
+        .map(|v| vec![(case.param.to_string(), v as f64)])
+        .unwrap_or_default();
     Scene::load(&common::scene_path(case.scene), &set).unwrap()
 }
 

@@ -9,7 +9,11 @@ use difftransient::temporal::Pulse;
 use difftransient::{RenderOptions, Scene, Transient, render, render_diff};
 
 fn scene(eta: f32) -> Scene {
-    let mut s = Scene::load(&common::scene_path("confocal_plane.toml"), &[("eta".into(), eta)]).unwrap();
+    let mut s = Scene::load(
+        &common::scene_path("confocal_plane.toml"),
+        &[("eta".into(), eta as f64)],
+    )
+    .unwrap();
     s.emitters[0].pulse = Pulse::Gaussian { sigma_opl: 0.01 };
     s
 }

@@ -39,7 +39,7 @@ fn opts(seed: u64, spp: u32, mode: BoundaryMode) -> RenderOptions {
 }
 
 fn load(scene: &str, name: &str, value: Option<f32>) -> Scene {
-    let overrides: Vec<(String, f32)> = value.map(|v| vec![(name.to_string(), v)]).unwrap_or_default();
+    let overrides: Vec<(String, f64)> = value.map(|v| vec![(name.to_string(), v as f64)]).unwrap_or_default();
     Scene::load(&common::scene_path(scene), &overrides).unwrap()
 }
 

@@ -154,7 +154,8 @@ pub fn with_pose_param(mut s: Scene) -> Scene {
         e.pulse = difftransient::temporal::Pulse::Gaussian { sigma_opl: 0.01 };
     }
     let tall = s.shapes.iter().position(|x| x.name == "tall_box").expect("tall_box") as u32;
-    let value = s.shapes[tall as usize].transform.translate.x;
+    // params hold file coordinates: the render-space translate plus the render origin
+    let value = s.shapes[tall as usize].transform.translate.x as f64 + s.render_origin[0];
     s.params.push(Param {
         name: "tall_box_x".into(),
         kind: ParamKind::Translate {

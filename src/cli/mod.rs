@@ -41,13 +41,13 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
 }
 
 /// Parses `NAME=VALUE` overrides.
-pub fn parse_sets(sets: &[String]) -> anyhow::Result<Vec<(String, f32)>> {
+pub fn parse_sets(sets: &[String]) -> anyhow::Result<Vec<(String, f64)>> {
     sets.iter()
         .map(|s| {
             let (name, value) = s
                 .split_once('=')
                 .ok_or_else(|| anyhow::anyhow!("--set {s:?}: expected NAME=VALUE, e.g. --set eta=1.33"))?;
-            let v: f32 = value
+            let v: f64 = value
                 .trim()
                 .parse()
                 .map_err(|_| anyhow::anyhow!("--set {s:?}: value {value:?} is not a number"))?;

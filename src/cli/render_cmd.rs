@@ -260,6 +260,8 @@ fn metadata(scene: &Scene, film: &Transient, stats: &RenderStats, a: &RenderArgs
         "integrator": a.integrator.unwrap_or(scene.integrator.kind),
         "eta": scene.eta,
         "params": params,
+        // the file's coordinates minus this (in f64) are what was rendered (scene/origin.rs)
+        "render_origin": scene.render_origin,
         "derivatives": a.diff.iter().map(|n| json!({"param": n, "file": format!("{}.d_{n}.npy", a.output.display()), "estimator": if stats.boundary.is_some() { "interior (Algorithm 1) + boundary (Algorithm 2: secondary edges; primary edges)" } else { "interior (Algorithm 1)" }})).collect::<Vec<_>>(),
         "spp": stats.spp,
         "seed": stats.seed,

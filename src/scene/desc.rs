@@ -82,8 +82,10 @@ fn default_delta<T>() -> NameOr<T> {
 #[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct CameraDesc {
-    pub position: [f32; 3],
-    pub look_at: [f32; 3],
+    /// World coordinates are read as f64 and made relative to the render origin before
+    /// they become f32 (see `super::origin`).
+    pub position: [f64; 3],
+    pub look_at: [f64; 3],
     #[serde(default = "default_up")]
     pub up: [f32; 3],
     #[serde(default = "default_fov")]
@@ -195,7 +197,8 @@ pub struct ShapeDesc {
     #[serde(rename = "type")]
     pub ty: ShapeType,
     pub material: Option<String>,
-    pub translate: Option<[f32; 3]>,
+    /// f64, like every world position (see `super::origin`).
+    pub translate: Option<[f64; 3]>,
     pub rotate: Option<[f32; 3]>,
     pub scale: Option<Triple>,
     /// sphere only
@@ -239,8 +242,8 @@ pub struct EmitterDesc {
     /// area
     pub shape: Option<String>,
     pub radiance: Option<Triple>,
-    /// point, laser
-    pub position: Option<[f32; 3]>,
+    /// point, laser (f64, like every world position)
+    pub position: Option<[f64; 3]>,
     pub intensity: Option<Triple>,
     /// laser
     pub direction: Option<[f32; 3]>,
@@ -339,7 +342,8 @@ pub struct ParamDesc {
     pub emitter: Option<String>,
     pub axis: Option<AxisDesc>,
     pub channel: Option<ChannelDesc>,
-    pub value: f32,
+    /// f64 so that a translate param can hold a far world coordinate exactly.
+    pub value: f64,
 }
 
 /// A scalar or an `[a, b, c]` triple (colours, scale).

@@ -180,6 +180,9 @@ impl Scene {
             "triangles": self.geometry.indices.len(),
             "vertices": self.geometry.positions.len(),
             "dropped_degenerate_triangles": self.geometry.dropped_degenerate,
+            // positions below are relative to it (src/scene/origin.rs)
+            "render_origin": self.render_origin,
+            "lifted_emitters": self.lifted_emitters,
             "shapes": shapes,
             "materials": materials,
             "emitters": emitters,
@@ -247,6 +250,13 @@ impl fmt::Display for Scene {
             self.geometry.positions.len(),
             self.geometry.dropped_degenerate
         )?;
+        if self.render_origin != [0.0; 3] {
+            let [x, y, z] = self.render_origin;
+            writeln!(
+                out,
+                "  render origin: [{x}, {y}, {z}] (far from 0: positions below are relative to it)"
+            )?;
+        }
         for s in &self.shapes {
             let t = &s.transform;
             let mat = self.materials.get(s.material as usize).map_or("?", |m| m.name.as_str());
@@ -410,7 +420,7 @@ mod tests {
             for (p, q) in ps.iter().zip(&s.params) {
                 assert_eq!(p["name"], q.name.as_str());
                 assert_eq!(p["kind"], q.kind.name());
-                assert_eq!(p["value"], q.value as f64);
+                assert_eq!(p["value"], q.value);
                 assert!(!p["target"].as_str().unwrap().is_empty());
             }
             let text = s.to_string();
@@ -426,7 +436,7 @@ mod tests {
         assert_eq!(p["kind"], "translate");
         assert_eq!(p["target"], "shape \"occluder\" translate.x");
         assert_eq!(p["axis"], "x");
-        assert_eq!(p["value"], 0.1f32 as f64);
+        assert_eq!(p["value"], 0.1, "params keep the f64 value of the file");
         assert_eq!(s.summary()["emitters"][0]["pulse"]["type"], "gaussian");
         assert_eq!(s.summary()["film"]["channels"], "mono");
     }

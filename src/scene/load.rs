@@ -42,7 +42,7 @@ impl Scene {
     /// Loads `path` (TOML if it ends in `.toml`, JSON if `.json`), applies the `--set`
     /// overrides `(param name, value)` and resolves it. OBJ files are looked up relative to
     /// the scene file's folder.
-    pub fn load(path: &Path, overrides: &[(String, f32)]) -> Result<Scene, SceneError> {
+    pub fn load(path: &Path, overrides: &[(String, f64)]) -> Result<Scene, SceneError> {
         let format = Format::from_path(path)?;
         let text = std::fs::read_to_string(path).map_err(|err| SceneError::Io {
             path: path.to_path_buf(),
@@ -57,7 +57,7 @@ impl Scene {
         text: &str,
         format: Format,
         source: &Path,
-        overrides: &[(String, f32)],
+        overrides: &[(String, f64)],
     ) -> Result<Scene, SceneError> {
         let desc = parse(text, format, source)?;
         super::resolve::resolve(desc, source, overrides)
@@ -232,6 +232,13 @@ mod tests {
                 assert!(!s.geometry.indices.is_empty(), "{}", p.display());
                 assert_eq!(s.geometry.indices.len(), s.geometry.tri_shape.len());
                 assert!(s.geometry.positions.iter().all(|p| p.is_finite()));
+                // every shipped scene contains the world origin, so it renders unmoved
+                assert_eq!(s.render_origin, [0.0; 3], "{}", p.display());
+                assert!(
+                    s.lifted_emitters.is_empty(),
+                    "{}: no shipped emitter is flush",
+                    p.display()
+                );
                 n += 1;
             }
         }

@@ -9,8 +9,10 @@ mod camera;
 pub use camera::{Camera, PixelFilter};
 mod desc;
 mod error;
+mod flush;
 mod info;
 mod load;
+mod origin;
 mod params;
 mod resolve;
 pub mod shapes;
@@ -20,12 +22,13 @@ pub use error::SceneError;
 pub use load::Format;
 
 use crate::temporal::{Gate, Pulse, TimeAxis};
-use glam::{Mat3, Vec3};
+use glam::{DMat3, Mat3, Vec3};
 use std::path::PathBuf;
 
 /// A shape's transform: `x_world = translate + R · (scale ∘ x_local)`, where
 /// `R = Rz · Ry · Rx` from `rotate_deg` (degrees about the world axes, X applied first).
-/// Rotation and scale pivot on the shape's local origin.
+/// Rotation and scale pivot on the shape's local origin. `translate` is relative to
+/// [`Scene::render_origin`], like every position of a loaded scene.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Transform {
     pub translate: Vec3,
@@ -51,6 +54,11 @@ impl Transform {
     pub fn apply(&self, p: Vec3) -> Vec3 {
         self.translate + self.rotation() * (self.scale * p)
     }
+    /// [`Self::rotation`] in f64 (the loader builds world vertices in f64).
+    pub fn rotation_f64(&self) -> DMat3 {
+        let r = self.rotate_deg.as_dvec3() * (std::f64::consts::PI / 180.0);
+        DMat3::from_rotation_z(r.z) * DMat3::from_rotation_y(r.y) * DMat3::from_rotation_x(r.x)
+    }
 }
 
 /// One named shape after loading: its triangles occupy `first_tri .. first_tri + tri_count`
@@ -59,7 +67,8 @@ impl Transform {
 pub struct Shape {
     pub name: String,
     pub transform: Transform,
-    /// Vertex positions before the transform (for velocity fields and re-posing).
+    /// Vertex positions before the transform, rounded to f32 (the world vertices are built
+    /// from the f64 local mesh; see `origin.rs`).
     pub local_positions: Vec<Vec3>,
     pub first_vertex: u32,
     pub vertex_count: u32,
@@ -98,7 +107,9 @@ pub struct NamedMaterial {
 /// Emission in space; its time profile is in [`Emitter::pulse`].
 #[derive(Clone, Debug, PartialEq)]
 pub enum EmitterKind {
-    /// One-sided (front = geometric normal side) diffuse emitter covering a shape.
+    /// One-sided (front = geometric normal side) diffuse emitter covering a shape. Where the
+    /// shape is coplanar with another surface it overlaps, the emitting face wins: the loader
+    /// moves it a tiny distance off that surface towards its front (`flush.rs`).
     /// Radiance in W·sr⁻¹·m⁻².
     Area { shape: u32, radiance: [f32; 3] },
     /// Isotropic point light with intensity in W·sr⁻¹.
@@ -190,7 +201,9 @@ pub enum ParamKind {
 pub struct Param {
     pub name: String,
     pub kind: ParamKind,
-    pub value: f32,
+    /// The value as written (or set), in the file's coordinates: a translate param holds a
+    /// world coordinate, not one relative to [`Scene::render_origin`].
+    pub value: f64,
 }
 
 /// A loaded scene. Everything the renderer needs, with parameters already applied.
@@ -208,4 +221,11 @@ pub struct Scene {
     pub eta: f32,
     pub integrator: IntegratorSpec,
     pub params: Vec<Param>,
+    /// Where the renderer's f32 world sits in the file's coordinates: every position in this
+    /// struct (geometry, transforms, camera, emitters) is the file's position minus this
+    /// origin, subtracted in f64 (`origin.rs`). OPL does not depend on it.
+    pub render_origin: [f64; 3],
+    /// Area-emitter shapes that lay flush on another surface and were moved off it towards
+    /// their emitting side (`flush.rs`: the emitting face wins).
+    pub lifted_emitters: Vec<String>,
 }

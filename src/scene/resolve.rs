@@ -11,7 +11,7 @@ use super::{
     Scene, SceneError,
 };
 use crate::temporal::{Gate, Pulse, TimeAxis};
-use glam::Vec3;
+use glam::{DVec3, Vec3};
 use std::collections::HashMap;
 use std::path::Path;
 
@@ -92,7 +92,7 @@ fn index_names<'a>(
     Ok(out)
 }
 
-pub(crate) fn resolve(mut desc: SceneDesc, path: &Path, overrides: &[(String, f32)]) -> Result<Scene, SceneError> {
+pub(crate) fn resolve(mut desc: SceneDesc, path: &Path, overrides: &[(String, f64)]) -> Result<Scene, SceneError> {
     let mut ctx = Ctx {
         path,
         set_by: HashMap::new(),
@@ -103,20 +103,39 @@ pub(crate) fn resolve(mut desc: SceneDesc, path: &Path, overrides: &[(String, f3
         emitters: index_names(&ctx, "emitter", desc.emitter.iter().map(|e| &e.name))?,
         params: index_names(&ctx, "param", desc.param.iter().map(|p| &p.name))?,
     };
+    // The scene as the file describes it (params at their file values), for the origin.
+    let mut as_written = desc.clone();
+    let written_ok = super::params::apply_params(
+        &mut as_written,
+        &names,
+        &mut Ctx {
+            path,
+            set_by: HashMap::new(),
+        },
+        &[],
+    )
+    .is_ok();
     let overridden = super::params::apply_overrides(&mut desc, overrides, &names, path)?;
     let params = super::params::apply_params(&mut desc, &names, &mut ctx, &overridden)?;
+    let meshes = super::shapes::local_meshes(&desc, &ctx)?;
+    let origin = super::origin::choose(super::shapes::world_bounds(
+        if written_ok { &as_written } else { &desc },
+        &meshes,
+        &ctx,
+    ));
 
     let integrator = integrator(&desc, &ctx)?;
     let eta = desc.medium.eta;
     if eta <= 0.0 {
         return Err(ctx.invalid(table_field("medium", "eta"), format!("must be > 0 (got {eta})")));
     }
-    let (camera, width, height, filter) = camera(&desc.camera, &ctx)?;
+    let (camera, width, height, filter) = camera(&desc.camera, origin, &ctx)?;
     let materials = materials(&desc.material, &ctx)?;
-    let emitters = emitters(&desc, &names, &ctx)?;
+    let emitters = emitters(&desc, &names, origin, &ctx)?;
     let channels = channels(&desc, &params, &ctx)?;
     let film = film(&desc.film, width, height, channels, filter, &ctx)?;
-    let (shapes, geometry) = super::shapes::build(&desc, &names, &emitters, &ctx)?;
+    let (mut shapes, mut geometry) = super::shapes::build(&desc, &names, &emitters, &ctx, meshes, origin)?;
+    let lifted_emitters = super::flush::lift_flush_emitters(&mut shapes, &mut geometry);
 
     Ok(Scene {
         source: path.to_path_buf(),
@@ -129,6 +148,8 @@ pub(crate) fn resolve(mut desc: SceneDesc, path: &Path, overrides: &[(String, f3
         eta,
         integrator,
         params,
+        render_origin: origin.to_array(),
+        lifted_emitters,
     })
 }
 
@@ -160,13 +181,14 @@ fn integrator(desc: &SceneDesc, ctx: &Ctx) -> Result<IntegratorSpec, SceneError>
     })
 }
 
-fn camera(d: &CameraDesc, ctx: &Ctx) -> Result<(Camera, u32, u32, PixelFilter), SceneError> {
+/// The camera, its position and target relative to the render origin (subtracted in f64).
+fn camera(d: &CameraDesc, origin: DVec3, ctx: &Ctx) -> Result<(Camera, u32, u32, PixelFilter), SceneError> {
     let at = |f: &str| table_field("camera", f);
-    let position = Vec3::from(d.position);
-    let look_at = Vec3::from(d.look_at);
+    let position = (DVec3::from(d.position) - origin).as_vec3();
+    let look_at = (DVec3::from(d.look_at) - origin).as_vec3();
     let up = Vec3::from(d.up);
     let view = look_at - position;
-    if view == Vec3::ZERO {
+    if DVec3::from(d.look_at) == DVec3::from(d.position) {
         return Err(ctx.invalid(
             at("look_at"),
             format!(
@@ -175,10 +197,10 @@ fn camera(d: &CameraDesc, ctx: &Ctx) -> Result<(Camera, u32, u32, PixelFilter), 
             ),
         ));
     }
-    if !view.normalize().is_finite() {
+    if view == Vec3::ZERO || !view.normalize().is_finite() {
         return Err(ctx.invalid(
             at("look_at"),
-            "is too far from camera.position for 32-bit arithmetic; bring them closer",
+            "is too close to or too far from camera.position for 32-bit arithmetic",
         ));
     }
     if up == Vec3::ZERO {
@@ -494,7 +516,8 @@ fn pulse(ctx: &Ctx, i: usize, e: &EmitterDesc) -> Result<Pulse, SceneError> {
     })
 }
 
-fn emitters(desc: &SceneDesc, names: &Names, ctx: &Ctx) -> Result<Vec<Emitter>, SceneError> {
+/// The emitters, point and laser positions relative to the render origin (subtracted in f64).
+fn emitters(desc: &SceneDesc, names: &Names, origin: DVec3, ctx: &Ctx) -> Result<Vec<Emitter>, SceneError> {
     let mut claimed: HashMap<usize, usize> = HashMap::new();
     let mut out = Vec::new();
     for (i, e) in desc.emitter.iter().enumerate() {
@@ -516,7 +539,7 @@ fn emitters(desc: &SceneDesc, names: &Names, ctx: &Ctx) -> Result<Vec<Emitter>, 
             }
         };
         let need_position = || {
-            e.position.map(Vec3::from).ok_or_else(|| {
+            e.position.map(|p| (DVec3::from(p) - origin).as_vec3()).ok_or_else(|| {
                 ctx.invalid(
                     at("position"),
                     format!("missing: a {} emitter needs position = [x, y, z]", e.ty.as_str()),

@@ -11,7 +11,7 @@ use super::desc::{SceneDesc, ShapeDesc, ShapeType, Triple};
 use super::error::item_field;
 use super::resolve::{Ctx, Names, no_such};
 use super::{Emitter, EmitterKind, Geometry, SceneError, Shape, Transform};
-use glam::Vec3;
+use glam::{DVec3, Vec3};
 use std::path::{Path, PathBuf};
 
 /// Highest icosphere subdivision level (20·4⁷ = 327 680 triangles).
@@ -141,12 +141,30 @@ pub fn icosphere(level: u32) -> Mesh {
     Mesh { positions, tris }.orient_outward()
 }
 
+/// A mesh in local space with f64 positions (OBJ vertices are read in f64, so that a mesh
+/// modelled in far world coordinates keeps its precision until the render origin is
+/// subtracted; see `origin.rs`).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct LocalMesh {
+    pub positions: Vec<DVec3>,
+    pub tris: Vec<[u32; 3]>,
+}
+
+impl From<Mesh> for LocalMesh {
+    fn from(m: Mesh) -> Self {
+        LocalMesh {
+            positions: m.positions.iter().map(|p| p.as_dvec3()).collect(),
+            tris: m.tris,
+        }
+    }
+}
+
 /// Why an OBJ could not be used (the caller adds the scene file, field and OBJ path).
 type ObjResult<T> = Result<T, String>;
 
 /// Reads a Wavefront OBJ (all objects and groups merged; polygons triangulated; points,
 /// lines, normals, texture coordinates and materials ignored).
-pub fn load_obj(path: &Path) -> ObjResult<Mesh> {
+pub fn load_obj(path: &Path) -> ObjResult<LocalMesh> {
     let text = std::fs::read_to_string(path).map_err(|e| format!("cannot read it: {e}"))?;
     check_obj_text(&text)?;
     // `..Default::default()` covers fields that tobj's optional features add.
@@ -165,12 +183,12 @@ pub fn load_obj(path: &Path) -> ObjResult<Mesh> {
     })
     .map_err(|_| "the OBJ parser failed on this file".to_string())?;
     let (models, _materials) = parsed.map_err(|e| format!("cannot parse it: {e}"))?;
-    let mut mesh = Mesh::default();
+    let mut mesh = LocalMesh::default();
     for m in &models {
         let base = mesh.positions.len() as u32;
         let p = &m.mesh.positions;
         mesh.positions
-            .extend(p.chunks_exact(3).map(|c| Vec3::new(c[0], c[1], c[2])));
+            .extend(p.chunks_exact(3).map(|c| DVec3::new(c[0], c[1], c[2])));
         for t in m.mesh.indices.chunks_exact(3) {
             if t.iter().any(|&i| i as usize >= p.len() / 3) {
                 return Err(format!("object {:?} has a face index out of range", m.name));
@@ -212,15 +230,15 @@ fn check_obj_text(text: &str) -> ObjResult<()> {
                         nums.len()
                     ));
                 }
-                let mut xyz = [0.0f32; 3];
+                let mut xyz = [0.0f64; 3];
                 for (k, w) in nums.iter().take(3).enumerate() {
                     xyz[k] = w
-                        .parse::<f32>()
+                        .parse::<f64>()
                         .map_err(|_| format!("vertex {nv} (line {ln}): {w:?} is not a number"))?;
                 }
                 if nums.len() == 4 {
                     let w = nums[3]
-                        .parse::<f32>()
+                        .parse::<f64>()
                         .map_err(|_| format!("vertex {nv} (line {ln}): w = {:?} is not a number", nums[3]))?;
                     if w == 0.0 || !w.is_finite() {
                         return Err(format!(
@@ -229,7 +247,7 @@ fn check_obj_text(text: &str) -> ObjResult<()> {
                     }
                     xyz = xyz.map(|c| c / w);
                 }
-                if xyz.iter().any(|c| !c.is_finite()) {
+                if xyz.iter().any(|c| !(*c as f32).is_finite()) {
                     return Err(format!(
                         "vertex {nv} (line {ln}) is not finite: {xyz:?} (NaN and Inf coordinates are not allowed)"
                     ));
@@ -271,8 +289,10 @@ fn check_obj_text(text: &str) -> ObjResult<()> {
     Ok(())
 }
 
-/// The transform of a shape description (defaults: no translation, no rotation, scale 1).
-fn transform(ctx: &Ctx, i: usize, d: &ShapeDesc) -> Result<Transform, SceneError> {
+/// The transform of a shape description (defaults: no translation, no rotation, scale 1),
+/// with its translation in f64 world coordinates (the returned transform's `translate` is
+/// zero; `build` sets it relative to the render origin).
+fn transform(ctx: &Ctx, i: usize, d: &ShapeDesc) -> Result<(Transform, DVec3), SceneError> {
     let scale = d.scale.unwrap_or(Triple::Scalar(1.0)).to_array();
     if scale.contains(&0.0) {
         let got = match d.scale {
@@ -284,14 +304,45 @@ fn transform(ctx: &Ctx, i: usize, d: &ShapeDesc) -> Result<Transform, SceneError
             format!("every scale factor must be nonzero (got {got})"),
         ));
     }
-    Ok(Transform {
-        translate: Vec3::from(d.translate.unwrap_or([0.0; 3])),
+    let t = Transform {
+        translate: Vec3::ZERO,
         rotate_deg: Vec3::from(d.rotate.unwrap_or([0.0; 3])),
         scale: Vec3::from(scale),
-    })
+    };
+    Ok((t, DVec3::from(d.translate.unwrap_or([0.0; 3]))))
 }
 
-fn local_mesh(ctx: &Ctx, i: usize, d: &ShapeDesc) -> Result<Mesh, SceneError> {
+/// `translate + R · (scale ∘ p)` in f64, for every vertex of `mesh`.
+fn world_f64(t: &Transform, translate: DVec3, mesh: &LocalMesh) -> impl Iterator<Item = DVec3> {
+    let (rot, scale) = (t.rotation_f64(), t.scale.as_dvec3());
+    mesh.positions.iter().map(move |&p| translate + rot * (scale * p))
+}
+
+/// Every shape's local mesh, in the order of `desc.shape` (OBJ files are read once).
+pub(crate) fn local_meshes(desc: &SceneDesc, ctx: &Ctx) -> Result<Vec<LocalMesh>, SceneError> {
+    desc.shape
+        .iter()
+        .enumerate()
+        .map(|(i, d)| local_mesh(ctx, i, d))
+        .collect()
+}
+
+/// The bounding box of every shape's world vertices (f64, before the render origin is
+/// chosen); shapes whose transform is invalid are skipped (they fail later with a message).
+pub(crate) fn world_bounds(desc: &SceneDesc, meshes: &[LocalMesh], ctx: &Ctx) -> Option<(DVec3, DVec3)> {
+    let mut b: Option<(DVec3, DVec3)> = None;
+    for ((i, d), mesh) in desc.shape.iter().enumerate().zip(meshes) {
+        let Ok((t, translate)) = transform(ctx, i, d) else {
+            continue;
+        };
+        for p in world_f64(&t, translate, mesh).filter(|p| p.is_finite()) {
+            b = Some(b.map_or((p, p), |(lo, hi)| (lo.min(p), hi.max(p))));
+        }
+    }
+    b
+}
+
+fn local_mesh(ctx: &Ctx, i: usize, d: &ShapeDesc) -> Result<LocalMesh, SceneError> {
     let at = |f: &str| item_field("shape", i, &d.name, f);
     if d.ty != ShapeType::Sphere && d.subdivisions.is_some() {
         return Err(ctx.invalid(
@@ -306,8 +357,8 @@ fn local_mesh(ctx: &Ctx, i: usize, d: &ShapeDesc) -> Result<Mesh, SceneError> {
         ));
     }
     Ok(match d.ty {
-        ShapeType::Rectangle => rectangle(),
-        ShapeType::Cube => cube(),
+        ShapeType::Rectangle => rectangle().into(),
+        ShapeType::Cube => cube().into(),
         ShapeType::Sphere => {
             let level = d.subdivisions.unwrap_or(DEFAULT_SUBDIVISIONS);
             if !(0..=MAX_SUBDIVISIONS).contains(&level) {
@@ -316,7 +367,7 @@ fn local_mesh(ctx: &Ctx, i: usize, d: &ShapeDesc) -> Result<Mesh, SceneError> {
                     format!("must be in 0..={MAX_SUBDIVISIONS} (got {level})"),
                 ));
             }
-            icosphere(level as u32)
+            icosphere(level as u32).into()
         }
         ShapeType::Obj => {
             let Some(file) = &d.file else {
@@ -346,16 +397,19 @@ fn degenerate(a: Vec3, b: Vec3, c: Vec3) -> bool {
     (b - a).cross(c - a) == Vec3::ZERO
 }
 
-/// Builds every shape and concatenates them into world-space geometry.
+/// Builds every shape and concatenates them into world-space geometry, relative to the render
+/// origin `origin` (subtracted in f64, then rounded to f32).
 pub(crate) fn build(
     desc: &SceneDesc,
     names: &Names,
     emitters: &[Emitter],
     ctx: &Ctx,
+    meshes: Vec<LocalMesh>,
+    origin: DVec3,
 ) -> Result<(Vec<Shape>, Geometry), SceneError> {
     let mut geo = Geometry::default();
     let mut shapes = Vec::with_capacity(desc.shape.len());
-    for (i, d) in desc.shape.iter().enumerate() {
+    for ((i, d), mesh) in desc.shape.iter().enumerate().zip(meshes) {
         let at = |f: &str| item_field("shape", i, &d.name, f);
         let material = match &d.material {
             Some(m) => names
@@ -371,9 +425,12 @@ pub(crate) fn build(
                 ));
             }
         };
-        let transform = transform(ctx, i, d)?;
-        let mesh = local_mesh(ctx, i, d)?;
-        let world: Vec<Vec3> = mesh.positions.iter().map(|&p| transform.apply(p)).collect();
+        let (mut transform, translate) = transform(ctx, i, d)?;
+        transform.translate = (translate - origin).as_vec3();
+        let world: Vec<Vec3> = world_f64(&transform, translate - origin, &mesh)
+            .map(|p| p.as_vec3())
+            .collect();
+        let local: Vec<Vec3> = mesh.positions.iter().map(|p| p.as_vec3()).collect();
         if let Some(k) = world.iter().position(|p| !p.is_finite()) {
             return Err(ctx.invalid(
                 at("translate"),
@@ -392,7 +449,7 @@ pub(crate) fn build(
             if a == b
                 || b == c
                 || a == c
-                || degenerate(mesh.positions[a], mesh.positions[b], mesh.positions[c])
+                || (mesh.positions[b] - mesh.positions[a]).cross(mesh.positions[c] - mesh.positions[a]) == DVec3::ZERO
                 || degenerate(world[a], world[b], world[c])
             {
                 dropped += 1;
@@ -428,7 +485,7 @@ pub(crate) fn build(
         shapes.push(Shape {
             name: d.name.clone(),
             transform,
-            local_positions: mesh.positions,
+            local_positions: local,
             first_vertex: first_vertex as u32,
             vertex_count: world.len() as u32,
             first_tri: first_tri as u32,
@@ -564,10 +621,9 @@ mod tests {
         // scale → (1,2,3); Ry(90°): (x,y,z) → (z, y, -x) → (3,2,-1); + (1,0,0)
         assert!((w - Vec3::new(4.0, 2.0, -1.0)).length() < 1e-5, "{w}");
         for (k, &p) in sh.local_positions.iter().enumerate() {
-            assert_eq!(
-                s.geometry.positions[sh.first_vertex as usize + k],
-                sh.transform.apply(p)
-            );
+            // built in f64 and rounded once: within an f32 ulp or two of the f32 transform
+            let d = s.geometry.positions[sh.first_vertex as usize + k] - sh.transform.apply(p);
+            assert!(d.abs().max_element() <= 1e-6, "{d}");
         }
         // X rotation is applied first: (0,1,0) → Rx(90) → (0,0,1) → Ry(90) → (1,0,0)
         let t = Transform {

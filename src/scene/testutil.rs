@@ -53,7 +53,7 @@ pub fn load_text(
     name: &str,
     text: &str,
     extra: &[(&str, &str)],
-    overrides: &[(String, f32)],
+    overrides: &[(String, f64)],
 ) -> Result<Scene, SceneError> {
     let dir = tempfile::tempdir().unwrap();
     for (n, t) in extra {
@@ -73,7 +73,7 @@ pub fn expect_err_set(
     name: &str,
     text: &str,
     extra: &[(&str, &str)],
-    overrides: &[(String, f32)],
+    overrides: &[(String, f64)],
     parts: &[&str],
 ) -> String {
     let msg = match load_text(name, text, extra, overrides) {

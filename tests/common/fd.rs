@@ -41,7 +41,7 @@ impl FdCheck {
     }
 
     fn load_with(&self, name: &str, value: Option<f32>) -> Scene {
-        let overrides: Vec<(String, f32)> = value.map(|v| vec![(name.to_string(), v)]).unwrap_or_default();
+        let overrides: Vec<(String, f64)> = value.map(|v| vec![(name.to_string(), v as f64)]).unwrap_or_default();
         let mut s = Scene::load(&super::scene_path(self.scene), &overrides).unwrap();
         (self.edit)(&mut s);
         s

@@ -58,3 +58,33 @@ pub fn two_sample_z(a: &[Vec<f64>], b: &[Vec<f64>]) -> (f64, f64, usize) {
     }
     (chi2, zmax, n)
 }
+
+fn add_to_position(v: &mut toml::Value, by: [f64; 3]) {
+    let a = v.as_array_mut().expect("a position is an array");
+    for (x, b) in a.iter_mut().zip(by) {
+        *x = toml::Value::Float(x.as_float().or_else(|| x.as_integer().map(|i| i as f64)).unwrap() + b);
+    }
+}
+
+/// The scene text with every world position moved by `by`: shape translations, camera
+/// position and target, point and laser positions.
+pub fn translated(text: &str, by: [f64; 3]) -> String {
+    let mut v: toml::Value = toml::from_str(text).unwrap();
+    add_to_position(&mut v["camera"]["position"], by);
+    add_to_position(&mut v["camera"]["look_at"], by);
+    for s in v["shape"].as_array_mut().unwrap() {
+        let t = s.as_table_mut().unwrap();
+        let tr = t
+            .entry("translate")
+            .or_insert(toml::Value::Array(vec![toml::Value::Float(0.0); 3]));
+        add_to_position(tr, by);
+    }
+    if let Some(es) = v.get_mut("emitter").and_then(|e| e.as_array_mut()) {
+        for e in es {
+            if let Some(p) = e.get_mut("position") {
+                add_to_position(p, by);
+            }
+        }
+    }
+    toml::to_string(&v).unwrap()
+}

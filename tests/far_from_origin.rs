@@ -1,0 +1,184 @@
+//! A scene far from the world origin renders like the same scene at the origin (issue 9,
+//! part 3): the Cornell box and a 20 cm cube's shadow, written as scene text with their
+//! coordinates moved by 10³ … 10⁶ m and loaded through the parser (so the f64 positions and
+//! the render origin of `src/scene/origin.rs` are what is tested), with 1 mm bins. Compared
+//! over several seeds: image energy, mean arrival OPL and the shadow's pixels.
+//!
+//! Before the render origin, coordinates were f32 from the parser on (6 cm steps at 10⁶ m)
+//! and the self-intersection offset (2⁻¹⁸ of the coordinates) skipped the cube at 10⁵ m.
+
+mod common;
+use difftransient::scene::Format;
+use difftransient::{Scene, Transient};
+use std::path::Path;
+
+/// Seeds per scene; z bounds of 4 keep 4 distances × 2 scenes × 3 measures (24 tests) below
+/// a 0.2% chance of a false alarm (Bonferroni).
+const SEEDS: u64 = 6;
+const Z: f64 = 4.0;
+
+/// The distances tried, along a direction with no round coordinates (so that the render
+/// origin, a multiple of a power of two, does not simply undo the move).
+fn offsets() -> Vec<[f64; 3]> {
+    [1e3, 1e4, 1e5, 1e6]
+        .iter()
+        .map(|&d| [d + 0.123_456, -0.37 * d + 0.311, 0.61 * d - 0.077])
+        .collect()
+}
+
+fn load(text: &str) -> Scene {
+    Scene::from_str(text, Format::Toml, Path::new("far.toml"), &[]).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// The Cornell box, small: 16×16, 4 bounces, 1 mm bins from 2 m to 12 m.
+fn cornell_text() -> String {
+    let text = std::fs::read_to_string(common::scene_path("cornell_box.toml")).unwrap();
+    let mut v: toml::Value = toml::from_str(&text).unwrap();
+    v["camera"]["resolution"] = toml::Value::try_from([16, 16]).unwrap();
+    v["integrator"]["max_bounces"] = toml::Value::Integer(4);
+    v["film"]["start_opl"] = toml::Value::Float(2.0);
+    v["film"]["bin_width_opl"] = toml::Value::Float(0.001);
+    v["film"]["bins"] = toml::Value::Integer(10_000);
+    toml::to_string(&v).unwrap()
+}
+
+/// A 20 cm cube resting on a 4 m floor under a point light, seen from above; direct light
+/// only, so the shadow's inside is exactly dark.
+const SHADOW: &str = r#"
+[integrator]
+max_bounces = 1
+[camera]
+position = [0.0, 3.0, 0.0]
+look_at = [0.0, 0.0, 0.0]
+up = [0.0, 0.0, -1.0]
+fov = 20.0
+resolution = [24, 24]
+[film]
+start_opl = 3.5
+bin_width_opl = 0.001
+bins = 2500
+channels = "mono"
+[[material]]
+name = "white"
+type = "diffuse"
+albedo = 0.7
+[[shape]]
+name = "floor"
+type = "rectangle"
+material = "white"
+rotate = [-90.0, 0.0, 0.0]
+scale = 2.0
+[[shape]]
+name = "cube"
+type = "cube"
+material = "white"
+translate = [0.1, 0.1, 0.0]
+scale = 0.1
+[[emitter]]
+name = "lamp"
+type = "point"
+position = [0.6, 0.5, 0.1]
+intensity = 3.0
+"#;
+
+/// Time-summed image energy and mean arrival OPL of one render.
+fn energy_and_mean_opl(t: &Transient) -> (f64, f64) {
+    let bt = t.bin_totals();
+    let e: f64 = bt.iter().map(|&v| v as f64).sum();
+    let m = bt
+        .iter()
+        .enumerate()
+        .map(|(l, &v)| t.axis.bin_centre(l) * v as f64)
+        .sum::<f64>()
+        / e;
+    (e, m)
+}
+
+fn renders(scene: &Scene, spp: u32, seed0: u64) -> Vec<Transient> {
+    (0..SEEDS)
+        .map(|k| {
+            let t = common::render_with(scene, spp, seed0 + k, 2);
+            assert_eq!(t.non_finite_count(), 0);
+            t
+        })
+        .collect()
+}
+
+/// Per render: energy, mean OPL, and the time-summed energy in each of `regions` (pixel
+/// index sets).
+fn measure(ts: &[Transient], regions: &[Vec<usize>]) -> Vec<Vec<f64>> {
+    ts.iter()
+        .map(|t| {
+            let (e, m) = energy_and_mean_opl(t);
+            let mut row = vec![e, m];
+            for r in regions {
+                let px = |p: usize| {
+                    (0..t.channels)
+                        .map(|c| t.steady[p * t.channels + c] as f64)
+                        .sum::<f64>()
+                };
+                row.push(r.iter().map(|&p| px(p)).sum());
+            }
+            row
+        })
+        .collect()
+}
+
+/// Asserts every measure agrees within `Z` standard errors of the difference.
+fn agree(what: &str, labels: &[&str], near: &[Vec<f64>], far: &[Vec<f64>]) {
+    for (i, label) in labels.iter().enumerate() {
+        let (ma, sa) = common::mean_se(&near.iter().map(|r| r[i]).collect::<Vec<_>>());
+        let (mb, sb) = common::mean_se(&far.iter().map(|r| r[i]).collect::<Vec<_>>());
+        let se = (sa * sa + sb * sb).sqrt();
+        assert!(
+            (ma - mb).abs() <= Z * se,
+            "{what}: {label} at the origin {ma} ± {sa}, far {mb} ± {sb} (z = {:.1})",
+            (mb - ma) / se
+        );
+    }
+}
+
+#[test]
+fn cornell_box_far_from_the_origin_matches_it_at_the_origin() {
+    let text = cornell_text();
+    let near = measure(&renders(&load(&text), 8, 0), &[]);
+    for by in offsets() {
+        let far = measure(&renders(&load(&common::translated(&text, by)), 8, 100), &[]);
+        agree(
+            &format!("Cornell box moved by {by:?}"),
+            &["energy", "mean OPL"],
+            &near,
+            &far,
+        );
+    }
+}
+
+#[test]
+fn small_shadow_far_from_the_origin_matches_it_at_the_origin() {
+    let scene = load(SHADOW);
+    let ts = renders(&scene, 16, 0);
+    // the shadow: pixels that are dark (or half dark) at the origin, over all seeds
+    let n = (scene.film.width * scene.film.height) as usize;
+    let mean: Vec<f64> = (0..n)
+        .map(|p| ts.iter().map(|t| t.steady[p] as f64).sum::<f64>() / SEEDS as f64)
+        .collect();
+    let lit = mean.iter().cloned().fold(0.0, f64::max);
+    let umbra: Vec<usize> = (0..n).filter(|&p| mean[p] == 0.0).collect();
+    let shadow: Vec<usize> = (0..n).filter(|&p| mean[p] < 0.5 * lit).collect();
+    assert!(
+        umbra.len() >= 8 && shadow.len() > umbra.len(),
+        "{} {}",
+        umbra.len(),
+        shadow.len()
+    );
+    let regions = [umbra.clone(), shadow];
+    let near = measure(&ts, &regions);
+    for by in offsets() {
+        let far = measure(&renders(&load(&common::translated(SHADOW, by)), 16, 100), &regions);
+        let what = format!("20 cm cube's shadow moved by {by:?}");
+        // the umbra is exactly dark at the origin; far away it must stay so
+        let lost: f64 = far.iter().map(|r| r[2]).sum();
+        assert_eq!(lost, 0.0, "{what}: light in the umbra ({} pixels): {lost}", umbra.len());
+        agree(&what, &["energy", "mean OPL", "umbra", "shadow"], &near, &far);
+    }
+}

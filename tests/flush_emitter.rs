@@ -1,0 +1,95 @@
+//! An area light flush with the ceiling (issue 9, part 4): the Cornell light quad at the
+//! ceiling's height (y = 2, coplanar with it) renders like the same quad 1 mm below it, with
+//! both integrators, over several seeds: image energy and the light's own pixels. The
+//! emitting face wins (src/scene/flush.rs); before, Embree returned either coplanar triangle
+//! and about 20% of the light was lost, differently per seed.
+
+mod common;
+use difftransient::scene::{Format, IntegratorKind};
+use difftransient::{RenderOptions, Scene, Transient};
+use std::path::Path;
+
+const SEEDS: u64 = 6;
+/// 2 integrators × 2 measures: a z bound of 3.5 keeps a false alarm below 0.2%.
+const Z: f64 = 3.5;
+
+/// The Cornell box (32×32, 4 bounces) with its light quad at height `y`.
+fn cornell_with_light_at(y: f64) -> Scene {
+    let text = std::fs::read_to_string(common::scene_path("cornell_box.toml")).unwrap();
+    let mut v: toml::Value = toml::from_str(&text).unwrap();
+    v["camera"]["resolution"] = toml::Value::try_from([32, 32]).unwrap();
+    v["integrator"]["max_bounces"] = toml::Value::Integer(4);
+    let light = v["shape"]
+        .as_array_mut()
+        .unwrap()
+        .iter_mut()
+        .find(|s| s["name"].as_str() == Some("light_quad"))
+        .unwrap();
+    light["translate"] = toml::Value::try_from([0.0, y, 0.0]).unwrap();
+    Scene::from_str(
+        &toml::to_string(&v).unwrap(),
+        Format::Toml,
+        Path::new("flush.toml"),
+        &[],
+    )
+    .unwrap_or_else(|e| panic!("{e}"))
+}
+
+fn renders(scene: &Scene, kind: IntegratorKind, seed0: u64) -> Vec<Transient> {
+    (0..SEEDS)
+        .map(|k| {
+            let opts = RenderOptions {
+                spp: Some(4),
+                seed: Some(seed0 + k),
+                threads: Some(2),
+                integrator: Some(kind),
+                ..Default::default()
+            };
+            difftransient::render(scene, &opts).unwrap().0
+        })
+        .collect()
+}
+
+/// Time-summed value of pixel `p`, channels summed.
+fn pixel(t: &Transient, p: usize) -> f64 {
+    (0..t.channels).map(|c| t.steady[p * t.channels + c] as f64).sum()
+}
+
+#[test]
+fn a_light_flush_with_the_ceiling_matches_one_just_below_it() {
+    let (flush, below) = (cornell_with_light_at(2.0), cornell_with_light_at(1.999));
+    assert_eq!(flush.lifted_emitters, ["light_quad"]);
+    assert!(below.lifted_emitters.is_empty());
+    for kind in [IntegratorKind::Path, IntegratorKind::Bdpt] {
+        let a = renders(&below, kind, 0);
+        let b = renders(&flush, kind, 100);
+        // the light's own pixels: those whose every sample sees it (mean above 30 of 33)
+        let n = (below.film.width * below.film.height) as usize;
+        let light: Vec<usize> = (0..n)
+            .filter(|&p| a.iter().map(|t| pixel(t, p)).sum::<f64>() / SEEDS as f64 > 30.0)
+            .collect();
+        assert!(light.len() >= 4, "{kind:?}: {} light pixels", light.len());
+        let measures = |ts: &[Transient]| -> [Vec<f64>; 2] {
+            [
+                ts.iter().map(|t| t.steady.iter().map(|&v| v as f64).sum()).collect(),
+                ts.iter()
+                    .map(|t| light.iter().map(|&p| pixel(t, p)).sum::<f64>() / light.len() as f64)
+                    .collect(),
+            ]
+        };
+        for ((label, x), y) in ["image energy", "light pixels (mean)"]
+            .iter()
+            .zip(measures(&a))
+            .zip(measures(&b))
+        {
+            let (ma, sa) = common::mean_se(&x);
+            let (mb, sb) = common::mean_se(&y);
+            let se = (sa * sa + sb * sb).sqrt();
+            assert!(
+                (ma - mb).abs() <= Z * se,
+                "{kind:?}: {label} 1 mm below {ma} ± {sa}, flush {mb} ± {sb} (z = {:.1})",
+                (mb - ma) / se
+            );
+        }
+    }
+}
