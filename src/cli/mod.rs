@@ -1,6 +1,7 @@
 //! The `dtr` command line: argument parsing and the commands it runs.
 
 mod info;
+pub mod output_set;
 mod render_cmd;
 
 use clap::{Parser, Subcommand};

@@ -1,5 +1,6 @@
 //! `dtr render`.
 
+use super::output_set::{OutputSet, with_suffix};
 use crate::film::Transient;
 use crate::output::{self, FilmView};
 use crate::render::{BoundaryMode, Lanes, RenderOptions, RenderStats, render, render_diff, render_strategies};
@@ -13,7 +14,9 @@ use std::path::{Path, PathBuf};
 pub struct RenderArgs {
     /// Scene description (.toml or .json).
     pub scene: PathBuf,
-    /// Output prefix: writes PREFIX.npy ([H, W, T, C] float32) and PREFIX.json.
+    /// Output prefix: writes PREFIX.npy ([H, W, T, C] float32) and PREFIX.json. A trailing
+    /// .npy is dropped; a folder (ending in /) gets the scene file's name. Outputs never
+    /// replace an input and appear all at once.
     #[arg(short = 'o', long = "output", value_name = "PREFIX")]
     pub output: PathBuf,
     /// Samples per pixel (overrides the scene).
@@ -117,6 +120,16 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
     if a.strategies && !a.diff.is_empty() {
         bail!("--strategies writes primal transients only; run it without --diff");
     }
+    // Everything about the outputs is checked before the render (src/cli/output_set.rs).
+    let mut planned: Vec<String> = vec!["npy".into(), "json".into()];
+    planned.extend(a.diff.iter().map(|n| format!("d_{n}.npy")));
+    if a.exr {
+        planned.push("exr".into());
+    }
+    if a.preview {
+        planned.extend(["frames.png", "steady.png", "plot.png"].map(String::from));
+    }
+    let mut set = OutputSet::prepare(&a.output, &scene.inputs, &a.scene, &planned)?;
     let mut strategies = Vec::new();
     let (film, derivs, stats) = if a.strategies {
         let (f, per, s) = render_strategies(&scene, &opts)?;
@@ -137,24 +150,23 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
     if bad > 0 {
         bail!("internal error: {bad} non-finite values in the transient; nothing written");
     }
-    let prefix = |ext: &str| with_suffix(&a.output, ext);
-    if let Some(parent) = a.output.parent().filter(|p| !p.as_os_str().is_empty()) {
-        std::fs::create_dir_all(parent).with_context(|| format!("cannot create output folder {}", parent.display()))?;
-    }
-    output::write_npy(&prefix("npy"), &film.shape(), &film.data)?;
+    output::write_npy(&set.stage("npy")?, &film.shape(), &film.data)?;
     for (name, d) in a.diff.iter().zip(&derivs) {
-        output::write_npy(&prefix(&format!("d_{name}.npy")), &d.shape(), &d.data)?;
+        output::write_npy(&set.stage(&format!("d_{name}.npy"))?, &d.shape(), &d.data)?;
     }
     for ((s, t), f) in &strategies {
-        output::write_npy(&prefix(&format!("s{s}_t{t}.npy")), &f.shape(), &f.data)?;
+        output::write_npy(&set.stage(&format!("s{s}_t{t}.npy"))?, &f.shape(), &f.data)?;
     }
     if a.exr {
-        output::write_exr_layers(&prefix("exr"), view(&film))?;
+        output::write_exr_layers(&set.stage("exr")?, view(&film))?;
     }
     if a.preview {
-        write_previews(&film, &prefix, pixel)?;
+        write_previews(&film, &mut set, pixel)?;
     }
-    output::write_json(&prefix("json"), &metadata(&scene, &film, &stats, &a))?;
+    let meta = metadata(&scene, &film, &stats, &a, set.prefix());
+    output::write_json(&set.stage("json")?, &meta)?;
+    let prefix_path = set.commit()?;
+    let prefix = |ext: &str| with_suffix(&prefix_path, ext);
     if !a.quiet {
         eprintln!(
             "{}: {}x{}x{}x{} in {:.2} s ({:.3e} paths/CPU-s, {:.3e} rays/s)",
@@ -189,14 +201,6 @@ fn view(film: &Transient) -> FilmView<'_> {
     }
 }
 
-/// `PREFIX.ext`, keeping any dots already in the prefix.
-pub fn with_suffix(prefix: &Path, ext: &str) -> PathBuf {
-    let mut s = prefix.as_os_str().to_owned();
-    s.push(".");
-    s.push(ext);
-    PathBuf::from(s)
-}
-
 fn parse_pixel(s: &str, scene: &Scene) -> anyhow::Result<(usize, usize)> {
     let (x, y) = s.split_once(',').context("--pixel: expected X,Y")?;
     let x: usize = x.trim().parse().context("--pixel: X is not a non-negative integer")?;
@@ -211,14 +215,10 @@ fn parse_pixel(s: &str, scene: &Scene) -> anyhow::Result<(usize, usize)> {
     Ok((x, y))
 }
 
-fn write_previews(
-    film: &Transient,
-    prefix: &dyn Fn(&str) -> PathBuf,
-    pixel: Option<(usize, usize)>,
-) -> anyhow::Result<()> {
-    output::write_contact_sheet(&prefix("frames.png"), view(film), None)?;
+fn write_previews(film: &Transient, set: &mut OutputSet, pixel: Option<(usize, usize)>) -> anyhow::Result<()> {
+    output::write_contact_sheet(&set.stage("frames.png")?, view(film), None)?;
     output::write_steady_png(
-        &prefix("steady.png"),
+        &set.stage("steady.png")?,
         &film.steady,
         film.height,
         film.width,
@@ -230,14 +230,14 @@ fn write_previews(
         (format!("pixel ({px}, {py})"), film.pixel_series(px, py)),
     ];
     output::write_time_plot(
-        &prefix("plot.png"),
+        &set.stage("plot.png")?,
         (film.axis.start_opl, film.axis.bin_width_opl, film.axis.bins),
         &series,
     )?;
     Ok(())
 }
 
-fn metadata(scene: &Scene, film: &Transient, stats: &RenderStats, a: &RenderArgs) -> serde_json::Value {
+fn metadata(scene: &Scene, film: &Transient, stats: &RenderStats, a: &RenderArgs, prefix: &Path) -> serde_json::Value {
     let axis = film.axis;
     let ns = |opl: f32| opl as f64 / SPEED_OF_LIGHT_M_PER_S * 1e9;
     let params: serde_json::Map<String, serde_json::Value> =
@@ -262,7 +262,7 @@ fn metadata(scene: &Scene, film: &Transient, stats: &RenderStats, a: &RenderArgs
         "params": params,
         // the file's coordinates minus this (in f64) are what was rendered (scene/origin.rs)
         "render_origin": scene.render_origin,
-        "derivatives": a.diff.iter().map(|n| json!({"param": n, "file": format!("{}.d_{n}.npy", a.output.display()), "estimator": if stats.boundary.is_some() { "interior (Algorithm 1) + boundary (Algorithm 2: secondary edges; primary edges)" } else { "interior (Algorithm 1)" }})).collect::<Vec<_>>(),
+        "derivatives": a.diff.iter().map(|n| json!({"param": n, "file": format!("{}.d_{n}.npy", prefix.display()), "estimator": if stats.boundary.is_some() { "interior (Algorithm 1) + boundary (Algorithm 2: secondary edges; primary edges)" } else { "interior (Algorithm 1)" }})).collect::<Vec<_>>(),
         "spp": stats.spp,
         "seed": stats.seed,
         "threads": stats.threads,

@@ -211,6 +211,9 @@ pub struct Param {
 pub struct Scene {
     /// The file it came from (for messages).
     pub source: PathBuf,
+    /// Every file the scene was read from: the scene file and the OBJ meshes it names. No
+    /// output may replace one of them (`cli::output_set`).
+    pub inputs: Vec<PathBuf>,
     pub shapes: Vec<Shape>,
     pub geometry: Geometry,
     pub materials: Vec<NamedMaterial>,

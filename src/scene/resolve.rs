@@ -139,6 +139,14 @@ pub(crate) fn resolve(mut desc: SceneDesc, path: &Path, overrides: &[(String, f6
 
     Ok(Scene {
         source: path.to_path_buf(),
+        inputs: std::iter::once(path.to_path_buf())
+            .chain(
+                desc.shape
+                    .iter()
+                    .filter_map(|d| d.file.as_deref())
+                    .map(|f| super::shapes::obj_path(path, f)),
+            )
+            .collect(),
         shapes,
         geometry,
         materials,

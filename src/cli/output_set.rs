@@ -1,0 +1,304 @@
+//! The files of one render (`PREFIX.npy`, `PREFIX.json`, derivatives, EXR, previews) appear
+//! whole or not at all, never replace an input, and never mix with another render's.
+//!
+//! - **`-o` rules.** `-o out` writes `out.npy`, `out.json`, …; a trailing `.npy` is dropped
+//!   (`-o out.npy` is `-o out`); `-o dir/` or an existing folder writes `dir/SCENE.npy`, …
+//!   with the scene file's stem. A missing output folder is created.
+//! - **Checked before rendering.** The folder is created and written to (the lock file), and
+//!   every output the render will write is checked: none may be an input (the scene file or
+//!   an OBJ it names, compared by device and inode, so links and other spellings count), and
+//!   none may be an existing folder. A bad `-o` fails in milliseconds, not after the render.
+//! - **One writer per prefix.** `.NAME.dtr-lock` in the output folder is locked (an advisory
+//!   `flock`) from before the render until the set is in place; a second render to the same
+//!   prefix is refused with a message naming the lock.
+//! - **Whole or nothing.** Every file is written into a staging folder beside the outputs and
+//!   moved into place only when all of them are written, the JSON last (its presence marks a
+//!   complete set). A failure before that removes the staging folder.
+//! - **Signals.** SIGINT and SIGTERM remove the staging folder and the lock file and exit
+//!   with 128 + the signal number; no temporary file is left behind.
+
+use anyhow::{Context, bail};
+use std::fs::File;
+use std::path::{Path, PathBuf};
+use std::sync::Mutex;
+
+/// Paths that the signal thread removes before exiting (staging folders, lock files).
+static ON_SIGNAL: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
+
+/// Starts the thread that cleans up on SIGINT/SIGTERM (once per process).
+fn install_signal_cleanup() -> anyhow::Result<()> {
+    static STARTED: std::sync::Once = std::sync::Once::new();
+    let mut result = Ok(());
+    STARTED.call_once(|| {
+        use signal_hook::consts::{SIGINT, SIGTERM};
+        match signal_hook::iterator::Signals::new([SIGINT, SIGTERM]) {
+            Ok(mut signals) => {
+                std::thread::spawn(move || {
+                    if let Some(sig) = signals.forever().next() {
+                        let paths = ON_SIGNAL.lock().map(|p| p.clone()).unwrap_or_default();
+                        for p in paths {
+                            let _ = if p.is_dir() {
+                                std::fs::remove_dir_all(&p)
+                            } else {
+                                std::fs::remove_file(&p)
+                            };
+                        }
+                        eprintln!("dtr: interrupted (signal {sig}); nothing was written");
+                        std::process::exit(128 + sig);
+                    }
+                });
+            }
+            Err(e) => result = Err(e),
+        }
+    });
+    result.context("cannot install the SIGINT/SIGTERM handler")
+}
+
+fn watch(p: &Path) {
+    if let Ok(mut v) = ON_SIGNAL.lock() {
+        v.push(p.to_path_buf());
+    }
+}
+
+fn unwatch(p: &Path) {
+    if let Ok(mut v) = ON_SIGNAL.lock() {
+        v.retain(|q| q != p);
+    }
+}
+
+/// The prefix that `-o` names (see the module docs).
+pub fn resolve_prefix(output: &Path, scene: &Path) -> anyhow::Result<PathBuf> {
+    let text = output.as_os_str().to_string_lossy();
+    let names_folder = text.ends_with('/') || output.is_dir();
+    if names_folder {
+        let stem = scene.file_stem().filter(|s| !s.is_empty()).with_context(|| {
+            format!(
+                "-o {}: a folder, and the scene file has no name to use",
+                output.display()
+            )
+        })?;
+        return Ok(output.join(stem));
+    }
+    let prefix = match text.strip_suffix(".npy") {
+        Some(p) => PathBuf::from(p),
+        None => output.to_path_buf(),
+    };
+    match prefix.file_name() {
+        Some(n) if !n.is_empty() && n != "." && n != ".." => Ok(prefix),
+        _ => bail!(
+            "-o {}: expected an output prefix such as out/run1 (files out/run1.npy, out/run1.json, ...)",
+            output.display()
+        ),
+    }
+}
+
+/// `PREFIX.ext`, keeping any dots already in the prefix.
+pub fn with_suffix(prefix: &Path, ext: &str) -> PathBuf {
+    let mut s = prefix.as_os_str().to_owned();
+    s.push(".");
+    s.push(ext);
+    PathBuf::from(s)
+}
+
+#[cfg(unix)]
+fn same_file(a: &std::fs::Metadata, b: &std::fs::Metadata) -> bool {
+    use std::os::unix::fs::MetadataExt;
+    a.dev() == b.dev() && a.ino() == b.ino()
+}
+
+#[cfg(not(unix))]
+fn same_file(_: &std::fs::Metadata, _: &std::fs::Metadata) -> bool {
+    false
+}
+
+/// A render's output set while it is prepared and written.
+pub struct OutputSet {
+    prefix: PathBuf,
+    inputs: Vec<(PathBuf, std::fs::Metadata)>,
+    lock_path: PathBuf,
+    _lock: File,
+    staging: Option<tempfile::TempDir>,
+    /// (staged file, destination), in the order they were added.
+    files: Vec<(PathBuf, PathBuf)>,
+}
+
+impl OutputSet {
+    /// Resolves `-o`, creates the folder, takes the prefix's lock and checks that none of
+    /// `suffixes` (`"npy"`, `"json"`, …) would replace an input or a folder. Call it before
+    /// rendering.
+    pub fn prepare(output: &Path, scene_inputs: &[PathBuf], scene: &Path, suffixes: &[String]) -> anyhow::Result<Self> {
+        install_signal_cleanup()?;
+        let prefix = resolve_prefix(output, scene)?;
+        let dir = match prefix.parent() {
+            Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+            _ => PathBuf::from("."),
+        };
+        std::fs::create_dir_all(&dir).with_context(|| {
+            format!(
+                "-o {}: cannot create the output folder {}",
+                output.display(),
+                dir.display()
+            )
+        })?;
+        let inputs: Vec<(PathBuf, std::fs::Metadata)> = scene_inputs
+            .iter()
+            .filter_map(|p| std::fs::metadata(p).ok().map(|m| (p.clone(), m)))
+            .collect();
+        let name = prefix.file_name().unwrap_or_default().to_string_lossy().into_owned();
+        let lock_path = dir.join(format!(".{name}.dtr-lock"));
+        let lock = Self::lock(&lock_path, &prefix)?;
+        let set = Self {
+            prefix,
+            inputs,
+            lock_path,
+            _lock: lock,
+            staging: None,
+            files: Vec::new(),
+        };
+        for s in suffixes {
+            set.check_destination(&with_suffix(&set.prefix, s))?;
+        }
+        Ok(set)
+    }
+
+    /// Creates and locks `path`; refuses when another process holds the lock. Retries when
+    /// the file was removed and recreated between opening and locking it (its holder just
+    /// finished), so that two renders never both hold a lock on the same prefix.
+    fn lock(path: &Path, prefix: &Path) -> anyhow::Result<File> {
+        loop {
+            let f = std::fs::OpenOptions::new()
+                .create(true)
+                .truncate(false)
+                .write(true)
+                .open(path)
+                .with_context(|| {
+                    format!(
+                        "cannot write to the output folder of {} (creating {})",
+                        prefix.display(),
+                        path.display()
+                    )
+                })?;
+            match f.try_lock() {
+                Ok(()) => {}
+                Err(std::fs::TryLockError::WouldBlock) => bail!(
+                    "another dtr render is writing {} (it holds {}); wait for it or choose another -o",
+                    prefix.display(),
+                    path.display()
+                ),
+                Err(std::fs::TryLockError::Error(e)) => {
+                    return Err(e).with_context(|| format!("cannot lock {}", path.display()));
+                }
+            }
+            let still_there = match (f.metadata(), std::fs::metadata(path)) {
+                (Ok(a), Ok(b)) => same_file(&a, &b) || cfg!(not(unix)),
+                _ => false,
+            };
+            if still_there {
+                watch(path);
+                return Ok(f);
+            }
+        }
+    }
+
+    /// Refuses a destination that is an input or an existing folder.
+    fn check_destination(&self, dest: &Path) -> anyhow::Result<()> {
+        let Ok(meta) = std::fs::metadata(dest) else {
+            return Ok(());
+        };
+        if meta.is_dir() {
+            bail!("output {} is an existing folder; choose another -o", dest.display());
+        }
+        if let Some((input, _)) = self.inputs.iter().find(|(_, m)| same_file(m, &meta)) {
+            bail!(
+                "output {} would replace the input {}; nothing was rendered. Choose another -o",
+                dest.display(),
+                input.display()
+            );
+        }
+        Ok(())
+    }
+
+    /// The prefix the outputs are named after.
+    pub fn prefix(&self) -> &Path {
+        &self.prefix
+    }
+
+    /// Where to write the output `PREFIX.suffix` now; it reaches its place in [`commit`].
+    ///
+    /// [`commit`]: Self::commit
+    pub fn stage(&mut self, suffix: &str) -> anyhow::Result<PathBuf> {
+        if self.staging.is_none() {
+            let dir = self.lock_path.parent().unwrap_or(Path::new("."));
+            let name = self
+                .prefix
+                .file_name()
+                .unwrap_or_default()
+                .to_string_lossy()
+                .into_owned();
+            let tmp = tempfile::Builder::new()
+                .prefix(&format!(".{name}.dtr-staging-"))
+                .tempdir_in(dir)
+                .with_context(|| format!("cannot write to the output folder {}", dir.display()))?;
+            watch(tmp.path());
+            self.staging = Some(tmp);
+        }
+        let dest = with_suffix(&self.prefix, suffix);
+        self.check_destination(&dest)?;
+        let staged = self.staging.as_ref().expect("created above").path().join(suffix);
+        self.files.push((staged.clone(), dest));
+        Ok(staged)
+    }
+
+    /// Moves every staged file into place, the JSON last, after checking every destination
+    /// once more.
+    pub fn commit(mut self) -> anyhow::Result<PathBuf> {
+        for (_, dest) in &self.files {
+            self.check_destination(dest)?;
+        }
+        self.files
+            .sort_by_key(|(_, d)| d.extension().is_some_and(|e| e == "json"));
+        for (staged, dest) in &self.files {
+            std::fs::rename(staged, dest).with_context(|| format!("cannot move {} into place", dest.display()))?;
+        }
+        Ok(self.prefix.clone())
+    }
+}
+
+impl Drop for OutputSet {
+    fn drop(&mut self) {
+        if let Some(s) = self.staging.take() {
+            unwatch(s.path());
+            drop(s);
+        }
+        unwatch(&self.lock_path);
+        let _ = std::fs::remove_file(&self.lock_path);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn prefix_rules() {
+        let scene = Path::new("scenes/room.toml");
+        assert_eq!(
+            resolve_prefix(Path::new("out/a"), scene).unwrap(),
+            PathBuf::from("out/a")
+        );
+        assert_eq!(
+            resolve_prefix(Path::new("out/a.npy"), scene).unwrap(),
+            PathBuf::from("out/a")
+        );
+        assert_eq!(
+            resolve_prefix(Path::new("out/a.b"), scene).unwrap(),
+            PathBuf::from("out/a.b")
+        );
+        assert_eq!(
+            resolve_prefix(Path::new("out/"), scene).unwrap(),
+            PathBuf::from("out/room")
+        );
+        assert!(resolve_prefix(Path::new(".npy"), scene).is_err());
+        assert_eq!(resolve_prefix(Path::new(".."), scene).unwrap(), PathBuf::from("../room"));
+    }
+}

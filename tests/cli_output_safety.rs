@@ -1,0 +1,172 @@
+//! Outputs never replace an input, are checked before the render, appear whole or not at
+//! all, never mix two renders, and leave nothing behind on SIGTERM (issue 14, data safety;
+//! src/cli/output_set.rs). Each case failed before that module: `dtr render room.json -o
+//! room` replaced the scene with the run's metadata (exit 0), `-o out.npy` wrote
+//! `out.npy.npy`, `-o dir/` wrote a hidden `dir/.npy`, a failed JSON write left `y.npy`
+//! without `y.json`, and a signal during the write left hidden `.tmp` files.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn dtr(args: &[&str], cwd: &Path) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_dtr"))
+        .current_dir(cwd)
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// A folder holding `room.toml` (diff_room.toml) and the same scene as `room.json`.
+fn workdir() -> tempfile::TempDir {
+    let dir = tempfile::tempdir().unwrap();
+    let src = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes/diff_room.toml");
+    let text = std::fs::read_to_string(src).unwrap();
+    std::fs::write(dir.path().join("room.toml"), &text).unwrap();
+    let value: toml::Value = toml::from_str(&text).unwrap();
+    std::fs::write(dir.path().join("room.json"), serde_json::to_string(&value).unwrap()).unwrap();
+    dir
+}
+
+fn listing(dir: &Path) -> Vec<String> {
+    let mut v: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    v.sort();
+    v
+}
+
+#[test]
+fn an_output_never_replaces_the_scene() {
+    let dir = workdir();
+    let before = std::fs::read(dir.path().join("room.json")).unwrap();
+    let o = dtr(&["render", "room.json", "-o", "room", "--spp", "1", "-q"], dir.path());
+    assert!(!o.status.success(), "rendered over its own scene");
+    let e = stderr(&o);
+    assert!(e.contains("would replace the input") && e.contains("room.json"), "{e}");
+    assert_eq!(std::fs::read(dir.path().join("room.json")).unwrap(), before);
+    assert_eq!(listing(dir.path()), ["room.json", "room.toml"]);
+    // the same file under another name (a hard link) is refused too
+    std::fs::hard_link(dir.path().join("room.toml"), dir.path().join("alias.json")).unwrap();
+    let o = dtr(&["render", "room.toml", "-o", "alias", "--spp", "1", "-q"], dir.path());
+    assert!(!o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("would replace the input"), "{}", stderr(&o));
+}
+
+#[test]
+fn an_obj_input_is_never_replaced() {
+    let dir = tempfile::tempdir().unwrap();
+    let scenes = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    std::fs::copy(scenes.join("obj_mesh.toml"), dir.path().join("obj_mesh.toml")).unwrap();
+    std::fs::create_dir(dir.path().join("meshes")).unwrap();
+    std::fs::copy(scenes.join("meshes/pyramid.obj"), dir.path().join("meshes/pyramid.obj")).unwrap();
+    // an output set named after the mesh: PREFIX.exr would be harmless, but take a link
+    std::fs::hard_link(dir.path().join("meshes/pyramid.obj"), dir.path().join("mesh.json")).unwrap();
+    let o = dtr(
+        &["render", "obj_mesh.toml", "-o", "mesh", "--spp", "1", "-q"],
+        dir.path(),
+    );
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("pyramid.obj"), "{}", stderr(&o));
+}
+
+#[test]
+fn output_prefix_rules() {
+    let dir = workdir();
+    let o = dtr(
+        &["render", "room.toml", "-o", "out.npy", "--spp", "1", "-q"],
+        dir.path(),
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(dir.path().join("out.npy").is_file() && dir.path().join("out.json").is_file());
+    assert!(!dir.path().join("out.npy.npy").exists());
+    let o = dtr(
+        &["render", "room.toml", "-o", "folder/", "--spp", "1", "-q"],
+        dir.path(),
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(listing(&dir.path().join("folder")), ["room.json", "room.npy"]);
+}
+
+#[test]
+fn a_bad_output_location_fails_before_rendering() {
+    let dir = workdir();
+    std::fs::write(dir.path().join("plain_file"), b"x").unwrap();
+    // a huge render: only a check before rendering can answer at once
+    let o = dtr(
+        &["render", "room.toml", "-o", "plain_file/x", "--spp", "100000000", "-q"],
+        dir.path(),
+    );
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("cannot create the output folder"), "{}", stderr(&o));
+    std::fs::create_dir(dir.path().join("y.json")).unwrap();
+    let o = dtr(
+        &["render", "room.toml", "-o", "y", "--spp", "100000000", "-q"],
+        dir.path(),
+    );
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("is an existing folder"), "{}", stderr(&o));
+    assert!(!dir.path().join("y.npy").exists(), "half a set was written");
+}
+
+#[test]
+fn a_second_render_to_a_locked_prefix_is_refused() {
+    let dir = workdir();
+    let lock = std::fs::OpenOptions::new()
+        .create(true)
+        .truncate(false)
+        .write(true)
+        .open(dir.path().join(".busy.dtr-lock"))
+        .unwrap();
+    lock.lock().unwrap();
+    let o = dtr(&["render", "room.toml", "-o", "busy", "--spp", "1", "-q"], dir.path());
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("another dtr render is writing"), "{}", stderr(&o));
+    assert!(!dir.path().join("busy.npy").exists());
+    drop(lock);
+    let o = dtr(&["render", "room.toml", "-o", "busy", "--spp", "1", "-q"], dir.path());
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(listing(dir.path()), ["busy.json", "busy.npy", "room.json", "room.toml"]);
+}
+
+#[cfg(unix)]
+#[test]
+fn sigterm_leaves_no_files_behind() {
+    let dir = workdir();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_dtr"))
+        .current_dir(dir.path())
+        .args([
+            "render",
+            "room.toml",
+            "-o",
+            "out/run",
+            "--spp",
+            "1000000",
+            "-q",
+            "--threads",
+            "1",
+        ])
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    // the lock file shows that the render has started
+    let lock = dir.path().join("out/.run.dtr-lock");
+    let t0 = std::time::Instant::now();
+    while !lock.exists() && t0.elapsed().as_secs() < 30 {
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    assert!(lock.exists(), "the render never started");
+    std::thread::sleep(std::time::Duration::from_millis(200));
+    unsafe { libc::kill(child.id() as i32, libc::SIGTERM) };
+    let status = child.wait().unwrap();
+    assert_eq!(status.code(), Some(128 + libc::SIGTERM), "{status:?}");
+    assert!(
+        listing(&dir.path().join("out")).is_empty(),
+        "{:?}",
+        listing(&dir.path().join("out"))
+    );
+}
