@@ -122,11 +122,20 @@ pub fn cpu_seconds() -> f64 {
     tv(u.ru_utime) + tv(u.ru_stime)
 }
 
+/// The most worker threads a render starts (far above any machine's core count; a typo like
+/// `--threads 100000` is refused before any thread is spawned).
+pub const MAX_THREADS: usize = 4096;
+
 /// Builds a rayon pool whose workers set flush-to-zero / denormals-are-zero (EMBREE.md).
 pub fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool, Error> {
     let n = threads.unwrap_or_else(|| std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1));
     if n == 0 {
         return Err(Error::Invalid("--threads must be at least 1".into()));
+    }
+    if n > MAX_THREADS {
+        return Err(Error::Invalid(format!(
+            "--threads {n} is more than {MAX_THREADS}; use at most one thread per core"
+        )));
     }
     rayon::ThreadPoolBuilder::new()
         .num_threads(n)

@@ -186,3 +186,71 @@ fn nonpositive_spp_boundary_is_refused() {
         assert!(e.contains("--spp-boundary"), "{e}");
     }
 }
+
+/// A FIFO named like a scene used to hang `render` and `info`; /dev/zero as an OBJ was read
+/// until memory ran out. Only regular files are read, with a size cap.
+#[cfg(unix)]
+#[test]
+fn only_regular_files_are_read() {
+    let d = tempfile::tempdir().unwrap();
+    let fifo = d.path().join("x.toml");
+    let c = std::ffi::CString::new(fifo.to_str().unwrap()).unwrap();
+    assert_eq!(unsafe { libc::mkfifo(c.as_ptr(), 0o644) }, 0);
+    for cmd in [vec!["info"], vec!["render"]] {
+        let mut c = dtr();
+        c.args(&cmd).arg(&fifo);
+        if cmd[0] == "render" {
+            c.arg("-o").arg(d.path().join("out"));
+        }
+        let out = c.output().unwrap();
+        let e = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success() && e.contains("not a regular file"), "{e}");
+    }
+    let scene = format!(
+        "{}\n[[shape]]\nname = \"z\"\ntype = \"obj\"\nfile = \"/dev/zero\"\nmaterial = \"{}\"\n",
+        cornell_text(),
+        first_material_name()
+    );
+    let p = write(d.path(), "zero.toml", &scene);
+    let (e, _o) = render_fails(&p, &[]);
+    assert!(e.contains("/dev/zero") && e.contains("not a regular file"), "{e}");
+}
+
+/// TOML vectors with extra elements were accepted silently (JSON refused them).
+#[test]
+fn vectors_of_the_wrong_length_name_the_field() {
+    let d = tempfile::tempdir().unwrap();
+    let text = cornell_text();
+    for (field, bad) in [
+        ("position", "[0, 1, 3, 1]"),
+        ("look_at", "[0, 0, 0, \"junk\"]"),
+        ("position", "[0, 1]"),
+    ] {
+        let i = text.find(&format!("\n{field} =")).unwrap() + 1;
+        let j = i + text[i..].find('\n').unwrap();
+        let p = write(
+            d.path(),
+            "vec.toml",
+            &format!("{}{field} = {bad}{}", &text[..i], &text[j..]),
+        );
+        let (e, _o) = render_fails(&p, &[]);
+        assert!(e.contains(&format!("'{field}")), "{e}");
+    }
+}
+
+/// Repeated or meaningless arguments were accepted silently; absurd thread counts spawned
+/// over 1000 threads before failing.
+#[test]
+fn repeated_and_meaningless_arguments_are_refused() {
+    let diff_room = scenes().join("diff_room.toml");
+    for (args, needle) in [
+        (vec!["--set", "eta=1", "--set", "eta=2"], "more than once"),
+        (vec!["--diff", "eta,eta"], "more than once"),
+        (vec!["--spp-boundary", "4"], "needs --diff"),
+        (vec!["--threads", "100000"], "--threads"),
+        (vec!["--threads", "0"], "--threads"),
+    ] {
+        let (e, _o) = render_fails(&diff_room, &args);
+        assert!(e.contains(needle), "{args:?}: {e}");
+    }
+}

@@ -299,6 +299,9 @@ mod tests {
             PathBuf::from("out/room")
         );
         assert!(resolve_prefix(Path::new(".npy"), scene).is_err());
-        assert_eq!(resolve_prefix(Path::new(".."), scene).unwrap(), PathBuf::from("../room"));
+        assert_eq!(
+            resolve_prefix(Path::new(".."), scene).unwrap(),
+            PathBuf::from("../room")
+        );
     }
 }

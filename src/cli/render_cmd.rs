@@ -96,6 +96,18 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
         Some(n) => Some(u32::try_from(n).context("--spp-boundary is too large")?),
         None => None,
     };
+    if let Some(name) = first_repeat(a.set.iter().filter_map(|s| s.split_once('=')).map(|(n, _)| n.trim())) {
+        bail!("--set {name}=… is given more than once; give each parameter once");
+    }
+    if let Some(name) = first_repeat(a.diff.iter().map(|s| s.trim())) {
+        bail!("--diff names {name} more than once");
+    }
+    if let Some(t) = a.threads.filter(|&t| t == 0 || t > crate::render::MAX_THREADS) {
+        bail!("--threads {t}: expected 1 ..= {}", crate::render::MAX_THREADS);
+    }
+    if a.spp_boundary.is_some() && a.diff.is_empty() {
+        bail!("--spp-boundary sets the boundary samples of a derivative render; it needs --diff");
+    }
     let scene = Scene::load(&a.scene, &overrides)?;
     let pixel = match &a.pixel {
         Some(s) => Some(parse_pixel(s, &scene)?),
@@ -181,6 +193,12 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
         );
     }
     Ok(())
+}
+
+/// The first item that occurs twice.
+fn first_repeat<'a>(items: impl Iterator<Item = &'a str>) -> Option<&'a str> {
+    let mut seen = std::collections::HashSet::new();
+    items.into_iter().find(|&n| !seen.insert(n))
 }
 
 fn parse_integrator(s: &str) -> Result<IntegratorKind, String> {

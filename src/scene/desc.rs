@@ -84,13 +84,15 @@ fn default_delta<T>() -> NameOr<T> {
 pub struct CameraDesc {
     /// World coordinates are read as f64 and made relative to the render origin before
     /// they become f32 (see `super::origin`).
+    #[serde(deserialize_with = "exact::array")]
     pub position: [f64; 3],
+    #[serde(deserialize_with = "exact::array")]
     pub look_at: [f64; 3],
-    #[serde(default = "default_up")]
+    #[serde(default = "default_up", deserialize_with = "exact::array")]
     pub up: [f32; 3],
     #[serde(default = "default_fov")]
     pub fov: f32,
-    #[serde(default = "default_resolution")]
+    #[serde(default = "default_resolution", deserialize_with = "exact::array")]
     pub resolution: [i64; 2],
     #[serde(default = "default_box")]
     pub filter: NameOr<FilterTable>,
@@ -198,7 +200,9 @@ pub struct ShapeDesc {
     pub ty: ShapeType,
     pub material: Option<String>,
     /// f64, like every world position (see `super::origin`).
+    #[serde(default, deserialize_with = "exact::option_array")]
     pub translate: Option<[f64; 3]>,
+    #[serde(default, deserialize_with = "exact::option_array")]
     pub rotate: Option<[f32; 3]>,
     pub scale: Option<Triple>,
     /// sphere only
@@ -243,9 +247,11 @@ pub struct EmitterDesc {
     pub shape: Option<String>,
     pub radiance: Option<Triple>,
     /// point, laser (f64, like every world position)
+    #[serde(default, deserialize_with = "exact::option_array")]
     pub position: Option<[f64; 3]>,
     pub intensity: Option<Triple>,
     /// laser
+    #[serde(default, deserialize_with = "exact::option_array")]
     pub direction: Option<[f32; 3]>,
     pub power: Option<Triple>,
     #[serde(default = "default_delta")]
@@ -429,5 +435,27 @@ impl<'de, T: Deserialize<'de>> Deserialize<'de> for NameOr<T> {
             }
         }
         d.deserialize_any(V(std::marker::PhantomData))
+    }
+}
+
+/// Fixed-length arrays that refuse extra or missing elements with the lengths in the
+/// message, in TOML as in JSON (TOML's own `[T; N]` silently dropped extra elements).
+mod exact {
+    use serde::de::{self, Deserialize, Deserializer};
+
+    fn fixed<T, E: de::Error, const N: usize>(v: Vec<T>) -> Result<[T; N], E> {
+        let len = v.len();
+        v.try_into()
+            .map_err(|_| E::custom(format!("expected an array of {N} numbers, got {len} elements")))
+    }
+
+    pub fn array<'de, D: Deserializer<'de>, T: Deserialize<'de>, const N: usize>(d: D) -> Result<[T; N], D::Error> {
+        fixed(Vec::<T>::deserialize(d)?)
+    }
+
+    pub fn option_array<'de, D: Deserializer<'de>, T: Deserialize<'de>, const N: usize>(
+        d: D,
+    ) -> Result<Option<[T; N]>, D::Error> {
+        Option::<Vec<T>>::deserialize(d)?.map(fixed).transpose()
     }
 }

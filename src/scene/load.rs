@@ -44,7 +44,7 @@ impl Scene {
     /// the scene file's folder.
     pub fn load(path: &Path, overrides: &[(String, f64)]) -> Result<Scene, SceneError> {
         let format = Format::from_path(path)?;
-        let text = std::fs::read_to_string(path).map_err(|err| SceneError::Io {
+        let text = read_regular_file(path, MAX_SCENE_BYTES).map_err(|err| SceneError::Io {
             path: path.to_path_buf(),
             err,
         })?;
@@ -62,6 +62,33 @@ impl Scene {
         let desc = parse(text, format, source)?;
         super::resolve::resolve(desc, source, overrides)
     }
+}
+
+/// The largest scene description read (a scene is text; meshes go in OBJ files).
+pub(crate) const MAX_SCENE_BYTES: u64 = 64 << 20;
+
+/// Reads `path` as UTF-8 text if it is a regular file of at most `cap` bytes. FIFOs, devices
+/// (`/dev/zero`) and folders are refused before they are opened, so reading never hangs or
+/// runs out of memory.
+pub(crate) fn read_regular_file(path: &Path, cap: u64) -> std::io::Result<String> {
+    use std::io::Read;
+    let meta = std::fs::metadata(path)?;
+    if !meta.is_file() {
+        return Err(std::io::Error::other("not a regular file (a folder, FIFO or device)"));
+    }
+    if meta.len() > cap {
+        return Err(std::io::Error::other(format!(
+            "{} bytes, more than the {} bytes read at most",
+            meta.len(),
+            cap
+        )));
+    }
+    let mut text = String::new();
+    let n = std::fs::File::open(path)?.take(cap + 1).read_to_string(&mut text)?;
+    if n as u64 > cap {
+        return Err(std::io::Error::other(format!("more than the {cap} bytes read at most")));
+    }
+    Ok(text)
 }
 
 /// Text → description: syntax, non-finite numbers, then types (with field paths).

@@ -159,13 +159,16 @@ impl From<Mesh> for LocalMesh {
     }
 }
 
+/// The largest OBJ file read (about 25M triangles).
+const MAX_OBJ_BYTES: u64 = 2 << 30;
+
 /// Why an OBJ could not be used (the caller adds the scene file, field and OBJ path).
 type ObjResult<T> = Result<T, String>;
 
 /// Reads a Wavefront OBJ (all objects and groups merged; polygons triangulated; points,
 /// lines, normals, texture coordinates and materials ignored).
 pub fn load_obj(path: &Path) -> ObjResult<LocalMesh> {
-    let text = std::fs::read_to_string(path).map_err(|e| format!("cannot read it: {e}"))?;
+    let text = super::load::read_regular_file(path, MAX_OBJ_BYTES).map_err(|e| format!("cannot read it: {e}"))?;
     check_obj_text(&text)?;
     // `..Default::default()` covers fields that tobj's optional features add.
     #[allow(clippy::needless_update)]
