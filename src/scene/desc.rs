@@ -446,7 +446,7 @@ mod exact {
     fn fixed<T, E: de::Error, const N: usize>(v: Vec<T>) -> Result<[T; N], E> {
         let len = v.len();
         v.try_into()
-            .map_err(|_| E::custom(format!("expected an array of {N} numbers, got {len} elements")))
+            .map_err(|_| E::custom(format!("expected an array of length {N}, got {len} elements")))
     }
 
     pub fn array<'de, D: Deserializer<'de>, T: Deserialize<'de>, const N: usize>(d: D) -> Result<[T; N], D::Error> {
