@@ -87,6 +87,10 @@ pub struct TileFilm {
     data: Vec<f32>,
     steady: Vec<f32>,
     derivs: usize,
+    /// Primal energy (Σ over channels of f · S_e mass) that fell before bin 0 and after the
+    /// last bin ([`Correlation::tails`]), for the run's energy report; f64, per tile, so the
+    /// driver can sum tiles in a fixed order.
+    tails: [f64; 2],
 }
 
 impl TileFilm {
@@ -102,6 +106,7 @@ impl TileFilm {
             data: vec![0.0; n * (1 + derivs)],
             steady: vec![0.0; w * h * channels * (1 + derivs)],
             derivs,
+            tails: [0.0; 2],
         }
     }
 
@@ -116,6 +121,22 @@ impl TileFilm {
         self.data.resize(n, 0.0);
         self.steady.clear();
         self.steady.resize(sn, 0.0);
+        self.tails = [0.0; 2];
+    }
+
+    /// Primal energy (summed over pixels and channels, not yet divided by spp) that fell
+    /// before and after the time axis.
+    pub fn tails(&self) -> [f64; 2] {
+        self.tails
+    }
+
+    #[inline]
+    fn add_tails(&mut self, corr: &Correlation, d: f32, f: &[f32]) {
+        if let Some((before, after)) = corr.tails(d) {
+            let e: f64 = f.iter().map(|&v| v as f64).sum();
+            self.tails[0] += before * e;
+            self.tails[1] += after * e;
+        }
     }
 
     #[inline]
@@ -132,6 +153,7 @@ impl TileFilm {
         for c in 0..c_n {
             self.steady[p * c_n + c] += f[c];
         }
+        self.add_tails(corr, d, f);
         let base = p * self.bins * c_n;
         let data = &mut self.data;
         corr.for_each(d, |bin, s, _ds| {
@@ -164,6 +186,7 @@ impl TileFilm {
         for c in 0..c_n {
             self.steady[p * c_n + c] += f[c];
         }
+        self.add_tails(corr, d, f);
         for k in 0..n_k {
             for c in 0..c_n {
                 self.steady[sblock * (1 + k) + p * c_n + c] += fdot[k * c_n + c];
@@ -208,6 +231,100 @@ impl TileFilm {
                     *d += *s;
                 }
             }
+        }
+    }
+}
+
+/// Where a render's primal energy fell against the film's time window, summed over pixels
+/// and channels (the time integral of the whole image): `inside` is Σ of the transient,
+/// `total` Σ of the steady image (every path, in or out of the window), `before` / `after`
+/// the S_e mass of the paths that fell before bin 0 / after the last bin
+/// ([`crate::temporal::Correlation::tails`]). `before + inside + after = total` up to
+/// rounding for a box gate (up to the ripple of Σ_l g_l for a Gaussian gate).
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
+pub struct WindowEnergy {
+    pub total: f64,
+    pub before: f64,
+    pub inside: f64,
+    pub after: f64,
+    /// `inside / total` (0 when nothing reached the camera).
+    pub inside_fraction: f64,
+}
+
+/// The same for a derivative film: Σ of ∂I/∂θ inside the window and in all (the steady
+/// derivative); `outside = total − inside`. Not split into before and after: the boundary
+/// stage's primary-edge jumps keep only their in-window bins and their time integral.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
+pub struct DerivWindowEnergy {
+    pub total: f64,
+    pub inside: f64,
+    pub outside: f64,
+}
+
+/// A window holding less than this share of the primal energy draws a warning
+/// ([`WindowEnergy::warning`]). One half: the transient then shows the minority of the light
+/// that reached the camera, the mark of a misplaced window (one that ends on the rise or
+/// starts after most paths arrived), while a decay tail clipped on purpose stays quiet (the
+/// shipped scenes hold 52–100%: laser_room 86%, contact_wall 88%, the rest above 93% except
+/// shadow_hidden_occluder, whose window starts after 47% of its light arrived). Gated set-ups
+/// that cut out a bright direct return (NLOS) get a one-line warning that tells them what
+/// they already know.
+pub const MIN_INSIDE_FRACTION: f64 = 0.5;
+
+impl WindowEnergy {
+    /// The report of a finished (averaged) transient and the tails its tiles counted (already
+    /// divided by spp).
+    pub fn of(t: &Transient, before: f64, after: f64) -> Self {
+        let total: f64 = t.steady.iter().map(|&v| v as f64).sum();
+        let inside: f64 = t.data.iter().map(|&v| v as f64).sum();
+        Self {
+            total,
+            before,
+            inside,
+            after,
+            inside_fraction: if total > 0.0 { inside / total } else { 0.0 },
+        }
+    }
+
+    /// A one-line warning when the window holds nothing or less than
+    /// [`MIN_INSIDE_FRACTION`] of the energy; `None` when it looks right.
+    pub fn warning(&self, axis: &TimeAxis) -> Option<String> {
+        let window = format!("[{}, {}] m of OPL", axis.start_opl, axis.end_opl());
+        if self.total <= 0.0 {
+            return Some(format!(
+                "no light reached the camera at all (is there an emitter, and can the camera see what it lights?); the transient is all zeros (window {window})"
+            ));
+        }
+        let pct = |v: f64| 100.0 * v / self.total;
+        let split = format!(
+            "{:.1}% of the energy arrived before the window, {:.1}% inside, {:.1}% after",
+            pct(self.before),
+            pct(self.inside),
+            pct(self.after)
+        );
+        if self.inside <= 0.0 {
+            Some(format!(
+                "the time window {window} holds no energy: every path arrived outside it ({split}); move film.start_opl or widen the window"
+            ))
+        } else if self.inside_fraction < MIN_INSIDE_FRACTION {
+            Some(format!(
+                "the time window {window} holds only {:.1}% of the energy ({split}); move film.start_opl or widen the window",
+                pct(self.inside)
+            ))
+        } else {
+            None
+        }
+    }
+}
+
+impl DerivWindowEnergy {
+    pub fn of(t: &Transient) -> Self {
+        let total: f64 = t.steady.iter().map(|&v| v as f64).sum();
+        let inside: f64 = t.data.iter().map(|&v| v as f64).sum();
+        Self {
+            total,
+            inside,
+            outside: total - inside,
         }
     }
 }

@@ -7,7 +7,7 @@
 
 use crate::accel::{Device, set_flush_denormals};
 use crate::error::Error;
-use crate::film::{TileFilm, Transient};
+use crate::film::{DerivWindowEnergy, TileFilm, Transient, WindowEnergy};
 use crate::integrator::RenderContext;
 use crate::integrator::bdpt::{self, film::BdptFilm};
 use crate::integrator::motion::Motion;
@@ -97,6 +97,10 @@ pub struct RenderStats {
     /// Wall time of the boundary stage (primary + secondary, pilot included).
     pub boundary_seconds: f64,
     pub boundary: Option<crate::boundary::BoundaryStats>,
+    /// Where the primal energy fell against the time window (before, inside, after).
+    pub energy: WindowEnergy,
+    /// The same for each derivative film (inside and outside the window), in parameter order.
+    pub deriv_energy: Vec<DerivWindowEnergy>,
 }
 
 #[derive(Clone, Debug, Default, serde::Serialize)]
@@ -292,7 +296,8 @@ fn render_films(
     let kind = opts.integrator.unwrap_or(scene.integrator.kind);
     let mut out = vec![Transient::zeros(w, h, axis, channels); 1 + derivs];
     let mut strategy_out = Vec::new();
-    let counts: Vec<PathCounts> = match kind {
+    // (counts, primal energy before and after the window) per tile or chunk, in order
+    let counts: Vec<(PathCounts, [f64; 2])> = match kind {
         IntegratorKind::Path => {
             // Tiles cover disjoint pixels and `out` starts at zero, so each pixel receives
             // exactly one tile's sums (0 + x = x): merging as tiles finish gives the same bytes
@@ -319,9 +324,10 @@ fn render_films(
                             dispatch!(derivs, opts.lanes, channels, render_tile(&ctx, seed, spp, w, f, c));
                             counts.total_ticks = crate::timing::ticks() - tick0;
                             film.merge_into(&mut merged.lock().unwrap_or_else(|e| e.into_inner()));
+                            let tails = film.tails();
                             *spare = Some(film);
                             bar.inc(1);
-                            counts
+                            (counts, tails)
                         },
                     )
                     .collect()
@@ -364,7 +370,7 @@ fn render_films(
                     f.merge_into(&mut strategy_out[k..k + 1]);
                 }
             }
-            results.into_iter().map(|r| r.1).collect()
+            results.into_iter().map(|(f, c)| (c, f.film.tails())).collect()
         }
     };
     let wall = t0.elapsed().as_secs_f64();
@@ -382,7 +388,10 @@ fn render_films(
         ..Default::default()
     };
     let mut ticks = (0u64, 0u64, 0u64);
-    for c in &counts {
+    let mut tails = [0.0f64; 2];
+    for (c, t) in &counts {
+        tails[0] += t[0];
+        tails[1] += t[1];
         stats.intersect_rays += c.rays.intersect;
         stats.occluded_rays += c.rays.occluded;
         stats.non_finite_samples += c.non_finite;
@@ -429,6 +438,8 @@ fn render_films(
         stats.total_cpu_seconds += cpu_seconds() - cpu_b;
         stats.boundary = Some(parts.stats);
     }
+    stats.energy = WindowEnergy::of(&out[0], tails[0] / spp as f64, tails[1] / spp as f64);
+    stats.deriv_energy = out[1..].iter().map(DerivWindowEnergy::of).collect();
     Ok((out, strategy_out, stats))
 }
 

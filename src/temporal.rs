@@ -240,10 +240,62 @@ impl Correlation {
         }
     }
 
+    /// The parts of a path's unit S_e mass that fall before bin 0 and after the last bin:
+    /// (Σ_{l<0} S_e(l, d), Σ_{l≥bins} S_e(l, d)) with the bins continued past both ends of the
+    /// axis, so that with the film's share Σ_l S_e(l, d) they add up to 1 (for a box gate,
+    /// whose bins tile time; up to the ripple of Σ_l g_l for a Gaussian gate, see
+    /// [`Gate::Gaussian`]). `None` when the whole support lies inside the axis (the common
+    /// case, two comparisons). A box gate's tails are the pulse's CDF at the axis' ends; a
+    /// Gaussian gate's are summed bin by bin (the bins within reach of d), since a
+    /// half-line of its bins is not its integral.
+    #[inline]
+    pub fn tails(&self, d: f32) -> Option<(f64, f64)> {
+        let u = d as f64 + self.offset;
+        let start = self.axis.start_opl as f64;
+        let end = self.axis.end_opl();
+        if !u.is_finite() || (u - self.reach >= start && u + self.reach < end) {
+            return None;
+        }
+        let w = self.axis.bin_width_opl as f64;
+        let x = (u - start) / w;
+        let n = self.axis.bins as f64;
+        Some(match (self.pulse, self.gate) {
+            // the same test as `range`: a delta lands in bin floor(x)
+            (Pulse::Delta, Gate::Box) => ((x < 0.0) as u8 as f64, (x >= n) as u8 as f64),
+            (Pulse::Gaussian { sigma_opl }, Gate::Box) => {
+                let s = sigma_opl as f64;
+                (cdf((start - u) / s), cdf((u - end) / s))
+            }
+            (Pulse::Box { width_opl }, Gate::Box) => {
+                let wp = width_opl as f64;
+                let part = |y: f64| ((y + 0.5 * wp) / wp).clamp(0.0, 1.0);
+                (part(start - u), part(u - end))
+            }
+            (_, Gate::Gaussian { .. }) => {
+                // bins whose centre start + (l + ½)·w lies within reach of u, as in `range`
+                let lo = (x - self.reach / w - 0.5).ceil();
+                let hi = (x + self.reach / w - 0.5).floor();
+                let sum = |a: f64, b: f64| {
+                    let (a, b) = (a.max(lo), b.min(hi));
+                    // a count, not a float loop counter: at most 2·reach/w + 1 bins
+                    let count = (b - a + 1.0).max(0.0) as u64;
+                    (0..count)
+                        .map(|k| self.eval_at(start + (a + k as f64) * w, u).0)
+                        .sum::<f64>()
+                };
+                (sum(lo, -1.0), sum(n, hi))
+            }
+        })
+    }
+
     /// (S_e, ∂S_e/∂u) for bin l at arrival u = d + τ, in closed form.
     fn eval_pair(&self, l: usize, u: f64) -> (f64, f64) {
+        self.eval_at(self.axis.bin_start(l), u)
+    }
+
+    /// (S_e, ∂S_e/∂u) for the bin starting at `a` (which may lie outside the axis).
+    fn eval_at(&self, a: f64, u: f64) -> (f64, f64) {
         let w = self.axis.bin_width_opl as f64;
-        let a = self.axis.bin_start(l);
         let b = a + w;
         let c = a + 0.5 * w;
         match (self.pulse, self.gate) {

@@ -150,6 +150,11 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
         write_previews(&film, &prefix, pixel)?;
     }
     output::write_json(&prefix("json"), &metadata(&scene, &film, &stats, &a))?;
+    // the primal is left zero on purpose by `--estimators boundary`
+    let primal_rendered = a.diff.is_empty() || !matches!(a.estimators, Estimators::Boundary);
+    if let Some(w) = stats.energy.warning(&film.axis).filter(|_| primal_rendered) {
+        eprintln!("warning: {}: {w}", a.scene.display());
+    }
     if !a.quiet {
         eprintln!(
             "{}: {}x{}x{}x{} in {:.2} s ({:.3e} paths/CPU-s, {:.3e} rays/s)",
@@ -276,6 +281,12 @@ fn metadata(scene: &Scene, film: &Transient, stats: &RenderStats, a: &RenderArgs
         "boundary_samples": stats.boundary_samples,
         "boundary_seconds": stats.boundary_seconds,
         "boundary": stats.boundary,
+        "energy": {
+            "about": "time integral of the whole image (sum over pixels and channels): total = every path; before / after = the part that arrived before bin 0 / after the last bin; inside = sum of the transient",
+            "primal": stats.energy,
+            "derivatives": a.diff.iter().zip(&stats.deriv_energy).map(|(n, e)| json!({"param": n, "total": e.total, "inside": e.inside, "outside": e.outside})).collect::<Vec<_>>(),
+            "warning": stats.energy.warning(&film.axis),
+        },
         "version": env!("CARGO_PKG_VERSION"),
     })
 }

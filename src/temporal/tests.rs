@@ -204,3 +204,41 @@ fn bad_settings_name_the_field() {
     let e = Correlation::new(TimeAxis { bins: 0, ..AXIS }, Pulse::Delta, 0.0, Gate::Box).unwrap_err();
     assert!(e.to_string().contains("film.bins"));
 }
+
+/// Before + inside + after the axis is the whole unit mass of S_e: exactly for box gates
+/// (their bins tile time), up to the ripple of Σ_l g_l for a Gaussian gate; `tails` is `None`
+/// only when nothing falls outside.
+#[test]
+fn tails_and_bins_add_up_to_the_whole_pulse() {
+    let (start, end) = (AXIS.start_opl as f64, AXIS.end_opl());
+    for pulse in pulses() {
+        for gate in gates() {
+            let c = Correlation::new(AXIS, pulse, 0.02, gate).unwrap();
+            let tol = match gate {
+                Gate::Box => 1e-9,
+                Gate::Gaussian { sigma_opl } => {
+                    let r = sigma_opl as f64 / AXIS.bin_width_opl as f64;
+                    2.0 * (-2.0 * std::f64::consts::PI.powi(2) * r * r).exp() + 1e-9
+                }
+            };
+            for i in 0..4000 {
+                let d = (start - 1.0 + (end - start + 2.0) * i as f64 / 4000.0) as f32;
+                let inside: f64 = c.range(d).map(|l| c.eval(l, d) as f64).sum();
+                let (before, after) = c.tails(d).unwrap_or((0.0, 0.0));
+                let total = before + inside + after;
+                assert!(
+                    (total - 1.0).abs() <= tol + 1e-6,
+                    "{pulse:?} {gate:?} d = {d}: {before} + {inside} + {after} = {total}"
+                );
+                if c.tails(d).is_none() {
+                    assert!((inside - 1.0).abs() <= tol + 1e-6);
+                }
+            }
+            // far outside, everything is on one side
+            let (b, a) = c.tails((start - 5.0) as f32).unwrap();
+            assert!((b - 1.0).abs() <= tol && a == 0.0, "{pulse:?} {gate:?}: {b} {a}");
+            let (b, a) = c.tails((end + 5.0) as f32).unwrap();
+            assert!((a - 1.0).abs() <= tol && b == 0.0, "{pulse:?} {gate:?}: {b} {a}");
+        }
+    }
+}
