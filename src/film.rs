@@ -83,9 +83,12 @@ pub struct TileFilm {
     pub h: usize,
     bins: usize,
     channels: usize,
-    /// Primal, then one block per derivative, each `[h, w, bins, channels]`.
-    data: Vec<f32>,
-    steady: Vec<f32>,
+    /// Primal, then one block per derivative, each `[h, w, bins, channels]`. f64 while the
+    /// tile accumulates: a narrow pulse's derivative adds ±lobes of f·∂S_e/∂d·ḋ (∂S_e/∂d is
+    /// about 0.24/σ per metre: 8·10⁷ for σ = 3 nm) that cancel over time only if no f32
+    /// rounding of the running sums breaks them; the finished film is f32.
+    data: Vec<f64>,
+    steady: Vec<f64>,
     derivs: usize,
     /// Primal energy (Σ over channels of f · S_e mass) that fell before bin 0 and after the
     /// last bin ([`Correlation::tails`]), for the run's energy report; f64, per tile, so the
@@ -130,8 +133,19 @@ impl TileFilm {
         self.tails
     }
 
+    /// Σ of the primal and of each derivative block, in f64 before the f32 store, summed in
+    /// the driver in a fixed order: a narrow pulse's derivative has per-bin ±lobes ~10⁷ times
+    /// its time integral, more than f32 bins can cancel, so the run report takes the time
+    /// integral from here.
+    pub fn block_sums(&self) -> Vec<f64> {
+        self.data
+            .chunks_exact(self.block().max(1))
+            .map(|b| b.iter().sum())
+            .collect()
+    }
+
     #[inline]
-    fn add_tails(&mut self, corr: &Correlation, d: f32, f: &[f32]) {
+    fn add_tails(&mut self, corr: &Correlation, d: f64, f: &[f32]) {
         if let Some((before, after)) = corr.tails(d) {
             let e: f64 = f.iter().map(|&v| v as f64).sum();
             self.tails[0] += before * e;
@@ -147,11 +161,11 @@ impl TileFilm {
     /// Adds one path of OPL `d` with throughput `f` (per channel) to pixel (x, y) (global
     /// coordinates, inside this tile).
     #[inline]
-    pub fn add(&mut self, x: usize, y: usize, corr: &Correlation, d: f32, f: &[f32]) {
+    pub fn add(&mut self, x: usize, y: usize, corr: &Correlation, d: f64, f: &[f32]) {
         let p = (y - self.y0) * self.w + (x - self.x0);
         let c_n = self.channels;
         for c in 0..c_n {
-            self.steady[p * c_n + c] += f[c];
+            self.steady[p * c_n + c] += f[c] as f64;
         }
         self.add_tails(corr, d, f);
         let base = p * self.bins * c_n;
@@ -159,7 +173,7 @@ impl TileFilm {
         corr.for_each(d, |bin, s, _ds| {
             let i = base + bin * c_n;
             for c in 0..c_n {
-                data[i + c] += f[c] * s;
+                data[i + c] += f[c] as f64 * s;
             }
         });
     }
@@ -174,7 +188,7 @@ impl TileFilm {
         x: usize,
         y: usize,
         corr: &Correlation,
-        d: f32,
+        d: f64,
         f: &[f32],
         fdot: &[f32],
         ddot: &[f32],
@@ -184,12 +198,12 @@ impl TileFilm {
         let n_k = ddot.len().min(self.derivs);
         let sblock = self.w * self.h * c_n;
         for c in 0..c_n {
-            self.steady[p * c_n + c] += f[c];
+            self.steady[p * c_n + c] += f[c] as f64;
         }
         self.add_tails(corr, d, f);
         for k in 0..n_k {
             for c in 0..c_n {
-                self.steady[sblock * (1 + k) + p * c_n + c] += fdot[k * c_n + c];
+                self.steady[sblock * (1 + k) + p * c_n + c] += fdot[k * c_n + c] as f64;
             }
         }
         let block = self.block();
@@ -198,12 +212,13 @@ impl TileFilm {
         corr.for_each(d, |bin, s, ds| {
             let i = base + bin * c_n;
             for c in 0..c_n {
-                data[i + c] += f[c] * s;
+                data[i + c] += f[c] as f64 * s;
             }
             for k in 0..n_k {
                 let ik = block * (1 + k) + i;
+                let dd = ds * ddot[k] as f64;
                 for c in 0..c_n {
-                    data[ik + c] += fdot[k * c_n + c] * s + f[c] * ds * ddot[k];
+                    data[ik + c] += fdot[k * c_n + c] as f64 * s + f[c] as f64 * dd;
                 }
             }
         });
@@ -220,7 +235,7 @@ impl TileFilm {
                 let dst = film.index(self.x0, self.y0 + ty, 0, 0);
                 let src = off + ty * row;
                 for (d, s) in film.data[dst..dst + row].iter_mut().zip(&self.data[src..src + row]) {
-                    *d += *s;
+                    *d += *s as f32;
                 }
                 let sdst = ((self.y0 + ty) * film.width + self.x0) * self.channels;
                 let ssrc = soff + ty * srow;
@@ -228,7 +243,7 @@ impl TileFilm {
                     .iter_mut()
                     .zip(&self.steady[ssrc..ssrc + srow])
                 {
-                    *d += *s;
+                    *d += *s as f32;
                 }
             }
         }
@@ -236,7 +251,8 @@ impl TileFilm {
 }
 
 /// Where a render's primal energy fell against the film's time window, summed over pixels
-/// and channels (the time integral of the whole image): `inside` is Σ of the transient,
+/// and channels (the time integral of the whole image): `inside` is Σ of the transient (in
+/// f64, from the tiles),
 /// `total` Σ of the steady image (every path, in or out of the window), `before` / `after`
 /// the S_e mass of the paths that fell before bin 0 / after the last bin
 /// ([`crate::temporal::Correlation::tails`]). `before + inside + after = total` up to
@@ -251,7 +267,8 @@ pub struct WindowEnergy {
     pub inside_fraction: f64,
 }
 
-/// The same for a derivative film: Σ of ∂I/∂θ inside the window and in all (the steady
+/// The same for a derivative film: Σ of ∂I/∂θ inside the window (summed in f64 before the
+/// bins are stored as f32, so a narrow pulse's ±lobes cancel) and in all (the steady
 /// derivative); `outside = total − inside`. Not split into before and after: the boundary
 /// stage's primary-edge jumps keep only their in-window bins and their time integral.
 #[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
@@ -272,11 +289,10 @@ pub struct DerivWindowEnergy {
 pub const MIN_INSIDE_FRACTION: f64 = 0.5;
 
 impl WindowEnergy {
-    /// The report of a finished (averaged) transient and the tails its tiles counted (already
-    /// divided by spp).
-    pub fn of(t: &Transient, before: f64, after: f64) -> Self {
+    /// The report of a finished (averaged) transient, with the Σ of its bins and the tails
+    /// its tiles counted in f64 (already divided by spp).
+    pub fn of(t: &Transient, inside: f64, before: f64, after: f64) -> Self {
         let total: f64 = t.steady.iter().map(|&v| v as f64).sum();
-        let inside: f64 = t.data.iter().map(|&v| v as f64).sum();
         Self {
             total,
             before,
@@ -318,9 +334,9 @@ impl WindowEnergy {
 }
 
 impl DerivWindowEnergy {
-    pub fn of(t: &Transient) -> Self {
+    /// `inside`: Σ of the film's bins as the tiles summed them in f64 (divided by spp).
+    pub fn of(t: &Transient, inside: f64) -> Self {
         let total: f64 = t.steady.iter().map(|&v| v as f64).sum();
-        let inside: f64 = t.data.iter().map(|&v| v as f64).sum();
         Self {
             total,
             inside,

@@ -101,6 +101,8 @@ pub struct RenderStats {
     pub energy: WindowEnergy,
     /// The same for each derivative film (inside and outside the window), in parameter order.
     pub deriv_energy: Vec<DerivWindowEnergy>,
+    /// Whether paths carried f64 OPLs, and the film time scale and f32 step that decided it.
+    pub opl: crate::integrator::opl::OplPrecision,
 }
 
 #[derive(Clone, Debug, Default, serde::Serialize)]
@@ -296,8 +298,9 @@ fn render_films(
     let kind = opts.integrator.unwrap_or(scene.integrator.kind);
     let mut out = vec![Transient::zeros(w, h, axis, channels); 1 + derivs];
     let mut strategy_out = Vec::new();
-    // (counts, primal energy before and after the window) per tile or chunk, in order
-    let counts: Vec<(PathCounts, [f64; 2])> = match kind {
+    // (counts, primal energy before and after the window, Σ of each film block) per tile or
+    // chunk, in order
+    let counts: Vec<(PathCounts, [f64; 2], Vec<f64>)> = match kind {
         IntegratorKind::Path => {
             // Tiles cover disjoint pixels and `out` starts at zero, so each pixel receives
             // exactly one tile's sums (0 + x = x): merging as tiles finish gives the same bytes
@@ -324,10 +327,10 @@ fn render_films(
                             dispatch!(derivs, opts.lanes, channels, render_tile(&ctx, seed, spp, w, f, c));
                             counts.total_ticks = crate::timing::ticks() - tick0;
                             film.merge_into(&mut merged.lock().unwrap_or_else(|e| e.into_inner()));
-                            let tails = film.tails();
+                            let (tails, sums) = (film.tails(), film.block_sums());
                             *spare = Some(film);
                             bar.inc(1);
-                            (counts, tails)
+                            (counts, tails, sums)
                         },
                     )
                     .collect()
@@ -370,7 +373,10 @@ fn render_films(
                     f.merge_into(&mut strategy_out[k..k + 1]);
                 }
             }
-            results.into_iter().map(|(f, c)| (c, f.film.tails())).collect()
+            results
+                .into_iter()
+                .map(|(f, c)| (c, f.film.tails(), f.film.block_sums()))
+                .collect()
         }
     };
     let wall = t0.elapsed().as_secs_f64();
@@ -385,13 +391,16 @@ fn render_films(
         cpu_seconds: cpu,
         paths: if interior { (w * h) as u64 * spp as u64 } else { 0 },
         bvh_build_seconds,
+        opl: ctx.opl,
         ..Default::default()
     };
     let mut ticks = (0u64, 0u64, 0u64);
     let mut tails = [0.0f64; 2];
-    for (c, t) in &counts {
+    let mut inside = vec![0.0f64; 1 + derivs];
+    for (c, t, sums) in &counts {
         tails[0] += t[0];
         tails[1] += t[1];
+        inside.iter_mut().zip(sums).for_each(|(a, b)| *a += b);
         stats.intersect_rays += c.rays.intersect;
         stats.occluded_rays += c.rays.occluded;
         stats.non_finite_samples += c.non_finite;
@@ -423,9 +432,14 @@ fn render_films(
         let t_b = Instant::now();
         let cpu_b = cpu_seconds();
         let parts = crate::boundary::render_boundary(&ctx, &settings, &pool);
-        for (film, (p, q)) in out[1..].iter_mut().zip(parts.primary.iter().zip(&parts.secondary)) {
+        for (k, (film, (p, q))) in out[1..]
+            .iter_mut()
+            .zip(parts.primary.iter().zip(&parts.secondary))
+            .enumerate()
+        {
             for (d, (a, b)) in film.data.iter_mut().zip(p.data.iter().zip(&q.data)) {
                 *d += a + b;
+                inside[1 + k] += (a + b) as f64 * spp as f64;
             }
             for (d, (a, b)) in film.steady.iter_mut().zip(p.steady.iter().zip(&q.steady)) {
                 *d += a + b;
@@ -438,8 +452,13 @@ fn render_films(
         stats.total_cpu_seconds += cpu_seconds() - cpu_b;
         stats.boundary = Some(parts.stats);
     }
-    stats.energy = WindowEnergy::of(&out[0], tails[0] / spp as f64, tails[1] / spp as f64);
-    stats.deriv_energy = out[1..].iter().map(DerivWindowEnergy::of).collect();
+    let n = spp as f64;
+    stats.energy = WindowEnergy::of(&out[0], inside[0] / n, tails[0] / n, tails[1] / n);
+    stats.deriv_energy = out[1..]
+        .iter()
+        .zip(&inside[1..])
+        .map(|(t, &i)| DerivWindowEnergy::of(t, i / n))
+        .collect();
     Ok((out, strategy_out, stats))
 }
 

@@ -8,7 +8,7 @@ use difftransient::{RenderOptions, Scene, render};
 
 /// The small Cornell box (4 bounces: every OPL < 40 m) with the given pulse and gate and a
 /// window of `bins` bins of 0.1 m from `start`.
-fn cornell(pulse: Pulse, gate: Gate, start: f32, bins: usize) -> Scene {
+fn cornell(pulse: Pulse, gate: Gate, start: f64, bins: usize) -> Scene {
     let mut s = common::load("cornell_box.toml");
     s.film.width = 16;
     s.film.height = 16;

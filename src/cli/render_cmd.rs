@@ -231,7 +231,11 @@ fn write_previews(
     ];
     output::write_time_plot(
         &prefix("plot.png"),
-        (film.axis.start_opl, film.axis.bin_width_opl, film.axis.bins),
+        (
+            film.axis.start_opl as f32,
+            film.axis.bin_width_opl as f32,
+            film.axis.bins,
+        ),
         &series,
     )?;
     Ok(())
@@ -239,7 +243,7 @@ fn write_previews(
 
 fn metadata(scene: &Scene, film: &Transient, stats: &RenderStats, a: &RenderArgs) -> serde_json::Value {
     let axis = film.axis;
-    let ns = |opl: f32| opl as f64 / SPEED_OF_LIGHT_M_PER_S * 1e9;
+    let ns = |opl: f64| opl / SPEED_OF_LIGHT_M_PER_S * 1e9;
     let params: serde_json::Map<String, serde_json::Value> =
         scene.params.iter().map(|p| (p.name.clone(), json!(p.value))).collect();
     json!({
@@ -281,6 +285,12 @@ fn metadata(scene: &Scene, film: &Transient, stats: &RenderStats, a: &RenderArgs
         "boundary_samples": stats.boundary_samples,
         "boundary_seconds": stats.boundary_seconds,
         "boundary": stats.boundary,
+        "opl_precision": {
+            "about": "f64_paths: each path's OPL was also summed in f64 from f64 hit points (rebuilt from Embree's f32 barycentrics), because the film's finest time scale (bin width, pulse or gate width) is under 4096 f32 steps at the largest OPL or coordinate; else the kernel's f32 OPL is binned. The time axis is f64 either way.",
+            "f64_paths": stats.opl.f64_paths,
+            "time_scale_opl": stats.opl.time_scale_opl,
+            "f32_step_opl": stats.opl.f32_step_opl,
+        },
         "energy": {
             "about": "time integral of the whole image (sum over pixels and channels): total = every path; before / after = the part that arrived before bin 0 / after the last bin; inside = sum of the transient",
             "primal": stats.energy,

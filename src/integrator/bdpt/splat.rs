@@ -68,7 +68,7 @@ pub fn splat_to_camera<R: Real, const C: usize>(pk: &mut Packet<'_, '_, R, C>, s
         if !ok.bit(i) {
             continue;
         }
-        let Some(lc) = LaneContribution::<C>::extract(ctx, pk.origin.emitter[i], d, &contrib, i) else {
+        let Some(lc) = LaneContribution::<C>::extract(ctx, pk.origin.emitter[i], d, None, &contrib, i) else {
             pk.counts.non_finite += 1;
             continue;
         };
