@@ -8,6 +8,7 @@
 //! f32 barycentrics place hit points to ~10⁻⁹ m.
 
 mod common;
+use difftransient::scene::IntegratorKind;
 use difftransient::temporal::Correlation;
 use difftransient::{BoundaryMode, RenderOptions, Scene, render, render_diff};
 
@@ -108,6 +109,17 @@ fn over_pixel(steps: usize, mut g: impl FnMut(f64, f64)) {
 
 #[test]
 fn a_nanometre_pulse_over_a_continuous_spread_is_smooth_and_matches_the_closed_form() {
+    smooth_and_closed_form(IntegratorKind::Path);
+}
+
+/// The same with BDPT: camera subpaths, light subpaths and the light-tracing splats all carry
+/// f64 OPLs.
+#[test]
+fn bdpt_a_nanometre_pulse_over_a_continuous_spread_is_smooth_and_matches_the_closed_form() {
+    smooth_and_closed_form(IntegratorKind::Bdpt);
+}
+
+fn smooth_and_closed_form(kind: IntegratorKind) {
     // from 30 nm before the first arrival (2h = 4 m) to 30 nm after the last (4 m + 0.2 µm)
     let scene = load(&scene_text("3.99999997", 260, "\"box\""));
     let axis = scene.film.axis;
@@ -121,7 +133,11 @@ fn a_nanometre_pulse_over_a_continuous_spread_is_smooth_and_matches_the_closed_f
     let kk = 8;
     let runs: Vec<Vec<f32>> = (0..kk)
         .map(|seed| {
-            let (t, stats) = render(&scene, &opts(4096, 40 + seed)).unwrap();
+            let o = RenderOptions {
+                integrator: Some(kind),
+                ..opts(4096, 40 + seed)
+            };
+            let (t, stats) = render(&scene, &o).unwrap();
             assert!(stats.opl.f64_paths, "{:?}", stats.opl);
             t.pixel_series(0, 0)
         })
@@ -148,7 +164,7 @@ fn a_nanometre_pulse_over_a_continuous_spread_is_smooth_and_matches_the_closed_f
         n += 1;
     }
     let (mean, sd) = common::t2_sum_moments(n as f64, (kk - 1) as f64);
-    eprintln!("{n} bins: Σz² = {chi2:.1} (expected {mean:.1} ± {sd:.1}), max |z| = {zmax:.2}");
+    eprintln!("{kind:?}: {n} bins: Σz² = {chi2:.1} (expected {mean:.1} ± {sd:.1}), max |z| = {zmax:.2}");
     assert!(n > 150, "only {n} bins carry signal");
     assert!(chi2 <= mean + 5.0 * sd, "Σz² = {chi2:.1} over {n} bins");
     assert!(zmax <= 7.0, "a bin is {zmax:.1} standard errors off");
