@@ -337,7 +337,7 @@ fn film(
     let at = |f: &str| table_field("film", f);
     // f64 end to end: an f32 would store start_opl = 3.99999995 as 4.0
     let bin_width_opl = d.bin_width_opl;
-    if !(bin_width_opl > 0.0) {
+    if bin_width_opl <= 0.0 || bin_width_opl.is_nan() {
         return Err(ctx.invalid(at("bin_width_opl"), format!("must be > 0 (got {bin_width_opl})")));
     }
     let bins = count(ctx, at("bins"), d.bins, 1, MAX_BINS)? as usize;

@@ -21,7 +21,7 @@ fn gates() -> Vec<Gate> {
 /// evaluated exactly), in f64.
 fn quadrature(c: &Correlation, l: usize, d: f64) -> f64 {
     let u = d + c.offset;
-    let w = AXIS.bin_width_opl as f64;
+    let w = AXIS.bin_width_opl;
     let (a, b) = (AXIS.bin_start(l), AXIS.bin_start(l) + w);
     let gate = |s: f64| match c.gate {
         Gate::Box => {
@@ -131,7 +131,7 @@ fn box_gate_is_a_partition_of_unity() {
         for k in 0..100 {
             let d = 1.5 + k as f32 * 0.0213;
             let mut sum = 0.0f64;
-            c.for_each(d as f64, |_, s, _| sum += s as f64);
+            c.for_each(d as f64, |_, s, _| sum += s);
             assert!((sum - 1.0).abs() < 1e-5, "{p:?} d {d}: Σ S_e = {sum}");
         }
     }
@@ -143,7 +143,7 @@ fn box_gate_is_a_partition_of_unity() {
         for k in 0..100 {
             let d = 2.0 + k as f32 * 0.0113;
             let mut sum = 0.0f64;
-            c.for_each(d as f64, |_, s, _| sum += s as f64);
+            c.for_each(d as f64, |_, s, _| sum += s);
             assert!(
                 (sum - 1.0).abs() <= ripple * 1.01 + 1e-6,
                 "gaussian gate σ {sigma} d {d}: Σ S_e = {sum}"
@@ -210,7 +210,7 @@ fn bad_settings_name_the_field() {
 /// only when nothing falls outside.
 #[test]
 fn tails_and_bins_add_up_to_the_whole_pulse() {
-    let (start, end) = (AXIS.start_opl as f64, AXIS.end_opl());
+    let (start, end) = (AXIS.start_opl, AXIS.end_opl());
     for pulse in pulses() {
         for gate in gates() {
             let c = Correlation::new(AXIS, pulse, 0.02, gate).unwrap();
@@ -218,7 +218,7 @@ fn tails_and_bins_add_up_to_the_whole_pulse() {
                 Gate::Box => 1e-9,
                 Gate::Gaussian { sigma_opl } => {
                     // Poisson summation: |Σ_l g_l − 1| ≤ 2 Σ_k exp(−2π²k²σ²/w²)
-                    let r = sigma_opl as f64 / AXIS.bin_width_opl as f64;
+                    let r = sigma_opl as f64 / AXIS.bin_width_opl;
                     (1..6)
                         .map(|k| 2.0 * (-2.0 * std::f64::consts::PI.powi(2) * (k * k) as f64 * r * r).exp())
                         .sum::<f64>()
