@@ -73,6 +73,53 @@ impl Transient {
     }
 }
 
+/// A tile's bins while it accumulates. f64 when the film has derivative blocks: a narrow
+/// pulse's derivative adds ±lobes of f·∂S_e/∂d·ḋ (∂S_e/∂d is about 0.24/σ per metre: 8·10⁷
+/// for σ = 3 nm) that cancel over time only if no f32 rounding of the running sums breaks
+/// them. f32 for a film without derivatives (a primal has no lobes; half the memory keeps the
+/// forward renderer's tile in cache). The finished film is f32 either way.
+#[derive(Clone, Debug)]
+enum Bins {
+    F32(Vec<f32>),
+    F64(Vec<f64>),
+}
+
+impl Bins {
+    fn new(n: usize, derivs: usize) -> Self {
+        if derivs == 0 {
+            Bins::F32(vec![0.0; n])
+        } else {
+            Bins::F64(vec![0.0; n])
+        }
+    }
+    fn reset(&mut self, n: usize) {
+        match self {
+            Bins::F32(v) => {
+                v.clear();
+                v.resize(n, 0.0)
+            }
+            Bins::F64(v) => {
+                v.clear();
+                v.resize(n, 0.0)
+            }
+        }
+    }
+    #[inline(always)]
+    fn add(&mut self, i: usize, x: f64) {
+        match self {
+            Bins::F32(v) => v[i] += x as f32,
+            Bins::F64(v) => v[i] += x,
+        }
+    }
+    /// Adds `dst.len()` values from `src` on into `dst`.
+    fn add_into(&self, dst: &mut [f32], src: usize) {
+        match self {
+            Bins::F32(v) => dst.iter_mut().zip(&v[src..]).for_each(|(d, s)| *d += *s),
+            Bins::F64(v) => dst.iter_mut().zip(&v[src..]).for_each(|(d, s)| *d += *s as f32),
+        }
+    }
+}
+
 /// A rectangle of pixels accumulated by one worker; merged into a [`Transient`] in a fixed
 /// order, so results do not depend on the thread count or scheduling.
 #[derive(Clone, Debug)]
@@ -83,11 +130,8 @@ pub struct TileFilm {
     pub h: usize,
     bins: usize,
     channels: usize,
-    /// Primal, then one block per derivative, each `[h, w, bins, channels]`. f64 while the
-    /// tile accumulates: a narrow pulse's derivative adds ±lobes of f·∂S_e/∂d·ḋ (∂S_e/∂d is
-    /// about 0.24/σ per metre: 8·10⁷ for σ = 3 nm) that cancel over time only if no f32
-    /// rounding of the running sums breaks them; the finished film is f32.
-    data: Vec<f64>,
+    /// Primal, then one block per derivative, each `[h, w, bins, channels]`.
+    data: Bins,
     steady: Vec<f64>,
     derivs: usize,
     /// Primal energy (Σ over channels of f · S_e mass) that fell before bin 0 and after the
@@ -106,7 +150,7 @@ impl TileFilm {
             h,
             bins: axis.bins,
             channels,
-            data: vec![0.0; n * (1 + derivs)],
+            data: Bins::new(n * (1 + derivs), derivs),
             steady: vec![0.0; w * h * channels * (1 + derivs)],
             derivs,
             tails: [0.0; 2],
@@ -120,8 +164,7 @@ impl TileFilm {
         let n = w * h * self.bins * self.channels * (1 + self.derivs);
         let sn = w * h * self.channels * (1 + self.derivs);
         (self.x0, self.y0, self.w, self.h) = (x0, y0, w, h);
-        self.data.clear();
-        self.data.resize(n, 0.0);
+        self.data.reset(n);
         self.steady.clear();
         self.steady.resize(sn, 0.0);
         self.tails = [0.0; 2];
@@ -138,10 +181,14 @@ impl TileFilm {
     /// its time integral, more than f32 bins can cancel, so the run report takes the time
     /// integral from here.
     pub fn block_sums(&self) -> Vec<f64> {
-        self.data
-            .chunks_exact(self.block().max(1))
-            .map(|b| b.iter().sum())
-            .collect()
+        let block = self.block().max(1);
+        match &self.data {
+            Bins::F32(v) => v
+                .chunks_exact(block)
+                .map(|b| b.iter().map(|&x| x as f64).sum())
+                .collect(),
+            Bins::F64(v) => v.chunks_exact(block).map(|b| b.iter().sum()).collect(),
+        }
     }
 
     #[inline]
@@ -172,8 +219,8 @@ impl TileFilm {
         let data = &mut self.data;
         corr.for_each(d, |bin, s, _ds| {
             let i = base + bin * c_n;
-            for c in 0..c_n {
-                data[i + c] += f[c] as f64 * s;
+            for (c, &fc) in f.iter().enumerate().take(c_n) {
+                data.add(i + c, fc as f64 * s);
             }
         });
     }
@@ -211,14 +258,14 @@ impl TileFilm {
         let data = &mut self.data;
         corr.for_each(d, |bin, s, ds| {
             let i = base + bin * c_n;
-            for c in 0..c_n {
-                data[i + c] += f[c] as f64 * s;
+            for (c, &fc) in f.iter().enumerate().take(c_n) {
+                data.add(i + c, fc as f64 * s);
             }
             for k in 0..n_k {
                 let ik = block * (1 + k) + i;
                 let dd = ds * ddot[k] as f64;
                 for c in 0..c_n {
-                    data[ik + c] += fdot[k * c_n + c] as f64 * s + f[c] as f64 * dd;
+                    data.add(ik + c, fdot[k * c_n + c] as f64 * s + f[c] as f64 * dd);
                 }
             }
         });
@@ -234,9 +281,7 @@ impl TileFilm {
             for ty in 0..self.h {
                 let dst = film.index(self.x0, self.y0 + ty, 0, 0);
                 let src = off + ty * row;
-                for (d, s) in film.data[dst..dst + row].iter_mut().zip(&self.data[src..src + row]) {
-                    *d += *s as f32;
-                }
+                self.data.add_into(&mut film.data[dst..dst + row], src);
                 let sdst = ((self.y0 + ty) * film.width + self.x0) * self.channels;
                 let ssrc = soff + ty * srow;
                 for (d, s) in film.steady[sdst..sdst + srow]

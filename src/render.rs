@@ -222,10 +222,11 @@ const BDPT_CHUNKS: usize = 8;
 const BDPT_FILM_BUDGET_BYTES: usize = 2 << 30;
 
 /// How many chunks a BDPT render uses: up to [`BDPT_CHUNKS`], fewer when that many
-/// full-frame films (`frame_floats` each) would exceed [`BDPT_FILM_BUDGET_BYTES`] (then the
+/// full-frame films (`frame_floats` values of `bytes` each: films with derivatives accumulate
+/// in f64) would exceed [`BDPT_FILM_BUDGET_BYTES`] (then the
 /// render runs on fewer threads). Depends only on the scene, never on the thread count.
-fn bdpt_chunks(frame_floats: usize) -> usize {
-    (BDPT_FILM_BUDGET_BYTES / (frame_floats * 4).max(1)).clamp(1, BDPT_CHUNKS)
+fn bdpt_chunks(frame_floats: usize, bytes: usize) -> usize {
+    (BDPT_FILM_BUDGET_BYTES / (frame_floats * bytes).max(1)).clamp(1, BDPT_CHUNKS)
 }
 
 /// Picks the kernel instance for (derivative lanes, lane width, channels) and calls
@@ -344,7 +345,8 @@ fn render_films(
                 0
             };
             let frame_floats = w * h * (axis.bins * channels + channels) * (1 + derivs + strategies);
-            let per_chunk = tiles.len().div_ceil(bdpt_chunks(frame_floats));
+            let bytes = if derivs > 0 { 8 } else { 4 };
+            let per_chunk = tiles.len().div_ceil(bdpt_chunks(frame_floats, bytes));
             let results: Vec<(BdptFilm, PathCounts)> = pool.install(|| {
                 tiles
                     .par_chunks(per_chunk)
