@@ -46,7 +46,7 @@ fn main() {
     // error term at this sample count
     let (reference, _) = render(&scene, &opts(IntegratorKind::Bdpt, ref_spp, 99, threads)).unwrap();
     println!(
-        "Cornell box 32x32, 200 bins x 0.03 m, max 8 bounces, delta pulse, {spp} spp, {threads} threads; \
+        "Cornell box 32x32, 200 bins x 0.06 m from 3.6 m, max 8 bounces, delta pulse, {spp} spp, {threads} threads; \
          reference: BDPT, {ref_spp} spp, another seed"
     );
     // pixels that see the light directly: their error is the filter sampling of the light's

@@ -1,6 +1,6 @@
 //! Forward transient speed on the Cornell box (issue: foundation, "Speed").
 //!
-//! Workload: scenes/cornell_box.toml at 64×64, 200 bins of 0.03 m OPL, up to 8 bounces.
+//! Workload: scenes/cornell_box.toml at 64×64, 200 bins of 0.06 m OPL from 3.6 m, up to 8 bounces.
 //! Reports paths per CPU-second and rays/s of our renderer, the rate of bare Embree
 //! (`rtcIntersect8`/`rtcOccluded8`, no shading) on the same number and kind of rays, and the
 //! error the timed render reached against a high-spp reference (cached in target/bench-cache).
@@ -63,7 +63,7 @@ fn main() {
     let bare_total = t_primary + t_bounce + t_shadow;
     let rays = (stats.intersect_rays + stats.occluded_rays) as f64;
 
-    println!("Cornell box 64x64, 200 bins x 0.03 m, max 8 bounces, {spp} spp, {threads} threads");
+    println!("Cornell box 64x64, 200 bins x 0.06 m from 3.6 m, max 8 bounces, {spp} spp, {threads} threads");
     println!(
         "  renderer : {:.3} s wall, {:.3} CPU-s, {:.3e} paths/CPU-s, {:.3e} rays/s ({:.3e} rays/CPU-s)",
         stats.wall_seconds,
@@ -98,7 +98,11 @@ fn reference_spp() -> u32 {
 fn reference(scene: &Scene, root: &std::path::Path) -> Transient {
     let spp = reference_spp();
     let dir = root.join("target/bench-cache");
-    let path = dir.join(format!("cornell_64x64_200x0.03_b8_spp{spp}_seed12345.bin"));
+    let a = &scene.film.axis;
+    let path = dir.join(format!(
+        "cornell_64x64_{}x{}_from{}_b8_spp{spp}_seed12345.bin",
+        a.bins, a.bin_width_opl, a.start_opl
+    ));
     let (w, h, t, c) = (
         scene.film.width as usize,
         scene.film.height as usize,

@@ -213,8 +213,14 @@ fn million(root: &Path) -> Scene {
 fn cached_reference(root: &Path, w: &Workload, spp: u32) -> (Transient, Vec<Transient>) {
     let f = &w.scene.film;
     let key = format!(
-        "{}_{}x{}_{}x{}_b{}_spp{spp}_seed777",
-        w.reference, f.width, f.height, f.axis.bins, f.axis.bin_width_opl, w.scene.integrator.max_bounces
+        "{}_{}x{}_{}x{}_from{}_b{}_spp{spp}_seed777",
+        w.reference,
+        f.width,
+        f.height,
+        f.axis.bins,
+        f.axis.bin_width_opl,
+        f.axis.start_opl,
+        w.scene.integrator.max_bounces
     );
     let path = root.join("target/bench-cache").join(format!("{key}.bin"));
     let n = f.width as usize * f.height as usize;

@@ -1,6 +1,6 @@
 //! Cost of the interior derivative (Algorithm 1) against the primal render, Cornell box.
 //!
-//! Same workload as `forward` (64×64, 200 bins of 0.03 m, up to 8 bounces) with a Gaussian
+//! Same workload as `forward` (64×64, 200 bins of 0.06 m from 3.6 m, up to 8 bounces) with a Gaussian
 //! pulse (σ = 0.01 m; a delta pulse with box bins has no time derivative), and one
 //! parameter: the tall box's x position. Reports primal and derivative wall time and paths per
 //! CPU-second, and their ratio (goal ≤ 1.6×). The derivative render also produces the primal,
@@ -58,7 +58,7 @@ fn main() {
     };
     let dsum: f64 = d[0].data.iter().map(|&v| v as f64).sum();
     println!(
-        "Cornell box 64x64, 200 bins x 0.03 m, max 8 bounces, Gaussian pulse, {spp} spp, {threads} threads, best of {reps}"
+        "Cornell box 64x64, 200 bins x 0.06 m from 3.6 m, max 8 bounces, Gaussian pulse, {spp} spp, {threads} threads, best of {reps}"
     );
     println!(
         "  primal          : {best_p:.3} s wall, {:.3e} paths/CPU-s",

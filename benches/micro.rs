@@ -79,11 +79,11 @@ fn bench_correlation(c: &mut Criterion) {
         ),
     ] {
         let corr = Correlation::new(axis, p, 0.0, gate).unwrap();
-        let mut d = 3.0f32;
+        let mut d = 3.0f64;
         g.bench_function(name, |b| {
             b.iter(|| {
                 d = if d > 5.0 { 3.0 } else { d + 0.0137 };
-                let mut acc = 0.0f32;
+                let mut acc = 0.0f64;
                 corr.for_each(black_box(d), |_, s, ds| acc += s + ds);
                 acc
             })
@@ -104,7 +104,7 @@ fn bench_film(c: &mut Criterion) {
     for ch in [1usize, 3] {
         let mut film = TileFilm::new(0, 0, 8, 8, &axis, ch, 1);
         let f = [0.5f32; 3];
-        let mut d = 3.0f32;
+        let mut d = 3.0f64;
         g.bench_function(format!("add C={ch}"), |b| {
             b.iter(|| {
                 d = if d > 5.0 { 3.0 } else { d + 0.0137 };

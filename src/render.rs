@@ -7,7 +7,7 @@
 
 use crate::accel::{Device, set_flush_denormals};
 use crate::error::Error;
-use crate::film::{TileFilm, Transient};
+use crate::film::{DerivWindowEnergy, TileFilm, Transient, WindowEnergy};
 use crate::integrator::RenderContext;
 use crate::integrator::bdpt::{self, film::BdptFilm};
 use crate::integrator::motion::Motion;
@@ -104,6 +104,12 @@ pub struct RenderStats {
     pub boundary: Option<crate::boundary::BoundaryStats>,
     /// Embree traversal mode: "robust" (watertight) or "fast" (`--fast-traversal`).
     pub traversal: &'static str,
+    /// Where the primal energy fell against the time window (before, inside, after).
+    pub energy: WindowEnergy,
+    /// The same for each derivative film (inside and outside the window), in parameter order.
+    pub deriv_energy: Vec<DerivWindowEnergy>,
+    /// Whether paths carried f64 OPLs, and the film time scale and f32 step that decided it.
+    pub opl: crate::integrator::opl::OplPrecision,
 }
 
 #[derive(Clone, Debug, Default, serde::Serialize)]
@@ -232,10 +238,11 @@ const BDPT_CHUNKS: usize = 8;
 const BDPT_FILM_BUDGET_BYTES: usize = 2 << 30;
 
 /// How many chunks a BDPT render uses: up to [`BDPT_CHUNKS`], fewer when that many
-/// full-frame films (`frame_floats` each) would exceed [`BDPT_FILM_BUDGET_BYTES`] (then the
+/// full-frame films (`frame_floats` values of `bytes` each: films with derivatives accumulate
+/// in f64) would exceed [`BDPT_FILM_BUDGET_BYTES`] (then the
 /// render runs on fewer threads). Depends only on the scene, never on the thread count.
-fn bdpt_chunks(frame_floats: usize) -> usize {
-    (BDPT_FILM_BUDGET_BYTES / (frame_floats * 4).max(1)).clamp(1, BDPT_CHUNKS)
+fn bdpt_chunks(frame_floats: usize, bytes: usize) -> usize {
+    (BDPT_FILM_BUDGET_BYTES / (frame_floats * bytes).max(1)).clamp(1, BDPT_CHUNKS)
 }
 
 /// Picks the kernel instance for (derivative lanes, lane width, channels) and calls
@@ -308,7 +315,9 @@ fn render_films(
     let kind = opts.integrator.unwrap_or(scene.integrator.kind);
     let mut out = vec![Transient::zeros(w, h, axis, channels); 1 + derivs];
     let mut strategy_out = Vec::new();
-    let counts: Vec<PathCounts> = match kind {
+    // (counts, primal energy before and after the window, Σ of each film block) per tile or
+    // chunk, in order
+    let counts: Vec<(PathCounts, [f64; 2], Vec<f64>)> = match kind {
         IntegratorKind::Path => {
             // Tiles cover disjoint pixels and `out` starts at zero, so each pixel receives
             // exactly one tile's sums (0 + x = x): merging as tiles finish gives the same bytes
@@ -335,9 +344,10 @@ fn render_films(
                             dispatch!(derivs, opts.lanes, channels, render_tile(&ctx, seed, spp, w, f, c));
                             counts.total_ticks = crate::timing::ticks() - tick0;
                             film.merge_into(&mut merged.lock().unwrap_or_else(|e| e.into_inner()));
+                            let (tails, sums) = (film.tails(), film.block_sums());
                             *spare = Some(film);
                             bar.inc(1);
-                            counts
+                            (counts, tails, sums)
                         },
                     )
                     .collect()
@@ -351,7 +361,8 @@ fn render_films(
                 0
             };
             let frame_floats = w * h * (axis.bins * channels + channels) * (1 + derivs + strategies);
-            let per_chunk = tiles.len().div_ceil(bdpt_chunks(frame_floats));
+            let bytes = if derivs > 0 { 8 } else { 4 };
+            let per_chunk = tiles.len().div_ceil(bdpt_chunks(frame_floats, bytes));
             let results: Vec<(BdptFilm, PathCounts)> = pool.install(|| {
                 tiles
                     .par_chunks(per_chunk)
@@ -380,7 +391,10 @@ fn render_films(
                     f.merge_into(&mut strategy_out[k..k + 1]);
                 }
             }
-            results.into_iter().map(|r| r.1).collect()
+            results
+                .into_iter()
+                .map(|(f, c)| (c, f.film.tails(), f.film.block_sums()))
+                .collect()
         }
     };
     let wall = t0.elapsed().as_secs_f64();
@@ -396,10 +410,16 @@ fn render_films(
         paths: if interior { (w * h) as u64 * spp as u64 } else { 0 },
         bvh_build_seconds,
         traversal: if robust { "robust" } else { "fast" },
+        opl: ctx.opl,
         ..Default::default()
     };
     let mut ticks = (0u64, 0u64, 0u64);
-    for c in &counts {
+    let mut tails = [0.0f64; 2];
+    let mut inside = vec![0.0f64; 1 + derivs];
+    for (c, t, sums) in &counts {
+        tails[0] += t[0];
+        tails[1] += t[1];
+        inside.iter_mut().zip(sums).for_each(|(a, b)| *a += b);
         stats.intersect_rays += c.rays.intersect;
         stats.occluded_rays += c.rays.occluded;
         stats.non_finite_samples += c.non_finite;
@@ -431,9 +451,14 @@ fn render_films(
         let t_b = Instant::now();
         let cpu_b = cpu_seconds();
         let parts = crate::boundary::render_boundary(&ctx, &settings, &pool);
-        for (film, (p, q)) in out[1..].iter_mut().zip(parts.primary.iter().zip(&parts.secondary)) {
+        for (k, (film, (p, q))) in out[1..]
+            .iter_mut()
+            .zip(parts.primary.iter().zip(&parts.secondary))
+            .enumerate()
+        {
             for (d, (a, b)) in film.data.iter_mut().zip(p.data.iter().zip(&q.data)) {
                 *d += a + b;
+                inside[1 + k] += (a + b) as f64 * spp as f64;
             }
             for (d, (a, b)) in film.steady.iter_mut().zip(p.steady.iter().zip(&q.steady)) {
                 *d += a + b;
@@ -446,6 +471,13 @@ fn render_films(
         stats.total_cpu_seconds += cpu_seconds() - cpu_b;
         stats.boundary = Some(parts.stats);
     }
+    let n = spp as f64;
+    stats.energy = WindowEnergy::of(&out[0], inside[0] / n, tails[0] / n, tails[1] / n);
+    stats.deriv_energy = out[1..]
+        .iter()
+        .zip(&inside[1..])
+        .map(|(t, &i)| DerivWindowEnergy::of(t, i / n))
+        .collect();
     Ok((out, strategy_out, stats))
 }
 

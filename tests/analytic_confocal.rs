@@ -126,7 +126,7 @@ fn first_arrival_bin_is_exact() {
     let t = common::render_with(&s.scene, 4, 7, 2);
     let axis = s.scene.film.axis;
     let eta = s.scene.eta as f64;
-    let bin_of = |d: f64| ((d - axis.start_opl as f64) / axis.bin_width_opl as f64).floor() as i64;
+    let bin_of = |d: f64| ((d - axis.start_opl) / axis.bin_width_opl).floor() as i64;
     let mut checked = 0;
     for py in 0..t.height {
         for px in 0..t.width {

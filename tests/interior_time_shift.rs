@@ -98,7 +98,7 @@ fn eta_shift(integrator: IntegratorKind) {
         "d(mean OPL)/dη = {dm} ± {sed}, expected {expected}"
     );
     // peak bin: predicted move (η1 − η0)·mean / bin width, within one bin of quantisation
-    let w = scene(eta0).film.axis.bin_width_opl as f64;
+    let w = scene(eta0).film.axis.bin_width_opl;
     let moved = peaks.1 as f64 - peaks.0 as f64;
     let want = (eta1 - eta0) as f64 * m0 / w;
     assert!(

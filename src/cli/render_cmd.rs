@@ -179,6 +179,11 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
     output::write_json(&set.stage("json")?, &meta)?;
     let prefix_path = set.commit()?;
     let prefix = |ext: &str| with_suffix(&prefix_path, ext);
+    // the primal is left zero on purpose by `--estimators boundary`
+    let primal_rendered = a.diff.is_empty() || !matches!(a.estimators, Estimators::Boundary);
+    if let Some(w) = stats.energy.warning(&film.axis).filter(|_| primal_rendered) {
+        eprintln!("warning: {}: {w}", a.scene.display());
+    }
     if !a.quiet {
         eprintln!(
             "{}: {}x{}x{}x{} in {:.2} s ({:.3e} paths/CPU-s, {:.3e} rays/s)",
@@ -249,7 +254,11 @@ fn write_previews(film: &Transient, set: &mut OutputSet, pixel: Option<(usize, u
     ];
     output::write_time_plot(
         &set.stage("plot.png")?,
-        (film.axis.start_opl, film.axis.bin_width_opl, film.axis.bins),
+        (
+            film.axis.start_opl as f32,
+            film.axis.bin_width_opl as f32,
+            film.axis.bins,
+        ),
         &series,
     )?;
     Ok(())
@@ -257,7 +266,7 @@ fn write_previews(film: &Transient, set: &mut OutputSet, pixel: Option<(usize, u
 
 fn metadata(scene: &Scene, film: &Transient, stats: &RenderStats, a: &RenderArgs, prefix: &Path) -> serde_json::Value {
     let axis = film.axis;
-    let ns = |opl: f32| opl as f64 / SPEED_OF_LIGHT_M_PER_S * 1e9;
+    let ns = |opl: f64| opl / SPEED_OF_LIGHT_M_PER_S * 1e9;
     let params: serde_json::Map<String, serde_json::Value> =
         scene.params.iter().map(|p| (p.name.clone(), json!(p.value))).collect();
     json!({
@@ -301,6 +310,18 @@ fn metadata(scene: &Scene, film: &Transient, stats: &RenderStats, a: &RenderArgs
         "boundary_samples": stats.boundary_samples,
         "boundary_seconds": stats.boundary_seconds,
         "boundary": stats.boundary,
+        "opl_precision": {
+            "about": "f64_paths: each path's OPL was also summed in f64 from f64 hit points (rebuilt from Embree's f32 barycentrics), because the film's finest time scale (bin width, pulse or gate width) is under 4096 f32 steps at the largest OPL or coordinate; else the kernel's f32 OPL is binned. The time axis is f64 either way.",
+            "f64_paths": stats.opl.f64_paths,
+            "time_scale_opl": stats.opl.time_scale_opl,
+            "f32_step_opl": stats.opl.f32_step_opl,
+        },
+        "energy": {
+            "about": "time integral of the whole image (sum over pixels and channels): total = every path; before / after = the part that arrived before bin 0 / after the last bin; inside = sum of the transient",
+            "primal": stats.energy,
+            "derivatives": a.diff.iter().zip(&stats.deriv_energy).map(|(n, e)| json!({"param": n, "total": e.total, "inside": e.inside, "outside": e.outside})).collect::<Vec<_>>(),
+            "warning": stats.energy.warning(&film.axis),
+        },
         "version": env!("CARGO_PKG_VERSION"),
     })
 }

@@ -4,6 +4,7 @@
 use super::camera::CameraSampler;
 use super::emitters::EmitterTable;
 use super::motion::Motion;
+use super::opl::OplPrecision;
 use crate::accel::{Accel, BuildQuality, Device};
 use crate::error::Error;
 use crate::scene::Scene;
@@ -23,6 +24,8 @@ pub struct RenderContext<'a> {
     pub correlations: Vec<Correlation>,
     pub camera: CameraSampler,
     pub motion: Motion,
+    /// Whether paths also carry their OPL in f64 (the film's time scale is too fine for f32).
+    pub opl: OplPrecision,
 }
 
 impl<'a> RenderContext<'a> {
@@ -68,6 +71,7 @@ impl<'a> RenderContext<'a> {
             correlations,
             camera,
             motion: Motion::none(),
+            opl: OplPrecision::choose(scene),
         })
     }
 }

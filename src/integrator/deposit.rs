@@ -16,7 +16,9 @@ const MAX_K: usize = 16;
 #[derive(Clone, Copy, Debug)]
 pub struct LaneContribution<const C: usize> {
     pub emitter: u32,
-    pub d: f32,
+    /// The OPL: the lane's f64 value when the path carried one (`super::opl`), else its f32
+    /// value widened.
+    pub d: f64,
     pub f: [f32; C],
     /// ḟ_k per channel: `fdot[k * C + c]`.
     pub fdot: [f32; 48],
@@ -25,17 +27,19 @@ pub struct LaneContribution<const C: usize> {
 }
 
 impl<const C: usize> LaneContribution<C> {
-    /// Lane `i` of (`d`, `contrib`) from `emitter`. `None` when the lane is not finite (the
-    /// caller counts it and drops it, never writing it to the film).
+    /// Lane `i` of (`d`, `contrib`) from `emitter`, with the OPL value taken from `exact`
+    /// (f64 per lane) when given, its derivatives from `d`. `None` when the lane is not finite
+    /// (the caller counts it and drops it, never writing it to the film).
     pub fn extract<R: Real>(
         ctx: &RenderContext,
         emitter: u32,
         d: R,
+        exact: Option<&[f64; 8]>,
         contrib: &Spectrum<R, C>,
         i: usize,
     ) -> Option<Self> {
         let f: [f32; C] = std::array::from_fn(|c| contrib.0[c].lane(i));
-        let di = d.lane(i);
+        let di = exact.map_or(d.lane(i) as f64, |e| e[i]);
         let mut finite = di.is_finite() && f.iter().all(|v| v.is_finite());
         let n_k = R::DERIVS.min(ctx.motion.len()).min(MAX_K);
         let mut fdot = [0.0f32; 48];
@@ -85,7 +89,7 @@ impl<const C: usize> LaneContribution<C> {
     }
 }
 
-/// Pulls every lane of `mask` with an emitter out of (`d`, `contrib`) and hands the finite,
+/// Pulls every lane of `mask` with an emitter out of (`d` or `exact`, `contrib`) and hands the finite,
 /// non-empty ones to `add(lane, contribution)`; non-finite lanes are counted in `counts` and
 /// dropped. The time spent is counted as film time.
 #[allow(clippy::too_many_arguments)]
@@ -93,6 +97,7 @@ pub fn for_each_lane<R: Real, const C: usize>(
     ctx: &RenderContext,
     emitter: &[u32; 8],
     d: R,
+    exact: Option<&[f64; 8]>,
     contrib: &Spectrum<R, C>,
     mask: R::Mask,
     counts: &mut PathCounts,
@@ -103,7 +108,7 @@ pub fn for_each_lane<R: Real, const C: usize>(
         if !crate::kernel::Mask::bit(mask, i) || emitter[i] == u32::MAX {
             continue;
         }
-        match LaneContribution::<C>::extract(ctx, emitter[i], d, contrib, i) {
+        match LaneContribution::<C>::extract(ctx, emitter[i], d, exact, contrib, i) {
             Some(lc) if !lc.is_empty() => add(i, &lc),
             Some(_) => {}
             None => counts.non_finite += 1,

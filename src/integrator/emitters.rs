@@ -71,6 +71,10 @@ pub struct LightSample<R: Real, const C: usize> {
     /// Geometric length travelled before the sampled point (laser to spot), else 0.
     pub pre_length: R,
     pub valid: R::Mask,
+    /// The sampled points and `pre_length` in f64, rebuilt from the f32 barycentrics (see
+    /// `super::opl`); zero unless the render carries f64 OPLs.
+    pub p64: [glam::DVec3; 8],
+    pub pre64: [f64; 8],
 }
 
 impl EmitterTable {
@@ -242,6 +246,23 @@ impl EmitterTable {
             }
         }
         let surf: SurfacePoint<R> = surface_at(ctx, &prim, R::Value::from_lanes(&bu), R::Value::from_lanes(&bv));
+        let mut p64 = [glam::DVec3::ZERO; 8];
+        let mut pre64 = [0.0f64; 8];
+        if ctx.opl.f64_paths {
+            for i in 0..R::LANES {
+                if !valid[i] {
+                    continue;
+                }
+                p64[i] = if on_surface[i] {
+                    super::opl::point64(ctx, prim[i], bu[i], bv[i])
+                } else {
+                    point[i].as_dvec3()
+                };
+                if laser[i] {
+                    pre64[i] = (p64[i] - laser_o[i].as_dvec3()).length();
+                }
+            }
+        }
         let has_cos = R::Mask::from_bools(&on_surface[..R::LANES]);
         let mut p = V3::select(has_cos, surf.p, V3::from_lane_vecs(&point[..R::LANES]));
         let mut pre_length = R::from_lanes(&pre);
@@ -273,6 +294,8 @@ impl EmitterTable {
             emitter,
             pre_length,
             valid: R::Mask::from_bools(&valid[..R::LANES]),
+            p64,
+            pre64,
         }
     }
 }

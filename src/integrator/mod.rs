@@ -16,6 +16,7 @@ pub mod context;
 pub mod deposit;
 pub mod emitters;
 pub mod motion;
+pub mod opl;
 pub mod path;
 pub mod surface;
 pub mod trace;

@@ -15,6 +15,7 @@
 use super::bsdf::{albedo, cosine_pdf, diffuse_eval, sample_cosine};
 use super::context::RenderContext;
 use super::deposit::for_each_lane;
+use super::opl::points64;
 use super::power_heuristic;
 use super::surface::surface_at;
 use super::trace::{RayCounts, SegmentEnd, intersect, shadow_segment, spawn_point, unoccluded};
@@ -115,6 +116,11 @@ pub fn trace_packet_from<R: Real, const C: usize>(
     let mut prev_pdf: V<R> = V::<R>::zero();
     let mut beta = Spectrum::<R, C>::splat(R::one());
     let mut opl = R::zero();
+    // each lane's OPL in f64 from f64 hit points, when the film needs it (`super::opl`)
+    let exact = ctx.opl.f64_paths;
+    let mut opl64 = [0.0f64; 8];
+    let mut prev64 = [ctx.camera.position.as_dvec3(); 8];
+    let mut x64 = prev64;
 
     for depth in 1..=max_bounces + 1 {
         let hit = intersect(
@@ -153,8 +159,18 @@ pub fn trace_packet_from<R: Real, const C: usize>(
             let ratio = R::safe_div(g, R::from_value(g.value())) * x.jacobian;
             beta = beta.scale(ratio);
         }
+        if exact {
+            let u: [f32; 8] = std::array::from_fn(|i| if i < R::LANES { hit.u.lane(i) } else { 0.0 });
+            let v: [f32; 8] = std::array::from_fn(|i| if i < R::LANES { hit.v.lane(i) } else { 0.0 });
+            x64 = points64(ctx, R::LANES, &hit.prim, &u, &v);
+        }
         if !(depth == 1 && scene.film.unwarp) {
             opl += eta * r;
+            if exact {
+                for i in 0..R::LANES {
+                    opl64[i] += eta.value().lane(i) as f64 * (x64[i] - prev64[i]).length();
+                }
+            }
         }
 
         // Emission found by this ray (Veach 1997, Eq. 9.13 weights against light sampling).
@@ -185,7 +201,17 @@ pub fn trace_packet_from<R: Real, const C: usize>(
                 power_heuristic(prev_pdf, p_l)
             };
             let contrib = (beta * le).scale(R::from_value(w));
-            splat(ctx, film, lanes, &emitter, opl, &contrib, emits, counts);
+            splat(
+                ctx,
+                film,
+                lanes,
+                &emitter,
+                opl,
+                exact.then_some(&opl64),
+                &contrib,
+                emits,
+                counts,
+            );
         }
         if depth > max_bounces {
             break;
@@ -231,7 +257,24 @@ pub fn trace_packet_from<R: Real, const C: usize>(
                 let g = cos_x_signed.abs() * cos_y / d2;
                 let contrib = (beta * f * ls.weight).scale(g * R::from_value(w));
                 let d = opl + eta * (dist + ls.pre_length);
-                splat(ctx, film, lanes, &ls.emitter, d, &contrib, lit, counts);
+                let mut d64 = [0.0f64; 8];
+                if exact {
+                    for i in 0..R::LANES {
+                        let seg = (ls.p64[i] - x64[i]).length() + ls.pre64[i];
+                        d64[i] = opl64[i] + eta.value().lane(i) as f64 * seg;
+                    }
+                }
+                splat(
+                    ctx,
+                    film,
+                    lanes,
+                    &ls.emitter,
+                    d,
+                    exact.then_some(&d64),
+                    &contrib,
+                    lit,
+                    counts,
+                );
             }
         }
 
@@ -258,13 +301,14 @@ pub fn trace_packet_from<R: Real, const C: usize>(
         ray_o = spawn_point(&x.p.value(), &n_v, &ray_d, &dir);
         ray_d = dir;
         prev_p = x.p;
+        prev64 = x64;
         prev_n = x.n;
         prev_pdf = pdf;
     }
 }
 
 /// Adds each lane's contribution (and its derivatives) to its pixel, binned by the
-/// emitter's S_e at OPL `d`.
+/// emitter's S_e at OPL `d` (the value from `exact` when given, f64 per lane).
 #[allow(clippy::too_many_arguments)]
 fn splat<R: Real, const C: usize>(
     ctx: &RenderContext,
@@ -272,11 +316,12 @@ fn splat<R: Real, const C: usize>(
     lanes: &PacketLanes,
     emitter: &[u32; 8],
     d: R,
+    exact: Option<&[f64; 8]>,
     contrib: &Spectrum<R, C>,
     mask: R::Mask,
     counts: &mut PathCounts,
 ) {
-    for_each_lane(ctx, emitter, d, contrib, mask, counts, |i, lc| {
+    for_each_lane(ctx, emitter, d, exact, contrib, mask, counts, |i, lc| {
         lc.add_to(ctx, film, lanes.px[i] as usize, lanes.py[i] as usize, 1.0);
     });
 }

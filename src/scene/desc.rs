@@ -127,8 +127,8 @@ pub enum Channels {
 #[serde(deny_unknown_fields)]
 pub struct FilmDesc {
     #[serde(default)]
-    pub start_opl: f32,
-    pub bin_width_opl: f32,
+    pub start_opl: f64,
+    pub bin_width_opl: f64,
     pub bins: i64,
     #[serde(default = "default_box")]
     pub gate: NameOr<GateTable>,

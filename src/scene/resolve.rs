@@ -365,9 +365,13 @@ fn film(
     ctx: &Ctx,
 ) -> Result<FilmSpec, SceneError> {
     let at = |f: &str| table_field("film", f);
-    let bin_width_opl = positive(ctx, at("bin_width_opl"), d.bin_width_opl)?;
+    // f64 end to end: an f32 would store start_opl = 3.99999995 as 4.0
+    let bin_width_opl = d.bin_width_opl;
+    if bin_width_opl <= 0.0 || bin_width_opl.is_nan() {
+        return Err(ctx.invalid(at("bin_width_opl"), format!("must be > 0 (got {bin_width_opl})")));
+    }
     let bins = count(ctx, at("bins"), d.bins, 1, MAX_BINS)? as usize;
-    let end = d.start_opl as f64 + bin_width_opl as f64 * bins as f64;
+    let end = d.start_opl + bin_width_opl * bins as f64;
     if !((end as f32).is_finite()) {
         return Err(ctx.invalid(
             at("bins"),

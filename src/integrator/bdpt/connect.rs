@@ -53,7 +53,8 @@ pub fn emission<R: Real, const C: usize>(pk: &mut Packet<'_, '_, R, C>, t: usize
     );
     let (lower, higher) = ratio_sums(pk.pl, pk.pe, 0, |sp| allowed(t, sp, R::Mask::splat(false)));
     let contrib = (pt.beta * radiance).scale(R::from_value(weight(lower, higher)));
-    pk.deposit_own_pixels((0, t), &emitter, pt.opl, &contrib, emits);
+    let exact = ctx.opl.f64_paths.then_some(&pt.opl64);
+    pk.deposit_own_pixels((0, t), &emitter, pt.opl, exact, &contrib, emits);
 }
 
 /// s ≥ 1, t ≥ 2: the light subpath's vertex s − 1 joined to the camera subpath's vertex t − 1.
@@ -81,8 +82,17 @@ pub fn connect<R: Real, const C: usize>(pk: &mut Packet<'_, '_, R, C>, s: usize,
     let g = cos_q * cos_p / d2;
     let contrib = (qs.beta * qs.f * pt.f * pt.beta).scale(g * R::from_value(weight(lower, higher)));
     let d = qs.opl + pt.opl + pk.eta * dist;
+    let d64: [f64; 8] = std::array::from_fn(|i| {
+        let e = if i < R::LANES {
+            pk.eta.value().lane(i) as f64
+        } else {
+            0.0
+        };
+        qs.opl64[i] + pt.opl64[i] + e * (qs.p64[i] - pt.p64[i]).length()
+    });
     let emitter = pk.origin.emitter;
-    pk.deposit_own_pixels((s, t), &emitter, d, &contrib, ok);
+    let exact = ctx.opl.f64_paths.then_some(&d64);
+    pk.deposit_own_pixels((s, t), &emitter, d, exact, &contrib, ok);
 }
 
 /// The unit vector and distance from `a` to `b`.

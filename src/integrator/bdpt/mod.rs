@@ -81,11 +81,12 @@ impl<R: Real, const C: usize> Packet<'_, '_, R, C> {
         strategy: (usize, usize),
         emitter: &[u32; 8],
         d: R,
+        exact: Option<&[f64; 8]>,
         contrib: &Spectrum<R, C>,
         mask: R::Mask,
     ) {
         let (ctx, lanes, film) = (self.ctx, self.lanes, &mut *self.film);
-        for_each_lane(ctx, emitter, d, contrib, mask, self.counts, |i, lc| {
+        for_each_lane(ctx, emitter, d, exact, contrib, mask, self.counts, |i, lc| {
             let (x, y) = (lanes.px[i] as usize, lanes.py[i] as usize);
             film.add(ctx, strategy, x, y, lc, 1.0);
         });

@@ -81,11 +81,17 @@ pub fn splat_to_camera<R: Real, const C: usize>(pk: &mut Packet<'_, '_, R, C>, s
         (qs.beta, qs.opl + camera_leg(ctx, pk.eta, &qs.p, &eye))
     };
     let contrib = (beta * qs.f).scale(R::from_value(camera_factor));
+    let cam64 = cam.position.as_dvec3();
+    let d64: [f64; 8] = std::array::from_fn(|i| match i < R::LANES && !ctx.scene.film.unwarp {
+        true => qs.opl64[i] + pk.eta.value().lane(i) as f64 * (qs.p64[i] - cam64).length(),
+        false => qs.opl64[i],
+    });
+    let exact = ctx.opl.f64_paths.then_some(&d64);
     for i in 0..R::LANES {
         if !ok.bit(i) {
             continue;
         }
-        let Some(lc) = LaneContribution::<C>::extract(ctx, pk.origin.emitter[i], d, &contrib, i) else {
+        let Some(lc) = LaneContribution::<C>::extract(ctx, pk.origin.emitter[i], d, exact, &contrib, i) else {
             pk.counts.non_finite += 1;
             continue;
         };

@@ -47,6 +47,10 @@ pub struct Vertex<R: Real, const C: usize> {
     pub geo: R,
     /// Optical path length from the subpath's start to this vertex.
     pub opl: R,
+    /// The point and `opl` per lane in f64 (see `integrator::opl`); kept only when the render
+    /// carries f64 OPLs (`ctx.opl.f64_paths`), else zero.
+    pub p64: [glam::DVec3; 8],
+    pub opl64: [f64; 8],
     pub prim: [u32; 8],
     pub alive: R::Mask,
 }
@@ -107,8 +111,19 @@ impl<R: Real, const C: usize> Vertex<R, C> {
     /// A point-like vertex at `p` (the camera or a point light) with throughput `beta`.
     pub fn point(p: V3<R>, beta: Spectrum<R, C>, alive: R::Mask) -> Self {
         let no = R::Mask::from_bools(&[false; 8][..R::LANES]);
+        // camera and point-light positions are f32 values: exact in f64
+        let pv = p.value();
+        let p64 = std::array::from_fn(|i| {
+            if i < R::LANES {
+                glam::DVec3::new(pv.x.lane(i) as f64, pv.y.lane(i) as f64, pv.z.lane(i) as f64)
+            } else {
+                glam::DVec3::ZERO
+            }
+        });
         Self {
             p,
+            p64,
+            opl64: [0.0; 8],
             n: V3::zero(),
             on_surface: no,
             front: no,

@@ -82,6 +82,11 @@ fn random_walk<R: Real, const C: usize>(
         } else {
             prev.opl + eta * r
         };
+        let (p64, opl64) = if ctx.opl.f64_paths {
+            opl64_step(ctx, &prev, &hit, eta.value(), !(ray_form && ctx.scene.film.unwarp))
+        } else {
+            ([glam::DVec3::ZERO; 8], [0.0; 8])
+        };
         let front = x.n.value().dot(ray_d).lt(V::<R>::zero());
         let f = diffuse_eval(albedo::<R, C>(ctx, &x.prim));
         let mut v = Vertex {
@@ -96,6 +101,8 @@ fn random_walk<R: Real, const C: usize>(
             pdf_rev: V::<R>::zero(),
             geo,
             opl,
+            p64,
+            opl64,
             prim: hit.prim,
             alive: active,
         };
@@ -217,6 +224,16 @@ pub fn light_subpath<R: Real, const C: usize>(
     v0.uniform_sphere = !ls.has_cos;
     v0.pdf_fwd = ls.pdf_area;
     v0.opl = eta * ls.pre_length;
+    if ctx.opl.f64_paths {
+        v0.p64 = ls.p64;
+        v0.opl64 = std::array::from_fn(|i| {
+            if i < R::LANES {
+                eta.value().lane(i) as f64 * ls.pre64[i]
+            } else {
+                0.0
+            }
+        });
+    }
     path.clear();
     path.push(v0);
     let (b1, b2) = sampler.next2::<V<R>>();
@@ -245,4 +262,26 @@ pub fn light_subpath<R: Real, const C: usize>(
         emitter: ls.emitter,
         delta: alive & !ls.pdf_area.gt(V::<R>::zero()),
     }
+}
+
+/// The new vertices' points rebuilt in f64 from the hit's barycentrics and their OPLs in f64
+/// (`integrator::opl`), adding the segment from `prev` when `count` (not an unwarped camera
+/// segment).
+fn opl64_step<R: Real, const C: usize>(
+    ctx: &RenderContext,
+    prev: &Vertex<R, C>,
+    hit: &crate::integrator::trace::HitLanes<R::Value>,
+    eta: R::Value,
+    count: bool,
+) -> ([glam::DVec3; 8], [f64; 8]) {
+    let u: [f32; 8] = std::array::from_fn(|i| if i < R::LANES { hit.u.lane(i) } else { 0.0 });
+    let v: [f32; 8] = std::array::from_fn(|i| if i < R::LANES { hit.v.lane(i) } else { 0.0 });
+    let p64 = crate::integrator::opl::points64(ctx, R::LANES, &hit.prim, &u, &v);
+    let mut opl64 = prev.opl64;
+    if count {
+        for i in 0..R::LANES {
+            opl64[i] += eta.lane(i) as f64 * (p64[i] - prev.p64[i]).length();
+        }
+    }
+    (p64, opl64)
 }
