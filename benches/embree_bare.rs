@@ -5,7 +5,7 @@
 //! and random rays (origin inside the room, uniform direction). For each set:
 //! `raw_*` calls Embree directly (`Accel::raw_*_batch`); `ours_*` goes through
 //! `Accel::intersect1/intersect8/occluded8` with their validation and result conversion.
-//! Compare with the table in /work/shared/EMBREE.md (Cornell box, 1 thread).
+//! Compare with the bare rates in BENCHMARKS.md (Cornell box, 1 thread).
 //!
 //! `cargo bench --bench embree_bare` (about 20 s).
 

@@ -66,7 +66,7 @@ unsafe extern "C" fn record_error(user_ptr: *mut c_void, _code: c_uint, message:
 ///
 /// Thread-safety: `Device` is `Send + Sync`. Embree API calls on distinct objects may run
 /// concurrently, and the device is reference counted internally. Error codes are kept per
-/// thread, which is what [`Device::check`] relies on.
+/// thread, which is what `Device::check` relies on.
 ///
 /// [`Accel`]: super::Accel
 pub struct Device {

@@ -1,6 +1,5 @@
 //! Intel Embree 3 behind a narrow, safe interface. This is the only module that talks to
-//! Embree; a later move to Embree 4 stays here (see `/work/shared/EMBREE.md` and
-//! [`ffi`]).
+//! Embree; a later move to Embree 4 stays here (the differences are listed in [`ffi`]).
 //!
 //! - [`Device`] and [`Accel`] release their Embree objects on drop. An [`Accel`] keeps its own
 //!   device reference, so it has no lifetime parameter.

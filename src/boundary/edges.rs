@@ -1,4 +1,4 @@
-//! Edge topology, built once per scene (STYLE example 3; supplemental §2.1).
+//! Edge topology, built once per scene (supplemental §2.1).
 //!
 //! Each record keeps integers only: its vertices v0 < v1, its faces (face1 = None on a mesh
 //! boundary) and the vertex opposite the edge in each face. Geometry is gathered per use.

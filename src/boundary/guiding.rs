@@ -104,7 +104,7 @@ mod tests {
         let g = GuideGrid::from_pilot(res, &sums, 0.2);
         let mut rng = PathSampler::new(3, &[9]);
         let n = 100_000;
-        let mut hist = vec![0.0f64; 16];
+        let mut hist = [0.0f64; 16];
         let mut est = Vec::with_capacity(n);
         for _ in 0..n {
             let pick = rng.next::<f32>();

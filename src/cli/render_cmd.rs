@@ -269,7 +269,7 @@ fn metadata(scene: &Scene, film: &Transient, stats: &RenderStats, a: &RenderArgs
     let ns = |opl: f64| opl / SPEED_OF_LIGHT_M_PER_S * 1e9;
     let params: serde_json::Map<String, serde_json::Value> =
         scene.params.iter().map(|p| (p.name.clone(), json!(p.value))).collect();
-    json!({
+    let mut meta = json!({
         "scene": a.scene.display().to_string(),
         "shape": film.shape(),
         "layout": "[height, width, bins, channels], float32, radiance averaged over samples",
@@ -323,5 +323,7 @@ fn metadata(scene: &Scene, film: &Transient, stats: &RenderStats, a: &RenderArgs
             "warning": stats.energy.warning(&film.axis),
         },
         "version": env!("CARGO_PKG_VERSION"),
-    })
+    });
+    meta["traversal"] = json!(stats.traversal);
+    meta
 }

@@ -4,6 +4,7 @@
 //! Each lane carries one path of one pixel. Per vertex x_i the kernel adds
 //! - emission found by the BSDF-sampled ray (MIS-weighted against light sampling), and
 //! - next-event estimation to a sampled emitter point (MIS-weighted against BSDF sampling),
+//!
 //! each with its optical path length d = η · Σ‖x_{j+1} − x_j‖ (supplemental Eq. 24's
 //! tof(x̄) = d / c), binned by the film through S_e.
 //!

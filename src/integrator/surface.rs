@@ -1,4 +1,4 @@
-//! Surface points rebuilt from plain hits (STYLE example 1).
+//! Surface points rebuilt from plain hits.
 //!
 //! Embree reports `(t, primitive, u, v)`. The kernel rebuilds `x = p0 + u·(p1 − p0) + v·(p2 − p0)`
 //! from the mesh in its own number type. With dual numbers, the vertices carry their velocity

@@ -1,4 +1,4 @@
-//! Lanes to Embree and back. Embree sees plain `f32` rays only (STYLE example 1).
+//! Lanes to Embree and back. Embree sees plain `f32` rays only.
 
 use super::surface::{offset_origin, self_intersection_eps};
 use crate::accel::{Accel, Ray8};

@@ -4,7 +4,7 @@
 //! tests as the scalar reference), on `wide::f32x8` (eight paths per packet, the primal
 //! renderer) and on dual numbers (eight paths plus derivative lanes, the differentiable
 //! renderer). Embree never sees these types: it traces plain `f32` rays built from
-//! [`Real::lane`] values (STYLE example 1).
+//! [`Real::lane`] values.
 
 mod dual;
 mod mask;

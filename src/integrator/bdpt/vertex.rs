@@ -1,5 +1,5 @@
 //! Subpath vertices and the area-measure pdfs that link them (Veach 1997, §10.2; the
-//! `pdfFwd` / `pdfRev` bookkeeping of pbrt-v4's BDPT, STYLE example 7).
+//! `pdfFwd` / `pdfRev` bookkeeping of pbrt-v4's BDPT, `src/pbrt/cpu/integrators.h`).
 //!
 //! Delta flags: pbrt-v4 marks vertices scattered by a specular lobe (`delta`) and lights that
 //! are deltas in position (`IsDeltaLight`). Our only BSDF is diffuse, so no surface vertex is
