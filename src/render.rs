@@ -245,6 +245,86 @@ fn bdpt_chunks(frame_floats: usize, bytes: usize) -> usize {
     (BDPT_FILM_BUDGET_BYTES / (frame_floats * bytes).max(1)).clamp(1, BDPT_CHUNKS)
 }
 
+/// Bytes the films of a render hold at once: the output transients and steady images (one
+/// per derivative too), plus per worker one tile film (path tracer; its bins span the whole
+/// time axis), or the full-frame chunk films (BDPT), plus the boundary stage's derivative
+/// film. Films that carry derivatives accumulate in f64. In u128: 16384² pixels × 2²⁴ bins
+/// must not overflow.
+fn film_bytes(scene: &Scene, derivs: usize, kind: IntegratorKind, threads: usize, per_strategy: bool) -> u128 {
+    let f = &scene.film;
+    let (px, bins, c) = (
+        f.width as u128 * f.height as u128,
+        f.axis.bins as u128,
+        f.channels as u128,
+    );
+    let frame = px * (bins * c + c);
+    let acc = if derivs > 0 { 8 } else { 4 };
+    let d = derivs as u128;
+    let outputs = frame * (1 + d) * 4;
+    let workers = match kind {
+        IntegratorKind::Path => threads as u128 * (TILE * TILE) as u128 * (bins * c + c) * (1 + d) * acc,
+        IntegratorKind::Bdpt => {
+            let strategies = if per_strategy {
+                bdpt::film::strategy_list(scene.integrator.max_bounces).len() as u128
+            } else {
+                0
+            };
+            let floats = frame * (1 + d + strategies);
+            let chunks = (BDPT_FILM_BUDGET_BYTES as u128 / (floats * acc).max(1)).clamp(1, BDPT_CHUNKS as u128);
+            chunks * floats * acc
+        }
+    };
+    outputs + workers + frame * d * 8
+}
+
+/// Memory the system can still give (Linux `MemAvailable`), if it can be read.
+fn available_memory() -> Option<u128> {
+    let text = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let line = text.lines().find(|l| l.starts_with("MemAvailable:"))?;
+    let kib: u128 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib * 1024)
+}
+
+/// Refuses a render whose films cannot fit in the memory available, before anything is
+/// allocated (such films used to abort the process with SIGABRT), naming the size and the
+/// fields that cause it.
+fn check_memory(
+    scene: &Scene,
+    derivs: usize,
+    kind: IntegratorKind,
+    threads: Option<usize>,
+    per_strategy: bool,
+) -> Result<(), Error> {
+    let threads = threads.unwrap_or_else(|| std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1));
+    let need = film_bytes(scene, derivs, kind, threads.clamp(1, MAX_THREADS), per_strategy);
+    // without /proc/meminfo, refuse only what no machine has (1 PiB)
+    let have = available_memory().unwrap_or(1 << 50);
+    if need <= have {
+        return Ok(());
+    }
+    let gib = |b: u128| b as f64 / (1u64 << 30) as f64;
+    let f = &scene.film;
+    Err(Error::Invalid(format!(
+        "{}: the render needs about {:.1} GiB for its films, but {:.1} GiB of memory are available: \
+         camera.resolution {}×{} × film.bins {} × {} channel(s) × {} film(s) (the transient{}); \
+         lower the resolution or the number of bins, narrow the window, or differentiate fewer \
+         parameters at once",
+        scene.source.display(),
+        gib(need),
+        gib(have),
+        f.width,
+        f.height,
+        f.axis.bins,
+        f.channels,
+        1 + derivs,
+        if derivs > 0 {
+            " and one per --diff parameter"
+        } else {
+            ""
+        }
+    )))
+}
+
 /// Picks the kernel instance for (derivative lanes, lane width, channels) and calls
 /// `$f::<R, C>($args)`.
 macro_rules! dispatch {
@@ -289,10 +369,12 @@ fn render_films(
         )));
     }
     let seed = opts.seed.unwrap_or(scene.integrator.seed);
+    let derivs = motion.len();
+    let kind = opts.integrator.unwrap_or(scene.integrator.kind);
+    check_memory(scene, derivs, kind, opts.threads, per_strategy)?;
     set_flush_denormals();
     let device = Device::new("")?;
     let t_build = Instant::now();
-    let derivs = motion.len();
     // Watertight traversal unless a forward render opts out (`fast_traversal`); renders with
     // derivative lanes always keep it, since the boundary stage aims rays at edges.
     let robust = derivs > 0 || !opts.fast_traversal;
@@ -312,7 +394,6 @@ fn render_films(
 
     let cpu0 = cpu_seconds();
     let t0 = Instant::now();
-    let kind = opts.integrator.unwrap_or(scene.integrator.kind);
     let mut out = vec![Transient::zeros(w, h, axis, channels); 1 + derivs];
     let mut strategy_out = Vec::new();
     // (counts, primal energy before and after the window, Σ of each film block) per tile or

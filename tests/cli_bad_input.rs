@@ -254,3 +254,32 @@ fn repeated_and_meaningless_arguments_are_refused() {
         assert!(e.contains(needle), "{args:?}: {e}");
     }
 }
+
+/// Films that cannot fit (18 PB, 13 TB) aborted with SIGABRT ("memory allocation of … bytes
+/// failed"); they are refused before anything is allocated, naming the size and the fields.
+#[test]
+fn films_that_cannot_fit_are_refused() {
+    let d = tempfile::tempdir().unwrap();
+    for (res, bins) in [("[16384, 16384]", "16777216"), ("[8192, 8192]", "16384")] {
+        let text = cornell_text();
+        let mut out = String::new();
+        for line in text.lines() {
+            if line.starts_with("resolution =") {
+                out += &format!("resolution = {res}\n");
+            } else if line.starts_with("bins =") {
+                out += &format!("bins = {bins}\n");
+            } else {
+                out += line;
+                out.push('\n');
+            }
+        }
+        let p = write(d.path(), "huge.toml", &out);
+        for integrator in ["path", "bdpt"] {
+            let (e, _o) = render_fails(&p, &["--integrator", integrator]);
+            assert!(
+                e.contains("GiB") && e.contains("memory") && e.contains("film.bins"),
+                "{e}"
+            );
+        }
+    }
+}
