@@ -127,7 +127,7 @@ fn cdf_diff(a: f64, b: f64) -> f64 {
 }
 
 impl Correlation {
-    pub fn new(axis: TimeAxis, pulse: Pulse, offset_opl: f32, gate: Gate) -> Result<Self, TemporalError> {
+    pub fn new(axis: TimeAxis, pulse: Pulse, offset_opl: f64, gate: Gate) -> Result<Self, TemporalError> {
         check("film.start_opl", axis.start_opl, false)?;
         check("film.bin_width_opl", axis.bin_width_opl, true)?;
         if axis.bins == 0 {
@@ -165,7 +165,7 @@ impl Correlation {
         Ok(Self {
             axis,
             pulse,
-            offset: offset_opl as f64,
+            offset: offset_opl,
             gate,
             reach,
         })

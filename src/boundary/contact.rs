@@ -132,8 +132,11 @@ impl Secondary<'_> {
             return None;
         }
         let outward = (free - n_obj * free.dot(n_obj)).normalize_or_zero();
+        let p = x_b + outward * (2.0 * eps);
         let x_l = SurfaceHit {
-            p: x_b + outward * (2.0 * eps),
+            p,
+            // a point of its own (not a hit): exact as it stands
+            p64: p.as_dvec3(),
             t: 0.0,
             ..*support
         };

@@ -281,7 +281,7 @@ impl Secondary<'_> {
                 px as usize,
                 py as usize,
                 corr,
-                bp.opl as f64,
+                bp.opl,
                 &zeros[..c_n],
                 &fdot[..p * c_n],
                 &ddot[..p],

@@ -22,8 +22,11 @@
 //!
 //!   f_L · f_S · (−s_o · dh̃/dθ) / ((t_L + t_S) · p_e · p_ω · p_guide)
 //!
-//! per parameter, binned through S_e at d = d_L + η(t_L + t_S) + d_S into the pixel the
-//! sensor subpath reaches. dh̃/dθ uses the velocity of each point's own parameterisation, as
+//! per parameter, binned through S_e (supplemental Eq. 24) at d = d_L + η|x_S − x_L| + d_S into
+//! the pixel the sensor subpath reaches. d is f64; when the render carries f64 OPLs
+//! (`integrator::opl`) every length in it is measured between f64 points (hits rebuilt from
+//! Embree's barycentrics, light samples from `EmitterTable::sample`'s `p64`), else it is the
+//! sum of the f32 lengths the rays returned. dh̃/dθ uses the velocity of each point's own parameterisation, as
 //! the interior does: material form for x_L, the edge and x_S, except that x_S moves along its
 //! camera ray (ray form) when it is the vertex connected to the camera.
 //!
@@ -49,14 +52,15 @@
 use super::contact::SegmentEnds;
 use super::edge_sampler::{EdgeRecord, EdgeSampler};
 use super::guiding::GuideGrid;
-use super::subpaths::{SensorTerm, SourceTerm, SurfaceHit, sensor_subpath, source_subpath};
+use super::subpaths::{SensorTerm, SourceTerm, SurfaceHit, pre_length, sensor_subpath, source_subpath};
 use super::velocity::{Crossing, ray_form_velocity};
 use crate::integrator::context::RenderContext;
+use crate::integrator::opl::{on_plane64, segment};
 use crate::integrator::surface::self_intersection_eps;
 use crate::integrator::trace::RayCounts;
 use crate::kernel::{PathSampler, V3};
 use crate::scene::EmitterKind;
-use glam::Vec3;
+use glam::{DVec3, Vec3};
 
 /// Edges of shapes that a parameter moves are drawn this many times more often per metre: their
 /// shadows move whatever else does (edges of static shapes contribute only where x_L or x_S
@@ -73,7 +77,8 @@ pub(super) const MAX_PARAMS: usize = 16;
 pub struct BoundaryPath {
     pub fx: f32,
     pub fy: f32,
-    pub opl: f32,
+    /// d = d_L + d_B + d_S, f64 (see the module documentation).
+    pub opl: f64,
     pub emitter: u32,
     pub rgb: [f32; 3],
     pub weight: [f32; MAX_PARAMS],
@@ -229,7 +234,7 @@ impl<'a> Secondary<'a> {
         &self,
         x_s: &SurfaceHit,
         omega: Vec3,
-        d_b: f32,
+        d_b: f64,
         common: f32,
         rates: &Rates,
         rng: &mut PathSampler,
@@ -296,24 +301,34 @@ impl<'a> Secondary<'a> {
         let Some(s_o) = self.blocked_side(rec, br.omega) else {
             return Some(u);
         };
-        let (x_l, x_s, rates, common) = match self.segment_ends(rec, br.x_b, br.omega, s_o, &mut scratch.rays)? {
-            SegmentEnds::Open { x_s, x_l } => {
-                let x_l = x_l?;
-                let seg = x_l.t + x_s.t;
-                let shape_l = ctx.scene.geometry.tri_shape[x_l.prim as usize] as usize;
-                let rates = self.rates(rec, x_l.p, SourceMotion::Material(shape_l), &x_s);
-                (x_l, x_s, rates, -s_o / seg)
-            }
-            SegmentEnds::Contact { x_l, x_s, outward } => {
-                let rates = self.contact_rates(rec, &x_l, outward);
-                let cos_l = br.omega.dot(x_l.n).abs();
-                (x_l, x_s, rates, cos_l * (rec.v1 - rec.v0).length())
-            }
-        };
+        let (mut x_l, mut x_s, rates, common, contact) =
+            match self.segment_ends(rec, br.x_b, br.omega, s_o, &mut scratch.rays)? {
+                SegmentEnds::Open { x_s, x_l } => {
+                    let x_l = x_l?;
+                    let seg = x_l.t + x_s.t;
+                    let shape_l = ctx.scene.geometry.tri_shape[x_l.prim as usize] as usize;
+                    let rates = self.rates(rec, x_l.p, SourceMotion::Material(shape_l), &x_s);
+                    (x_l, x_s, rates, -s_o / seg, false)
+                }
+                SegmentEnds::Contact { x_l, x_s, outward } => {
+                    let rates = self.contact_rates(rec, &x_l, outward);
+                    let cos_l = br.omega.dot(x_l.n).abs();
+                    (x_l, x_s, rates, cos_l * (rec.v1 - rec.v0).length(), true)
+                }
+            };
         scratch.valid += 1;
         let seg = x_l.t + x_s.t;
         if rates.is_zero(self.params) || !(seg > 0.0) || !common.is_finite() {
             return Some(u);
+        }
+        let omega64 = br.omega.as_dvec3();
+        if contact {
+            // x_L is x_B itself (contact.rs puts its f32 point a hair off the edge)
+            if let Some(x_b64) = self.on_boundary_line(rec, br.x_b, |_| omega64, None, &mut x_s) {
+                x_l.p64 = x_b64;
+            }
+        } else {
+            self.on_boundary_line(rec, br.x_b, |_| omega64, Some(&mut x_l), &mut x_s);
         }
         scratch.source.clear();
         let max_bounces = ctx.scene.integrator.max_bounces;
@@ -328,16 +343,8 @@ impl<'a> Secondary<'a> {
             &mut scratch.source,
         );
         let common = common * scale / (br.pdf_edge_dir * p_guide);
-        self.finish(
-            &x_s,
-            br.omega,
-            ctx.scene.eta * seg,
-            common,
-            &rates,
-            &mut rng,
-            scratch,
-            &mut emit,
-        );
+        let d_b = ctx.scene.eta as f64 * segment(ctx, x_l.p64, x_s.p64, seg);
+        self.finish(&x_s, br.omega, d_b, common, &rates, &mut rng, scratch, &mut emit);
         Some(u)
     }
 
@@ -411,7 +418,8 @@ impl<'a> Secondary<'a> {
         };
         // y → x_B must be free (a hit short of y, ε from its surface, blocks it); a contact
         // edge has x_L = x_B, never y (contact.rs)
-        let Some(SegmentEnds::Open { x_s, x_l }) = self.segment_ends(rec, br.x_b, omega, s_o, &mut scratch.rays) else {
+        let Some(SegmentEnds::Open { mut x_s, x_l }) = self.segment_ends(rec, br.x_b, omega, s_o, &mut scratch.rays)
+        else {
             return;
         };
         let reach = t_l - self_intersection_eps(&V3::<f32>::splat(y));
@@ -427,12 +435,44 @@ impl<'a> Secondary<'a> {
         scratch.source.clear();
         scratch.source.push(SourceTerm {
             rgb: ls.weight.0,
-            opl: ctx.scene.eta * ls.pre_length,
+            opl: ctx.scene.eta as f64 * pre_length(ctx, &ls),
             emitter: e as u32,
             scatters: 0,
         });
         let common = -s_o * scale * cos_l / (t_l * t_l * seg * self.edges.edge_pmf(br.index));
-        self.finish(&x_s, omega, ctx.scene.eta * seg, common, &rates, rng, scratch, emit);
+        let y64 = ls.p64[0];
+        self.on_boundary_line(rec, br.x_b, |x_b64| (x_b64 - y64).normalize(), None, &mut x_s);
+        let d_b = ctx.scene.eta as f64 * segment(ctx, y64, x_s.p64, seg);
+        self.finish(&x_s, omega, d_b, common, &rates, rng, scratch, emit);
+    }
+
+    /// With f64 OPLs: x_B projected in f64 onto its edge, the ends' `p64` moved onto the line
+    /// through it along `omega64` (x_L given as `x_l64`, e.g. a light sample or x_B itself,
+    /// stays), so that d_B = η|x_S − x_L| is the length of a segment that really grazes the
+    /// edge. Returns x_B in f64. The rays found x_S and x_L from origins ε off x_B (contact.rs), which puts them
+    /// ~ε·(t_L + t_S)/t_L off the edge's shadow line: micrometres of OPL. Without f64 OPLs,
+    /// nothing changes.
+    fn on_boundary_line(
+        &self,
+        rec: &EdgeRecord,
+        x_b: Vec3,
+        omega64: impl FnOnce(DVec3) -> DVec3,
+        x_l: Option<&mut SurfaceHit>,
+        x_s: &mut SurfaceHit,
+    ) -> Option<DVec3> {
+        let ctx = self.ctx;
+        if !ctx.opl.f64_paths {
+            return None;
+        }
+        let (v0, v1) = (rec.v0.as_dvec3(), rec.v1.as_dvec3());
+        let e = v1 - v0;
+        let x_b64 = v0 + e * ((x_b.as_dvec3() - v0).dot(e) / e.length_squared());
+        let w = omega64(x_b64);
+        x_s.p64 = on_plane64(ctx, x_s.prim, x_b64, w);
+        if let Some(x_l) = x_l {
+            x_l.p64 = on_plane64(ctx, x_l.prim, x_b64, -w);
+        }
+        Some(x_b64)
     }
 
     pub fn edge_count(&self) -> usize {

@@ -7,20 +7,29 @@
 //! on the side light arrives from, one-sided area emitters, next-event estimation with the
 //! power heuristic (Veach 1997, Eq. 9.13) against BSDF-sampled emission, and a path has at
 //! most `max_bounces` scattering vertices.
+//!
+//! Optical path lengths are f64: when the render carries f64 OPLs (`integrator::opl`), each
+//! segment is measured between points rebuilt in f64 from Embree's barycentrics (a narrow
+//! pulse's S_e, supplemental Eq. 24, would otherwise see f32 lengths quantised to ~10⁻⁷ m).
 
 use crate::integrator::bsdf::sample_cosine;
 use crate::integrator::context::RenderContext;
+use crate::integrator::emitters::LightSample;
+use crate::integrator::opl::{point64, segment};
 use crate::integrator::power_heuristic;
 use crate::integrator::surface::{offset_origin, self_intersection_eps};
 use crate::integrator::trace::RayCounts;
 use crate::kernel::{PathSampler, V3};
 use crate::scene::Material;
-use glam::Vec3;
+use glam::{DVec3, Vec3};
 
 /// A surface point found by a plain ray.
 #[derive(Clone, Copy, Debug)]
 pub struct SurfaceHit {
     pub p: Vec3,
+    /// `p` in f64: rebuilt from Embree's barycentrics when the render carries f64 OPLs
+    /// (`integrator::opl::point64`), else `p` widened.
+    pub p64: DVec3,
     /// Unit geometric normal (winding order).
     pub n: Vec3,
     pub prim: u32,
@@ -36,8 +45,14 @@ pub fn trace(ctx: &RenderContext, o: Vec3, d: Vec3, counts: &mut RayCounts) -> O
     counts.trace_ticks += crate::timing::ticks() - t0;
     let h = hit?;
     let [p0, p1, p2] = ctx.tri_verts[h.prim as usize];
+    let p = p0 + (p1 - p0) * h.u + (p2 - p0) * h.v;
     Some(SurfaceHit {
-        p: p0 + (p1 - p0) * h.u + (p2 - p0) * h.v,
+        p,
+        p64: if ctx.opl.f64_paths {
+            point64(ctx, h.prim, h.u, h.v)
+        } else {
+            p.as_dvec3()
+        },
         n: (p1 - p0).cross(p2 - p0).normalize_or_zero(),
         prim: h.prim,
         t: h.t,
@@ -56,6 +71,16 @@ pub fn visible(ctx: &RenderContext, x: Vec3, n: Vec3, target: Vec3, counts: &mut
     let free = tfar > 0.0 && !ctx.accel.occluded1(o.to_array(), (to_o / len).to_array(), 0.0, tfar);
     counts.trace_ticks += crate::timing::ticks() - t0;
     free
+}
+
+/// The length travelled before a light sample's point (laser to spot, else 0), in f64 when the
+/// render carries f64 OPLs.
+pub fn pre_length(ctx: &RenderContext, ls: &LightSample<f32, 3>) -> f64 {
+    if ctx.opl.f64_paths {
+        ls.pre64[0]
+    } else {
+        ls.pre_length as f64
+    }
 }
 
 /// `offset_origin` for one plain point.
@@ -102,7 +127,7 @@ fn scale(a: [f32; 3], s: f32) -> [f32; 3] {
 #[derive(Clone, Copy, Debug)]
 pub struct SourceTerm {
     pub rgb: [f32; 3],
-    pub opl: f32,
+    pub opl: f64,
     pub emitter: u32,
     pub scatters: u32,
 }
@@ -122,6 +147,7 @@ pub fn source_subpath(
     terms: &mut Vec<SourceTerm>,
 ) {
     let eta = ctx.scene.eta;
+    let eta64 = eta as f64;
     let e = ctx.tri_emitter[x_l.prim as usize];
     if with_emission && e != u32::MAX && x_l.n.dot(out) > 0.0 {
         terms.push(SourceTerm {
@@ -134,7 +160,7 @@ pub fn source_subpath(
     let mut x = *x_l;
     let mut side = out;
     let mut beta = [1.0f32; 3];
-    let mut opl = 0.0f32;
+    let mut opl = 0.0f64;
     for i in 1..=max_scatters {
         let alb = albedo(ctx, x.prim);
         let f = scale(alb, std::f32::consts::FRAC_1_PI);
@@ -163,7 +189,7 @@ pub fn source_subpath(
             let weight: [f32; 3] = ls.weight.0;
             terms.push(SourceTerm {
                 rgb: scale(mul(mul(beta, f), weight), g * w),
-                opl: opl + eta * (dist + ls.pre_length),
+                opl: opl + eta64 * (segment(ctx, x.p64, ls.p64[0], dist) + pre_length(ctx, &ls)),
                 emitter: ls.emitter[0],
                 scatters: i,
             });
@@ -173,7 +199,7 @@ pub fn source_subpath(
         let Some((y, dir, pdf)) = scatter(ctx, sampler, &x, side, counts) else {
             break;
         };
-        opl += eta * y.t;
+        opl += eta64 * segment(ctx, x.p64, y.p64, y.t);
         let ey = ctx.tri_emitter[y.prim as usize];
         let cos_y = y.n.dot(dir);
         if ey != u32::MAX && cos_y < 0.0 {
@@ -197,7 +223,7 @@ pub fn source_subpath(
 #[derive(Clone, Copy, Debug)]
 pub struct SensorTerm {
     pub rgb: [f32; 3],
-    pub opl: f32,
+    pub opl: f64,
     pub fx: f32,
     pub fy: f32,
     pub scatters: u32,
@@ -217,11 +243,12 @@ pub fn sensor_subpath(
     terms: &mut Vec<SensorTerm>,
 ) {
     let eta = ctx.scene.eta;
+    let eta64 = eta as f64;
     let cam = ctx.camera.position;
     let mut x = *x_s;
     let mut side = -incoming;
     let mut beta = [1.0f32; 3];
-    let mut opl = 0.0f32;
+    let mut opl = 0.0f64;
     for j in 1..=max_scatters {
         let alb = albedo(ctx, x.prim);
         if alb.iter().all(|&v| v == 0.0) {
@@ -235,7 +262,7 @@ pub fn sensor_subpath(
                 let cam_seg = if ctx.scene.film.unwarp {
                     0.0
                 } else {
-                    eta * pr.dist2.sqrt()
+                    eta64 * segment(ctx, x.p64, cam.as_dvec3(), pr.dist2.sqrt())
                 };
                 terms.push(SensorTerm {
                     rgb: scale(mul(beta, alb), w),
@@ -254,7 +281,7 @@ pub fn sensor_subpath(
         let Some((y, dir, _)) = scatter(ctx, sampler, &x, side, counts) else {
             break;
         };
-        opl += eta * y.t;
+        opl += eta64 * segment(ctx, x.p64, y.p64, y.t);
         x = y;
         side = -dir;
     }

@@ -49,7 +49,7 @@ impl OplPrecision {
                 Pulse::Gaussian { sigma_opl } => scale = scale.min(sigma_opl as f64),
                 Pulse::Box { width_opl } => scale = scale.min(width_opl as f64),
             }
-            magnitude = magnitude.max(e.offset_opl.abs() as f64);
+            magnitude = magnitude.max(e.offset_opl.abs());
         }
         for p in scene.geometry.positions.iter().chain([&scene.camera.position]) {
             magnitude = magnitude.max(p.abs().max_element() as f64);
@@ -78,6 +78,30 @@ fn f32_step(m: f64) -> f64 {
 pub fn point64(ctx: &RenderContext, prim: u32, u: f32, v: f32) -> DVec3 {
     let [p0, p1, p2] = ctx.tri_verts[prim as usize].map(|p| p.as_dvec3());
     p0 + (p1 - p0) * u as f64 + (p2 - p0) * v as f64
+}
+
+/// The length of the segment a → b for a path's OPL: from the f64 points when the render
+/// carries f64 OPLs, else `f32_len` (the kernel's own length, with whatever f32 rounding and
+/// ray-origin offset it carries) widened.
+#[inline]
+pub fn segment(ctx: &RenderContext, a: DVec3, b: DVec3, f32_len: f32) -> f64 {
+    if ctx.opl.f64_paths {
+        (b - a).length()
+    } else {
+        f32_len as f64
+    }
+}
+
+/// Where the line o + t·dir meets the plane of triangle `prim`, in f64 (the origin when they
+/// are parallel). For a path constrained to pass through a given point (a boundary segment
+/// through x_B, Algorithm 2), whose vertex the renderer found with a ray offset from that
+/// point by the self-intersection ε: the vertex on the constrained line itself.
+#[inline]
+pub fn on_plane64(ctx: &RenderContext, prim: u32, o: DVec3, dir: DVec3) -> DVec3 {
+    let [p0, p1, p2] = ctx.tri_verts[prim as usize].map(|p| p.as_dvec3());
+    let n = (p1 - p0).cross(p2 - p0);
+    let t = n.dot(p0 - o) / n.dot(dir);
+    if t.is_finite() { o + dir * t } else { o }
 }
 
 /// Every lane's hit point in f64 (`prim == u32::MAX` lanes get the origin; callers mask them).

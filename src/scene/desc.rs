@@ -256,8 +256,9 @@ pub struct EmitterDesc {
     pub power: Option<Triple>,
     #[serde(default = "default_delta")]
     pub pulse: NameOr<PulseTable>,
+    /// f64 like the time axis: an f32 would round 1.0000000495 to 1.0.
     #[serde(default)]
-    pub offset_opl: f32,
+    pub offset_opl: f64,
 }
 
 impl EmitterDesc {

@@ -129,8 +129,9 @@ pub struct Emitter {
     pub kind: EmitterKind,
     /// Temporal profile of the emission (unit area).
     pub pulse: Pulse,
-    /// Emission time offset, in OPL metres.
-    pub offset_opl: f32,
+    /// Emission time offset, in OPL metres (τ of supplemental Eq. 24), f64 from the scene
+    /// file to S_e.
+    pub offset_opl: f64,
 }
 
 /// The transient film: time axis, gate, channels, and whether the camera segment is counted.

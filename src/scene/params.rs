@@ -266,7 +266,7 @@ pub(crate) fn apply_params(
             ParamKindDesc::PulseOffset => {
                 let e = target(&names.emitters, "emitter", "emitters", &p.emitter)?;
                 let em = &mut desc.emitter[e];
-                em.offset_opl = v as f32;
+                em.offset_opl = v;
                 let loc = item_field("emitter", e, &em.name, "offset_opl");
                 (
                     ParamKind::PulseOffset { emitter: e as u32 },
