@@ -109,6 +109,16 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
         bail!("--spp-boundary sets the boundary samples of a derivative render; it needs --diff");
     }
     let scene = Scene::load(&a.scene, &overrides)?;
+    let bounces = scene.integrator.max_bounces;
+    if a.integrator.unwrap_or(scene.integrator.kind) == IntegratorKind::Bdpt && bounces > BDPT_WARN_BOUNCES {
+        // every (s, t) split of every path length is joined: about (B + 2)(B + 3)/2 strategies
+        eprintln!(
+            "warning: {}: BDPT with max_bounces = {bounces} joins about {} strategies per path (cost grows as \
+             max_bounces³; 1 s per path at 1024); the path tracer (--integrator path) grows linearly",
+            a.scene.display(),
+            (bounces as u64 + 2) * (bounces as u64 + 3) / 2
+        );
+    }
     let pixel = match &a.pixel {
         Some(s) => Some(parse_pixel(s, &scene)?),
         None => None,
@@ -205,6 +215,9 @@ fn first_repeat<'a>(items: impl Iterator<Item = &'a str>) -> Option<&'a str> {
     let mut seen = std::collections::HashSet::new();
     items.into_iter().find(|&n| !seen.insert(n))
 }
+
+/// Above this many bounces `dtr render` warns that BDPT's cost per path grows as B³.
+const BDPT_WARN_BOUNCES: u32 = 64;
 
 fn parse_integrator(s: &str) -> Result<IntegratorKind, String> {
     match s {
