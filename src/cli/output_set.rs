@@ -223,7 +223,8 @@ impl OutputSet {
         &self.prefix
     }
 
-    /// Where to write the output `PREFIX.suffix` now; it reaches its place in [`commit`].
+    /// Where to write the output `PREFIX.suffix` now; it reaches its place in [`commit`],
+    /// which checks every destination.
     ///
     /// [`commit`]: Self::commit
     pub fn stage(&mut self, suffix: &str) -> anyhow::Result<PathBuf> {
@@ -243,7 +244,6 @@ impl OutputSet {
             self.staging = Some(tmp);
         }
         let dest = with_suffix(&self.prefix, suffix);
-        self.check_destination(&dest)?;
         let staged = self.staging.as_ref().expect("created above").path().join(suffix);
         self.files.push((staged.clone(), dest));
         Ok(staged)

@@ -236,10 +236,11 @@ impl CameraSampler {
         }
     }
 
-    /// [`project`](Self::project) in the kernel's number type, for connections whose scene
-    /// point moves with the parameters (light-tracing splats, BDPT t = 1): film coordinates,
-    /// importance 1/(a cos³θ) and squared distance all carry derivatives. `visible` marks
-    /// lanes in front of the camera and on the film (widened by the filter radius).
+    /// [`project`](Self::project) for a packet of points (light-tracing splats, BDPT t = 1,
+    /// call it with plain lanes: film points never move under the parameters). Generic over
+    /// the number type, so dual inputs carry derivatives through film coordinates, importance
+    /// 1/(a cos³θ) and squared distance. `visible` marks lanes in front of the camera and on
+    /// the film (widened by the filter radius).
     pub fn project_lanes<R: Real>(&self, p: &V3<R>) -> LaneProjection<R> {
         let d = *p - V3::splat(self.position);
         let z = d.dot(V3::splat(self.fwd));

@@ -82,16 +82,19 @@ pub fn connect<R: Real, const C: usize>(pk: &mut Packet<'_, '_, R, C>, s: usize,
     let g = cos_q * cos_p / d2;
     let contrib = (qs.beta * qs.f * pt.f * pt.beta).scale(g * R::from_value(weight(lower, higher)));
     let d = qs.opl + pt.opl + pk.eta * dist;
-    let d64: [f64; 8] = std::array::from_fn(|i| {
-        let e = if i < R::LANES {
-            pk.eta.value().lane(i) as f64
-        } else {
-            0.0
-        };
-        qs.opl64[i] + pt.opl64[i] + e * (qs.p64[i] - pt.p64[i]).length()
+    // f64 lengths only when the render carries them (this runs for every (s, t) pair)
+    let d64 = ctx.opl.f64_paths.then(|| {
+        std::array::from_fn::<f64, 8, _>(|i| {
+            let e = if i < R::LANES {
+                pk.eta.value().lane(i) as f64
+            } else {
+                0.0
+            };
+            qs.opl64[i] + pt.opl64[i] + e * (qs.p64[i] - pt.p64[i]).length()
+        })
     });
     let emitter = pk.origin.emitter;
-    let exact = ctx.opl.f64_paths.then_some(&d64);
+    let exact = d64.as_ref();
     pk.deposit_own_pixels((s, t), &emitter, d, exact, &contrib, ok);
 }
 

@@ -82,11 +82,13 @@ pub fn splat_to_camera<R: Real, const C: usize>(pk: &mut Packet<'_, '_, R, C>, s
     };
     let contrib = (beta * qs.f).scale(R::from_value(camera_factor));
     let cam64 = cam.position.as_dvec3();
-    let d64: [f64; 8] = std::array::from_fn(|i| match i < R::LANES && !ctx.scene.film.unwarp {
-        true => qs.opl64[i] + pk.eta.value().lane(i) as f64 * (qs.p64[i] - cam64).length(),
-        false => qs.opl64[i],
+    let d64 = ctx.opl.f64_paths.then(|| {
+        std::array::from_fn::<f64, 8, _>(|i| match i < R::LANES && !ctx.scene.film.unwarp {
+            true => qs.opl64[i] + pk.eta.value().lane(i) as f64 * (qs.p64[i] - cam64).length(),
+            false => qs.opl64[i],
+        })
     });
-    let exact = ctx.opl.f64_paths.then_some(&d64);
+    let exact = d64.as_ref();
     for i in 0..R::LANES {
         if !ok.bit(i) {
             continue;
@@ -122,8 +124,8 @@ mod tests {
     use glam::Vec3;
 
     /// The film point, importance and distance of a moving scene point carry the derivatives
-    /// of their f32 counterparts (central differences), which is what the t = 1 splat weight
-    /// h_j(u(θ)) is differentiated through.
+    /// of their f32 counterparts (central differences): `project_lanes` is right for any
+    /// number type, though light tracing now calls it with plain lanes only.
     #[test]
     fn projection_derivatives_match_finite_differences() {
         let cam = Camera {
