@@ -53,8 +53,8 @@ pub struct RenderOptions {
     pub guiding: bool,
     /// Trace forward renders in Embree's default (non-watertight) mode: about 13% faster on
     /// the Cornell box, but a ray through exactly a shared edge may miss both triangles, so
-    /// light can slip out of a closed object (about 1e-5 of the image in
-    /// tests/closed_containers.rs). Off by default; derivative renders always trace robustly.
+    /// light can slip out of a closed object (a few bins per 1024-spp render of the icosphere
+    /// scene of tests/closed_containers.rs). Off by default; derivative renders always trace robustly.
     pub fast_traversal: bool,
 }
 

@@ -66,7 +66,7 @@ pub struct RenderArgs {
     #[arg(long)]
     pub guiding: bool,
     /// Forward renders: trace in Embree's faster, non-watertight mode (a ray through exactly a
-    /// shared edge may slip through; light can leak out of closed objects at the 1e-5 level).
+    /// shared edge may slip through, so light can leak out of closed objects now and then).
     #[arg(long = "fast-traversal")]
     pub fast_traversal: bool,
     /// Trace one path at a time instead of 8-wide packets (reference/debug).
