@@ -9,7 +9,9 @@ use crate::temporal::{Correlation, TimeAxis};
 
 /// A finished transient: `data` is `[height, width, bins, channels]`, row-major, averaged
 /// over samples. `steady` is the time-integrated image `[height, width, channels]` of the
-/// same paths, counting every path whether or not it falls inside the time axis.
+/// same paths: the integral over the window ([`SteadyMode::Window`], the default) or over
+/// all time, counting every path whether or not it falls inside the time axis
+/// ([`SteadyMode::Full`]).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Transient {
     pub width: usize,
@@ -73,6 +75,19 @@ impl Transient {
     }
 }
 
+/// What a render's time-summed (steady) image integrates.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum SteadyMode {
+    /// The time window: Σ_l S_e(l, d)·f per path, the time sum of the transient's bins. Lets
+    /// the estimators end paths that have left the window (`integrator::window`).
+    #[default]
+    Window,
+    /// All time: every path's f, in or out of the window (`dtr render --steady full`). No
+    /// path is cut, so the render also measures the energy after the window exactly.
+    Full,
+}
+
 /// A tile's bins while it accumulates. f64 when the film has derivative blocks: a narrow
 /// pulse's derivative adds ±lobes of f·∂S_e/∂d·ḋ (∂S_e/∂d is about 0.24/σ per metre: 8·10⁷
 /// for σ = 3 nm) that cancel over time only if no f32 rounding of the running sums breaks
@@ -134,6 +149,7 @@ pub struct TileFilm {
     data: Bins,
     steady: Vec<f64>,
     derivs: usize,
+    steady_mode: SteadyMode,
     /// Primal energy (Σ over channels of f · S_e mass) that fell before bin 0 and after the
     /// last bin ([`Correlation::tails`]), for the run's energy report; f64, per tile, so the
     /// driver can sum tiles in a fixed order.
@@ -153,8 +169,15 @@ impl TileFilm {
             data: Bins::new(n * (1 + derivs), derivs),
             steady: vec![0.0; w * h * channels * (1 + derivs)],
             derivs,
+            steady_mode: SteadyMode::Full,
             tails: [0.0; 2],
         }
+    }
+
+    /// The film with its steady image integrating `mode` (all time by default).
+    pub fn with_steady(mut self, mode: SteadyMode) -> Self {
+        self.steady_mode = mode;
+        self
     }
 
     /// Empties the film and moves it to the rectangle at (x0, y0) of w × h pixels, reusing
@@ -211,16 +234,22 @@ impl TileFilm {
     pub fn add(&mut self, x: usize, y: usize, corr: &Correlation, d: f64, f: &[f32]) {
         let p = (y - self.y0) * self.w + (x - self.x0);
         let c_n = self.channels;
-        for c in 0..c_n {
-            self.steady[p * c_n + c] += f[c] as f64;
+        let full = self.steady_mode == SteadyMode::Full;
+        if full {
+            for c in 0..c_n {
+                self.steady[p * c_n + c] += f[c] as f64;
+            }
         }
         self.add_tails(corr, d, f);
         let base = p * self.bins * c_n;
-        let data = &mut self.data;
+        let (data, steady) = (&mut self.data, &mut self.steady[p * c_n..(p + 1) * c_n]);
         corr.for_each(d, |bin, s, _ds| {
             let i = base + bin * c_n;
             for (c, &fc) in f.iter().enumerate().take(c_n) {
                 data.add(i + c, fc as f64 * s);
+                if !full {
+                    steady[c] += fc as f64 * s;
+                }
             }
         });
     }
@@ -244,28 +273,38 @@ impl TileFilm {
         let c_n = self.channels;
         let n_k = ddot.len().min(self.derivs);
         let sblock = self.w * self.h * c_n;
-        for c in 0..c_n {
-            self.steady[p * c_n + c] += f[c] as f64;
-        }
-        self.add_tails(corr, d, f);
-        for k in 0..n_k {
+        let full = self.steady_mode == SteadyMode::Full;
+        if full {
             for c in 0..c_n {
-                self.steady[sblock * (1 + k) + p * c_n + c] += fdot[k * c_n + c] as f64;
+                self.steady[p * c_n + c] += f[c] as f64;
+            }
+            for k in 0..n_k {
+                for c in 0..c_n {
+                    self.steady[sblock * (1 + k) + p * c_n + c] += fdot[k * c_n + c] as f64;
+                }
             }
         }
+        self.add_tails(corr, d, f);
         let block = self.block();
         let base = p * self.bins * c_n;
-        let data = &mut self.data;
+        let (data, steady) = (&mut self.data, &mut self.steady);
         corr.for_each(d, |bin, s, ds| {
             let i = base + bin * c_n;
             for (c, &fc) in f.iter().enumerate().take(c_n) {
                 data.add(i + c, fc as f64 * s);
+                if !full {
+                    steady[p * c_n + c] += fc as f64 * s;
+                }
             }
             for k in 0..n_k {
                 let ik = block * (1 + k) + i;
                 let dd = ds * ddot[k] as f64;
                 for c in 0..c_n {
-                    data.add(ik + c, fdot[k * c_n + c] as f64 * s + f[c] as f64 * dd);
+                    let v = fdot[k * c_n + c] as f64 * s + f[c] as f64 * dd;
+                    data.add(ik + c, v);
+                    if !full {
+                        steady[sblock * (1 + k) + p * c_n + c] += v;
+                    }
                 }
             }
         });
@@ -302,6 +341,10 @@ impl TileFilm {
 /// the S_e mass of the paths that fell before bin 0 / after the last bin
 /// ([`crate::temporal::Correlation::tails`]). `before + inside + after = total` up to
 /// rounding for a box gate (up to the ripple of Σ_l g_l for a Gaussian gate).
+///
+/// When paths were cut at the window ([`SteadyMode::Window`]), the render traced nothing
+/// past it: `after` is then estimated by an uncut pilot of `after_pilot_paths` paths, and
+/// `total = before + inside + after`.
 #[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
 pub struct WindowEnergy {
     pub total: f64,
@@ -310,17 +353,21 @@ pub struct WindowEnergy {
     pub after: f64,
     /// `inside / total` (0 when nothing reached the camera).
     pub inside_fraction: f64,
+    /// Paths of the pilot that estimated `after` (0: measured on every path of the render).
+    pub after_pilot_paths: u64,
 }
 
 /// The same for a derivative film: Σ of ∂I/∂θ inside the window (summed in f64 before the
 /// bins are stored as f32, so a narrow pulse's ±lobes cancel) and in all (the steady
 /// derivative); `outside = total − inside`. Not split into before and after: the boundary
 /// stage's primary-edge jumps keep only their in-window bins and their time integral.
+/// With paths cut at the window the steady derivative integrates the window too, so
+/// `total = inside` and `outside` is not measured (`None`).
 #[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
 pub struct DerivWindowEnergy {
     pub total: f64,
     pub inside: f64,
-    pub outside: f64,
+    pub outside: Option<f64>,
 }
 
 /// A window holding less than this share of the primal energy draws a warning
@@ -338,12 +385,24 @@ impl WindowEnergy {
     /// its tiles counted in f64 (already divided by spp).
     pub fn of(t: &Transient, inside: f64, before: f64, after: f64) -> Self {
         let total: f64 = t.steady.iter().map(|&v| v as f64).sum();
+        Self::with_total(total, inside, before, after, 0)
+    }
+
+    /// The report of a render cut at the window: `inside` and `before` measured on every
+    /// path (nothing before the window's end is cut), `after` estimated by a pilot of `paths`
+    /// uncut paths.
+    pub fn with_pilot(inside: f64, before: f64, after: f64, paths: u64) -> Self {
+        Self::with_total(before + inside + after, inside, before, after, paths)
+    }
+
+    fn with_total(total: f64, inside: f64, before: f64, after: f64, after_pilot_paths: u64) -> Self {
         Self {
             total,
             before,
             inside,
             after,
             inside_fraction: if total > 0.0 { inside / total } else { 0.0 },
+            after_pilot_paths,
         }
     }
 
@@ -380,12 +439,21 @@ impl WindowEnergy {
 
 impl DerivWindowEnergy {
     /// `inside`: Σ of the film's bins as the tiles summed them in f64 (divided by spp).
-    pub fn of(t: &Transient, inside: f64) -> Self {
-        let total: f64 = t.steady.iter().map(|&v| v as f64).sum();
-        Self {
-            total,
-            inside,
-            outside: total - inside,
+    pub fn of(t: &Transient, inside: f64, steady: SteadyMode) -> Self {
+        match steady {
+            SteadyMode::Full => {
+                let total: f64 = t.steady.iter().map(|&v| v as f64).sum();
+                Self {
+                    total,
+                    inside,
+                    outside: Some(total - inside),
+                }
+            }
+            SteadyMode::Window => Self {
+                total: inside,
+                inside,
+                outside: None,
+            },
         }
     }
 }

@@ -7,7 +7,7 @@
 
 use crate::accel::{Device, set_flush_denormals};
 use crate::error::Error;
-use crate::film::{DerivWindowEnergy, TileFilm, Transient, WindowEnergy};
+use crate::film::{DerivWindowEnergy, SteadyMode, TileFilm, Transient, WindowEnergy};
 use crate::integrator::RenderContext;
 use crate::integrator::bdpt::{self, film::BdptFilm};
 use crate::integrator::motion::Motion;
@@ -56,6 +56,9 @@ pub struct RenderOptions {
     /// light can slip out of a closed object (a few bins per 1024-spp render of the icosphere
     /// scene of tests/closed_containers.rs). Off by default; derivative renders always trace robustly.
     pub fast_traversal: bool,
+    /// What the steady image integrates: the time window (default; paths end where they
+    /// leave it, `integrator::window`) or all time (`--steady full`: no path is cut).
+    pub steady: SteadyMode,
 }
 
 /// Which parts of the gradient `render_diff` estimates. Tests use the parts to show that the
@@ -104,6 +107,11 @@ pub struct RenderStats {
     pub boundary: Option<crate::boundary::BoundaryStats>,
     /// Embree traversal mode: "robust" (watertight) or "fast" (`--fast-traversal`).
     pub traversal: &'static str,
+    /// What the steady images integrate ("window" or "full").
+    pub steady: SteadyMode,
+    /// The window cut: the largest OPL a path was traced to (metres; `None` with
+    /// `--steady full` or without emitters).
+    pub opl_cut: Option<f32>,
     /// Where the primal energy fell against the time window (before, inside, after).
     pub energy: WindowEnergy,
     /// The same for each derivative film (inside and outside the window), in parameter order.
@@ -380,6 +388,7 @@ fn render_films(
     let robust = derivs > 0 || !opts.fast_traversal;
     let mut ctx = RenderContext::with_traversal(scene, &device, robust)?;
     ctx.motion = motion;
+    ctx.cut_to_window(opts.steady);
     let bvh_build_seconds = t_build.elapsed().as_secs_f64();
     let pool = thread_pool(opts.threads)?;
 
@@ -417,7 +426,7 @@ fn render_films(
                                     f.reset(x0, y0, tw, th);
                                     f
                                 }
-                                None => TileFilm::new(x0, y0, tw, th, &axis, channels, derivs),
+                                None => ctx.tile_film(x0, y0, tw, th, derivs),
                             };
                             let mut counts = PathCounts::default();
                             let tick0 = crate::timing::ticks();
@@ -448,7 +457,7 @@ fn render_films(
                 tiles
                     .par_chunks(per_chunk)
                     .map(|chunk| {
-                        let mut film = BdptFilm::new(w, h, &axis, channels, derivs, max_b, per_strategy);
+                        let mut film = BdptFilm::new(&ctx, derivs, per_strategy);
                         let mut counts = PathCounts::default();
                         let tick0 = crate::timing::ticks();
                         let (f, c) = (&mut film, &mut counts);
@@ -491,6 +500,8 @@ fn render_films(
         paths: if interior { (w * h) as u64 * spp as u64 } else { 0 },
         bvh_build_seconds,
         traversal: if robust { "robust" } else { "fast" },
+        steady: ctx.steady,
+        opl_cut: ctx.opl_budget,
         opl: ctx.opl,
         ..Default::default()
     };
@@ -553,16 +564,69 @@ fn render_films(
         stats.boundary = Some(parts.stats);
     }
     let n = spp as f64;
-    stats.energy = WindowEnergy::of(&out[0], inside[0] / n, tails[0] / n, tails[1] / n);
+    stats.energy = match ctx.steady {
+        SteadyMode::Full => WindowEnergy::of(&out[0], inside[0] / n, tails[0] / n, tails[1] / n),
+        // paths were cut at the window: what arrives after it comes from an uncut pilot
+        SteadyMode::Window if interior => {
+            let (after, paths) = pilot_energy_after(&mut ctx, seed, &pool, opts.lanes);
+            WindowEnergy::with_pilot(inside[0] / n, tails[0] / n, after, paths)
+        }
+        SteadyMode::Window => WindowEnergy::default(),
+    };
     stats.deriv_energy = out[1..]
         .iter()
         .zip(&inside[1..])
-        .map(|(t, &i)| DerivWindowEnergy::of(t, i / n))
+        .map(|(t, &i)| DerivWindowEnergy::of(t, i / n, ctx.steady))
         .collect();
     Ok((out, strategy_out, stats))
 }
 
 use bdpt::render_tiles as bdpt_tiles;
+
+/// Seed stream of the window-energy pilot (xor-ed into the render seed).
+const PILOT_STREAM: u64 = 0x9e37_79b9_7f4a_7c15;
+
+/// Most paths the window-energy pilot traces: one sample in every pixel of a small film,
+/// in evenly spaced tiles of a larger one.
+const PILOT_PATHS: usize = 1 << 15;
+
+/// The primal energy that arrives after the window, estimated by an uncut pilot of the path
+/// tracer (one sample per pixel in evenly spaced tiles, at most [`PILOT_PATHS`] paths, its own
+/// seed stream), for the energy report of a render whose paths were cut at the window.
+/// Unbiased; its noise is that of a 1-spp render. Returns (energy after the window, paths).
+/// Leaves `ctx` uncut.
+fn pilot_energy_after(ctx: &mut RenderContext, seed: u64, pool: &rayon::ThreadPool, lanes: Lanes) -> (f64, u64) {
+    ctx.cut_to_window(SteadyMode::Full);
+    let ctx = &*ctx;
+    let (w, h) = (ctx.scene.film.width as usize, ctx.scene.film.height as usize);
+    let tiles: Vec<(usize, usize)> = (0..h.div_ceil(TILE))
+        .flat_map(|ty| (0..w.div_ceil(TILE)).map(move |tx| (tx * TILE, ty * TILE)))
+        .collect();
+    let step = (w * h).div_ceil(PILOT_PATHS).max(1);
+    let picked: Vec<(usize, usize)> = tiles.iter().copied().step_by(step).collect();
+    let (after, pixels) = pool.install(|| {
+        picked
+            .par_iter()
+            .map(|&(x0, y0)| {
+                let (tw, th) = (TILE.min(w - x0), TILE.min(h - y0));
+                let mut film = ctx.tile_film(x0, y0, tw, th, 0);
+                let mut counts = PathCounts::default();
+                let (f, c) = (&mut film, &mut counts);
+                dispatch!(
+                    0,
+                    lanes,
+                    ctx.scene.film.channels,
+                    render_tile(ctx, seed ^ PILOT_STREAM, 1, w, f, c)
+                );
+                (film.tails()[1], (tw * th) as u64)
+            })
+            .collect::<Vec<_>>()
+            .into_iter()
+            .fold((0.0, 0u64), |(a, n), (t, p)| (a + t, n + p))
+    });
+    let scale = (w * h) as f64 / pixels.max(1) as f64;
+    (after * scale, pixels)
+}
 
 /// All samples of one tile: for each sample index, one packet per tile row (up to 8 pixels).
 fn render_tile<R: Real, const C: usize>(

@@ -181,6 +181,14 @@ impl Correlation {
         matches!((self.pulse, self.gate), (Pulse::Delta, Gate::Box))
     }
 
+    /// An OPL past which no path touches a bin: `range(d)` is empty for every d >
+    /// `last_opl()` (the window's end plus the reach of pulse and gate, less the emitter's
+    /// offset; a box gate's last bin is reached up to this bound, a Gaussian gate's up to half
+    /// a bin before it). The window cut (`integrator::window`) traces no path beyond it.
+    pub fn last_opl(&self) -> f64 {
+        self.axis.end_opl() + self.reach - self.offset
+    }
+
     /// The bins a path of OPL `d` touches (S_e ≠ 0); empty outside the axis.
     #[inline]
     pub fn range(&self, d: f64) -> std::ops::Range<usize> {

@@ -88,3 +88,31 @@ fn a_scene_without_emitters_warns() {
     );
     assert_eq!(j["energy"]["primal"]["total"], 0.0);
 }
+
+#[test]
+fn the_json_says_what_the_steady_image_integrates() {
+    let d = tempfile::tempdir().unwrap();
+    let (_, j) = render(d.path(), &cornell_text());
+    assert_eq!(j["steady"]["mode"], "window", "{}", j["steady"]);
+    let cut = j["steady"]["opl_cut"].as_f64().unwrap();
+    // the Cornell window ends at 3.6 + 200 × 0.06 = 15.6 m (delta pulse: no reach)
+    assert!((15.6..15.7).contains(&cut), "{cut}");
+    assert!(j["energy"]["primal"]["after_pilot_paths"].as_u64().unwrap() > 0);
+
+    let scene = d.path().join("full.toml");
+    std::fs::write(&scene, cornell_text()).unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_dtr"))
+        .arg("render")
+        .arg(&scene)
+        .arg("-o")
+        .arg(d.path().join("full"))
+        .args(["--spp", "1", "--quiet", "--steady", "full"])
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let j: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.path().join("full.json")).unwrap()).unwrap();
+    assert_eq!(j["steady"]["mode"], "full");
+    assert!(j["steady"]["opl_cut"].is_null());
+    assert_eq!(j["energy"]["primal"]["after_pilot_paths"], 0);
+}

@@ -3,6 +3,7 @@
 //! render whose window holds every path (same seed, so the same paths).
 
 mod common;
+use difftransient::film::SteadyMode;
 use difftransient::temporal::{Gate, Pulse};
 use difftransient::{RenderOptions, Scene, render};
 
@@ -25,10 +26,12 @@ fn cornell(pulse: Pulse, gate: Gate, start: f64, bins: usize) -> Scene {
 
 #[test]
 fn before_inside_after_match_the_bins_of_a_window_holding_everything() {
+    // every path traced to its end (no window cut), so that both windows see the same paths
     let opts = RenderOptions {
         spp: Some(4),
         seed: Some(5),
         threads: Some(2),
+        steady: SteadyMode::Full,
         ..Default::default()
     };
     let cases = [

@@ -190,7 +190,7 @@ impl Secondary<'_> {
         let mut tiles: Vec<TileFilm> = (0..bands)
             .map(|b| {
                 let (y0, y1) = (b * h / bands, (b + 1) * h / bands);
-                TileFilm::new(0, y0, w, y1 - y0, &film.axis, channels, self.params)
+                self.ctx.tile_film(0, y0, w, y1 - y0, self.params)
             })
             .collect();
         let ids = n_a.max(n_b);

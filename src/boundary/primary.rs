@@ -271,7 +271,7 @@ impl Estimator<'_> {
                 lanes.ids[2 * i + side] = s.id;
             }
         }
-        let mut scratch = TileFilm::new(0, 0, 8, 1, &axis, C, 0);
+        let mut scratch = TileFilm::new(0, 0, 8, 1, &axis, C, 0).with_steady(ctx.steady);
         let mut counts = PathCounts::default();
         let rays = PrimaryRays { dirs };
         trace_packet_from::<f32x8, C>(

@@ -1,7 +1,7 @@
 //! `dtr render`.
 
 use super::output_set::{OutputSet, with_suffix};
-use crate::film::Transient;
+use crate::film::{SteadyMode, Transient};
 use crate::output::{self, FilmView};
 use crate::render::{BoundaryMode, Lanes, RenderOptions, RenderStats, render, render_diff, render_strategies};
 use crate::scene::{IntegratorKind, Scene};
@@ -69,12 +69,23 @@ pub struct RenderArgs {
     /// shared edge may slip through, so light can leak out of closed objects now and then).
     #[arg(long = "fast-traversal")]
     pub fast_traversal: bool,
+    /// What the steady image (PREFIX.steady.png, the JSON's energy) integrates: `window`
+    /// (default: the time window; paths end once they cannot reach it, the transient is
+    /// unchanged) or `full` (all time: every path is traced to its last bounce).
+    #[arg(long, value_enum, default_value = "window")]
+    pub steady: Steady,
     /// Trace one path at a time instead of 8-wide packets (reference/debug).
     #[arg(long)]
     pub scalar: bool,
     /// No progress bar.
     #[arg(long, short)]
     pub quiet: bool,
+}
+
+#[derive(clap::ValueEnum, Clone, Copy, Debug)]
+pub enum Steady {
+    Window,
+    Full,
 }
 
 #[derive(clap::ValueEnum, Clone, Copy, Debug)]
@@ -133,6 +144,10 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
         spp_boundary,
         guiding: a.guiding,
         fast_traversal: a.fast_traversal,
+        steady: match a.steady {
+            Steady::Window => SteadyMode::Window,
+            Steady::Full => SteadyMode::Full,
+        },
         boundary: match a.estimators {
             Estimators::Full => BoundaryMode::Full,
             Estimators::Interior => BoundaryMode::InteriorOnly,
@@ -330,7 +345,7 @@ fn metadata(scene: &Scene, film: &Transient, stats: &RenderStats, a: &RenderArgs
             "f32_step_opl": stats.opl.f32_step_opl,
         },
         "energy": {
-            "about": "time integral of the whole image (sum over pixels and channels): total = every path; before / after = the part that arrived before bin 0 / after the last bin; inside = sum of the transient",
+            "about": "time integral of the whole image (sum over pixels and channels): total = every path; before / after = the part that arrived before bin 0 / after the last bin; inside = sum of the transient. With steady = window nothing past the window was traced: after is then estimated by an uncut pilot of after_pilot_paths paths and total = before + inside + after; a derivative's outside is null",
             "primal": stats.energy,
             "derivatives": a.diff.iter().zip(&stats.deriv_energy).map(|(n, e)| json!({"param": n, "total": e.total, "inside": e.inside, "outside": e.outside})).collect::<Vec<_>>(),
             "warning": stats.energy.warning(&film.axis),
@@ -338,5 +353,10 @@ fn metadata(scene: &Scene, film: &Transient, stats: &RenderStats, a: &RenderArgs
         "version": env!("CARGO_PKG_VERSION"),
     });
     meta["traversal"] = json!(stats.traversal);
+    meta["steady"] = json!({
+        "about": "what the steady image integrates: window = the time window (paths were traced only as far as their OPL could still reach a bin, opl_cut metres; the transient is the same as without the cut), full = all time (--steady full: every path traced to its last bounce)",
+        "mode": stats.steady,
+        "opl_cut": stats.opl_cut,
+    });
     meta
 }

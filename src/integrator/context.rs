@@ -7,6 +7,7 @@ use super::motion::Motion;
 use super::opl::OplPrecision;
 use crate::accel::{Accel, BuildQuality, Device};
 use crate::error::Error;
+use crate::film::{SteadyMode, TileFilm};
 use crate::scene::Scene;
 use crate::temporal::Correlation;
 
@@ -26,6 +27,12 @@ pub struct RenderContext<'a> {
     pub motion: Motion,
     /// Whether paths also carry their OPL in f64 (the film's time scale is too fine for f32).
     pub opl: OplPrecision,
+    /// What the films' steady images integrate; [`SteadyMode::Full`] unless the render driver
+    /// chooses the window.
+    pub steady: SteadyMode,
+    /// The window cut (`super::window`): the largest OPL a traced path may reach, `None` to
+    /// trace every path to its end (set with [`Self::cut_to_window`]).
+    pub opl_budget: Option<f32>,
 }
 
 impl<'a> RenderContext<'a> {
@@ -72,6 +79,24 @@ impl<'a> RenderContext<'a> {
             camera,
             motion: Motion::none(),
             opl: OplPrecision::choose(scene),
+            steady: SteadyMode::Full,
+            opl_budget: None,
         })
+    }
+
+    /// Steady images integrate the time window and paths end where they leave it
+    /// ([`SteadyMode::Window`]), or every path is traced and counted ([`SteadyMode::Full`]).
+    pub fn cut_to_window(&mut self, steady: SteadyMode) {
+        self.steady = steady;
+        self.opl_budget = match steady {
+            SteadyMode::Window => super::window::opl_budget(&self.correlations),
+            SteadyMode::Full => None,
+        };
+    }
+
+    /// A tile film of this render (its steady image integrating [`Self::steady`]).
+    pub fn tile_film(&self, x0: usize, y0: usize, w: usize, h: usize, derivs: usize) -> TileFilm {
+        let f = &self.scene.film;
+        TileFilm::new(x0, y0, w, h, &f.axis, f.channels, derivs).with_steady(self.steady)
     }
 }

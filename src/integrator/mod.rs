@@ -20,6 +20,7 @@ pub mod opl;
 pub mod path;
 pub mod surface;
 pub mod trace;
+pub mod window;
 
 pub use context::RenderContext;
 

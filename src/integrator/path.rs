@@ -20,6 +20,7 @@ use super::opl::points64;
 use super::power_heuristic;
 use super::surface::surface_at;
 use super::trace::{RayCounts, SegmentEnd, intersect, shadow_segment, spawn_point, unoccluded};
+use super::window;
 use crate::film::TileFilm;
 use crate::kernel::{Mask, PathSampler, Real, Spectrum, V3};
 
@@ -124,12 +125,19 @@ pub fn trace_packet_from<R: Real, const C: usize>(
     let mut x64 = prev64;
 
     for depth in 1..=max_bounces + 1 {
+        // the window cut: no hit farther than the OPL left can reach a bin (`super::window`)
+        let counted = !(depth == 1 && scene.film.unwarp);
+        let t_far = match counted {
+            true => window::t_far(ctx.opl_budget, opl.value(), eta.value()),
+            false => V::<R>::splat(f32::INFINITY),
+        };
+        active = active & t_far.gt(V::<R>::zero());
         let hit = intersect(
             &ctx.accel,
             &ray_o,
             &ray_d,
             V::<R>::zero(),
-            V::<R>::splat(f32::INFINITY),
+            t_far,
             active,
             depth == 1,
             &mut counts.rays,
@@ -165,7 +173,7 @@ pub fn trace_packet_from<R: Real, const C: usize>(
             let v: [f32; 8] = std::array::from_fn(|i| if i < R::LANES { hit.v.lane(i) } else { 0.0 });
             x64 = points64(ctx, R::LANES, &hit.prim, &u, &v);
         }
-        if !(depth == 1 && scene.film.unwarp) {
+        if counted {
             opl += eta * r;
             if exact {
                 for i in 0..R::LANES {
@@ -232,7 +240,9 @@ pub fn trace_packet_from<R: Real, const C: usize>(
         let incoming_side = x.n.value().dot(-ray_d);
         let same_side = (cos_x_signed.value() * incoming_side).gt(V::<R>::zero());
         let cos_y = R::select(ls.has_cos, -ls.n.dot(wl), R::one());
+        let d = opl + eta * (dist + ls.pre_length);
         let lit = active & ls.valid & same_side & cos_y.value().gt(V::<R>::zero()) & d2.value().gt(V::<R>::zero());
+        let lit = lit & window::within(ctx.opl_budget, d.value());
         if lit.any() {
             let p_bsdf = cos_x_signed.value().abs() * V::<R>::splat(std::f32::consts::FRAC_1_PI);
             let p_l = R::Value::safe_div(ls.pdf_area * d2.value(), cos_y.value());
@@ -257,7 +267,6 @@ pub fn trace_packet_from<R: Real, const C: usize>(
             if lit.any() {
                 let g = cos_x_signed.abs() * cos_y / d2;
                 let contrib = (beta * f * ls.weight).scale(g * R::from_value(w));
-                let d = opl + eta * (dist + ls.pre_length);
                 let mut d64 = [0.0f64; 8];
                 if exact {
                     for i in 0..R::LANES {

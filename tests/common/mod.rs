@@ -14,11 +14,15 @@ pub fn load(name: &str) -> Scene {
     Scene::load(&scene_path(name), &[]).unwrap_or_else(|e| panic!("loading {name}: {e}"))
 }
 
+/// A forward render whose steady image integrates all time (`SteadyMode::Full`, no window
+/// cut): the tests that use it compare steady images with all-time references (energy
+/// conservation, umbrae, closed forms); tests/window_cut.rs checks the cut itself.
 pub fn render_with(scene: &Scene, spp: u32, seed: u64, threads: usize) -> Transient {
     let opts = RenderOptions {
         spp: Some(spp),
         seed: Some(seed),
         threads: Some(threads),
+        steady: difftransient::film::SteadyMode::Full,
         ..Default::default()
     };
     render(scene, &opts).expect("render").0

@@ -11,6 +11,7 @@ use super::Packet;
 use super::mis::{allowed, path_pdfs, ratio_sums, weight};
 use super::vertex::segment_end;
 use crate::integrator::trace::{shadow_segment, unoccluded};
+use crate::integrator::window;
 use crate::kernel::{Mask, Real, Spectrum, V3};
 
 type V<R> = <R as Real>::Value;
@@ -67,7 +68,10 @@ pub fn connect<R: Real, const C: usize>(pk: &mut Packet<'_, '_, R, C>, s: usize,
     let cos_q = R::select(qs.on_surface, qs.n.dot(dir), R::one());
     let cos_p = -pt.n.dot(dir);
     let zero = V::<R>::zero();
+    let d = qs.opl + pt.opl + pk.eta * dist;
     let ok = qs.alive & pt.alive & cos_q.value().gt(zero) & cos_p.value().gt(zero) & d2.value().gt(zero);
+    // the window cut (`integrator::window`): connections that land past it cast no shadow ray
+    let ok = ok & window::within(ctx.opl_budget, d.value());
     if ok.none() {
         return;
     }
@@ -81,7 +85,6 @@ pub fn connect<R: Real, const C: usize>(pk: &mut Packet<'_, '_, R, C>, s: usize,
     let (lower, higher) = ratio_sums(pk.pl, pk.pe, s, |sp| allowed(n, sp, delta));
     let g = cos_q * cos_p / d2;
     let contrib = (qs.beta * qs.f * pt.f * pt.beta).scale(g * R::from_value(weight(lower, higher)));
-    let d = qs.opl + pt.opl + pk.eta * dist;
     // f64 lengths only when the render carries them (this runs for every (s, t) pair)
     let d64 = ctx.opl.f64_paths.then(|| {
         std::array::from_fn::<f64, 8, _>(|i| {

@@ -5,7 +5,6 @@
 use crate::film::TileFilm;
 use crate::integrator::context::RenderContext;
 use crate::integrator::deposit::LaneContribution;
-use crate::temporal::TimeAxis;
 
 /// Every (s, t) strategy of paths with at most `max_bounces` bounces (s + t − 2 ≤ max), in
 /// the order they are written: by path length, then by t. Left out: (1, 1), the light seen
@@ -34,26 +33,22 @@ pub struct BdptFilm {
 }
 
 impl BdptFilm {
-    pub fn new(
-        width: usize,
-        height: usize,
-        axis: &TimeAxis,
-        channels: usize,
-        derivs: usize,
-        max_bounces: u32,
-        per_strategy: bool,
-    ) -> Self {
+    /// A full-frame film of `ctx`'s render with `derivs` derivative blocks, and one film per
+    /// (s, t) strategy when `per_strategy`.
+    pub fn new(ctx: &RenderContext, derivs: usize, per_strategy: bool) -> Self {
+        let f = &ctx.scene.film;
+        let max_bounces = ctx.scene.integrator.max_bounces;
         let stride = max_bounces as usize + 3;
         let mut index = vec![usize::MAX; stride * stride];
         let mut strategies = Vec::new();
         if per_strategy {
             for (k, (s, t)) in strategy_list(max_bounces).into_iter().enumerate() {
                 index[s * stride + t] = k;
-                strategies.push(TileFilm::new(0, 0, width, height, axis, channels, 0));
+                strategies.push(ctx.tile_film(0, 0, f.width as usize, f.height as usize, 0));
             }
         }
         Self {
-            film: TileFilm::new(0, 0, width, height, axis, channels, derivs),
+            film: ctx.tile_film(0, 0, f.width as usize, f.height as usize, derivs),
             strategies,
             index,
             stride,

@@ -30,6 +30,7 @@ use super::walk::geometry_carrier;
 use crate::integrator::deposit::LaneContribution;
 use crate::integrator::path::ray_plane_point;
 use crate::integrator::trace::{SegmentEnd, shadow_segment, unoccluded};
+use crate::integrator::window;
 use crate::kernel::{Mask, Real, V3};
 
 type V<R> = <R as Real>::Value;
@@ -45,7 +46,9 @@ pub fn splat_to_camera<R: Real, const C: usize>(pk: &mut Packet<'_, '_, R, C>, s
     let (dir, _, _) = towards(&q, &eye);
     let cos_q = qs.n.value().dot(dir);
     let zero = V::<R>::zero();
-    let ok = qs.alive & proj.visible & cos_q.gt(zero);
+    // the window cut (`integrator::window`): light paths that reach the pinhole past it
+    let d_value = qs.opl.value() + camera_leg(ctx, pk.eta.value(), &q, &eye);
+    let ok = qs.alive & proj.visible & cos_q.gt(zero) & window::within(ctx.opl_budget, d_value);
     if ok.none() {
         return;
     }

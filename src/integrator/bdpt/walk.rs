@@ -12,6 +12,7 @@ use crate::integrator::context::RenderContext;
 use crate::integrator::path::{PacketLanes, ray_plane_point};
 use crate::integrator::surface::{offset_origin, surface_at};
 use crate::integrator::trace::{RayCounts, intersect, spawn_point};
+use crate::integrator::window;
 use crate::kernel::{Mask, PathSampler, Real, Spectrum, V3};
 use glam::Vec3;
 
@@ -49,12 +50,20 @@ fn random_walk<R: Real, const C: usize>(
     let none = R::Mask::from_bools(&[false; 8][..R::LANES]);
     for depth in 1..=new_vertices {
         let ray_form = camera && depth == 1;
+        let prev = *path.last().expect("a walk starts from a vertex");
+        // the window cut (`crate::integrator::window`): any full path through a vertex
+        // farther than the OPL left would land past the window
+        let t_far = match ray_form && ctx.scene.film.unwarp {
+            false => window::t_far(ctx.opl_budget, prev.opl.value(), eta.value()),
+            true => V::<R>::splat(f32::INFINITY),
+        };
+        active = active & t_far.gt(V::<R>::zero());
         let hit = intersect(
             &ctx.accel,
             &ray_o,
             &ray_d,
             V::<R>::zero(),
-            V::<R>::splat(f32::INFINITY),
+            t_far,
             active,
             ray_form,
             counts,
@@ -64,7 +73,6 @@ fn random_walk<R: Real, const C: usize>(
         if active.none() {
             break;
         }
-        let prev = *path.last().expect("a walk starts from a vertex");
         let mut x = surface_at::<R>(ctx, &hit.prim, hit.u, hit.v);
         if R::DERIVS > 0 && ray_form {
             x.p = ray_plane_point(&prev.p, &V3::from_value(ray_d), &x.p, &x.n);

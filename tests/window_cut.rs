@@ -1,0 +1,231 @@
+//! The window cut (`integrator::window`): paths end once their optical path length can no
+//! longer reach a bin. The transient and every derivative film are the same bytes as with
+//! the cut off (`SteadyMode::Full`), for any seed, while fewer rays are traced; the steady
+//! image then integrates the window (the time sum of the transient).
+
+mod common;
+use difftransient::film::SteadyMode;
+use difftransient::integrator::bdpt;
+use difftransient::render::{Lanes, RenderStats};
+use difftransient::scene::IntegratorKind;
+use difftransient::{RenderOptions, Scene, Transient, render, render_diff};
+
+fn opts(seed: u64, spp: u32, steady: SteadyMode) -> RenderOptions {
+    RenderOptions {
+        spp: Some(spp),
+        seed: Some(seed),
+        threads: Some(2),
+        steady,
+        ..Default::default()
+    }
+}
+
+fn rays(s: &RenderStats) -> u64 {
+    s.intersect_rays + s.occluded_rays
+}
+
+/// The Cornell box at 16×16 with a window that ends early: 40 bins of 0.06 m from 3.6 m
+/// (light arrives from 3.78 m; the steady image needs paths to about 30 m).
+fn early_cornell() -> Scene {
+    let mut s = common::load("cornell_box.toml");
+    s.film.width = 16;
+    s.film.height = 16;
+    s.film.axis.bins = 40;
+    s
+}
+
+fn assert_same_bytes(what: &str, a: &Transient, b: &Transient) {
+    let differ = a
+        .data
+        .iter()
+        .zip(&b.data)
+        .filter(|(x, y)| x.to_bits() != y.to_bits())
+        .count();
+    assert_eq!(
+        differ,
+        0,
+        "{what}: {differ} of {} bins differ with the cut",
+        a.data.len()
+    );
+    assert!(a.data.iter().any(|&v| v != 0.0), "{what}: nothing rendered");
+}
+
+/// Renders with and without the cut; asserts equal transients and fewer rays with it.
+fn check_forward(what: &str, scene: &Scene, o: RenderOptions) -> (RenderStats, RenderStats) {
+    for seed in [1, 2, 3] {
+        let cut = RenderOptions {
+            seed: Some(seed),
+            ..o.clone()
+        };
+        let full = RenderOptions {
+            steady: SteadyMode::Full,
+            ..cut.clone()
+        };
+        let (a, sa) = render(scene, &cut).unwrap();
+        let (b, sb) = render(scene, &full).unwrap();
+        assert_same_bytes(&format!("{what}, seed {seed}"), &a, &b);
+        assert!(
+            rays(&sa) < rays(&sb),
+            "{what}: the cut traced {} rays, the full render {}",
+            rays(&sa),
+            rays(&sb)
+        );
+        if seed == 3 {
+            return (sa, sb);
+        }
+    }
+    unreachable!()
+}
+
+#[test]
+fn the_path_tracer_gives_the_same_transient_with_fewer_rays() {
+    let scene = early_cornell();
+    let (cut, full) = check_forward("path, 8 lanes", &scene, opts(1, 8, SteadyMode::Window));
+    assert_eq!(cut.steady, SteadyMode::Window);
+    assert!(cut.opl_cut.is_some() && full.opl_cut.is_none());
+    // this window ends 3 m after the first light: most of each path's bounces are cut
+    assert!(
+        (rays(&cut) as f64) < 0.75 * rays(&full) as f64,
+        "{} vs {}",
+        rays(&cut),
+        rays(&full)
+    );
+    let scalar = RenderOptions {
+        lanes: Lanes::Scalar,
+        ..opts(1, 2, SteadyMode::Window)
+    };
+    check_forward("path, scalar", &scene, scalar);
+}
+
+#[test]
+fn bdpt_gives_the_same_transient_with_fewer_rays() {
+    let mut scene = early_cornell();
+    scene.integrator.max_bounces = 5;
+    let o = RenderOptions {
+        integrator: Some(IntegratorKind::Bdpt),
+        ..opts(1, 4, SteadyMode::Window)
+    };
+    check_forward("bdpt", &scene, o);
+}
+
+#[test]
+fn a_laser_a_gaussian_pulse_and_an_unwarped_film_keep_their_transients() {
+    // laser_room: the laser-to-spot leg counts in the OPL; Gaussian pulse (reach 8σ); light
+    // arrives from 9.5 m, and the window is cut to [2, 10.5] m
+    let mut laser = common::load("laser_room.toml");
+    laser.film.axis.bins = 85;
+    check_forward("laser, Gaussian pulse", &laser, opts(1, 4, SteadyMode::Window));
+    let mut unwarped = early_cornell();
+    unwarped.film.unwarp = true;
+    unwarped.film.axis.start_opl = 0.0;
+    check_forward("unwarped", &unwarped, opts(1, 4, SteadyMode::Window));
+}
+
+#[test]
+fn derivative_films_interior_and_boundary_are_the_same_bytes() {
+    // a pose parameter: interior (Algorithm 1) + primary + secondary boundary films
+    let mut scene = common::load("shadow_hidden_occluder.toml");
+    scene.film.width = 16;
+    scene.film.height = 16;
+    // [4, 4.3] m: 2-bounce paths reach 6 m, so the cut ends many of them
+    scene.film.axis.bins = 3;
+    let params = vec!["occluder_x".to_string(), "light_x".to_string()];
+    for seed in [1, 2] {
+        let o = opts(seed, 4, SteadyMode::Window);
+        let full = RenderOptions {
+            steady: SteadyMode::Full,
+            ..o.clone()
+        };
+        let (p, d, sa) = render_diff(&scene, &params, &o).unwrap();
+        let (q, e, sb) = render_diff(&scene, &params, &full).unwrap();
+        assert_same_bytes("primal", &p, &q);
+        for (k, (x, y)) in d.iter().zip(&e).enumerate() {
+            assert_same_bytes(&format!("d/d{}", params[k]), x, y);
+        }
+        assert!(
+            sa.intersect_rays < sb.intersect_rays,
+            "{} vs {}",
+            sa.intersect_rays,
+            sb.intersect_rays
+        );
+    }
+}
+
+#[test]
+fn the_steady_image_integrates_the_window_or_all_time() {
+    let scene = early_cornell();
+    let (cut, _) = render(&scene, &opts(4, 8, SteadyMode::Window)).unwrap();
+    let (full, _) = render(&scene, &opts(4, 8, SteadyMode::Full)).unwrap();
+    let c = cut.channels;
+    let (mut in_window, mut all_time) = (0.0, 0.0);
+    for y in 0..cut.height {
+        for x in 0..cut.width {
+            for ch in 0..c {
+                let sum = cut.time_sum(x, y, ch) as f64;
+                let steady = cut.steady[(y * cut.width + x) * c + ch] as f64;
+                // the same Σ, once over f32 bins, once in f64 as the paths were added
+                assert!(
+                    (sum - steady).abs() <= 1e-5 * steady.max(1e-6),
+                    "({x}, {y}, {ch}): {sum} vs {steady}"
+                );
+                in_window += steady;
+                all_time += full.steady[(y * cut.width + x) * c + ch] as f64;
+            }
+        }
+    }
+    // the window ends early: the full image holds more light than the window (1.4× here)
+    assert!(all_time > 1.2 * in_window, "{all_time} vs {in_window}");
+}
+
+#[test]
+fn the_energy_after_a_cut_window_is_estimated_by_the_pilot() {
+    // the pilot's estimate of the energy after the window agrees with the uncut render's
+    // measurement within their noise (one uncut pilot path per pixel against 8 spp)
+    let scene = early_cornell();
+    let (mut pilot, mut exact, mut totals) = (Vec::new(), Vec::new(), Vec::new());
+    for seed in 1..=8 {
+        let (_, a) = render(&scene, &opts(seed, 8, SteadyMode::Window)).unwrap();
+        let (_, b) = render(&scene, &opts(seed + 100, 8, SteadyMode::Full)).unwrap();
+        assert_eq!(a.energy.after_pilot_paths, 256);
+        assert_eq!(b.energy.after_pilot_paths, 0);
+        let t = a.energy.before + a.energy.inside + a.energy.after;
+        assert!((a.energy.total - t).abs() <= 1e-12 * t);
+        pilot.push(a.energy.after);
+        totals.push(b.energy.total);
+        exact.push(b.energy.after);
+    }
+    let (mp, sp) = common::mean_se(&pilot);
+    let (me, se) = common::mean_se(&exact);
+    let z = (mp - me) / (sp * sp + se * se).sqrt();
+    assert!(z.abs() < 4.0, "pilot {mp} ± {sp}, uncut {me} ± {se}: z = {z}");
+    // and it is a good part of the light (about 30%): this window ends 2.2 m after the first
+    // arrival
+    let (mt, _) = common::mean_se(&totals);
+    assert!(mp > 0.2 * mt, "after {mp} of {mt}");
+}
+
+#[test]
+fn per_strategy_bdpt_films_are_unchanged() {
+    let mut scene = early_cornell();
+    scene.integrator.max_bounces = 3;
+    let o = RenderOptions {
+        integrator: Some(IntegratorKind::Bdpt),
+        ..opts(2, 2, SteadyMode::Window)
+    };
+    let full = RenderOptions {
+        steady: SteadyMode::Full,
+        ..o.clone()
+    };
+    let (_, a, _) = difftransient::render::render_strategies(&scene, &o).unwrap();
+    let (_, b, _) = difftransient::render::render_strategies(&scene, &full).unwrap();
+    assert_eq!(a.len(), bdpt::film::strategy_list(3).len());
+    for ((st, x), (_, y)) in a.iter().zip(&b) {
+        let differ = x
+            .data
+            .iter()
+            .zip(&y.data)
+            .filter(|(p, q)| p.to_bits() != q.to_bits())
+            .count();
+        assert_eq!(differ, 0, "strategy {st:?}");
+    }
+}
