@@ -84,7 +84,8 @@ pub struct RenderStats {
     /// is in `boundary_seconds`, and the whole render in `total_*`.
     pub wall_seconds: f64,
     pub cpu_seconds: f64,
-    /// The whole render: interior pass + boundary stage.
+    /// The whole render: interior pass + boundary stage (+ the window-energy pilot of a
+    /// render cut at the window).
     pub total_wall_seconds: f64,
     pub total_cpu_seconds: f64,
     pub paths: u64,
@@ -568,8 +569,12 @@ fn render_films(
         SteadyMode::Full => WindowEnergy::of(&out[0], inside[0] / n, tails[0] / n, tails[1] / n),
         // paths were cut at the window: what arrives after it comes from an uncut pilot
         SteadyMode::Window if interior => {
-            let (after, paths) = pilot_energy_after(&mut ctx, seed, &pool, opts.lanes);
-            WindowEnergy::with_pilot(inside[0] / n, tails[0] / n, after, paths)
+            let (t_p, cpu_p) = (Instant::now(), cpu_seconds());
+            let paths = stats.paths as usize;
+            let (after, pilot) = pilot_energy_after(&mut ctx, seed, paths, &pool, opts.lanes);
+            stats.total_wall_seconds += t_p.elapsed().as_secs_f64();
+            stats.total_cpu_seconds += cpu_seconds() - cpu_p;
+            WindowEnergy::with_pilot(inside[0] / n, tails[0] / n, after, pilot)
         }
         SteadyMode::Window => WindowEnergy::default(),
     };
@@ -586,23 +591,32 @@ use bdpt::render_tiles as bdpt_tiles;
 /// Seed stream of the window-energy pilot (xor-ed into the render seed).
 const PILOT_STREAM: u64 = 0x9e37_79b9_7f4a_7c15;
 
-/// Most paths the window-energy pilot traces: one sample in every pixel of a small film,
-/// in evenly spaced tiles of a larger one.
-const PILOT_PATHS: usize = 1 << 15;
+/// The window-energy pilot traces about 1/`PILOT_SHARE` of the render's paths, at least
+/// `PILOT_PATHS.0` and at most `PILOT_PATHS.1` (and at most one per pixel): a rough estimate
+/// suffices for the report and its warning, and the pilot must cost far less than the cut
+/// saves.
+const PILOT_SHARE: usize = 256;
+const PILOT_PATHS: (usize, usize) = (1024, 1 << 15);
 
 /// The primal energy that arrives after the window, estimated by an uncut pilot of the path
-/// tracer (one sample per pixel in evenly spaced tiles, at most [`PILOT_PATHS`] paths, its own
-/// seed stream), for the energy report of a render whose paths were cut at the window.
-/// Unbiased; its noise is that of a 1-spp render. Returns (energy after the window, paths).
-/// Leaves `ctx` uncut.
-fn pilot_energy_after(ctx: &mut RenderContext, seed: u64, pool: &rayon::ThreadPool, lanes: Lanes) -> (f64, u64) {
+/// tracer (one sample per pixel in evenly spaced tiles, its own seed stream; see
+/// [`PILOT_SHARE`]), for the energy report of a render whose paths were cut at the window.
+/// Unbiased. Returns (energy after the window, paths). Leaves `ctx` uncut.
+fn pilot_energy_after(
+    ctx: &mut RenderContext,
+    seed: u64,
+    render_paths: usize,
+    pool: &rayon::ThreadPool,
+    lanes: Lanes,
+) -> (f64, u64) {
     ctx.cut_to_window(SteadyMode::Full);
     let ctx = &*ctx;
     let (w, h) = (ctx.scene.film.width as usize, ctx.scene.film.height as usize);
     let tiles: Vec<(usize, usize)> = (0..h.div_ceil(TILE))
         .flat_map(|ty| (0..w.div_ceil(TILE)).map(move |tx| (tx * TILE, ty * TILE)))
         .collect();
-    let step = (w * h).div_ceil(PILOT_PATHS).max(1);
+    let target = (render_paths / PILOT_SHARE).clamp(PILOT_PATHS.0, PILOT_PATHS.1);
+    let step = (w * h).div_ceil(target).max(1);
     let picked: Vec<(usize, usize)> = tiles.iter().copied().step_by(step).collect();
     let (after, pixels) = pool.install(|| {
         picked

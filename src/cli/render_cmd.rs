@@ -353,6 +353,9 @@ fn metadata(scene: &Scene, film: &Transient, stats: &RenderStats, a: &RenderArgs
         "version": env!("CARGO_PKG_VERSION"),
     });
     meta["traversal"] = json!(stats.traversal);
+    // the whole render: interior + boundary stage + the window-energy pilot
+    meta["total_wall_seconds"] = json!(stats.total_wall_seconds);
+    meta["total_cpu_seconds"] = json!(stats.total_cpu_seconds);
     meta["steady"] = json!({
         "about": "what the steady image integrates: window = the time window (paths were traced only as far as their OPL could still reach a bin, opl_cut metres; the transient is the same as without the cut), full = all time (--steady full: every path traced to its last bounce)",
         "mode": stats.steady,
