@@ -658,7 +658,7 @@ fn render_tile<R: Real, const C: usize>(
             while x < film.w {
                 let n = lanes_per_packet.min(film.w - x);
                 let lanes = PacketLanes::row(film.x0 + x, film.y0 + ty, n, width, spp, s);
-                trace_packet::<R, C>(ctx, seed, &lanes, film, counts);
+                trace_packet::<R, C, _>(ctx, seed, &lanes, film, counts);
                 x += n;
             }
         }

@@ -274,7 +274,7 @@ impl Estimator<'_> {
         let mut scratch = TileFilm::new(0, 0, 8, 1, &axis, C, 0).with_steady(ctx.steady);
         let mut counts = PathCounts::default();
         let rays = PrimaryRays { dirs };
-        trace_packet_from::<f32x8, C>(
+        trace_packet_from::<f32x8, C, _>(
             ctx,
             self.seed ^ PATH_STREAM,
             &lanes,

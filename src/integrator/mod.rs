@@ -18,6 +18,7 @@ pub mod emitters;
 pub mod motion;
 pub mod opl;
 pub mod path;
+pub mod sink;
 pub mod surface;
 pub mod trace;
 pub mod window;

@@ -18,10 +18,10 @@ use super::context::RenderContext;
 use super::deposit::for_each_lane;
 use super::opl::points64;
 use super::power_heuristic;
+use super::sink::Sink;
 use super::surface::surface_at;
 use super::trace::{RayCounts, SegmentEnd, intersect, shadow_segment, spawn_point, unoccluded};
 use super::window;
-use crate::film::TileFilm;
 use crate::kernel::{Mask, PathSampler, Real, Spectrum, V3};
 
 /// The lanes of one packet: pixel coordinates and a global path id per lane.
@@ -76,26 +76,26 @@ pub struct PrimaryRays {
     pub dirs: [glam::Vec3; 8],
 }
 
-/// Traces `R::LANES` paths and adds their contributions to `film`.
+/// Traces `R::LANES` paths and hands their contributions to `sink` (at each lane's pixel).
 #[inline]
-pub fn trace_packet<R: Real, const C: usize>(
+pub fn trace_packet<R: Real, const C: usize, S: Sink<C>>(
     ctx: &RenderContext,
     seed: u64,
     lanes: &PacketLanes,
-    film: &mut TileFilm,
+    sink: &mut S,
     counts: &mut PathCounts,
 ) {
-    trace_packet_from::<R, C>(ctx, seed, lanes, None, film, counts)
+    trace_packet_from::<R, C, S>(ctx, seed, lanes, None, sink, counts)
 }
 
 /// [`trace_packet`] with the camera rays given by `primary` (when `Some`); the filter sample
 /// is still drawn, so the random numbers of every later dimension are the same either way.
-pub fn trace_packet_from<R: Real, const C: usize>(
+pub fn trace_packet_from<R: Real, const C: usize, S: Sink<C>>(
     ctx: &RenderContext,
     seed: u64,
     lanes: &PacketLanes,
     primary: Option<&PrimaryRays>,
-    film: &mut TileFilm,
+    sink: &mut S,
     counts: &mut PathCounts,
 ) {
     type V<R> = <R as Real>::Value;
@@ -212,7 +212,8 @@ pub fn trace_packet_from<R: Real, const C: usize>(
             let contrib = (beta * le).scale(R::from_value(w));
             splat(
                 ctx,
-                film,
+                sink,
+                (0, depth as usize + 1),
                 lanes,
                 &emitter,
                 opl,
@@ -276,7 +277,8 @@ pub fn trace_packet_from<R: Real, const C: usize>(
                 }
                 splat(
                     ctx,
-                    film,
+                    sink,
+                    (1, depth as usize + 1),
                     lanes,
                     &ls.emitter,
                     d,
@@ -317,12 +319,13 @@ pub fn trace_packet_from<R: Real, const C: usize>(
     }
 }
 
-/// Adds each lane's contribution (and its derivatives) to its pixel, binned by the
-/// emitter's S_e at OPL `d` (the value from `exact` when given, f64 per lane).
+/// Hands each lane's contribution (and its derivatives) to `sink` at its pixel, for
+/// `strategy`, with OPL `d` (the value from `exact` when given, f64 per lane).
 #[allow(clippy::too_many_arguments)]
-fn splat<R: Real, const C: usize>(
+fn splat<R: Real, const C: usize, S: Sink<C>>(
     ctx: &RenderContext,
-    film: &mut TileFilm,
+    sink: &mut S,
+    strategy: (usize, usize),
     lanes: &PacketLanes,
     emitter: &[u32; 8],
     d: R,
@@ -332,7 +335,7 @@ fn splat<R: Real, const C: usize>(
     counts: &mut PathCounts,
 ) {
     for_each_lane(ctx, emitter, d, exact, contrib, mask, counts, |i, lc| {
-        lc.add_to(ctx, film, lanes.px[i] as usize, lanes.py[i] as usize, 1.0);
+        sink.add(ctx, strategy, lanes.px[i] as usize, lanes.py[i] as usize, lc, 1.0);
     });
 }
 

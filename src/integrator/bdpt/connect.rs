@@ -10,6 +10,7 @@
 use super::Packet;
 use super::mis::{allowed, path_pdfs, ratio_sums, weight};
 use super::vertex::segment_end;
+use crate::integrator::sink::Sink;
 use crate::integrator::trace::{shadow_segment, unoccluded};
 use crate::integrator::window;
 use crate::kernel::{Mask, Real, Spectrum, V3};
@@ -18,7 +19,7 @@ type V<R> = <R as Real>::Value;
 
 /// s = 0: emission found by the camera subpath at its vertex t − 1 (area emitters, front
 /// side only).
-pub fn emission<R: Real, const C: usize>(pk: &mut Packet<'_, '_, R, C>, t: usize) {
+pub fn emission<R: Real, const C: usize, S: Sink<C>>(pk: &mut Packet<'_, '_, R, C, S>, t: usize) {
     let ctx = pk.ctx;
     let pt = pk.camera[t - 1];
     let mut emitter = [u32::MAX; 8];
@@ -59,7 +60,7 @@ pub fn emission<R: Real, const C: usize>(pk: &mut Packet<'_, '_, R, C>, t: usize
 }
 
 /// s ≥ 1, t ≥ 2: the light subpath's vertex s − 1 joined to the camera subpath's vertex t − 1.
-pub fn connect<R: Real, const C: usize>(pk: &mut Packet<'_, '_, R, C>, s: usize, t: usize) {
+pub fn connect<R: Real, const C: usize, S: Sink<C>>(pk: &mut Packet<'_, '_, R, C, S>, s: usize, t: usize) {
     let ctx = pk.ctx;
     let qs = pk.light[s - 1];
     let pt = pk.camera[t - 1];

@@ -32,6 +32,7 @@ pub mod walk;
 use super::context::RenderContext;
 use super::deposit::for_each_lane;
 use super::path::{PacketLanes, PathCounts};
+use super::sink::Sink;
 use crate::kernel::{PathSampler, Real, Spectrum};
 use film::BdptFilm;
 use vertex::Vertex;
@@ -60,8 +61,8 @@ impl<R: Real, const C: usize> Default for Scratch<R, C> {
     }
 }
 
-/// One packet's state while its strategies run.
-pub struct Packet<'p, 'c, R: Real, const C: usize> {
+/// One packet's state while its strategies run; contributions go to `sink`.
+pub struct Packet<'p, 'c, R: Real, const C: usize, S: Sink<C>> {
     pub ctx: &'p RenderContext<'c>,
     pub lanes: &'p PacketLanes,
     pub camera: &'p [Vertex<R, C>],
@@ -70,11 +71,11 @@ pub struct Packet<'p, 'c, R: Real, const C: usize> {
     pub eta: R,
     pub pl: &'p mut Vec<R::Value>,
     pub pe: &'p mut Vec<R::Value>,
-    pub film: &'p mut BdptFilm,
+    pub sink: &'p mut S,
     pub counts: &'p mut PathCounts,
 }
 
-impl<R: Real, const C: usize> Packet<'_, '_, R, C> {
+impl<R: Real, const C: usize, S: Sink<C>> Packet<'_, '_, R, C, S> {
     /// Adds each lane's contribution to its own pixel (strategies with t ≥ 2).
     pub fn deposit_own_pixels(
         &mut self,
@@ -85,21 +86,21 @@ impl<R: Real, const C: usize> Packet<'_, '_, R, C> {
         contrib: &Spectrum<R, C>,
         mask: R::Mask,
     ) {
-        let (ctx, lanes, film) = (self.ctx, self.lanes, &mut *self.film);
+        let (ctx, lanes, sink) = (self.ctx, self.lanes, &mut *self.sink);
         for_each_lane(ctx, emitter, d, exact, contrib, mask, self.counts, |i, lc| {
             let (x, y) = (lanes.px[i] as usize, lanes.py[i] as usize);
-            film.add(ctx, strategy, x, y, lc, 1.0);
+            sink.add(ctx, strategy, x, y, lc, 1.0);
         });
     }
 }
 
-/// Traces one camera and one light subpath per lane and adds every strategy's weighted
-/// contribution (and derivatives) to `film`.
-pub fn trace_packet<R: Real, const C: usize>(
+/// Traces one camera and one light subpath per lane and hands every strategy's weighted
+/// contribution (and derivatives) to `sink`.
+pub fn trace_packet<R: Real, const C: usize, S: Sink<C>>(
     ctx: &RenderContext,
     seed: u64,
     lanes: &PacketLanes,
-    film: &mut BdptFilm,
+    sink: &mut S,
     counts: &mut PathCounts,
     scratch: &mut Scratch<R, C>,
 ) {
@@ -119,7 +120,7 @@ pub fn trace_packet<R: Real, const C: usize>(
         eta: ctx.motion.eta::<R>(ctx.scene.eta),
         pl,
         pe,
-        film,
+        sink,
         counts,
     };
     for t in 1..=pk.camera.len() {
@@ -157,7 +158,7 @@ pub fn render_tiles<R: Real, const C: usize>(
                 while x < tw {
                     let n = R::LANES.min(tw - x);
                     let lanes = PacketLanes::row(x0 + x, y0 + ty, n, w, spp, s);
-                    trace_packet::<R, C>(ctx, seed, &lanes, film, counts, &mut scratch);
+                    trace_packet::<R, C, _>(ctx, seed, &lanes, film, counts, &mut scratch);
                     x += n;
                 }
             }

@@ -29,6 +29,7 @@ use super::vertex::{camera_dir_pdf, to_area};
 use super::walk::geometry_carrier;
 use crate::integrator::deposit::LaneContribution;
 use crate::integrator::path::ray_plane_point;
+use crate::integrator::sink::Sink;
 use crate::integrator::trace::{SegmentEnd, shadow_segment, unoccluded};
 use crate::integrator::window;
 use crate::kernel::{Mask, Real, V3};
@@ -36,7 +37,7 @@ use crate::kernel::{Mask, Real, V3};
 type V<R> = <R as Real>::Value;
 
 /// s ≥ 2, t = 1.
-pub fn splat_to_camera<R: Real, const C: usize>(pk: &mut Packet<'_, '_, R, C>, s: usize) {
+pub fn splat_to_camera<R: Real, const C: usize, S: Sink<C>>(pk: &mut Packet<'_, '_, R, C, S>, s: usize) {
     let ctx = pk.ctx;
     let cam = &ctx.camera;
     let qs = pk.light[s - 1];
@@ -101,10 +102,10 @@ pub fn splat_to_camera<R: Real, const C: usize>(pk: &mut Packet<'_, '_, R, C>, s
             continue;
         };
         let lower_i = lower.lane(i);
-        let film = &mut *pk.film;
+        let sink = &mut *pk.sink;
         cam.for_each_pixel(proj.fx.lane(i), proj.fy.lane(i), |px, py, h| {
             let w = 1.0 / (1.0 + h * h * lower_i);
-            film.add(ctx, (s, 1), px as usize, py as usize, &lc, h * w);
+            sink.add(ctx, (s, 1), px as usize, py as usize, &lc, h * w);
         });
     }
 }
