@@ -438,11 +438,12 @@ impl WindowEnergy {
 }
 
 impl DerivWindowEnergy {
-    /// `inside`: Σ of the film's bins as the tiles summed them in f64 (divided by spp).
-    pub fn of(t: &Transient, inside: f64, steady: SteadyMode) -> Self {
+    /// `inside`: Σ of the film's bins as the tiles summed them in f64 (divided by spp), with
+    /// the boundary parts; `extra_steady`: Σ of the steady images of parts not in `t`.
+    pub fn of(t: &Transient, extra_steady: f64, inside: f64, steady: SteadyMode) -> Self {
         match steady {
             SteadyMode::Full => {
-                let total: f64 = t.steady.iter().map(|&v| v as f64).sum();
+                let total: f64 = t.steady.iter().map(|&v| v as f64).sum::<f64>() + extra_steady;
                 Self {
                     total,
                     inside,

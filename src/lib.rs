@@ -28,5 +28,8 @@ pub mod timing;
 
 pub use error::Error;
 pub use film::Transient;
-pub use render::{BoundaryMode, Lanes, RenderOptions, RenderStats, render, render_diff, render_strategies};
+pub use render::{
+    BoundaryMode, DiffParts, Lanes, RenderOptions, RenderStats, render, render_diff, render_diff_parts,
+    render_strategies,
+};
 pub use scene::Scene;

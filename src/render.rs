@@ -161,20 +161,65 @@ pub fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool, Error> {
 
 /// Renders the forward transient of `scene` (no derivative lanes: the plain f32x8 kernel).
 pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<(Transient, RenderStats), Error> {
-    let (mut films, _, stats) = render_films(scene, Motion::none(), opts, false)?;
-    Ok((films.swap_remove(0), stats))
+    let mut run = Run::new(scene, Motion::none(), opts, false)?;
+    let mut interior = run.interior(opts, false);
+    let stats = run.finish(opts, &mut interior, None);
+    Ok((interior.films.swap_remove(0), stats))
 }
 
-/// Renders the transient and the interior derivative of every bin with respect to each
-/// parameter in `params` (Algorithm 1: İ += ḟ·s + f·Ṡ_e·ḋ), in one pass. Returns the
-/// transient and one derivative transient per parameter, in order.
-///
-/// The kernel carries `Dual8<P>` with the smallest P in {1, 2, 4, 8, 16} that fits.
+/// The parts of a derivative render: each estimator with its own samples and seed stream,
+/// one film per parameter in each part. The derivative of the rendered transient is their
+/// sum ([`DiffParts::sum`]).
+pub struct DiffParts {
+    pub primal: Transient,
+    /// The interior integral (Algorithm 1), from the path tracer or BDPT.
+    pub interior: Vec<Transient>,
+    /// The boundary integral at primary edges (silhouettes seen from the camera,
+    /// supplemental Eqs. 18–19 on the film); empty when the boundary stage did not run.
+    pub primary: Vec<Transient>,
+    /// The boundary integral at secondary edges (Algorithm 2); empty like `primary`.
+    pub secondary: Vec<Transient>,
+    pub stats: RenderStats,
+}
+
+impl DiffParts {
+    /// interior + primary + secondary, per parameter: ∂I/∂θ_k of every bin.
+    pub fn sum(&self) -> Vec<Transient> {
+        let mut out = self.interior.clone();
+        for (k, film) in out.iter_mut().enumerate() {
+            if let (Some(p), Some(q)) = (self.primary.get(k), self.secondary.get(k)) {
+                film.data
+                    .iter_mut()
+                    .zip(p.data.iter().zip(&q.data))
+                    .for_each(|(d, (a, b))| *d += a + b);
+                film.steady
+                    .iter_mut()
+                    .zip(p.steady.iter().zip(&q.steady))
+                    .for_each(|(d, (a, b))| *d += a + b);
+            }
+        }
+        out
+    }
+}
+
+/// Renders the transient and the derivative of every bin with respect to each parameter in
+/// `params`: interior + primary + secondary ([`render_diff_parts`]). Returns the transient
+/// and one derivative transient per parameter, in order.
 pub fn render_diff(
     scene: &Scene,
     params: &[String],
     opts: &RenderOptions,
 ) -> Result<(Transient, Vec<Transient>, RenderStats), Error> {
+    let parts = render_diff_parts(scene, params, opts)?;
+    let grad = parts.sum();
+    Ok((parts.primal, grad, parts.stats))
+}
+
+/// The parts of the derivative with respect to each parameter in `params`, in one run:
+/// the interior pass (Algorithm 1: İ += ḟ·s + f·Ṡ_e·ḋ, with the transient itself) and, when
+/// a parameter moves geometry, the boundary stage (primary and secondary edges). The kernel
+/// carries `Dual8<P>` with the smallest P in {1, 2, 4, 8, 16} that fits.
+pub fn render_diff_parts(scene: &Scene, params: &[String], opts: &RenderOptions) -> Result<DiffParts, Error> {
     let motion = Motion::build(scene, params)?;
     if motion.len() > 16 {
         return Err(Error::Invalid(format!(
@@ -182,6 +227,26 @@ pub fn render_diff(
             motion.len()
         )));
     }
+    check_time_derivatives(scene, params, &motion)?;
+    let mut run = Run::new(scene, motion, opts, false)?;
+    let mut interior = run.interior(opts, false);
+    let boundary = run.boundary(opts);
+    let stats = run.finish(opts, &mut interior, boundary.as_ref());
+    let mut films = interior.films.into_iter();
+    let primal = films.next().expect("the primal film");
+    let (primary, secondary) = boundary.map_or((Vec::new(), Vec::new()), |b| (b.primary, b.secondary));
+    Ok(DiffParts {
+        primal,
+        interior: films.collect(),
+        primary,
+        secondary,
+        stats,
+    })
+}
+
+/// Refuses parameters that shift paths in time when S_e is discontinuous in time (delta
+/// pulse, box gate): Ṡ_e is then a Dirac distribution (supplemental Lemma 2.5).
+fn check_time_derivatives(scene: &Scene, params: &[String], motion: &Motion) -> Result<(), Error> {
     for (k, name) in params.iter().enumerate() {
         if !motion.shifts_time(k) {
             continue;
@@ -203,9 +268,7 @@ pub fn render_diff(
             }
         }
     }
-    let (mut films, _, stats) = render_films(scene, motion, opts, false)?;
-    let primal = films.remove(0);
-    Ok((primal, films, stats))
+    Ok(())
 }
 
 /// Renders with BDPT and also returns one transient per (s, t) strategy, in the order of
@@ -235,8 +298,15 @@ pub fn render_strategies(
             BDPT_FILM_BUDGET_BYTES >> 30
         )));
     }
-    let (mut films, strategies, stats) = render_films(scene, Motion::none(), opts, true)?;
-    Ok((films.swap_remove(0), list.into_iter().zip(strategies).collect(), stats))
+    let mut run = Run::new(scene, Motion::none(), opts, true)?;
+    let mut interior = run.interior(opts, true);
+    let stats = run.finish(opts, &mut interior, None);
+    let strategies = std::mem::take(&mut interior.strategies);
+    Ok((
+        interior.films.swap_remove(0),
+        list.into_iter().zip(strategies).collect(),
+        stats,
+    ))
 }
 
 /// Most chunks a BDPT render is split into: each owns a full-frame film (splats land
@@ -357,233 +427,295 @@ macro_rules! dispatch {
     };
 }
 
-#[allow(clippy::type_complexity)]
-fn render_films(
-    scene: &Scene,
-    motion: Motion,
-    opts: &RenderOptions,
-    per_strategy: bool,
-) -> Result<(Vec<Transient>, Vec<Transient>, RenderStats), Error> {
-    let spp = opts.spp.unwrap_or(scene.integrator.spp);
-    if spp == 0 {
-        return Err(Error::Invalid(format!(
-            "{}: spp must be at least 1 (got 0)",
-            scene.source.display()
-        )));
-    }
-    if opts.spp_boundary == Some(0) {
-        return Err(Error::Invalid(format!(
-            "{}: spp_boundary must be at least 1 (got 0)",
-            scene.source.display()
-        )));
-    }
-    let seed = opts.seed.unwrap_or(scene.integrator.seed);
-    let derivs = motion.len();
-    let kind = opts.integrator.unwrap_or(scene.integrator.kind);
-    check_memory(scene, derivs, kind, opts.threads, per_strategy)?;
-    set_flush_denormals();
-    let device = Device::new("")?;
-    let t_build = Instant::now();
-    // Watertight traversal unless a forward render opts out (`fast_traversal`); renders with
-    // derivative lanes always keep it, since the boundary stage aims rays at edges.
-    let robust = derivs > 0 || !opts.fast_traversal;
-    let mut ctx = RenderContext::with_traversal(scene, &device, robust)?;
-    ctx.motion = motion;
-    ctx.cut_to_window(opts.steady);
-    let bvh_build_seconds = t_build.elapsed().as_secs_f64();
-    let pool = thread_pool(opts.threads)?;
+/// One render's shared state: the scene prepared for the kernel (BVH, emitters, motion,
+/// window cut), the thread pool, and the samples and seed every estimator draws from.
+struct Run<'s> {
+    ctx: RenderContext<'s>,
+    pool: rayon::ThreadPool,
+    spp: u32,
+    seed: u64,
+    derivs: usize,
+    kind: IntegratorKind,
+    robust: bool,
+    bvh_build_seconds: f64,
+}
 
-    let (w, h) = (scene.film.width as usize, scene.film.height as usize);
-    let axis = scene.film.axis;
-    let channels = scene.film.channels;
-    let interior = opts.boundary != BoundaryMode::BoundaryOnly || derivs == 0;
-    let tiles: Vec<(usize, usize)> = (0..if interior { h.div_ceil(TILE) } else { 0 })
-        .flat_map(|ty| (0..w.div_ceil(TILE)).map(move |tx| (tx * TILE, ty * TILE)))
-        .collect();
-    let bar = progress_bar(opts.progress, tiles.len() as u64);
+/// The interior pass's films (the primal, then one per parameter), per-strategy films (BDPT
+/// `--strategies`), and per tile or chunk, in order: (counts, primal energy before and after
+/// the window, Σ of each film block).
+struct Interior {
+    films: Vec<Transient>,
+    strategies: Vec<Transient>,
+    tallies: Vec<(PathCounts, [f64; 2], Vec<f64>)>,
+    /// Whether the pass ran (a boundary-only derivative render skips it).
+    ran: bool,
+    wall: f64,
+    cpu: f64,
+}
 
-    let cpu0 = cpu_seconds();
-    let t0 = Instant::now();
-    let mut out = vec![Transient::zeros(w, h, axis, channels); 1 + derivs];
-    let mut strategy_out = Vec::new();
-    // (counts, primal energy before and after the window, Σ of each film block) per tile or
-    // chunk, in order
-    let counts: Vec<(PathCounts, [f64; 2], Vec<f64>)> = match kind {
-        IntegratorKind::Path => {
-            // Tiles cover disjoint pixels and `out` starts at zero, so each pixel receives
-            // exactly one tile's sums (0 + x = x): merging as tiles finish gives the same bytes
-            // for any order and thread count. Each worker reuses one film across its tiles.
-            let merged = std::sync::Mutex::new(&mut out);
-            pool.install(|| {
-                tiles
-                    .par_iter()
-                    .map_init(
-                        || None::<TileFilm>,
-                        |spare, &(x0, y0)| {
-                            let tw = TILE.min(w - x0);
-                            let th = TILE.min(h - y0);
-                            let mut film = match spare.take() {
-                                Some(mut f) => {
-                                    f.reset(x0, y0, tw, th);
-                                    f
-                                }
-                                None => ctx.tile_film(x0, y0, tw, th, derivs),
-                            };
+impl<'s> Run<'s> {
+    /// Checks the options and the memory the films need, builds the BVH and the pool.
+    fn new(scene: &'s Scene, motion: Motion, opts: &RenderOptions, per_strategy: bool) -> Result<Self, Error> {
+        let spp = opts.spp.unwrap_or(scene.integrator.spp);
+        if spp == 0 {
+            return Err(Error::Invalid(format!(
+                "{}: spp must be at least 1 (got 0)",
+                scene.source.display()
+            )));
+        }
+        if opts.spp_boundary == Some(0) {
+            return Err(Error::Invalid(format!(
+                "{}: spp_boundary must be at least 1 (got 0)",
+                scene.source.display()
+            )));
+        }
+        let derivs = motion.len();
+        let kind = opts.integrator.unwrap_or(scene.integrator.kind);
+        check_memory(scene, derivs, kind, opts.threads, per_strategy)?;
+        set_flush_denormals();
+        let device = Device::new("")?;
+        let t_build = Instant::now();
+        // Watertight traversal unless a forward render opts out (`fast_traversal`); renders
+        // with derivative lanes always keep it, since the boundary stage aims rays at edges.
+        let robust = derivs > 0 || !opts.fast_traversal;
+        let mut ctx = RenderContext::with_traversal(scene, &device, robust)?;
+        ctx.motion = motion;
+        ctx.cut_to_window(opts.steady);
+        Ok(Self {
+            ctx,
+            pool: thread_pool(opts.threads)?,
+            spp,
+            seed: opts.seed.unwrap_or(scene.integrator.seed),
+            derivs,
+            kind,
+            robust,
+            bvh_build_seconds: t_build.elapsed().as_secs_f64(),
+        })
+    }
+
+    /// The interior estimator (Algorithm 1) over every pixel: the path tracer over tiles or
+    /// BDPT over fixed chunks of tiles; films averaged over spp.
+    fn interior(&self, opts: &RenderOptions, per_strategy: bool) -> Interior {
+        let (ctx, spp, seed, derivs) = (&self.ctx, self.spp, self.seed, self.derivs);
+        let scene = ctx.scene;
+        let (w, h) = (scene.film.width as usize, scene.film.height as usize);
+        let axis = scene.film.axis;
+        let channels = scene.film.channels;
+        let ran = opts.boundary != BoundaryMode::BoundaryOnly || derivs == 0;
+        let tiles: Vec<(usize, usize)> = (0..if ran { h.div_ceil(TILE) } else { 0 })
+            .flat_map(|ty| (0..w.div_ceil(TILE)).map(move |tx| (tx * TILE, ty * TILE)))
+            .collect();
+        let bar = progress_bar(opts.progress, tiles.len() as u64);
+        let cpu0 = cpu_seconds();
+        let t0 = Instant::now();
+        let mut out = vec![Transient::zeros(w, h, axis, channels); 1 + derivs];
+        let mut strategy_out = Vec::new();
+        let tallies: Vec<(PathCounts, [f64; 2], Vec<f64>)> = match self.kind {
+            IntegratorKind::Path => {
+                // Tiles cover disjoint pixels and `out` starts at zero, so each pixel receives
+                // exactly one tile's sums (0 + x = x): merging as tiles finish gives the same
+                // bytes for any order and thread count. Each worker reuses one film across its
+                // tiles.
+                let merged = std::sync::Mutex::new(&mut out);
+                self.pool.install(|| {
+                    tiles
+                        .par_iter()
+                        .map_init(
+                            || None::<TileFilm>,
+                            |spare, &(x0, y0)| {
+                                let tw = TILE.min(w - x0);
+                                let th = TILE.min(h - y0);
+                                let mut film = match spare.take() {
+                                    Some(mut f) => {
+                                        f.reset(x0, y0, tw, th);
+                                        f
+                                    }
+                                    None => ctx.tile_film(x0, y0, tw, th, derivs),
+                                };
+                                let mut counts = PathCounts::default();
+                                let tick0 = crate::timing::ticks();
+                                let (f, c) = (&mut film, &mut counts);
+                                dispatch!(derivs, opts.lanes, channels, render_tile(ctx, seed, spp, w, f, c));
+                                counts.total_ticks = crate::timing::ticks() - tick0;
+                                film.merge_into(&mut merged.lock().unwrap_or_else(|e| e.into_inner()));
+                                let (tails, sums) = (film.tails(), film.block_sums());
+                                *spare = Some(film);
+                                bar.inc(1);
+                                (counts, tails, sums)
+                            },
+                        )
+                        .collect()
+                })
+            }
+            IntegratorKind::Bdpt => {
+                let strategies = if per_strategy {
+                    bdpt::film::strategy_list(scene.integrator.max_bounces).len()
+                } else {
+                    0
+                };
+                let frame_floats = w * h * (axis.bins * channels + channels) * (1 + derivs + strategies);
+                let bytes = if derivs > 0 { 8 } else { 4 };
+                let per_chunk = tiles.len().div_ceil(bdpt_chunks(frame_floats, bytes));
+                let results: Vec<(BdptFilm, PathCounts)> = self.pool.install(|| {
+                    tiles
+                        .par_chunks(per_chunk.max(1))
+                        .map(|chunk| {
+                            let mut film = BdptFilm::new(ctx, derivs, per_strategy);
                             let mut counts = PathCounts::default();
                             let tick0 = crate::timing::ticks();
                             let (f, c) = (&mut film, &mut counts);
-                            dispatch!(derivs, opts.lanes, channels, render_tile(&ctx, seed, spp, w, f, c));
+                            dispatch!(
+                                derivs,
+                                opts.lanes,
+                                channels,
+                                bdpt_tiles(ctx, seed, spp, chunk, TILE, f, c)
+                            );
                             counts.total_ticks = crate::timing::ticks() - tick0;
-                            film.merge_into(&mut merged.lock().unwrap_or_else(|e| e.into_inner()));
-                            let (tails, sums) = (film.tails(), film.block_sums());
-                            *spare = Some(film);
-                            bar.inc(1);
-                            (counts, tails, sums)
-                        },
-                    )
-                    .collect()
-            })
-        }
-        IntegratorKind::Bdpt => {
-            let max_b = scene.integrator.max_bounces;
-            let strategies = if per_strategy {
-                bdpt::film::strategy_list(max_b).len()
-            } else {
-                0
-            };
-            let frame_floats = w * h * (axis.bins * channels + channels) * (1 + derivs + strategies);
-            let bytes = if derivs > 0 { 8 } else { 4 };
-            let per_chunk = tiles.len().div_ceil(bdpt_chunks(frame_floats, bytes));
-            let results: Vec<(BdptFilm, PathCounts)> = pool.install(|| {
-                tiles
-                    .par_chunks(per_chunk)
-                    .map(|chunk| {
-                        let mut film = BdptFilm::new(&ctx, derivs, per_strategy);
-                        let mut counts = PathCounts::default();
-                        let tick0 = crate::timing::ticks();
-                        let (f, c) = (&mut film, &mut counts);
-                        dispatch!(
-                            derivs,
-                            opts.lanes,
-                            channels,
-                            bdpt_tiles(&ctx, seed, spp, chunk, TILE, f, c)
-                        );
-                        counts.total_ticks = crate::timing::ticks() - tick0;
-                        bar.inc(chunk.len() as u64);
-                        (film, counts)
-                    })
-                    .collect()
-            });
-            let list_len = results.first().map_or(0, |r| r.0.strategies.len());
-            strategy_out = vec![Transient::zeros(w, h, axis, channels); list_len];
-            for (chunk, _) in &results {
-                chunk.film.merge_into(&mut out);
-                for (k, f) in chunk.strategies.iter().enumerate() {
-                    f.merge_into(&mut strategy_out[k..k + 1]);
+                            bar.inc(chunk.len() as u64);
+                            (film, counts)
+                        })
+                        .collect()
+                });
+                let list_len = results.first().map_or(0, |r| r.0.strategies.len());
+                strategy_out = vec![Transient::zeros(w, h, axis, channels); list_len];
+                for (chunk, _) in &results {
+                    chunk.film.merge_into(&mut out);
+                    for (k, f) in chunk.strategies.iter().enumerate() {
+                        f.merge_into(&mut strategy_out[k..k + 1]);
+                    }
                 }
+                results
+                    .into_iter()
+                    .map(|(f, c)| (c, f.film.tails(), f.film.block_sums()))
+                    .collect()
             }
-            results
-                .into_iter()
-                .map(|(f, c)| (c, f.film.tails(), f.film.block_sums()))
-                .collect()
-        }
-    };
-    let wall = t0.elapsed().as_secs_f64();
-    let cpu = (cpu_seconds() - cpu0).max(1e-9);
-    bar.finish_and_clear();
-
-    let mut stats = RenderStats {
-        spp,
-        seed,
-        threads: pool.current_num_threads(),
-        wall_seconds: wall,
-        cpu_seconds: cpu,
-        paths: if interior { (w * h) as u64 * spp as u64 } else { 0 },
-        bvh_build_seconds,
-        traversal: if robust { "robust" } else { "fast" },
-        steady: ctx.steady,
-        opl_cut: ctx.opl_budget,
-        opl: ctx.opl,
-        ..Default::default()
-    };
-    let mut ticks = (0u64, 0u64, 0u64);
-    let mut tails = [0.0f64; 2];
-    let mut inside = vec![0.0f64; 1 + derivs];
-    for (c, t, sums) in &counts {
-        tails[0] += t[0];
-        tails[1] += t[1];
-        inside.iter_mut().zip(sums).for_each(|(a, b)| *a += b);
-        stats.intersect_rays += c.rays.intersect;
-        stats.occluded_rays += c.rays.occluded;
-        stats.non_finite_samples += c.non_finite;
-        ticks.0 += c.rays.trace_ticks;
-        ticks.1 += c.film_ticks;
-        ticks.2 += c.total_ticks;
-    }
-    let total = ticks.2.max(1) as f64;
-    stats.phase_seconds = PhaseSeconds {
-        tracing: cpu * ticks.0 as f64 / total,
-        film: cpu * ticks.1 as f64 / total,
-        shading: cpu * (ticks.2.saturating_sub(ticks.0 + ticks.1)) as f64 / total,
-    };
-    out.iter_mut()
-        .chain(strategy_out.iter_mut())
-        .for_each(|t| t.scale(1.0 / spp as f32));
-    let rays = (stats.intersect_rays + stats.occluded_rays) as f64;
-    stats.paths_per_cpu_second = stats.paths as f64 / cpu;
-    stats.rays_per_second = rays / wall.max(1e-9);
-    stats.rays_per_cpu_second = rays / cpu;
-    stats.total_wall_seconds = wall;
-    stats.total_cpu_seconds = cpu;
-    if derivs > 0 && ctx.motion.moves_geometry() && opts.boundary != BoundaryMode::InteriorOnly {
-        let settings = crate::boundary::BoundarySettings {
-            spp_boundary: opts.spp_boundary.unwrap_or(spp),
-            seed,
-            guiding: opts.guiding,
         };
-        let t_b = Instant::now();
-        let cpu_b = cpu_seconds();
-        let parts = crate::boundary::render_boundary(&ctx, &settings, &pool);
-        for (k, (film, (p, q))) in out[1..]
-            .iter_mut()
-            .zip(parts.primary.iter().zip(&parts.secondary))
-            .enumerate()
-        {
-            for (d, (a, b)) in film.data.iter_mut().zip(p.data.iter().zip(&q.data)) {
-                *d += a + b;
-                inside[1 + k] += (a + b) as f64 * spp as f64;
-            }
-            for (d, (a, b)) in film.steady.iter_mut().zip(p.steady.iter().zip(&q.steady)) {
-                *d += a + b;
-            }
+        let wall = t0.elapsed().as_secs_f64();
+        let cpu = (cpu_seconds() - cpu0).max(1e-9);
+        bar.finish_and_clear();
+        out.iter_mut()
+            .chain(strategy_out.iter_mut())
+            .for_each(|t| t.scale(1.0 / spp as f32));
+        Interior {
+            films: out,
+            strategies: strategy_out,
+            tallies,
+            ran,
+            wall,
+            cpu,
         }
-        stats.non_finite_samples += parts.stats.secondary.non_finite;
-        stats.boundary_samples = parts.stats.secondary.samples;
-        stats.boundary_seconds = t_b.elapsed().as_secs_f64();
-        stats.total_wall_seconds += stats.boundary_seconds;
-        stats.total_cpu_seconds += cpu_seconds() - cpu_b;
-        stats.boundary = Some(parts.stats);
     }
-    let n = spp as f64;
-    stats.energy = match ctx.steady {
-        SteadyMode::Full => WindowEnergy::of(&out[0], inside[0] / n, tails[0] / n, tails[1] / n),
-        // paths were cut at the window: what arrives after it comes from an uncut pilot
-        SteadyMode::Window if interior => {
-            let (t_p, cpu_p) = (Instant::now(), cpu_seconds());
-            let paths = stats.paths as usize;
-            let (after, pilot) = pilot_energy_after(&mut ctx, seed, paths, &pool, opts.lanes);
-            stats.total_wall_seconds += t_p.elapsed().as_secs_f64();
-            stats.total_cpu_seconds += cpu_seconds() - cpu_p;
-            WindowEnergy::with_pilot(inside[0] / n, tails[0] / n, after, pilot)
+
+    /// The boundary integral (primary + secondary edges, Algorithm 2), when some parameter
+    /// moves geometry and the options ask for it.
+    fn boundary(&self, opts: &RenderOptions) -> Option<crate::boundary::BoundaryParts> {
+        let wanted = self.derivs > 0 && self.ctx.motion.moves_geometry() && opts.boundary != BoundaryMode::InteriorOnly;
+        wanted.then(|| {
+            let settings = crate::boundary::BoundarySettings {
+                spp_boundary: opts.spp_boundary.unwrap_or(self.spp),
+                seed: self.seed,
+                guiding: opts.guiding,
+            };
+            let (t_b, cpu_b) = (Instant::now(), cpu_seconds());
+            let mut parts = crate::boundary::render_boundary(&self.ctx, &settings, &self.pool);
+            parts.stats.wall_seconds = t_b.elapsed().as_secs_f64();
+            parts.stats.cpu_seconds = cpu_seconds() - cpu_b;
+            parts
+        })
+    }
+
+    /// The run's statistics and energy report (the window-energy pilot runs here, after
+    /// every estimator, when paths were cut at the window).
+    fn finish(
+        &mut self,
+        opts: &RenderOptions,
+        interior: &mut Interior,
+        boundary: Option<&crate::boundary::BoundaryParts>,
+    ) -> RenderStats {
+        let (w, h) = (self.ctx.scene.film.width as usize, self.ctx.scene.film.height as usize);
+        let (spp, wall, cpu) = (self.spp, interior.wall, interior.cpu);
+        let mut stats = RenderStats {
+            spp,
+            seed: self.seed,
+            threads: self.pool.current_num_threads(),
+            wall_seconds: wall,
+            cpu_seconds: cpu,
+            paths: if interior.ran { (w * h) as u64 * spp as u64 } else { 0 },
+            bvh_build_seconds: self.bvh_build_seconds,
+            traversal: if self.robust { "robust" } else { "fast" },
+            steady: self.ctx.steady,
+            opl_cut: self.ctx.opl_budget,
+            opl: self.ctx.opl,
+            ..Default::default()
+        };
+        let mut ticks = (0u64, 0u64, 0u64);
+        let mut tails = [0.0f64; 2];
+        let mut inside = vec![0.0f64; 1 + self.derivs];
+        for (c, t, sums) in &interior.tallies {
+            tails[0] += t[0];
+            tails[1] += t[1];
+            inside.iter_mut().zip(sums).for_each(|(a, b)| *a += b);
+            stats.intersect_rays += c.rays.intersect;
+            stats.occluded_rays += c.rays.occluded;
+            stats.non_finite_samples += c.non_finite;
+            ticks.0 += c.rays.trace_ticks;
+            ticks.1 += c.film_ticks;
+            ticks.2 += c.total_ticks;
         }
-        SteadyMode::Window => WindowEnergy::default(),
-    };
-    stats.deriv_energy = out[1..]
-        .iter()
-        .zip(&inside[1..])
-        .map(|(t, &i)| DerivWindowEnergy::of(t, i / n, ctx.steady))
-        .collect();
-    Ok((out, strategy_out, stats))
+        let total = ticks.2.max(1) as f64;
+        stats.phase_seconds = PhaseSeconds {
+            tracing: cpu * ticks.0 as f64 / total,
+            film: cpu * ticks.1 as f64 / total,
+            shading: cpu * (ticks.2.saturating_sub(ticks.0 + ticks.1)) as f64 / total,
+        };
+        let rays = (stats.intersect_rays + stats.occluded_rays) as f64;
+        stats.paths_per_cpu_second = stats.paths as f64 / cpu;
+        stats.rays_per_second = rays / wall.max(1e-9);
+        stats.rays_per_cpu_second = rays / cpu;
+        stats.total_wall_seconds = wall;
+        stats.total_cpu_seconds = cpu;
+        // the derivative films' energy counts all three parts
+        let mut steady_sums: Vec<f64> = Vec::new();
+        if let Some(b) = boundary {
+            for (k, (p, q)) in b.primary.iter().zip(&b.secondary).enumerate() {
+                let part: f64 = p.data.iter().zip(&q.data).map(|(a, b)| (a + b) as f64).sum();
+                inside[1 + k] += part * spp as f64;
+                let steady: f64 = p.steady.iter().zip(&q.steady).map(|(a, b)| (a + b) as f64).sum();
+                steady_sums.push(steady);
+            }
+            stats.non_finite_samples += b.stats.secondary.non_finite;
+            stats.boundary_samples = b.stats.secondary.samples;
+            stats.boundary_seconds = b.stats.wall_seconds;
+            stats.total_wall_seconds += b.stats.wall_seconds;
+            stats.total_cpu_seconds += b.stats.cpu_seconds;
+            stats.boundary = Some(b.stats.clone());
+        }
+        let n = spp as f64;
+        let films = &interior.films;
+        stats.energy = match self.ctx.steady {
+            SteadyMode::Full => WindowEnergy::of(&films[0], inside[0] / n, tails[0] / n, tails[1] / n),
+            // paths were cut at the window: what arrives after it comes from an uncut pilot
+            SteadyMode::Window if interior.ran => {
+                let (t_p, cpu_p) = (Instant::now(), cpu_seconds());
+                let paths = stats.paths as usize;
+                let (after, pilot) = pilot_energy_after(&mut self.ctx, self.seed, paths, &self.pool, opts.lanes);
+                stats.total_wall_seconds += t_p.elapsed().as_secs_f64();
+                stats.total_cpu_seconds += cpu_seconds() - cpu_p;
+                WindowEnergy::with_pilot(inside[0] / n, tails[0] / n, after, pilot)
+            }
+            SteadyMode::Window => WindowEnergy::default(),
+        };
+        stats.deriv_energy = films[1..]
+            .iter()
+            .zip(&inside[1..])
+            .enumerate()
+            .map(|(k, (t, &i))| {
+                let boundary_steady = steady_sums.get(k).copied().unwrap_or(0.0);
+                DerivWindowEnergy::of(t, boundary_steady, i / n, self.ctx.steady)
+            })
+            .collect();
+        stats
+    }
 }
 
 use bdpt::render_tiles as bdpt_tiles;

@@ -67,6 +67,9 @@ pub struct BoundaryParts {
 #[derive(Clone, Debug, Default, serde::Serialize)]
 pub struct BoundaryStats {
     pub spp_boundary: u32,
+    /// Wall and CPU seconds of the whole stage (set by the render driver).
+    pub wall_seconds: f64,
+    pub cpu_seconds: f64,
     pub primary_seconds: f64,
     pub secondary: pass::SecondaryStats,
     pub edges: usize,
@@ -91,6 +94,7 @@ pub fn render_boundary(ctx: &RenderContext, settings: &BoundarySettings, pool: &
             primary_seconds,
             secondary: sstats,
             edges: sec.edge_count(),
+            ..Default::default()
         },
     }
 }
