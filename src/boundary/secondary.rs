@@ -62,6 +62,15 @@ use crate::kernel::{PathSampler, V3};
 use crate::scene::EmitterKind;
 use glam::{DVec3, Vec3};
 
+/// The first random dimension of the sensor subpath (far past what the sampling of the
+/// boundary ray and the source subpath draw).
+const SENSOR_DIM: u64 = 1 << 16;
+
+/// The window cut's OPL bound for whole boundary paths (`integrator::window`), +∞ without it.
+fn opl_budget(ctx: &RenderContext) -> f64 {
+    ctx.opl_budget.map_or(f64::INFINITY, |b| b as f64)
+}
+
 /// Edges of shapes that a parameter moves are drawn this many times more often per metre: their
 /// shadows move whatever else does (edges of static shapes contribute only where x_L or x_S
 /// moves). Any positive factor keeps the estimator unbiased.
@@ -246,12 +255,19 @@ impl<'a> Secondary<'a> {
         let Some(min_source) = scratch.source.iter().map(|t| t.scatters).min() else {
             return;
         };
+        // the window cut: what the sensor side may add to the shortest source term
+        let shortest = scratch.source.iter().map(|t| t.opl).fold(f64::INFINITY, f64::min);
+        let budget = opl_budget(ctx) - d_b - shortest;
         scratch.sensor.clear();
+        // the sensor side's random numbers start at a fixed dimension, whatever the source
+        // side drew (so that ending the source side early changes no other number)
+        rng.set_dim(SENSOR_DIM);
         sensor_subpath(
             ctx,
             x_s,
             omega,
             max_bounces.saturating_sub(min_source),
+            budget,
             rng,
             &mut scratch.rays,
             &mut scratch.sensor,
@@ -332,18 +348,19 @@ impl<'a> Secondary<'a> {
         }
         scratch.source.clear();
         let max_bounces = ctx.scene.integrator.max_bounces;
+        let d_b = ctx.scene.eta as f64 * segment(ctx, x_l.p64, x_s.p64, seg);
         source_subpath(
             ctx,
             &x_l,
             br.omega,
             max_bounces.saturating_sub(1),
             false,
+            opl_budget(ctx) - d_b,
             &mut rng,
             &mut scratch.rays,
             &mut scratch.source,
         );
         let common = common * scale / (br.pdf_edge_dir * p_guide);
-        let d_b = ctx.scene.eta as f64 * segment(ctx, x_l.p64, x_s.p64, seg);
         self.finish(&x_s, br.omega, d_b, common, &rates, &mut rng, scratch, &mut emit);
         Some(u)
     }

@@ -39,9 +39,17 @@ pub struct SurfaceHit {
 
 /// Closest hit of the ray `o + t·d` (d unit), t ∈ (0, ∞).
 pub fn trace(ctx: &RenderContext, o: Vec3, d: Vec3, counts: &mut RayCounts) -> Option<SurfaceHit> {
+    trace_within(ctx, o, d, f32::INFINITY, counts)
+}
+
+/// Closest hit of the ray `o + t·d` (d unit), t ∈ (0, t_far).
+fn trace_within(ctx: &RenderContext, o: Vec3, d: Vec3, t_far: f32, counts: &mut RayCounts) -> Option<SurfaceHit> {
+    if !(t_far > 0.0) {
+        return None;
+    }
     let t0 = crate::timing::ticks();
     counts.intersect += 1;
-    let hit = ctx.accel.intersect1(o.to_array(), d.to_array(), 0.0, f32::INFINITY);
+    let hit = ctx.accel.intersect1(o.to_array(), d.to_array(), 0.0, t_far);
     counts.trace_ticks += crate::timing::ticks() - t0;
     let h = hit?;
     let [p0, p1, p2] = ctx.tri_verts[h.prim as usize];
@@ -83,19 +91,27 @@ pub fn pre_length(ctx: &RenderContext, ls: &LightSample<f32, 3>) -> f64 {
     }
 }
 
+/// How far a ray may go from a subpath of OPL `opl` before every path through its hit lands
+/// past `budget` (+∞ without a cut); ≤ 0 once the subpath is past it.
+fn t_far(budget: f64, opl: f64, eta: f64) -> f32 {
+    ((budget - opl) / eta) as f32
+}
+
 /// `offset_origin` for one plain point.
 fn offset(p: Vec3, n: Vec3, dir: Vec3) -> Vec3 {
     offset_origin::<f32>(&V3::splat(p), &V3::splat(n), &V3::splat(dir)).lane(0)
 }
 
-/// Samples a cosine-weighted direction on the `side` of x and traces it: the next vertex and
-/// the direction and its solid-angle pdf, or None when the sample or the ray goes nowhere. With a Lambertian BSDF the
-/// weight f·cos/pdf is the albedo, which the caller multiplies in.
+/// Samples a cosine-weighted direction on the `side` of x and traces it as far as `t_far`:
+/// the next vertex and the direction and its solid-angle pdf, or None when the sample or the
+/// ray goes nowhere. With a Lambertian BSDF the weight f·cos/pdf is the albedo, which the
+/// caller multiplies in.
 fn scatter(
     ctx: &RenderContext,
     sampler: &mut PathSampler,
     x: &SurfaceHit,
     side: Vec3,
+    t_far: f32,
     counts: &mut RayCounts,
 ) -> Option<(SurfaceHit, Vec3, f32)> {
     let (b1, b2) = sampler.next2::<f32>();
@@ -104,7 +120,7 @@ fn scatter(
     if !(pdf > 0.0) {
         return None;
     }
-    let y = trace(ctx, offset(x.p, x.n, dir), dir, counts)?;
+    let y = trace_within(ctx, offset(x.p, x.n, dir), dir, t_far, counts)?;
     Some((y, dir, pdf))
 }
 
@@ -134,7 +150,9 @@ pub struct SourceTerm {
 
 /// Radiance leaving x_L in direction `out` (towards x_S): emission when x_L is on the front
 /// of an area emitter (if `with_emission`), plus reflected light by next-event estimation and BSDF sampling over
-/// at most `max_scatters` scattering vertices.
+/// at most `max_scatters` scattering vertices. Terms whose OPL would exceed `budget` (the
+/// window cut, `integrator::window`: what the rest of the path may still add is ≥ 0) are
+/// neither traced nor kept.
 #[allow(clippy::too_many_arguments)]
 pub fn source_subpath(
     ctx: &RenderContext,
@@ -142,6 +160,7 @@ pub fn source_subpath(
     out: Vec3,
     max_scatters: u32,
     with_emission: bool,
+    budget: f64,
     sampler: &mut PathSampler,
     counts: &mut RayCounts,
     terms: &mut Vec<SourceTerm>,
@@ -178,7 +197,14 @@ pub fn source_subpath(
         let wl = to / dist;
         let cos_x = x.n.dot(wl);
         let cos_y = if ls.has_cos { -ls.n.lane(0).dot(wl) } else { 1.0 };
-        if ls.valid && cos_x * x.n.dot(side) > 0.0 && cos_y > 0.0 && d2 > 0.0 && visible(ctx, x.p, x.n, lp, counts) {
+        let nee_opl = opl + eta64 * (segment(ctx, x.p64, ls.p64[0], dist) + pre_length(ctx, &ls));
+        if ls.valid
+            && cos_x * x.n.dot(side) > 0.0
+            && cos_y > 0.0
+            && d2 > 0.0
+            && nee_opl <= budget
+            && visible(ctx, x.p, x.n, lp, counts)
+        {
             let p_bsdf = cos_x.abs() * std::f32::consts::FRAC_1_PI;
             let w = if ls.pdf_area > 0.0 {
                 power_heuristic(ls.pdf_area * d2 / cos_y, p_bsdf)
@@ -189,14 +215,14 @@ pub fn source_subpath(
             let weight: [f32; 3] = ls.weight.0;
             terms.push(SourceTerm {
                 rgb: scale(mul(mul(beta, f), weight), g * w),
-                opl: opl + eta64 * (segment(ctx, x.p64, ls.p64[0], dist) + pre_length(ctx, &ls)),
+                opl: nee_opl,
                 emitter: ls.emitter[0],
                 scatters: i,
             });
         }
         // BSDF sampling; emission found this way counts i scattering vertices
         beta = mul(beta, alb);
-        let Some((y, dir, pdf)) = scatter(ctx, sampler, &x, side, counts) else {
+        let Some((y, dir, pdf)) = scatter(ctx, sampler, &x, side, t_far(budget, opl, eta64), counts) else {
             break;
         };
         opl += eta64 * segment(ctx, x.p64, y.p64, y.t);
@@ -232,12 +258,15 @@ pub struct SensorTerm {
 
 /// Importance arriving at x_S from direction `-incoming` (light travels along `incoming`):
 /// a connection to the pinhole from x_S and from each of up to `max_scatters − 1` further
-/// cosine-sampled bounces.
+/// cosine-sampled bounces. Terms whose OPL would exceed `budget` are neither traced nor kept
+/// (as in [`source_subpath`]).
+#[allow(clippy::too_many_arguments)]
 pub fn sensor_subpath(
     ctx: &RenderContext,
     x_s: &SurfaceHit,
     incoming: Vec3,
     max_scatters: u32,
+    budget: f64,
     sampler: &mut PathSampler,
     counts: &mut RayCounts,
     terms: &mut Vec<SensorTerm>,
@@ -257,13 +286,13 @@ pub fn sensor_subpath(
         let to_cam = cam - x.p;
         if let Some(pr) = ctx.camera.project(x.p) {
             let cos_x = x.n.dot(to_cam) / pr.dist2.sqrt();
-            if cos_x * x.n.dot(side) > 0.0 && visible(ctx, x.p, x.n, cam, counts) {
+            let cam_seg = if ctx.scene.film.unwarp {
+                0.0
+            } else {
+                eta64 * segment(ctx, x.p64, cam.as_dvec3(), pr.dist2.sqrt())
+            };
+            if cos_x * x.n.dot(side) > 0.0 && opl + cam_seg <= budget && visible(ctx, x.p, x.n, cam, counts) {
                 let w = std::f32::consts::FRAC_1_PI * cos_x.abs() / pr.dist2 * pr.importance;
-                let cam_seg = if ctx.scene.film.unwarp {
-                    0.0
-                } else {
-                    eta64 * segment(ctx, x.p64, cam.as_dvec3(), pr.dist2.sqrt())
-                };
                 terms.push(SensorTerm {
                     rgb: scale(mul(beta, alb), w),
                     opl: opl + cam_seg,
@@ -278,7 +307,7 @@ pub fn sensor_subpath(
             break;
         }
         beta = mul(beta, alb);
-        let Some((y, dir, _)) = scatter(ctx, sampler, &x, side, counts) else {
+        let Some((y, dir, _)) = scatter(ctx, sampler, &x, side, t_far(budget, opl, eta64), counts) else {
             break;
         };
         opl += eta64 * segment(ctx, x.p64, y.p64, y.t);
