@@ -49,7 +49,7 @@
 //! guiding is on). `pass.rs` runs the strategies (budget split by a pilot) and bins their
 //! paths.
 
-use super::contact::SegmentEnds;
+use super::contact::{SegmentEnds, segment_ends};
 use super::edge_sampler::{EdgeRecord, EdgeSampler};
 use super::guiding::GuideGrid;
 use super::subpaths::{SensorTerm, SourceTerm, SurfaceHit, pre_length, sensor_subpath, source_subpath};
@@ -302,7 +302,7 @@ impl<'a> Secondary<'a> {
             return Some(u);
         };
         let (mut x_l, mut x_s, rates, common, contact) =
-            match self.segment_ends(rec, br.x_b, br.omega, s_o, &mut scratch.rays)? {
+            match segment_ends(self.ctx, rec, br.x_b, br.omega, s_o, &mut scratch.rays)? {
                 SegmentEnds::Open { x_s, x_l } => {
                     let x_l = x_l?;
                     let seg = x_l.t + x_s.t;
@@ -418,7 +418,8 @@ impl<'a> Secondary<'a> {
         };
         // y → x_B must be free (a hit short of y, ε from its surface, blocks it); a contact
         // edge has x_L = x_B, never y (contact.rs)
-        let Some(SegmentEnds::Open { mut x_s, x_l }) = self.segment_ends(rec, br.x_b, omega, s_o, &mut scratch.rays)
+        let Some(SegmentEnds::Open { mut x_s, x_l }) =
+            segment_ends(self.ctx, rec, br.x_b, omega, s_o, &mut scratch.rays)
         else {
             return;
         };
