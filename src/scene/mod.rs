@@ -7,6 +7,7 @@
 
 mod camera;
 pub use camera::{Camera, PixelFilter};
+mod context;
 mod desc;
 mod error;
 mod flush;
@@ -14,6 +15,7 @@ mod info;
 mod load;
 mod origin;
 mod params;
+mod read;
 mod resolve;
 pub mod shapes;
 #[cfg(test)]

@@ -1,6 +1,7 @@
 //! Description → [`Scene`]: names, overrides and parameters, then every range and reference
 //! check, then the flat arrays.
 
+use super::context::{Ctx, Names, no_such};
 use super::desc::{
     CameraDesc, Channels, EmitterDesc, EmitterType, FilmDesc, FilterType, GateType, MaterialDesc, MaterialType, NameOr,
     PulseType, SceneDesc, Triple,
@@ -19,57 +20,6 @@ use std::path::Path;
 pub const MAX_RESOLUTION: i64 = 16384;
 pub const MAX_BINS: i64 = 1 << 24;
 pub const MAX_BOUNCES: i64 = 1024;
-
-/// Where errors go: the file, and which locations got their value from a parameter.
-pub(crate) struct Ctx<'a> {
-    pub path: &'a Path,
-    /// location → note such as `value from param "occluder_x" (--set)`.
-    pub set_by: HashMap<String, String>,
-}
-
-impl Ctx<'_> {
-    pub fn invalid(&self, at: impl Into<String>, message: impl Into<String>) -> SceneError {
-        let at = at.into();
-        let mut message = message.into();
-        if let Some(note) = self.set_by.get(&at) {
-            message = format!("{message} ({note})");
-        }
-        SceneError::Invalid {
-            path: self.path.to_path_buf(),
-            at,
-            message,
-        }
-    }
-}
-
-/// Name → index for each kind of named entry.
-pub(crate) struct Names {
-    pub materials: Vec<String>,
-    pub shapes: Vec<String>,
-    pub emitters: Vec<String>,
-    pub params: Vec<String>,
-}
-
-impl Names {
-    fn find(list: &[String], name: &str) -> Option<usize> {
-        list.iter().position(|n| n == name)
-    }
-    pub fn material(&self, name: &str) -> Option<usize> {
-        Self::find(&self.materials, name)
-    }
-    pub fn shape(&self, name: &str) -> Option<usize> {
-        Self::find(&self.shapes, name)
-    }
-}
-
-/// `no material named "whte" (materials: white, red, green)`.
-pub(crate) fn no_such(what: &str, plural: &str, name: &str, all: &[String]) -> String {
-    if all.is_empty() {
-        format!("no {what} named {name:?} (the scene has no {plural})")
-    } else {
-        format!("no {what} named {name:?} ({plural}: {})", all.join(", "))
-    }
-}
 
 fn index_names<'a>(
     ctx: &Ctx,
