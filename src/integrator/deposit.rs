@@ -3,9 +3,12 @@
 //!
 //! A pulse-offset parameter τ of the lane's emitter shifts S_e(d + τ), so it adds
 //! ∂d/∂τ = 1 to the OPL derivative (see `temporal.rs`).
+//!
+//! [`PathCounts`]: the per-packet tallies every estimator keeps (rays, dropped non-finite
+//! samples, film time).
 
 use super::context::RenderContext;
-use super::path::PathCounts;
+use super::trace::RayCounts;
 use crate::film::TileFilm;
 use crate::kernel::{Real, Spectrum};
 
@@ -87,6 +90,18 @@ impl<const C: usize> LaneContribution<C> {
         }
         film.add_with_derivs(x, y, corr, self.d, &f, &fdot[..self.n_k * C], &self.ddot[..self.n_k]);
     }
+}
+
+/// Per-packet tallies.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct PathCounts {
+    pub rays: RayCounts,
+    /// Samples dropped because they were not finite (reported, never written to the film).
+    pub non_finite: u64,
+    /// Ticks spent adding contributions to the film (binning through S_e).
+    pub film_ticks: u64,
+    /// Ticks spent in the whole tile (set by the render driver).
+    pub total_ticks: u64,
 }
 
 /// Pulls every lane of `mask` with an emitter out of (`d` or `exact`, `contrib`) and hands the finite,
