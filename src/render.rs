@@ -11,7 +11,7 @@ use crate::film::{DerivWindowEnergy, TileFilm, Transient, WindowEnergy};
 use crate::integrator::RenderContext;
 use crate::integrator::bdpt::{self, film::BdptFilm};
 use crate::integrator::deposit::PathCounts;
-use crate::integrator::motion::Motion;
+use crate::integrator::motion::{MAX_PARAMS, Motion};
 use crate::integrator::path::{PacketLanes, trace_packet};
 use crate::kernel::{Dual8, Real, f32x8};
 use crate::scene::{IntegratorKind, Scene};
@@ -168,9 +168,9 @@ pub fn render_diff(
     opts: &RenderOptions,
 ) -> Result<(Transient, Vec<Transient>, RenderStats), Error> {
     let motion = Motion::build(scene, params)?;
-    if motion.len() > 16 {
+    if motion.len() > MAX_PARAMS {
         return Err(Error::Invalid(format!(
-            "at most 16 parameters per render (asked for {})",
+            "at most {MAX_PARAMS} parameters per render (asked for {})",
             motion.len()
         )));
     }
@@ -348,6 +348,9 @@ macro_rules! dispatch {
         }
     };
 }
+
+// The widest instance dispatch! picks has a derivative lane for every parameter allowed.
+const _: () = assert!(<Dual8<16> as Real>::DERIVS == MAX_PARAMS);
 
 #[allow(clippy::type_complexity)]
 fn render_films(

@@ -55,6 +55,7 @@ use super::guiding::GuideGrid;
 use super::subpaths::{SensorTerm, SourceTerm, SurfaceHit, pre_length, sensor_subpath, source_subpath};
 use super::velocity::{Crossing, ray_form_velocity};
 use crate::integrator::context::RenderContext;
+use crate::integrator::motion::MAX_PARAMS;
 use crate::integrator::opl::{on_plane64, segment};
 use crate::integrator::surface::self_intersection_eps;
 use crate::integrator::trace::RayCounts;
@@ -68,8 +69,6 @@ use glam::{DVec3, Vec3};
 const MOVING_EDGE_FACTOR: f32 = 8.0;
 /// Stream of strategy B (light-directed boundary rays), relative to strategy A's.
 pub(super) const LIGHT_STREAM: u64 = 0x11D1_2EC7_0000_0003;
-/// Largest parameter count the splat buffers hold (render_diff allows 16).
-pub(super) const MAX_PARAMS: usize = 16;
 
 /// One full boundary path: where it reaches the film, its OPL and emitter, its throughput
 /// f_L·f_S (per channel, before the pixel filter) and its derivative weight per parameter.

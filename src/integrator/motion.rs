@@ -5,6 +5,11 @@
 use crate::kernel::{Real, Spectrum};
 use glam::{Mat3, Vec3};
 
+/// The most parameters one render differentiates at once: the derivative lanes of the widest
+/// dual number the renderer dispatches (`Dual8<16>`, tied to this by a const assert in
+/// `render.rs`) and the size of every per-parameter buffer (lane deposits, boundary weights).
+pub const MAX_PARAMS: usize = 16;
+
 /// Affine velocity field `v(x) = A·x + b` of one shape under one parameter.
 #[derive(Clone, Copy, Debug)]
 pub struct Velocity {
