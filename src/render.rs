@@ -10,8 +10,9 @@ use crate::error::Error;
 use crate::film::{DerivWindowEnergy, SteadyMode, TileFilm, Transient, WindowEnergy};
 use crate::integrator::RenderContext;
 use crate::integrator::bdpt::{self, film::BdptFilm};
-use crate::integrator::motion::Motion;
-use crate::integrator::path::{PacketLanes, PathCounts, trace_packet};
+use crate::integrator::deposit::PathCounts;
+use crate::integrator::motion::{MAX_PARAMS, Motion};
+use crate::integrator::path::{PacketLanes, trace_packet};
 use crate::kernel::{Dual8, Real, f32x8};
 use crate::scene::{IntegratorKind, Scene};
 use rayon::prelude::*;
@@ -221,9 +222,9 @@ pub fn render_diff(
 /// carries `Dual8<P>` with the smallest P in {1, 2, 4, 8, 16} that fits.
 pub fn render_diff_parts(scene: &Scene, params: &[String], opts: &RenderOptions) -> Result<DiffParts, Error> {
     let motion = Motion::build(scene, params)?;
-    if motion.len() > 16 {
+    if motion.len() > MAX_PARAMS {
         return Err(Error::Invalid(format!(
-            "at most 16 parameters per render (asked for {})",
+            "at most {MAX_PARAMS} parameters per render (asked for {})",
             motion.len()
         )));
     }
@@ -426,6 +427,9 @@ macro_rules! dispatch {
         }
     };
 }
+
+// The widest instance dispatch! picks has a derivative lane for every parameter allowed.
+const _: () = assert!(<Dual8<16> as Real>::DERIVS == MAX_PARAMS);
 
 /// One render's shared state: the scene prepared for the kernel (BVH, emitters, motion,
 /// window cut), the thread pool, and the samples and seed every estimator draws from.

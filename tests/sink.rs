@@ -8,7 +8,8 @@ use difftransient::film::TileFilm;
 use difftransient::integrator::RenderContext;
 use difftransient::integrator::bdpt::{self, film::BdptFilm};
 use difftransient::integrator::deposit::LaneContribution;
-use difftransient::integrator::path::{PacketLanes, PathCounts, trace_packet};
+use difftransient::integrator::deposit::PathCounts;
+use difftransient::integrator::path::{PacketLanes, trace_packet};
 use difftransient::integrator::sink::Sink;
 use difftransient::kernel::f32x8;
 

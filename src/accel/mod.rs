@@ -21,8 +21,8 @@ mod packet;
 mod scene;
 
 pub use device::{AccelError, Device, error_name};
-pub use packet::{Hit8, Ray8, Valid8};
-pub use scene::{Accel, BuildQuality, Hit};
+pub use packet::{Hit, Hit8, Ray8, Valid8};
+pub use scene::{Accel, BuildQuality};
 
 const MXCSR_FTZ: u32 = 1 << 15;
 const MXCSR_DAZ: u32 = 1 << 6;

@@ -1,6 +1,15 @@
-//! 8-wide ray packets in structure-of-arrays form, their hits and valid masks.
+//! 8-wide ray packets in structure-of-arrays form, their hits and valid masks, and the plain
+//! single-ray [`Hit`] a packet lane reads as.
 
-use super::scene::Hit;
+/// A plain hit: distance along the ray (in units of `|dir|`), the triangle's index in the
+/// input index array, and Embree's barycentrics: p = (1 − u − v)·p0 + u·p1 + v·p2.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Hit {
+    pub t: f32,
+    pub prim: u32,
+    pub u: f32,
+    pub v: f32,
+}
 
 /// Eight rays, SoA, 32-byte aligned: lane `i` is `org + t·dir`, `t ∈ [tnear, tfar]`.
 ///

@@ -2,17 +2,7 @@
 
 use super::device::{AccelError, Device};
 use super::ffi;
-use super::packet::{Hit8, Ray8, Valid8};
-
-/// A plain hit: distance along the ray (in units of `|dir|`), the triangle's index in the
-/// input index array, and Embree's barycentrics: p = (1 − u − v)·p0 + u·p1 + v·p2.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Hit {
-    pub t: f32,
-    pub prim: u32,
-    pub u: f32,
-    pub v: f32,
-}
+use super::packet::{Hit, Hit8, Ray8, Valid8};
 
 /// BVH build quality (`RTCBuildQuality`). `High` adds spatial splits: slower to build,
 /// faster to trace.

@@ -36,8 +36,8 @@
 //! λ = 2ε/|ω·n| along the line. Where that exceeds `REACH`·ε (|cos_L| < 2/`REACH`) the sample
 //! is dropped: its weight carries |cos_L|, so the loss is of order (2/`REACH`)².
 use super::edge_sampler::EdgeRecord;
-use super::secondary::Secondary;
 use super::subpaths::{SurfaceHit, trace};
+use crate::integrator::context::RenderContext;
 use crate::integrator::surface::self_intersection_eps;
 use crate::integrator::trace::RayCounts;
 use crate::kernel::V3;
@@ -66,81 +66,77 @@ fn shifted(h: SurfaceHit, dt: f32) -> SurfaceHit {
     SurfaceHit { t: h.t + dt, ..h }
 }
 
-impl Secondary<'_> {
-    /// x_S along ω and x_L along −ω through x_B on edge `rec` (s_o: the side of Π holding the
-    /// edge's faces), contact edges handled as the module documentation says. None: no x_S,
-    /// or no contribution (x_S at x_B on a supporting surface, a grazing or penetrating
-    /// contact).
-    pub(super) fn segment_ends(
-        &self,
-        rec: &EdgeRecord,
-        x_b: Vec3,
-        omega: Vec3,
-        s_o: f32,
-        rays: &mut RayCounts,
-    ) -> Option<SegmentEnds> {
-        let ctx = self.ctx;
-        let eps = self_intersection_eps(&V3::<f32>::splat(x_b));
-        let back = BACK_OFF * eps;
-        let free = (rec.v1 - rec.v0).cross(omega).normalize_or_zero() * -s_o;
-        let o = x_b + free * eps;
-        let s_hit = trace(ctx, o - omega * back, omega, rays);
-        let l_hit = trace(ctx, o + omega * back, -omega, rays);
-        let supports =
-            |h: &SurfaceHit| h.t <= back || (h.n.dot(x_b - h.p).abs() <= 2.0 * eps && h.t <= back + REACH * eps);
-        match s_hit.filter(supports).or(l_hit.filter(supports)) {
-            None => Some(SegmentEnds::Open {
-                x_s: shifted(s_hit?, -back),
-                x_l: l_hit.map(|h| shifted(h, -back)),
-            }),
-            Some(support) => self.contact_ends(rec, x_b, omega, free, eps, &support, rays),
-        }
+/// x_S along ω and x_L along −ω through x_B on edge `rec` (s_o: the side of Π holding the
+/// edge's faces), contact edges handled as the module documentation says. None: no x_S,
+/// or no contribution (x_S at x_B on a supporting surface, a grazing or penetrating
+/// contact).
+pub(super) fn segment_ends(
+    ctx: &RenderContext,
+    rec: &EdgeRecord,
+    x_b: Vec3,
+    omega: Vec3,
+    s_o: f32,
+    rays: &mut RayCounts,
+) -> Option<SegmentEnds> {
+    let eps = self_intersection_eps(&V3::<f32>::splat(x_b));
+    let back = BACK_OFF * eps;
+    let free = (rec.v1 - rec.v0).cross(omega).normalize_or_zero() * -s_o;
+    let o = x_b + free * eps;
+    let s_hit = trace(ctx, o - omega * back, omega, rays);
+    let l_hit = trace(ctx, o + omega * back, -omega, rays);
+    let supports = |h: &SurfaceHit| h.t <= back || (h.n.dot(x_b - h.p).abs() <= 2.0 * eps && h.t <= back + REACH * eps);
+    match s_hit.filter(supports).or(l_hit.filter(supports)) {
+        None => Some(SegmentEnds::Open {
+            x_s: shifted(s_hit?, -back),
+            x_l: l_hit.map(|h| shifted(h, -back)),
+        }),
+        Some(support) => contact_ends(ctx, rec, x_b, omega, free, eps, &support, rays),
     }
+}
 
-    /// The ends when `support` passes through x_B (a contact edge).
-    #[allow(clippy::too_many_arguments)]
-    fn contact_ends(
-        &self,
-        rec: &EdgeRecord,
-        x_b: Vec3,
-        omega: Vec3,
-        free: Vec3,
-        eps: f32,
-        support: &SurfaceHit,
-        rays: &mut RayCounts,
-    ) -> Option<SegmentEnds> {
-        let geo = &self.ctx.scene.geometry;
-        let n = support.n;
-        // the edge's faces must lie on one side of the supporting plane (their opposite
-        // vertices on it or beyond it on one side; none beyond: a flat face lying on it)
-        let tol = BACK_OFF * eps;
-        let (mut above, mut below) = (false, false);
-        for o in std::iter::once(rec.edge.opposite0).chain(rec.edge.opposite1) {
-            let h = n.dot(geo.positions[o as usize] - x_b);
-            above |= h > tol;
-            below |= h < -tol;
-        }
-        let n_obj = match (above, below) {
-            (true, false) => n,
-            (false, true) => -n,
-            _ => return None,
-        };
-        let cos = omega.dot(n_obj);
-        // cos < 0: x_S = x_B, the ΔV_i · V_{i+1}⁻ term of the product rule, zero
-        let lambda = 2.0 * eps / cos;
-        if !(cos > 0.0 && lambda <= REACH * eps) {
-            return None;
-        }
-        let outward = (free - n_obj * free.dot(n_obj)).normalize_or_zero();
-        let p = x_b + outward * (2.0 * eps);
-        let x_l = SurfaceHit {
-            p,
-            // a point of its own (not a hit): exact as it stands
-            p64: p.as_dvec3(),
-            t: 0.0,
-            ..*support
-        };
-        let x_s = shifted(trace(self.ctx, x_b + free * eps + omega * lambda, omega, rays)?, lambda);
-        Some(SegmentEnds::Contact { x_l, x_s, outward })
+/// The ends when `support` passes through x_B (a contact edge).
+#[allow(clippy::too_many_arguments)]
+fn contact_ends(
+    ctx: &RenderContext,
+    rec: &EdgeRecord,
+    x_b: Vec3,
+    omega: Vec3,
+    free: Vec3,
+    eps: f32,
+    support: &SurfaceHit,
+    rays: &mut RayCounts,
+) -> Option<SegmentEnds> {
+    let geo = &ctx.scene.geometry;
+    let n = support.n;
+    // the edge's faces must lie on one side of the supporting plane (their opposite
+    // vertices on it or beyond it on one side; none beyond: a flat face lying on it)
+    let tol = BACK_OFF * eps;
+    let (mut above, mut below) = (false, false);
+    for o in std::iter::once(rec.edge.opposite0).chain(rec.edge.opposite1) {
+        let h = n.dot(geo.positions[o as usize] - x_b);
+        above |= h > tol;
+        below |= h < -tol;
     }
+    let n_obj = match (above, below) {
+        (true, false) => n,
+        (false, true) => -n,
+        _ => return None,
+    };
+    let cos = omega.dot(n_obj);
+    // cos < 0: x_S = x_B, the ΔV_i · V_{i+1}⁻ term of the product rule, zero
+    let lambda = 2.0 * eps / cos;
+    if !(cos > 0.0 && lambda <= REACH * eps) {
+        return None;
+    }
+    let outward = (free - n_obj * free.dot(n_obj)).normalize_or_zero();
+    let p = x_b + outward * (2.0 * eps);
+    let x_l = SurfaceHit {
+        p,
+        // a point of its own (not a hit): exact as it stands
+        p64: p.as_dvec3(),
+        t: 0.0,
+        ..*support
+    };
+    let x_s = shifted(trace(ctx, x_b + free * eps + omega * lambda, omega, rays)?, lambda);
+    Some(SegmentEnds::Contact { x_l, x_s, outward })
 }

@@ -13,8 +13,9 @@
 //! `samples` boundary samples stand for 2·samples strategy evaluations, split as above.
 
 use super::guiding::{GuideGrid, RESOLUTION, UNIFORM_MIX};
-use super::secondary::{BoundaryPath, LIGHT_STREAM, MAX_PARAMS, Scratch, Secondary};
+use super::secondary::{BoundaryPath, LIGHT_STREAM, Scratch, Secondary};
 use crate::film::{TileFilm, Transient};
+use crate::integrator::motion::MAX_PARAMS;
 use rayon::prelude::*;
 use std::time::Instant;
 

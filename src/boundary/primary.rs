@@ -38,7 +38,9 @@ use super::edges::build_edges;
 use super::silhouette::{Pinhole, SilhouetteSet};
 use crate::film::{TileFilm, Transient};
 use crate::integrator::RenderContext;
-use crate::integrator::path::{PacketLanes, PathCounts, PrimaryRays, trace_packet_from};
+use crate::integrator::deposit::PathCounts;
+use crate::integrator::motion::MAX_PARAMS;
+use crate::integrator::path::{PacketLanes, PrimaryRays, trace_packet_from};
 use crate::kernel::{PathSampler, f32x8};
 use glam::{DVec2, Vec3};
 use rayon::prelude::*;
@@ -84,7 +86,7 @@ pub fn render_primary_with_stats(
     let scene = ctx.scene;
     let (w, h) = (scene.film.width as usize, scene.film.height as usize);
     let blank = Transient::zeros(w, h, scene.film.axis, scene.film.channels);
-    let mut out = vec![blank; ctx.motion.len().min(16)];
+    let mut out = vec![blank; ctx.motion.len().min(MAX_PARAMS)];
     let mut stats = PrimaryStats::default();
     if spp_boundary == 0 || out.is_empty() || !ctx.motion.moves_geometry() {
         return (out, stats);
@@ -139,7 +141,7 @@ pub fn render_primary_with_stats(
 /// time-integrated value, with the weight V_k / (pdf · N) of each parameter.
 struct Jump {
     film: DVec2,
-    weight: [f32; 16],
+    weight: [f32; MAX_PARAMS],
     lo: usize,
     delta: Vec<f32>,
     steady: [f32; 3],
@@ -174,7 +176,7 @@ struct SideSample {
     film: DVec2,
     normal: DVec2,
     /// V_k / (pdf · N) per parameter.
-    weight: [f32; 16],
+    weight: [f32; MAX_PARAMS],
 }
 
 struct Estimator<'a> {
@@ -219,7 +221,7 @@ impl Estimator<'_> {
         let e = self.set.sample_at((id as f64 + xi as f64) / self.samples as f64)?;
         let shape = self.set.edges[e.index].shape as usize;
         let x = e.world.as_vec3();
-        let mut weight = [0.0f32; 16];
+        let mut weight = [0.0f32; MAX_PARAMS];
         for (k, wk) in weight.iter_mut().enumerate().take(self.derivs) {
             let v = self.ctx.motion.velocity(k, shape, x).as_dvec3();
             let vn = self.pin.film_velocity(e.world, v).dot(e.normal);

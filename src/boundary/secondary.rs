@@ -49,12 +49,13 @@
 //! guiding is on). `pass.rs` runs the strategies (budget split by a pilot) and bins their
 //! paths.
 
-use super::contact::SegmentEnds;
+use super::contact::{SegmentEnds, segment_ends};
 use super::edge_sampler::{EdgeRecord, EdgeSampler};
 use super::guiding::GuideGrid;
 use super::subpaths::{SensorTerm, SourceTerm, SurfaceHit, pre_length, sensor_subpath, source_subpath};
 use super::velocity::{Crossing, ray_form_velocity};
 use crate::integrator::context::RenderContext;
+use crate::integrator::motion::MAX_PARAMS;
 use crate::integrator::opl::{on_plane64, segment};
 use crate::integrator::surface::self_intersection_eps;
 use crate::integrator::trace::RayCounts;
@@ -77,8 +78,6 @@ fn opl_budget(ctx: &RenderContext) -> f64 {
 const MOVING_EDGE_FACTOR: f32 = 8.0;
 /// Stream of strategy B (light-directed boundary rays), relative to strategy A's.
 pub(super) const LIGHT_STREAM: u64 = 0x11D1_2EC7_0000_0003;
-/// Largest parameter count the splat buffers hold (render_diff allows 16).
-pub(super) const MAX_PARAMS: usize = 16;
 
 /// One full boundary path: where it reaches the film, its OPL and emitter, its throughput
 /// f_L·f_S (per channel, before the pixel filter) and its derivative weight per parameter.
@@ -318,7 +317,7 @@ impl<'a> Secondary<'a> {
             return Some(u);
         };
         let (mut x_l, mut x_s, rates, common, contact) =
-            match self.segment_ends(rec, br.x_b, br.omega, s_o, &mut scratch.rays)? {
+            match segment_ends(self.ctx, rec, br.x_b, br.omega, s_o, &mut scratch.rays)? {
                 SegmentEnds::Open { x_s, x_l } => {
                     let x_l = x_l?;
                     let seg = x_l.t + x_s.t;
@@ -435,7 +434,8 @@ impl<'a> Secondary<'a> {
         };
         // y → x_B must be free (a hit short of y, ε from its surface, blocks it); a contact
         // edge has x_L = x_B, never y (contact.rs)
-        let Some(SegmentEnds::Open { mut x_s, x_l }) = self.segment_ends(rec, br.x_b, omega, s_o, &mut scratch.rays)
+        let Some(SegmentEnds::Open { mut x_s, x_l }) =
+            segment_ends(self.ctx, rec, br.x_b, omega, s_o, &mut scratch.rays)
         else {
             return;
         };

@@ -16,7 +16,7 @@ pub fn albedo<R: Real, const C: usize>(ctx: &RenderContext, prim: &[u32; 8]) -> 
     }
     let mut s = Spectrum::<R, C>::from_lane_rgb(&rgb[..R::LANES]);
     if R::DERIVS > 0 {
-        ctx.motion.albedo_derivs(prim, ctx, &mut s);
+        ctx.motion.albedo_derivs(prim, &ctx.tri_material, &mut s);
     }
     s
 }

@@ -2,9 +2,9 @@
 //! tables, temporal correlations and the camera.
 
 use super::camera::CameraSampler;
-use super::emitters::EmitterTable;
+use super::emitter_table::EmitterTable;
 use super::motion::Motion;
-use super::opl::OplPrecision;
+use super::opl_precision::OplPrecision;
 use crate::accel::{Accel, BuildQuality, Device};
 use crate::error::Error;
 use crate::film::{SteadyMode, TileFilm};

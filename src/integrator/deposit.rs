@@ -3,14 +3,15 @@
 //!
 //! A pulse-offset parameter τ of the lane's emitter shifts S_e(d + τ), so it adds
 //! ∂d/∂τ = 1 to the OPL derivative (see `temporal.rs`).
+//!
+//! [`PathCounts`]: the per-packet tallies every estimator keeps (rays, dropped non-finite
+//! samples, film time).
 
 use super::context::RenderContext;
-use super::path::PathCounts;
+use super::motion::MAX_PARAMS;
+use super::trace::RayCounts;
 use crate::film::TileFilm;
 use crate::kernel::{Real, Spectrum};
-
-/// At most 16 derivative lanes of at most 3 channels.
-const MAX_K: usize = 16;
 
 /// A finite contribution of one lane: f (per channel), ḟ, d and ḋ.
 #[derive(Clone, Copy, Debug)]
@@ -20,9 +21,9 @@ pub struct LaneContribution<const C: usize> {
     /// value widened.
     pub d: f64,
     pub f: [f32; C],
-    /// ḟ_k per channel: `fdot[k * C + c]`.
-    pub fdot: [f32; 48],
-    pub ddot: [f32; MAX_K],
+    /// ḟ_k per channel: `fdot[k * C + c]` (at most 3 channels).
+    pub fdot: [f32; MAX_PARAMS * 3],
+    pub ddot: [f32; MAX_PARAMS],
     pub n_k: usize,
 }
 
@@ -41,9 +42,9 @@ impl<const C: usize> LaneContribution<C> {
         let f: [f32; C] = std::array::from_fn(|c| contrib.0[c].lane(i));
         let di = exact.map_or(d.lane(i) as f64, |e| e[i]);
         let mut finite = di.is_finite() && f.iter().all(|v| v.is_finite());
-        let n_k = R::DERIVS.min(ctx.motion.len()).min(MAX_K);
-        let mut fdot = [0.0f32; 48];
-        let mut ddot = [0.0f32; MAX_K];
+        let n_k = R::DERIVS.min(ctx.motion.len()).min(MAX_PARAMS);
+        let mut fdot = [0.0f32; MAX_PARAMS * 3];
+        let mut ddot = [0.0f32; MAX_PARAMS];
         for k in 0..n_k {
             for c in 0..C {
                 fdot[k * C + c] = contrib.0[c].deriv_lane(k, i);
@@ -81,12 +82,24 @@ impl<const C: usize> LaneContribution<C> {
             film.add(x, y, corr, self.d, &f);
             return;
         }
-        let mut fdot = [0.0f32; 48];
+        let mut fdot = [0.0f32; MAX_PARAMS * 3];
         for (o, &v) in fdot.iter_mut().zip(&self.fdot[..self.n_k * C]) {
             *o = v * h;
         }
         film.add_with_derivs(x, y, corr, self.d, &f, &fdot[..self.n_k * C], &self.ddot[..self.n_k]);
     }
+}
+
+/// Per-packet tallies.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct PathCounts {
+    pub rays: RayCounts,
+    /// Samples dropped because they were not finite (reported, never written to the film).
+    pub non_finite: u64,
+    /// Ticks spent adding contributions to the film (binning through S_e).
+    pub film_ticks: u64,
+    /// Ticks spent in the whole tile (set by the render driver).
+    pub total_ticks: u64,
 }
 
 /// Pulls every lane of `mask` with an emitter out of (`d` or `exact`, `contrib`) and hands the finite,

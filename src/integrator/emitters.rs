@@ -1,59 +1,14 @@
-//! Emitter sampling for next-event estimation, and emission found by hitting a light.
-//!
-//! Emitters are chosen uniformly; an area emitter then picks a triangle by area and a point
-//! uniformly on it. A laser is a delta in position and direction: it lights one spot, found
-//! once per render, which then radiates like a small Lambertian source
-//! (I(ω) = Φ · albedo/π · cos θ), the usual NLOS treatment.
+//! Emitter sampling for next-event estimation: [`EmitterTable::sample`] picks an emitter, a
+//! triangle and a point per lane from the tables of `emitter_table.rs`, then rebuilds the
+//! point in the kernel's number type through the render context (surface motion, f64 OPL
+//! points, the laser spot in ray form, derivative lanes of the emission).
 
 use super::context::RenderContext;
+use super::emitter_table::{EmitterTable, Entry};
 use super::path::ray_plane_point;
 use super::surface::{SurfacePoint, surface_at};
-use crate::accel::Accel;
 use crate::kernel::{Mask, Real, Spectrum, V3};
-use crate::scene::{EmitterKind, Material, Scene};
 use glam::Vec3;
-
-/// The spot a laser lights.
-#[derive(Clone, Debug)]
-pub struct LaserSpot {
-    pub prim: u32,
-    pub u: f32,
-    pub v: f32,
-    /// Geometric distance from the laser to the spot.
-    pub distance: f32,
-    /// Φ · albedo / π (W·sr⁻¹ per unit cos θ).
-    pub intensity: [f32; 3],
-    /// ∂intensity/∂Φ = albedo / π, per channel.
-    pub intensity_per_power: [f32; 3],
-    /// +1 if the triangle's winding normal faces the laser, else -1 (the lit side).
-    pub side: f32,
-    /// The laser's position and unit direction.
-    pub origin: Vec3,
-    pub direction: Vec3,
-}
-
-#[derive(Clone, Debug)]
-enum Entry {
-    Area {
-        tris: Vec<u32>,
-        cdf: Vec<f32>,
-        area: f32,
-        radiance: [f32; 3],
-    },
-    Point {
-        position: Vec3,
-        intensity: [f32; 3],
-    },
-    Laser {
-        spot: Option<LaserSpot>,
-    },
-}
-
-/// Per-emitter sampling data.
-#[derive(Clone, Debug)]
-pub struct EmitterTable {
-    entries: Vec<Entry>,
-}
 
 /// A point sampled on an emitter, per lane.
 #[derive(Clone, Copy, Debug)]
@@ -78,92 +33,6 @@ pub struct LightSample<R: Real, const C: usize> {
 }
 
 impl EmitterTable {
-    pub fn new(scene: &Scene, accel: &Accel) -> Self {
-        let geo = &scene.geometry;
-        let entries = scene
-            .emitters
-            .iter()
-            .map(|e| match &e.kind {
-                EmitterKind::Area { shape, radiance } => {
-                    let s = &scene.shapes[*shape as usize];
-                    let tris: Vec<u32> = (s.first_tri..s.first_tri + s.tri_count).collect();
-                    let mut cdf = Vec::with_capacity(tris.len());
-                    let mut acc = 0.0f64;
-                    for &t in &tris {
-                        let [a, b, c] = geo.indices[t as usize].map(|i| geo.positions[i as usize]);
-                        acc += 0.5 * (b - a).cross(c - a).length() as f64;
-                        cdf.push(acc as f32);
-                    }
-                    let area = acc as f32;
-                    cdf.iter_mut().for_each(|c| *c /= area.max(1e-30));
-                    Entry::Area {
-                        tris,
-                        cdf,
-                        area,
-                        radiance: *radiance,
-                    }
-                }
-                EmitterKind::Point { position, intensity } => Entry::Point {
-                    position: *position,
-                    intensity: *intensity,
-                },
-                EmitterKind::Laser {
-                    position,
-                    direction,
-                    power,
-                } => {
-                    let spot = accel
-                        .intersect1(position.to_array(), direction.to_array(), 0.0, f32::INFINITY)
-                        .map(|h| {
-                            let mat = scene.shapes[geo.tri_shape[h.prim as usize] as usize].material;
-                            let Material::Diffuse { albedo } = scene.materials[mat as usize].material;
-                            let [a, b, c] = geo.indices[h.prim as usize].map(|i| geo.positions[i as usize]);
-                            let side = if (b - a).cross(c - a).dot(*direction) < 0.0 {
-                                1.0
-                            } else {
-                                -1.0
-                            };
-                            LaserSpot {
-                                side,
-                                origin: *position,
-                                direction: direction.normalize(),
-                                prim: h.prim,
-                                u: h.u,
-                                v: h.v,
-                                distance: h.t * direction.length(),
-                                intensity: std::array::from_fn(|c| power[c] * albedo[c] * std::f32::consts::FRAC_1_PI),
-                                intensity_per_power: albedo.map(|a| a * std::f32::consts::FRAC_1_PI),
-                            }
-                        });
-                    Entry::Laser { spot }
-                }
-            })
-            .collect();
-        Self { entries }
-    }
-
-    pub fn count(&self) -> usize {
-        self.entries.len()
-    }
-
-    /// Area pdf (with selection) of emitter `e` sampling a point on its surface.
-    #[inline]
-    pub fn area_pdf(&self, e: u32) -> f32 {
-        match self.entries.get(e as usize) {
-            Some(Entry::Area { area, .. }) if *area > 0.0 => 1.0 / (*area * self.entries.len() as f32),
-            _ => 0.0,
-        }
-    }
-
-    /// Radiance of area emitter `e` (0 for others).
-    #[inline]
-    pub fn radiance(&self, e: u32) -> [f32; 3] {
-        match self.entries.get(e as usize) {
-            Some(Entry::Area { radiance, .. }) => *radiance,
-            _ => [0.0; 3],
-        }
-    }
-
     /// Samples one emitter point per lane from three uniform numbers.
     pub fn sample<R: Real, const C: usize>(
         &self,

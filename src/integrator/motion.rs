@@ -2,9 +2,13 @@
 //!
 //! A primal render has no parameters and this is empty; the plain kernel never reads it.
 
-use super::context::RenderContext;
 use crate::kernel::{Real, Spectrum};
 use glam::{Mat3, Vec3};
+
+/// The most parameters one render differentiates at once: the derivative lanes of the widest
+/// dual number the renderer dispatches (`Dual8<16>`, tied to this by a const assert in
+/// `render.rs`) and the size of every per-parameter buffer (lane deposits, boundary weights).
+pub const MAX_PARAMS: usize = 16;
 
 /// Affine velocity field `v(x) = A·x + b` of one shape under one parameter.
 #[derive(Clone, Copy, Debug)]
@@ -47,14 +51,20 @@ impl Motion {
     }
 
     /// Sets the derivative lanes of a gathered albedo: ∂albedo/∂θ_k is 1 on the channels that
-    /// parameter k controls.
-    pub fn albedo_derivs<R: Real, const C: usize>(&self, prim: &[u32; 8], ctx: &RenderContext, s: &mut Spectrum<R, C>) {
+    /// parameter k controls. `prim` indexes `tri_material` (each triangle's material, the
+    /// render context's).
+    pub fn albedo_derivs<R: Real, const C: usize>(
+        &self,
+        prim: &[u32; 8],
+        tri_material: &[u32],
+        s: &mut Spectrum<R, C>,
+    ) {
         for (k, targets) in self.albedo.iter().enumerate().take(R::DERIVS) {
             for c in 0..C {
                 let mut d = [0.0f32; 8];
                 for (i, di) in d.iter_mut().enumerate().take(R::LANES) {
-                    let t = prim[i].min(ctx.tri_material.len() as u32 - 1) as usize;
-                    let m = ctx.tri_material[t] as usize;
+                    let t = prim[i].min(tri_material.len() as u32 - 1) as usize;
+                    let m = tri_material[t] as usize;
                     if targets.iter().any(|(tm, ch)| *tm == m && ch[c]) {
                         *di = 1.0;
                     }

@@ -15,12 +15,12 @@
 
 use super::bsdf::{albedo, cosine_pdf, diffuse_eval, sample_cosine};
 use super::context::RenderContext;
-use super::deposit::for_each_lane;
+use super::deposit::{PathCounts, for_each_lane};
 use super::opl::points64;
 use super::power_heuristic;
 use super::sink::Sink;
 use super::surface::surface_at;
-use super::trace::{RayCounts, SegmentEnd, intersect, shadow_segment, spawn_point, unoccluded};
+use super::trace::{SegmentEnd, intersect, shadow_segment, spawn_point, unoccluded};
 use super::window;
 use crate::kernel::{Mask, PathSampler, Real, Spectrum, V3};
 
@@ -53,18 +53,6 @@ impl PacketLanes {
         }
         lanes
     }
-}
-
-/// Per-packet tallies.
-#[derive(Clone, Copy, Debug, Default)]
-pub struct PathCounts {
-    pub rays: RayCounts,
-    /// Samples dropped because they were not finite (reported, never written to the film).
-    pub non_finite: u64,
-    /// Ticks spent adding contributions to the film (binning through S_e).
-    pub film_ticks: u64,
-    /// Ticks spent in the whole tile (set by the render driver).
-    pub total_ticks: u64,
 }
 
 /// Camera rays chosen by the caller instead of filter samples through each lane's pixel: the

@@ -3,6 +3,7 @@
 
 use super::desc::SceneDesc;
 use super::error::{Seg, line_column, location};
+use super::read::read_regular_file;
 use super::{Scene, SceneError};
 use std::path::Path;
 
@@ -66,30 +67,6 @@ impl Scene {
 
 /// The largest scene description read (a scene is text; meshes go in OBJ files).
 pub(crate) const MAX_SCENE_BYTES: u64 = 64 << 20;
-
-/// Reads `path` as UTF-8 text if it is a regular file of at most `cap` bytes. FIFOs, devices
-/// (`/dev/zero`) and folders are refused before they are opened, so reading never hangs or
-/// runs out of memory.
-pub(crate) fn read_regular_file(path: &Path, cap: u64) -> std::io::Result<String> {
-    use std::io::Read;
-    let meta = std::fs::metadata(path)?;
-    if !meta.is_file() {
-        return Err(std::io::Error::other("not a regular file (a folder, FIFO or device)"));
-    }
-    if meta.len() > cap {
-        return Err(std::io::Error::other(format!(
-            "{} bytes, more than the {} bytes read at most",
-            meta.len(),
-            cap
-        )));
-    }
-    let mut text = String::new();
-    let n = std::fs::File::open(path)?.take(cap + 1).read_to_string(&mut text)?;
-    if n as u64 > cap {
-        return Err(std::io::Error::other(format!("more than the {cap} bytes read at most")));
-    }
-    Ok(text)
-}
 
 /// Text → description: syntax, non-finite numbers, then types (with field paths).
 pub(crate) fn parse(text: &str, format: Format, source: &Path) -> Result<SceneDesc, SceneError> {

@@ -7,13 +7,18 @@
 
 mod camera;
 pub use camera::{Camera, PixelFilter};
+mod camera_film;
+mod context;
 mod desc;
+mod emitters;
 mod error;
 mod flush;
 mod info;
 mod load;
+mod materials;
 mod origin;
 mod params;
+mod read;
 mod resolve;
 pub mod shapes;
 #[cfg(test)]

@@ -2,9 +2,9 @@
 //! value, and each param's value then replaces the quantity it controls in the description
 //! (before any range check, so a bad value is reported like a bad value in the file).
 
+use super::context::{Ctx, Names, no_such};
 use super::desc::{AxisDesc, ChannelDesc, ParamKindDesc, SceneDesc, Triple};
 use super::error::{item_field, table_field};
-use super::resolve::{Ctx, Names, no_such};
 use super::{Axis, Param, ParamKind, SceneError};
 use std::path::Path;
 

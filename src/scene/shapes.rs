@@ -7,9 +7,9 @@
 //! an odd number of negative scale factors (a mirror) gets its triangles' winding reversed, so
 //! the front side stays the front side.
 
+use super::context::{Ctx, Names, no_such};
 use super::desc::{SceneDesc, ShapeDesc, ShapeType, Triple};
 use super::error::item_field;
-use super::resolve::{Ctx, Names, no_such};
 use super::{Emitter, EmitterKind, Geometry, SceneError, Shape, Transform};
 use glam::{DVec3, Vec3};
 use std::path::{Path, PathBuf};
@@ -168,7 +168,7 @@ type ObjResult<T> = Result<T, String>;
 /// Reads a Wavefront OBJ (all objects and groups merged; polygons triangulated; points,
 /// lines, normals, texture coordinates and materials ignored).
 pub fn load_obj(path: &Path) -> ObjResult<LocalMesh> {
-    let text = super::load::read_regular_file(path, MAX_OBJ_BYTES).map_err(|e| format!("cannot read it: {e}"))?;
+    let text = super::read::read_regular_file(path, MAX_OBJ_BYTES).map_err(|e| format!("cannot read it: {e}"))?;
     check_obj_text(&text)?;
     // `..Default::default()` covers fields that tobj's optional features add.
     #[allow(clippy::needless_update)]

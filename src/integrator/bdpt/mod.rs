@@ -30,8 +30,8 @@ pub mod vertex;
 pub mod walk;
 
 use super::context::RenderContext;
-use super::deposit::for_each_lane;
-use super::path::{PacketLanes, PathCounts};
+use super::deposit::{PathCounts, for_each_lane};
+use super::path::PacketLanes;
 use super::sink::Sink;
 use crate::kernel::{PathSampler, Real, Spectrum};
 use film::BdptFilm;

@@ -1,0 +1,197 @@
+//! What every resolution step shares: where errors go ([`Ctx`]: the file, and which locations
+//! a parameter set), the names of the entries ([`Names`], built by [`index_names`]), which
+//! references are checked against ([`no_such`]), and the range checks ([`count`],
+//! [`positive`], [`check_colour`]).
+
+use super::SceneError;
+use super::desc::Triple;
+use super::error::{item, item_field};
+use std::collections::HashMap;
+use std::path::Path;
+
+/// Where errors go: the file, and which locations got their value from a parameter.
+pub(crate) struct Ctx<'a> {
+    pub path: &'a Path,
+    /// location → note such as `value from param "occluder_x" (--set)`.
+    pub set_by: HashMap<String, String>,
+}
+
+impl Ctx<'_> {
+    pub fn invalid(&self, at: impl Into<String>, message: impl Into<String>) -> SceneError {
+        let at = at.into();
+        let mut message = message.into();
+        if let Some(note) = self.set_by.get(&at) {
+            message = format!("{message} ({note})");
+        }
+        SceneError::Invalid {
+            path: self.path.to_path_buf(),
+            at,
+            message,
+        }
+    }
+}
+
+/// Name → index for each kind of named entry.
+pub(crate) struct Names {
+    pub materials: Vec<String>,
+    pub shapes: Vec<String>,
+    pub emitters: Vec<String>,
+    pub params: Vec<String>,
+}
+
+impl Names {
+    fn find(list: &[String], name: &str) -> Option<usize> {
+        list.iter().position(|n| n == name)
+    }
+    pub fn material(&self, name: &str) -> Option<usize> {
+        Self::find(&self.materials, name)
+    }
+    pub fn shape(&self, name: &str) -> Option<usize> {
+        Self::find(&self.shapes, name)
+    }
+}
+
+/// `no material named "whte" (materials: white, red, green)`.
+pub(crate) fn no_such(what: &str, plural: &str, name: &str, all: &[String]) -> String {
+    if all.is_empty() {
+        format!("no {what} named {name:?} (the scene has no {plural})")
+    } else {
+        format!("no {what} named {name:?} ({plural}: {})", all.join(", "))
+    }
+}
+
+pub(super) fn index_names<'a>(
+    ctx: &Ctx,
+    section: &str,
+    names: impl Iterator<Item = &'a String>,
+) -> Result<Vec<String>, SceneError> {
+    let mut out: Vec<String> = Vec::new();
+    for (i, n) in names.enumerate() {
+        if n.trim().is_empty() {
+            return Err(ctx.invalid(format!("{}: field 'name'", item(section, i, None)), "must not be empty"));
+        }
+        if let Some(j) = out.iter().position(|m| m == n) {
+            return Err(ctx.invalid(
+                item_field(section, i, n, "name"),
+                format!("duplicate name: {section}[{j}] is already called {n:?}; names must be unique"),
+            ));
+        }
+        out.push(n.clone());
+    }
+    Ok(out)
+}
+
+pub(super) fn count(ctx: &Ctx, at: String, v: i64, min: i64, max: i64) -> Result<i64, SceneError> {
+    if v < min {
+        Err(ctx.invalid(at, format!("must be at least {min} (got {v})")))
+    } else if v > max {
+        Err(ctx.invalid(at, format!("must be at most {max} (got {v})")))
+    } else {
+        Ok(v)
+    }
+}
+
+pub(super) fn positive(ctx: &Ctx, at: String, v: f32) -> Result<f32, SceneError> {
+    if v > 0.0 {
+        Ok(v)
+    } else {
+        Err(ctx.invalid(at, format!("must be > 0 (got {v})")))
+    }
+}
+
+/// Checks each channel of a colour is in `[lo, hi]`.
+pub(crate) fn check_colour(ctx: &Ctx, at: String, c: Triple, lo: f32, hi: f32) -> Result<[f32; 3], SceneError> {
+    let v = c.to_array();
+    if v.iter().any(|&x| !(x >= lo && x <= hi)) {
+        let range = if hi.is_finite() {
+            format!("in [{lo}, {hi}]")
+        } else {
+            format!(">= {lo}")
+        };
+        let got = match c {
+            Triple::Scalar(s) => format!("{s}"),
+            Triple::Three(t) => format!("{t:?}"),
+        };
+        return Err(ctx.invalid(at, format!("every channel must be {range} (got {got})")));
+    }
+    Ok(v)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::testutil::*;
+
+    #[test]
+    fn duplicate_names_are_refused() {
+        let text = format!("{MINI}\n[[shape]]\nname = \"quad\"\ntype = \"cube\"\nmaterial = \"white\"\n");
+        expect_err(
+            "dup.toml",
+            &text,
+            &[],
+            &[
+                "shape[1] \"quad\": field 'name'",
+                "duplicate name",
+                "shape[0]",
+                "unique",
+            ],
+        );
+        let text = format!("{MINI}\n[[material]]\nname = \"white\"\ntype = \"diffuse\"\nalbedo = 0.1\n");
+        expect_err(
+            "dupm.toml",
+            &text,
+            &[],
+            &["material[1] \"white\": field 'name'", "duplicate name"],
+        );
+        let text = format!(
+            "{MINI}\n[[param]]\nname = \"p\"\nkind = \"eta\"\nvalue = 1\n[[param]]\nname = \"p\"\nkind = \"eta\"\nvalue = 1\n"
+        );
+        expect_err(
+            "dupp.toml",
+            &text,
+            &[],
+            &["param[1] \"p\": field 'name'", "duplicate name"],
+        );
+        let text = mini_with("name = \"quad\"", "name = \"\"");
+        expect_err(
+            "empty.toml",
+            &text,
+            &[],
+            &["shape[0]: field 'name'", "must not be empty"],
+        );
+    }
+
+    #[test]
+    fn unknown_references_list_what_exists() {
+        let text = format!("{MINI}\n[[material]]\nname = \"red\"\ntype = \"diffuse\"\nalbedo = 0.1\n").replacen(
+            "material = \"white\"",
+            "material = \"whte\"",
+            1,
+        );
+        expect_err(
+            "ref.toml",
+            &text,
+            &[],
+            &[
+                "shape[0] \"quad\": field 'material'",
+                "no material named \"whte\" (materials: white, red)",
+            ],
+        );
+        let text = format!("{MINI}\n[[emitter]]\nname = \"area\"\ntype = \"area\"\nshape = \"qaud\"\nradiance = 1\n");
+        expect_err(
+            "eref.toml",
+            &text,
+            &[],
+            &[
+                "emitter[1] \"area\": field 'shape'",
+                "no shape named \"qaud\" (shapes: quad)",
+            ],
+        );
+        let text = mini_with("material = \"white\"\n", "");
+        expect_err(
+            "nomat.toml",
+            &text,
+            &[],
+            &["shape[0] \"quad\": field 'material'", "missing", "materials: white"],
+        );
+    }
+}
