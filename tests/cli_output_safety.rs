@@ -170,3 +170,80 @@ fn sigterm_leaves_no_files_behind() {
         listing(&dir.path().join("out"))
     );
 }
+
+#[test]
+fn a_second_render_to_a_prefix_removes_what_the_first_left_and_it_does_not_write() {
+    let dir = workdir();
+    let ok = |args: &[&str]| {
+        let o = dtr(args, dir.path());
+        assert!(o.status.success(), "{args:?}: {}", stderr(&o));
+    };
+    ok(&[
+        "render",
+        "room.toml",
+        "-o",
+        "x",
+        "--spp",
+        "1",
+        "-q",
+        "--diff",
+        "room_z,room_rot_y",
+        "--exr",
+    ]);
+    assert_eq!(
+        listing(dir.path()),
+        [
+            "room.json",
+            "room.toml",
+            "x.d_room_rot_y.npy",
+            "x.d_room_z.npy",
+            "x.exr",
+            "x.json",
+            "x.npy"
+        ]
+    );
+    let files = |name: &str| -> Vec<String> {
+        let j: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(dir.path().join(name)).unwrap()).unwrap();
+        let mut v: Vec<String> = j["files"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|f| f.as_str().unwrap().to_string())
+            .collect();
+        v.sort();
+        v
+    };
+    assert_eq!(
+        files("x.json"),
+        ["x.d_room_rot_y.npy", "x.d_room_z.npy", "x.exr", "x.json", "x.npy"]
+    );
+    // a file that is not the set's, and one the old JSON names though it lies elsewhere or is
+    // an input, are never removed
+    std::fs::write(dir.path().join("x.notes.txt"), "mine").unwrap();
+    let mut j: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("x.json")).unwrap()).unwrap();
+    j["files"]
+        .as_array_mut()
+        .unwrap()
+        .extend(["../x.npy".into(), "room.toml".into()].map(serde_json::Value::String));
+    std::fs::write(dir.path().join("x.json"), j.to_string()).unwrap();
+    ok(&["render", "room.toml", "-o", "x", "--spp", "1", "-q", "--diff", "room_z"]);
+    assert_eq!(
+        listing(dir.path()),
+        [
+            "room.json",
+            "room.toml",
+            "x.d_room_z.npy",
+            "x.json",
+            "x.notes.txt",
+            "x.npy"
+        ]
+    );
+    assert_eq!(files("x.json"), ["x.d_room_z.npy", "x.json", "x.npy"]);
+    ok(&["render", "room.toml", "-o", "x", "--spp", "1", "-q"]);
+    assert_eq!(
+        listing(dir.path()),
+        ["room.json", "room.toml", "x.json", "x.notes.txt", "x.npy"]
+    );
+}

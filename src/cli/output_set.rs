@@ -16,6 +16,11 @@
 //!   complete set). A failure before that removes the staging folder.
 //! - **Signals.** SIGINT and SIGTERM remove the staging folder and the lock file and exit
 //!   with 128 + the signal number; no temporary file is left behind.
+//! - **No stale files.** The JSON lists the set's files (`"files"`, names in the output
+//!   folder). A render to a prefix that already holds a set removes the files of the old set
+//!   (as its JSON lists them) that the new one does not write, before the new JSON lands: a
+//!   `-o x --diff a` render followed by `-o x` leaves no `x.d_a.npy` behind. Only plain names
+//!   of the old set's own prefix in the same folder are removed, never an input.
 
 use anyhow::{Context, bail};
 use std::fs::File;
@@ -249,18 +254,74 @@ impl OutputSet {
         Ok(staged)
     }
 
+    /// The file names (in the output folder) of the outputs staged so far and of
+    /// `PREFIX.suffix`: the set the JSON lists.
+    pub fn names_with(&self, suffix: &str) -> Vec<String> {
+        let name = |p: &Path| p.file_name().unwrap_or_default().to_string_lossy().into_owned();
+        let mut v: Vec<String> = self.files.iter().map(|(_, d)| name(d)).collect();
+        v.push(name(&with_suffix(&self.prefix, suffix)));
+        v
+    }
+
     /// Moves every staged file into place, the JSON last, after checking every destination
-    /// once more.
+    /// once more; files of the set the old JSON at this prefix listed and this one does not
+    /// write are removed before the new JSON lands (module docs).
     pub fn commit(mut self) -> anyhow::Result<PathBuf> {
         for (_, dest) in &self.files {
             self.check_destination(dest)?;
         }
+        let stale = self.stale_files();
         self.files
             .sort_by_key(|(_, d)| d.extension().is_some_and(|e| e == "json"));
         for (staged, dest) in &self.files {
+            if dest.extension().is_some_and(|e| e == "json") {
+                for old in &stale {
+                    std::fs::remove_file(old)
+                        .with_context(|| format!("cannot remove {}, left by an earlier render", old.display()))?;
+                }
+            }
             std::fs::rename(staged, dest).with_context(|| format!("cannot move {} into place", dest.display()))?;
         }
         Ok(self.prefix.clone())
+    }
+
+    /// The files the JSON already at `PREFIX.json` lists (an earlier render's set) that this
+    /// set does not write: plain names starting with the prefix's own name, in the output
+    /// folder, regular files, not inputs. Nothing when there is no such JSON or it lists no
+    /// files (sets written before the list existed are left alone).
+    fn stale_files(&self) -> Vec<PathBuf> {
+        let json = with_suffix(&self.prefix, "json");
+        let Ok(text) = std::fs::read_to_string(&json) else {
+            return Vec::new();
+        };
+        let Ok(old) = serde_json::from_str::<serde_json::Value>(&text) else {
+            return Vec::new();
+        };
+        let Some(list) = old.get("files").and_then(|f| f.as_array()) else {
+            return Vec::new();
+        };
+        let dir = self.lock_path.parent().unwrap_or(Path::new("."));
+        let stem = self
+            .prefix
+            .file_name()
+            .unwrap_or_default()
+            .to_string_lossy()
+            .into_owned();
+        // compared by name: the destinations all lie in `dir`
+        let new: Vec<&std::ffi::OsStr> = self.files.iter().filter_map(|(_, d)| d.file_name()).collect();
+        list.iter()
+            .filter_map(|v| v.as_str())
+            .filter(|n| {
+                let plain = Path::new(n).file_name().is_some_and(|f| f == std::ffi::OsStr::new(n));
+                plain && n.starts_with(&format!("{stem}.")) && !n.ends_with(".json")
+            })
+            .filter(|n| !new.contains(&std::ffi::OsStr::new(n)))
+            .map(|n| dir.join(n))
+            .filter(|p| {
+                std::fs::symlink_metadata(p).is_ok_and(|m| m.is_file())
+                    && std::fs::metadata(p).is_ok_and(|m| !self.inputs.iter().any(|(_, i)| same_file(i, &m)))
+            })
+            .collect()
     }
 }
 

@@ -200,7 +200,9 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
     if a.preview {
         write_previews(&film, &mut set, pixel)?;
     }
-    let meta = metadata(&scene, &film, &stats, &a, set.prefix());
+    let mut meta = metadata(&scene, &film, &stats, &a, set.prefix());
+    // the set that belongs together; a later render to this prefix removes what it left out
+    meta["files"] = serde_json::json!(set.names_with("json"));
     output::write_json(&set.stage("json")?, &meta)?;
     let prefix_path = set.commit()?;
     let prefix = |ext: &str| with_suffix(&prefix_path, ext);
