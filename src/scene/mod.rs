@@ -13,6 +13,7 @@ mod desc;
 mod emitters;
 mod error;
 mod flush;
+pub mod fuzzing;
 mod info;
 mod load;
 mod materials;

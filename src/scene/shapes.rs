@@ -169,7 +169,12 @@ type ObjResult<T> = Result<T, String>;
 /// lines, normals, texture coordinates and materials ignored).
 pub fn load_obj(path: &Path) -> ObjResult<LocalMesh> {
     let text = super::read::read_regular_file(path, MAX_OBJ_BYTES).map_err(|e| format!("cannot read it: {e}"))?;
-    check_obj_text(&text)?;
+    parse_obj(&text)
+}
+
+/// [`load_obj`] for OBJ text already read.
+pub fn parse_obj(text: &str) -> ObjResult<LocalMesh> {
+    check_obj_text(text)?;
     // `..Default::default()` covers fields that tobj's optional features add.
     #[allow(clippy::needless_update)]
     let opts = tobj::LoadOptions {
