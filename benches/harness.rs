@@ -12,7 +12,8 @@
 //! Workloads: the Cornell box (forward: path tracer and BDPT); the Cornell box with a Gaussian
 //! pulse and one pose parameter (derivative: interior alone, and interior + primary + secondary
 //! boundary, both against a full-gradient reference); the Cornell box plus a ~1M-triangle
-//! bumpy sphere.
+//! bumpy sphere; scenes/gated_laser_room.toml (a laser spot on a wall seen through a gated
+//! window: path tracer and BDPT). Steady images integrate the window (the default).
 
 mod common;
 use common::{bare_seconds, bounce_rays, camera_rays, rel_l2, shadow_rays, with_pose_param};
@@ -51,6 +52,7 @@ fn main() {
     let out = root.join("bench-out");
     std::fs::create_dir_all(&out).unwrap();
     let cornell = Scene::load(&root.join("scenes/cornell_box.toml"), &[]).unwrap();
+    let gated = Scene::load(&root.join("scenes/gated_laser_room.toml"), &[]).unwrap();
     let forward = |name, scene: Scene, integrator, estimator, reference| Workload {
         name,
         scene,
@@ -81,6 +83,10 @@ fn main() {
         diff(BoundaryMode::InteriorOnly, "path+interior"),
         diff(BoundaryMode::Full, "path+interior+boundary"),
         forward("million", million(&root), None, "path", "million"),
+        // a gated return from a laser spot on a wall (NLOS-like; the window cut's workload):
+        // where BDPT's light subpaths from the spot might pay
+        forward("gated_laser", gated.clone(), None, "path", "gated_laser"),
+        forward("gated_laser", gated, Some(IntegratorKind::Bdpt), "bdpt", "gated_laser"),
     ];
     let mut csv = String::from(
         "workload,estimator,spp,threads,wall_s,cpu_s,paths_per_cpu_s,rays_per_s,bare_embree_rays_per_s,ratio_to_bare,\
@@ -213,7 +219,7 @@ fn million(root: &Path) -> Scene {
 fn cached_reference(root: &Path, w: &Workload, spp: u32) -> (Transient, Vec<Transient>) {
     let f = &w.scene.film;
     let key = format!(
-        "{}_{}x{}_{}x{}_from{}_b{}_spp{spp}_seed777",
+        "{}_{}x{}_{}x{}_from{}_b{}_spp{spp}_seed777_steady-window",
         w.reference,
         f.width,
         f.height,
