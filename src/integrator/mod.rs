@@ -23,6 +23,7 @@ pub mod path;
 pub mod sink;
 pub mod surface;
 pub mod trace;
+pub mod transport;
 pub mod window;
 
 pub use context::RenderContext;

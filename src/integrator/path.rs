@@ -13,7 +13,7 @@
 //! carries the derivative of the geometry term G and the area Jacobian J; with plain
 //! numbers that ratio is 1 and is skipped at compile time.
 
-use super::bsdf::{albedo, cosine_pdf, diffuse_eval, sample_cosine};
+use super::bsdf::{albedo, diffuse_eval};
 use super::context::RenderContext;
 use super::deposit::{PathCounts, for_each_lane};
 use super::opl::points64;
@@ -21,6 +21,7 @@ use super::power_heuristic;
 use super::sink::Sink;
 use super::surface::surface_at;
 use super::trace::{SegmentEnd, intersect, shadow_segment, spawn_point, unoccluded};
+use super::transport::{emitter_hits, scatter};
 use super::window;
 use crate::kernel::{Mask, PathSampler, Real, Spectrum, V3};
 
@@ -171,33 +172,17 @@ pub fn trace_packet_from<R: Real, const C: usize, S: Sink<C>>(
         }
 
         // Emission found by this ray (Veach 1997, Eq. 9.13 weights against light sampling).
-        let mut emitter = [u32::MAX; 8];
-        let mut le_rgb = [[0.0f32; 3]; 8];
-        let mut pdf_light = [0.0f32; 8];
-        for i in 0..R::LANES {
-            if active.bit(i) {
-                let e = ctx.tri_emitter[hit.prim[i] as usize];
-                if e != u32::MAX {
-                    emitter[i] = e;
-                    le_rgb[i] = ctx.emitters.radiance(e);
-                    pdf_light[i] = ctx.emitters.area_pdf(e);
-                }
-            }
-        }
         let front = x.n.value().dot(ray_d).lt(V::<R>::zero());
-        let emits = active & front & R::Mask::from_bools(&emitter.map(|e| e != u32::MAX)[..R::LANES]);
+        let hits = emitter_hits::<R, C>(ctx, &hit.prim, active & front);
+        let (emitter, emits) = (hits.emitter, hits.mask);
         if emits.any() {
-            let mut le = Spectrum::<R, C>::from_lane_rgb(&le_rgb[..R::LANES]);
-            if R::DERIVS > 0 {
-                ctx.motion.radiance_derivs(&emitter, &mut le);
-            }
             let w = if depth == 1 {
                 V::<R>::one()
             } else {
-                let p_l = V::<R>::from_lanes(&pdf_light) * r2.value() / cos_i.value();
+                let p_l = hits.area_pdf * r2.value() / cos_i.value();
                 power_heuristic(prev_pdf, p_l)
             };
-            let contrib = (beta * le).scale(R::from_value(w));
+            let contrib = (beta * hits.radiance).scale(R::from_value(w));
             splat(
                 ctx,
                 sink,
@@ -279,25 +264,8 @@ pub fn trace_packet_from<R: Real, const C: usize, S: Sink<C>>(
         }
 
         // Continue by sampling the BSDF.
-        let (b1, b2) = sampler.next2::<V<R>>();
         let n_v = x.n.value();
-        let side = -ray_d;
-        let (dir, pdf) = sample_cosine(&n_v, &side, b1, b2);
-        debug_assert!({
-            let p2 = cosine_pdf(&n_v, &side, &dir);
-            (0..R::LANES).all(|i| (p2.lane(i) - pdf.lane(i)).abs() <= 1e-3 * pdf.lane(i).max(1.0))
-        });
-        let cos_o = n_v.dot(dir).abs();
-        beta = (beta * f).scale(R::from_value(V::<R>::safe_div(cos_o, pdf)));
-        active = active & pdf.gt(V::<R>::zero());
-        if let Some(rr) = scene.integrator.rr_depth {
-            let u = sampler.next::<V<R>>();
-            if depth >= rr {
-                let q = beta.max_value().min(V::<R>::one());
-                active = active & u.lt(q);
-                beta = beta.scale(R::from_value(V::<R>::safe_div(V::<R>::one(), q)));
-            }
-        }
+        let (dir, pdf) = scatter(ctx, &mut sampler, &n_v, &-ray_d, &f, &mut beta, &mut active, depth);
         ray_o = spawn_point(&x.p.value(), &n_v, &ray_d, &dir);
         ray_d = dir;
         prev_p = x.p;

@@ -12,8 +12,9 @@ use super::mis::{allowed, path_pdfs, ratio_sums, weight};
 use super::vertex::segment_end;
 use crate::integrator::sink::Sink;
 use crate::integrator::trace::{shadow_segment, unoccluded};
+use crate::integrator::transport::emitter_hits;
 use crate::integrator::window;
-use crate::kernel::{Mask, Real, Spectrum, V3};
+use crate::kernel::{Mask, Real, V3};
 
 type V<R> = <R as Real>::Value;
 
@@ -22,37 +23,12 @@ type V<R> = <R as Real>::Value;
 pub fn emission<R: Real, const C: usize, S: Sink<C>>(pk: &mut Packet<'_, '_, R, C, S>, t: usize) {
     let ctx = pk.ctx;
     let pt = pk.camera[t - 1];
-    let mut emitter = [u32::MAX; 8];
-    let mut le = [[0.0f32; 3]; 8];
-    let mut origin_pdf = [0.0f32; 8];
-    let mut has = [false; 8];
-    for i in 0..R::LANES {
-        if pt.alive.bit(i) && pt.front.bit(i) {
-            let e = ctx.tri_emitter[pt.prim[i] as usize];
-            if e != u32::MAX {
-                emitter[i] = e;
-                le[i] = ctx.emitters.radiance(e);
-                origin_pdf[i] = ctx.emitters.area_pdf(e);
-                has[i] = true;
-            }
-        }
-    }
-    let emits = R::Mask::from_bools(&has[..R::LANES]);
+    let hits = emitter_hits::<R, C>(ctx, &pt.prim, pt.alive & pt.front);
+    let (emitter, emits, radiance) = (hits.emitter, hits.mask, hits.radiance);
     if emits.none() {
         return;
     }
-    let mut radiance = Spectrum::<R, C>::from_lane_rgb(&le[..R::LANES]);
-    if R::DERIVS > 0 {
-        ctx.motion.radiance_derivs(&emitter, &mut radiance);
-    }
-    path_pdfs(
-        &[],
-        &pk.camera[..t],
-        V::<R>::from_lanes(&origin_pdf),
-        V::<R>::zero(),
-        pk.pl,
-        pk.pe,
-    );
+    path_pdfs(&[], &pk.camera[..t], hits.area_pdf, V::<R>::zero(), pk.pl, pk.pe);
     let (lower, higher) = ratio_sums(pk.pl, pk.pe, 0, |sp| allowed(t, sp, R::Mask::splat(false)));
     let contrib = (pt.beta * radiance).scale(R::from_value(weight(lower, higher)));
     let exact = ctx.opl.f64_paths.then_some(&pt.opl64);

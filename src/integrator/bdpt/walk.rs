@@ -12,6 +12,7 @@ use crate::integrator::context::RenderContext;
 use crate::integrator::path::{PacketLanes, ray_plane_point};
 use crate::integrator::surface::{offset_origin, surface_at};
 use crate::integrator::trace::{RayCounts, intersect, spawn_point};
+use crate::integrator::transport::scatter;
 use crate::integrator::window;
 use crate::kernel::{Mask, PathSampler, Real, Spectrum, V3};
 use glam::Vec3;
@@ -119,20 +120,8 @@ fn random_walk<R: Real, const C: usize>(
         if depth == new_vertices {
             break;
         }
-        let (b1, b2) = sampler.next2::<V<R>>();
         let n_v = x.n.value();
-        let (dir, pdf) = sample_cosine(&n_v, &-ray_d, b1, b2);
-        let cos_o = n_v.dot(dir).abs();
-        beta = (beta * f).scale(R::from_value(V::<R>::safe_div(cos_o, pdf)));
-        active = active & pdf.gt(V::<R>::zero());
-        if let Some(rr) = ctx.scene.integrator.rr_depth {
-            let u = sampler.next::<V<R>>();
-            if depth >= rr as usize {
-                let q = beta.max_value().min(V::<R>::one());
-                active = active & u.lt(q);
-                beta = beta.scale(R::from_value(V::<R>::safe_div(V::<R>::one(), q)));
-            }
-        }
+        let (dir, pdf) = scatter(ctx, sampler, &n_v, &-ray_d, &f, &mut beta, &mut active, depth as u32);
         ray_o = spawn_point(&x.p.value(), &n_v, &ray_d, &dir);
         ray_d = dir;
         pdf_dir = pdf;
