@@ -59,7 +59,7 @@ fn main() {
         let mut stats = None;
         for seed in 0..seeds {
             let t0 = Instant::now();
-            let (films, s) = render_primary_with_stats(&ctx, spp_b, seed, &pool);
+            let (films, s) = render_primary_with_stats(&ctx, spp_b, seed, difftransient::Shard::WHOLE, &pool);
             secs = secs.min(t0.elapsed().as_secs_f64());
             runs.push(blocks(&films[0]));
             stats = Some(s);

@@ -23,6 +23,7 @@ pub mod kernel;
 pub mod output;
 pub mod render;
 pub mod scene;
+pub mod shard;
 pub mod temporal;
 pub mod timing;
 
@@ -33,3 +34,4 @@ pub use render::{
     render_strategies,
 };
 pub use scene::Scene;
+pub use shard::Shard;

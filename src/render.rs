@@ -60,6 +60,10 @@ pub struct RenderOptions {
     /// What the steady image integrates: the time window (default; paths end where they
     /// leave it, `integrator::window`) or all time (`--steady full`: no path is cut).
     pub steady: SteadyMode,
+    /// Render only this shard's sample ranges (`dtr render --shard I/N`), normalised by the
+    /// whole render's sample counts, so that the shards' films add up to the whole render
+    /// ([`crate::shard`]). Default: the whole render.
+    pub shard: crate::shard::Shard,
 }
 
 /// Which parts of the gradient `render_diff` estimates. Tests use the parts to show that the
@@ -437,6 +441,8 @@ struct Run<'s> {
     ctx: RenderContext<'s>,
     pool: rayon::ThreadPool,
     spp: u32,
+    /// The sample indices this run traces: `0..spp`, or a shard's part of them.
+    samples: std::ops::Range<u64>,
     seed: u64,
     derivs: usize,
     kind: IntegratorKind,
@@ -489,6 +495,7 @@ impl<'s> Run<'s> {
             ctx,
             pool: thread_pool(opts.threads)?,
             spp,
+            samples: opts.shard.range(spp as u64),
             seed: opts.seed.unwrap_or(scene.integrator.seed),
             derivs,
             kind,
@@ -501,6 +508,7 @@ impl<'s> Run<'s> {
     /// BDPT over fixed chunks of tiles; films averaged over spp.
     fn interior(&self, opts: &RenderOptions, per_strategy: bool) -> Interior {
         let (ctx, spp, seed, derivs) = (&self.ctx, self.spp, self.seed, self.derivs);
+        let samples = &self.samples;
         let scene = ctx.scene;
         let (w, h) = (scene.film.width as usize, scene.film.height as usize);
         let axis = scene.film.axis;
@@ -539,7 +547,12 @@ impl<'s> Run<'s> {
                                 let mut counts = PathCounts::default();
                                 let tick0 = crate::timing::ticks();
                                 let (f, c) = (&mut film, &mut counts);
-                                dispatch!(derivs, opts.lanes, channels, render_tile(ctx, seed, spp, w, f, c));
+                                dispatch!(
+                                    derivs,
+                                    opts.lanes,
+                                    channels,
+                                    render_tile(ctx, seed, spp, samples, w, f, c)
+                                );
                                 counts.total_ticks = crate::timing::ticks() - tick0;
                                 film.merge_into(&mut merged.lock().unwrap_or_else(|e| e.into_inner()));
                                 let (tails, sums) = (film.tails(), film.block_sums());
@@ -572,7 +585,7 @@ impl<'s> Run<'s> {
                                 derivs,
                                 opts.lanes,
                                 channels,
-                                bdpt_tiles(ctx, seed, spp, chunk, TILE, f, c)
+                                bdpt_tiles(ctx, seed, spp, samples, chunk, TILE, f, c)
                             );
                             counts.total_ticks = crate::timing::ticks() - tick0;
                             bar.inc(chunk.len() as u64);
@@ -618,6 +631,7 @@ impl<'s> Run<'s> {
             let settings = crate::boundary::BoundarySettings {
                 spp_boundary: opts.spp_boundary.unwrap_or(self.spp),
                 seed: self.seed,
+                shard: opts.shard,
                 guiding: opts.guiding,
             };
             let (t_b, cpu_b) = (Instant::now(), cpu_seconds());
@@ -644,7 +658,11 @@ impl<'s> Run<'s> {
             threads: self.pool.current_num_threads(),
             wall_seconds: wall,
             cpu_seconds: cpu,
-            paths: if interior.ran { (w * h) as u64 * spp as u64 } else { 0 },
+            paths: if interior.ran {
+                (w * h) as u64 * (self.samples.end - self.samples.start)
+            } else {
+                0
+            },
             bvh_build_seconds: self.bvh_build_seconds,
             traversal: if self.robust { "robust" } else { "fast" },
             steady: self.ctx.steady,
@@ -701,7 +719,8 @@ impl<'s> Run<'s> {
             // paths were cut at the window: what arrives after it comes from an uncut pilot
             SteadyMode::Window if interior.ran => {
                 let (t_p, cpu_p) = (Instant::now(), cpu_seconds());
-                let paths = stats.paths as usize;
+                // as many as the whole render's (every shard runs the same pilot)
+                let paths = w * h * spp as usize;
                 let (after, pilot) = pilot_energy_after(&mut self.ctx, self.seed, paths, &self.pool, opts.lanes);
                 stats.total_wall_seconds += t_p.elapsed().as_secs_f64();
                 stats.total_cpu_seconds += cpu_seconds() - cpu_p;
@@ -766,7 +785,7 @@ fn pilot_energy_after(
                     0,
                     lanes,
                     ctx.scene.film.channels,
-                    render_tile(ctx, seed ^ PILOT_STREAM, 1, w, f, c)
+                    render_tile(ctx, seed ^ PILOT_STREAM, 1, &(0..1), w, f, c)
                 );
                 (film.tails()[1], (tw * th) as u64)
             })
@@ -778,17 +797,20 @@ fn pilot_energy_after(
     (after * scale, pixels)
 }
 
-/// All samples of one tile: for each sample index, one packet per tile row (up to 8 pixels).
+/// The samples `samples` (of `spp` per pixel) of one tile: for each sample index, one packet
+/// per tile row (up to 8 pixels).
+#[allow(clippy::too_many_arguments)]
 fn render_tile<R: Real, const C: usize>(
     ctx: &RenderContext,
     seed: u64,
     spp: u32,
+    samples: &std::ops::Range<u64>,
     width: usize,
     film: &mut TileFilm,
     counts: &mut PathCounts,
 ) {
     let lanes_per_packet = R::LANES;
-    for s in 0..spp as u64 {
+    for s in samples.clone() {
         for ty in 0..film.h {
             let mut x = 0;
             while x < film.w {

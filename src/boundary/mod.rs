@@ -53,6 +53,9 @@ pub struct BoundarySettings {
     /// so the estimate has heavier tails: with 16 seeds, tests/secondary_fd.rs's moving
     /// receiver fails its Σz² bound when guided.
     pub guiding: bool,
+    /// The shard whose part of each estimator's samples to trace ([`crate::shard`]); the
+    /// films stay normalised by the whole sample counts.
+    pub shard: crate::shard::Shard,
 }
 
 /// The boundary parts of the gradient, one transient per parameter each.
@@ -78,14 +81,28 @@ pub struct BoundaryStats {
 /// Runs the primary and secondary estimators for the parameters in `ctx.motion`.
 pub fn render_boundary(ctx: &RenderContext, settings: &BoundarySettings, pool: &rayon::ThreadPool) -> BoundaryParts {
     let t0 = Instant::now();
-    let primary = primary::render_primary(ctx, settings.spp_boundary, settings.seed ^ PRIMARY_SEED, pool);
+    let primary = primary::render_primary_with_stats(
+        ctx,
+        settings.spp_boundary,
+        settings.seed ^ PRIMARY_SEED,
+        settings.shard,
+        pool,
+    )
+    .0;
     let primary_seconds = t0.elapsed().as_secs_f64();
     let sec = secondary::Secondary::new(ctx);
     let film = &ctx.scene.film;
     let samples = settings.spp_boundary as u64 * film.width as u64 * film.height as u64;
     let guiding = settings.guiding;
     let pilot = (samples / if guiding { 8 } else { 16 }).max(1024);
-    let (secondary, sstats) = sec.render(samples, pilot, guiding, settings.seed ^ SECONDARY_SEED, pool);
+    let (secondary, sstats) = sec.render(
+        samples,
+        pilot,
+        guiding,
+        settings.seed ^ SECONDARY_SEED,
+        settings.shard,
+        pool,
+    );
     BoundaryParts {
         primary,
         secondary,

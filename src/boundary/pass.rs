@@ -150,13 +150,15 @@ impl Secondary<'_> {
 
     /// Runs `samples` boundary samples of stream `seed` after a pilot of `pilot` samples
     /// (guiding the edge-directed rays if `guiding`) and returns one derivative transient per
-    /// parameter.
+    /// parameter. With a `shard`, only its part of the sample indices is traced (every shard
+    /// runs the same pilot), still normalised by `samples`.
     pub fn render(
         &self,
         samples: u64,
         pilot: u64,
         guiding: bool,
         seed: u64,
+        shard: crate::shard::Shard,
         pool: &rayon::ThreadPool,
     ) -> (Vec<Transient>, SecondaryStats) {
         let t0 = Instant::now();
@@ -164,8 +166,10 @@ impl Secondary<'_> {
         let (w, h) = (film.width as usize, film.height as usize);
         let channels = film.channels;
         let mut out = vec![Transient::zeros(w, h, film.axis, channels); 1 + self.params];
+        let own = shard.range(samples);
         let mut stats = SecondaryStats {
-            samples,
+            // this shard's share (the shards' counts add up to `samples`)
+            samples: own.end - own.start,
             pilot_samples: pilot,
             ..Default::default()
         };
@@ -195,9 +199,10 @@ impl Secondary<'_> {
             })
             .collect();
         let ids = n_a.max(n_b);
+        let mine = shard.range(ids);
         let chunks = ids.div_ceil(CHUNK);
-        let mut batch0 = 0;
-        while batch0 < chunks {
+        let mut batch0 = mine.start / CHUNK;
+        while batch0 < chunks && batch0 * CHUNK < mine.end {
             let batch: Vec<u64> = (batch0..(batch0 + BATCH).min(chunks)).collect();
             let parts: Vec<(Vec<BoundaryPath>, Scratch)> = pool.install(|| {
                 batch
@@ -205,7 +210,7 @@ impl Secondary<'_> {
                     .map(|&c| {
                         let mut scratch = Scratch::default();
                         let mut paths = Vec::new();
-                        for id in c * CHUNK..((c + 1) * CHUNK).min(ids) {
+                        for id in (c * CHUNK).max(mine.start)..((c + 1) * CHUNK).min(mine.end) {
                             let mut keep = |bp: &BoundaryPath| paths.push(*bp);
                             if id < n_a {
                                 self.evaluate(seed, id, &pl.grid, scale[0], &mut scratch, &mut keep);

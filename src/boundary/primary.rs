@@ -42,6 +42,7 @@ use crate::integrator::deposit::PathCounts;
 use crate::integrator::motion::MAX_PARAMS;
 use crate::integrator::path::{PacketLanes, PrimaryRays, trace_packet_from};
 use crate::kernel::{PathSampler, f32x8};
+use crate::shard::Shard;
 use glam::{DVec2, Vec3};
 use rayon::prelude::*;
 
@@ -73,14 +74,16 @@ pub struct PrimaryStats {
 /// may be the interior's: this stage derives its own streams. Zero (and nothing traced) when
 /// no parameter moves geometry or `spp_boundary` is 0.
 pub fn render_primary(ctx: &RenderContext, spp_boundary: u32, seed: u64, pool: &rayon::ThreadPool) -> Vec<Transient> {
-    render_primary_with_stats(ctx, spp_boundary, seed, pool).0
+    render_primary_with_stats(ctx, spp_boundary, seed, Shard::WHOLE, pool).0
 }
 
-/// [`render_primary`] with its tallies.
+/// [`render_primary`] with its tallies, for the samples of `shard` (normalised by all
+/// `spp_boundary · W · H` samples, so the shards' films add up to the whole).
 pub fn render_primary_with_stats(
     ctx: &RenderContext,
     spp_boundary: u32,
     seed: u64,
+    shard: Shard,
     pool: &rayon::ThreadPool,
 ) -> (Vec<Transient>, PrimaryStats) {
     let scene = ctx.scene;
@@ -112,10 +115,13 @@ pub fn render_primary_with_stats(
         samples: total,
         derivs: out.len(),
     };
+    let mine = shard.range(total);
     let chunks: Vec<(u64, u64)> = (0..total.div_ceil(CHUNK))
-        .map(|c| (c * CHUNK, ((c + 1) * CHUNK).min(total)))
+        .map(|c| ((c * CHUNK).max(mine.start), ((c + 1) * CHUNK).min(mine.end)))
+        .filter(|(a, b)| a < b)
         .collect();
     // Waves of a few chunks per thread bound the memory; splats are added in chunk order.
+    let mut sums: Vec<SumFilm> = out.iter().map(SumFilm::new).collect();
     for wave in chunks.chunks(4 * pool.current_num_threads().max(1)) {
         let done: Vec<(Vec<Jump>, PrimaryStats)> = pool.install(|| {
             wave.par_iter()
@@ -127,13 +133,14 @@ pub fn render_primary_with_stats(
         });
         for (jumps, s) in &done {
             for jump in jumps {
-                jump.splat(ctx, &mut out);
+                jump.splat(ctx, &mut sums);
             }
             stats.samples += s.samples;
             stats.traced += s.traced;
             stats.non_finite += s.non_finite;
         }
     }
+    sums.iter().zip(out.iter_mut()).for_each(|(s, t)| s.store(t));
     (out, stats)
 }
 
@@ -149,23 +156,50 @@ struct Jump {
 
 impl Jump {
     /// Adds h_j · weight_k · (L⁻ − L⁺) to every pixel j the filter reaches, in film k.
-    fn splat(&self, ctx: &RenderContext, films: &mut [Transient]) {
+    fn splat(&self, ctx: &RenderContext, films: &mut [SumFilm]) {
         let c_n = ctx.scene.film.channels;
         let (fx, fy) = (self.film.x as f32, self.film.y as f32);
         ctx.camera.for_each_pixel(fx, fy, |px, py, hj| {
             for (film, &wk) in films.iter_mut().zip(&self.weight) {
-                let w = hj * wk;
+                let w = (hj * wk) as f64;
                 if w == 0.0 {
                     continue;
                 }
-                let base = film.index(px as usize, py as usize, self.lo, 0);
+                let pixel = py as usize * film.width + px as usize;
+                let base = (pixel * film.bins + self.lo) * c_n;
                 let bins = &mut film.data[base..base + self.delta.len()];
-                bins.iter_mut().zip(&self.delta).for_each(|(d, v)| *d += w * v);
-                let sb = (py as usize * film.width + px as usize) * c_n;
-                let pixel = &mut film.steady[sb..sb + c_n];
-                pixel.iter_mut().zip(&self.steady).for_each(|(d, v)| *d += w * v);
+                bins.iter_mut().zip(&self.delta).for_each(|(d, &v)| *d += w * v as f64);
+                let steady = &mut film.steady[pixel * c_n..(pixel + 1) * c_n];
+                steady
+                    .iter_mut()
+                    .zip(&self.steady)
+                    .for_each(|(d, &v)| *d += w * v as f64);
             }
         });
+    }
+}
+
+/// A derivative film while the jumps are added: f64, like the interior's derivative tiles,
+/// so that ± jumps cancel without f32 rounding of the running sums.
+struct SumFilm {
+    width: usize,
+    bins: usize,
+    data: Vec<f64>,
+    steady: Vec<f64>,
+}
+
+impl SumFilm {
+    fn new(t: &Transient) -> Self {
+        Self {
+            width: t.width,
+            bins: t.axis.bins,
+            data: vec![0.0; t.data.len()],
+            steady: vec![0.0; t.steady.len()],
+        }
+    }
+    fn store(&self, t: &mut Transient) {
+        t.data.iter_mut().zip(&self.data).for_each(|(o, &v)| *o = v as f32);
+        t.steady.iter_mut().zip(&self.steady).for_each(|(o, &v)| *o = v as f32);
     }
 }
 

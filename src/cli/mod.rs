@@ -3,6 +3,7 @@
 mod info;
 pub mod output_set;
 mod render_cmd;
+mod shard_set;
 
 use clap::{Parser, Subcommand};
 use std::path::PathBuf;
@@ -22,6 +23,9 @@ pub struct Cli {
 pub enum Command {
     /// Render a scene's transient to PREFIX.npy and PREFIX.json (plus EXR and previews on request).
     Render(render_cmd::RenderArgs),
+    /// Add the shards of one render (`dtr render --shard I/N`) into one output set, as if one
+    /// process had rendered it.
+    Merge(shard_set::MergeArgs),
     /// Print a summary of a scene, including every parameter with its name, kind and value.
     Info {
         scene: PathBuf,
@@ -37,6 +41,7 @@ pub enum Command {
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Render(args) => render_cmd::run(args),
+        Command::Merge(args) => shard_set::run(args),
         Command::Info { scene, json, set } => info::run(&scene, json, &set),
     }
 }

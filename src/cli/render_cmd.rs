@@ -74,6 +74,11 @@ pub struct RenderArgs {
     /// unchanged) or `full` (all time: every path is traced to its last bounce).
     #[arg(long, value_enum, default_value = "window")]
     pub steady: Steady,
+    /// Render shard I of N (0-based): this shard's part of every estimator's samples,
+    /// normalised so that the N shards add up to the whole render; `dtr merge` adds them.
+    /// Also writes PREFIX.steady.npy (the steady image, for the merge).
+    #[arg(long, value_name = "I/N", value_parser = parse_shard)]
+    pub shard: Option<crate::shard::Shard>,
     /// Trace one path at a time instead of 8-wide packets (reference/debug).
     #[arg(long)]
     pub scalar: bool,
@@ -153,7 +158,11 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
             Estimators::Interior => BoundaryMode::InteriorOnly,
             Estimators::Boundary => BoundaryMode::BoundaryOnly,
         },
+        shard: a.shard.unwrap_or_default(),
     };
+    if a.shard.is_some() && a.strategies {
+        bail!("--strategies cannot be sharded; render it in one process");
+    }
     if a.strategies && !a.diff.is_empty() {
         bail!("--strategies writes primal transients only; run it without --diff");
     }
@@ -165,6 +174,9 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
     }
     if a.preview {
         planned.extend(["frames.png", "steady.png", "plot.png"].map(String::from));
+    }
+    if a.shard.is_some() {
+        planned.push("steady.npy".into());
     }
     let mut set = OutputSet::prepare(&a.output, &scene.inputs, &a.scene, &planned)?;
     let mut strategies = Vec::new();
@@ -200,14 +212,27 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
     if a.preview {
         write_previews(&film, &mut set, pixel)?;
     }
+    if a.shard.is_some() {
+        let shape = [film.height, film.width, film.channels];
+        output::write_npy(&set.stage("steady.npy")?, &shape, &film.steady)?;
+    }
     let mut meta = metadata(&scene, &film, &stats, &a, set.prefix());
+    meta["identity"] = super::shard_set::identity(&scene, &a.set, &a.diff, &opts, stats.spp)?;
+    let shard = opts.shard;
+    meta["shard"] = json!({
+        "index": shard.index,
+        "count": shard.count,
+        "interior_samples": stats_range(&shard, stats.spp as u64),
+        "about": "this render traced shard index of count of every estimator's samples (interior: samples [a, b) of spp per pixel), normalised by the whole render's sample counts: the shards' films add up to the whole render (dtr merge)",
+    });
     // the set that belongs together; a later render to this prefix removes what it left out
     meta["files"] = serde_json::json!(set.names_with("json"));
     output::write_json(&set.stage("json")?, &meta)?;
     let prefix_path = set.commit()?;
     let prefix = |ext: &str| with_suffix(&prefix_path, ext);
     // the primal is left zero on purpose by `--estimators boundary`
-    let primal_rendered = a.diff.is_empty() || !matches!(a.estimators, Estimators::Boundary);
+    // (a shard holds part of the energy; `dtr merge` checks the whole)
+    let primal_rendered = (a.diff.is_empty() || !matches!(a.estimators, Estimators::Boundary)) && a.shard.is_none();
     if let Some(w) = stats.energy.warning(&film.axis).filter(|_| primal_rendered) {
         eprintln!("warning: {}: {w}", a.scene.display());
     }
@@ -236,6 +261,16 @@ fn first_repeat<'a>(items: impl Iterator<Item = &'a str>) -> Option<&'a str> {
 /// Above this many bounces `dtr render` warns that BDPT's cost per path grows as B³.
 const BDPT_WARN_BOUNCES: u32 = 64;
 
+fn parse_shard(s: &str) -> Result<crate::shard::Shard, String> {
+    crate::shard::Shard::parse(s).map_err(|e| e.to_string())
+}
+
+/// `[a, b]` of a shard's part of `0..total`.
+fn stats_range(shard: &crate::shard::Shard, total: u64) -> [u64; 2] {
+    let r = shard.range(total);
+    [r.start, r.end]
+}
+
 fn parse_integrator(s: &str) -> Result<IntegratorKind, String> {
     match s {
         "path" => Ok(IntegratorKind::Path),
@@ -244,7 +279,7 @@ fn parse_integrator(s: &str) -> Result<IntegratorKind, String> {
     }
 }
 
-fn view(film: &Transient) -> FilmView<'_> {
+pub(super) fn view(film: &Transient) -> FilmView<'_> {
     FilmView {
         data: &film.data,
         height: film.height,
@@ -268,7 +303,11 @@ fn parse_pixel(s: &str, scene: &Scene) -> anyhow::Result<(usize, usize)> {
     Ok((x, y))
 }
 
-fn write_previews(film: &Transient, set: &mut OutputSet, pixel: Option<(usize, usize)>) -> anyhow::Result<()> {
+pub(super) fn write_previews(
+    film: &Transient,
+    set: &mut OutputSet,
+    pixel: Option<(usize, usize)>,
+) -> anyhow::Result<()> {
     output::write_contact_sheet(&set.stage("frames.png")?, view(film), None)?;
     output::write_steady_png(
         &set.stage("steady.png")?,
@@ -323,7 +362,8 @@ fn metadata(scene: &Scene, film: &Transient, stats: &RenderStats, a: &RenderArgs
         "spp": stats.spp,
         "seed": stats.seed,
         "threads": stats.threads,
-        "lanes": if a.scalar { 1 } else { 8 },
+        // derivative renders always run the 8-wide Dual8 kernel (render.rs, dispatch!)
+        "lanes": if a.scalar && a.diff.is_empty() { 1 } else { 8 },
         "wall_seconds": stats.wall_seconds,
         "cpu_seconds": stats.cpu_seconds,
         "paths": stats.paths,

@@ -20,6 +20,7 @@ mod materials;
 mod origin;
 mod params;
 mod read;
+pub(crate) use read::read_regular_file;
 mod resolve;
 pub mod shapes;
 #[cfg(test)]

@@ -92,3 +92,12 @@ pub fn translated(text: &str, by: [f64; 3]) -> String {
     }
     toml::to_string(&v).unwrap()
 }
+
+/// Runs the `dtr` binary with `args` in `cwd`.
+pub fn dtr(args: &[&str], cwd: &std::path::Path) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_dtr"))
+        .current_dir(cwd)
+        .args(args)
+        .output()
+        .unwrap()
+}

@@ -137,12 +137,15 @@ pub fn trace_packet<R: Real, const C: usize, S: Sink<C>>(
     }
 }
 
-/// All samples of the tiles `tiles` (x0, y0 of each `tile`-sized tile), in order, into one
-/// chunk film: the BDPT counterpart of the path tracer's per-tile loop.
+/// The samples `samples` (of `spp` per pixel) of the tiles `tiles` (x0, y0 of each
+/// `tile`-sized tile), in order, into one chunk film: the BDPT counterpart of the path
+/// tracer's per-tile loop.
+#[allow(clippy::too_many_arguments)]
 pub fn render_tiles<R: Real, const C: usize>(
     ctx: &RenderContext,
     seed: u64,
     spp: u32,
+    samples: &std::ops::Range<u64>,
     tiles: &[(usize, usize)],
     tile: usize,
     film: &mut BdptFilm,
@@ -152,7 +155,7 @@ pub fn render_tiles<R: Real, const C: usize>(
     let mut scratch = Scratch::<R, C>::default();
     for &(x0, y0) in tiles {
         let (tw, th) = (tile.min(w - x0), tile.min(h - y0));
-        for s in 0..spp as u64 {
+        for s in samples.clone() {
             for ty in 0..th {
                 let mut x = 0;
                 while x < tw {

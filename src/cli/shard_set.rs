@@ -1,0 +1,433 @@
+//! Shards on the command line: what makes two renders parts of one (`identity`), and
+//! `dtr merge`, which adds the shards of a render (`dtr render --shard I/N`, [`crate::shard`])
+//! into the output set one process would have written.
+//!
+//! The merged films equal the whole render's up to the order of floating-point additions:
+//! one process sums each pixel's samples in sample order, in f32 for a primal tile (f64 for
+//! a derivative tile), and the merge adds the N shards' films in f64. For a primal value of
+//! `spp` samples the two differ by at most about `(2·spp + 8)·2⁻²⁴` of the value
+//! (recursive summation of non-negative terms); tests/cli_shards.rs asserts that bound.
+
+use super::output_set::{OutputSet, with_suffix};
+use crate::film::Transient;
+use crate::render::RenderOptions;
+use crate::scene::Scene;
+use crate::shard::Shard;
+use anyhow::{Context, bail};
+use serde_json::{Value, json};
+use sha2::{Digest, Sha256};
+use std::path::{Path, PathBuf};
+
+/// Everything that decides a render's numbers, as JSON: the contents of its input files,
+/// the overrides, the sample counts, seed, estimators and modes. Two renders with the same
+/// identity trace the same paths; shards of one render must share it (`dtr merge` and
+/// `--resume` compare it field by field). The thread count and the outputs are not part of it.
+pub fn identity(
+    scene: &Scene,
+    sets: &[String],
+    diff: &[String],
+    opts: &RenderOptions,
+    spp: u32,
+) -> anyhow::Result<Value> {
+    let mut hash = Sha256::new();
+    for input in &scene.inputs {
+        let bytes =
+            std::fs::read(input).with_context(|| format!("cannot read {} again to hash it", input.display()))?;
+        hash.update((bytes.len() as u64).to_le_bytes());
+        hash.update(&bytes);
+    }
+    let digest: String = hash.finalize().iter().map(|b| format!("{b:02x}")).collect();
+    let mut sets: Vec<String> = sets.iter().map(|s| s.replace(' ', "")).collect();
+    sets.sort();
+    Ok(json!({
+        "inputs_sha256": digest,
+        "set": sets,
+        "diff": diff,
+        "spp": spp,
+        "spp_boundary": if diff.is_empty() { None } else { Some(opts.spp_boundary.unwrap_or(spp)) },
+        "seed": opts.seed.unwrap_or(scene.integrator.seed),
+        "integrator": opts.integrator.unwrap_or(scene.integrator.kind),
+        "estimators": format!("{:?}", opts.boundary),
+        "guiding": opts.guiding,
+        "fast_traversal": opts.fast_traversal,
+        "steady": opts.steady,
+        "lanes": format!("{:?}", opts.lanes),
+        "version": env!("CARGO_PKG_VERSION"),
+    }))
+}
+
+#[derive(clap::Args, Debug)]
+pub struct MergeArgs {
+    /// The shards' output prefixes (as given to `dtr render -o`; a trailing .json or .npy is
+    /// dropped): every shard I/N of one render, once each, in any order.
+    #[arg(required = true)]
+    pub shards: Vec<PathBuf>,
+    /// Output prefix of the merged render (same rules as `dtr render -o`).
+    #[arg(short = 'o', long = "output", value_name = "PREFIX")]
+    pub output: PathBuf,
+    /// Also write PREFIX.exr: one layer per time bin.
+    #[arg(long)]
+    pub exr: bool,
+    /// Also write the previews (contact sheet, steady image, plot), as `dtr render --preview`.
+    #[arg(long)]
+    pub preview: bool,
+    /// No summary line.
+    #[arg(long, short)]
+    pub quiet: bool,
+}
+
+/// One shard's output set, read back.
+struct ShardFiles {
+    prefix: PathBuf,
+    meta: Value,
+    shard: Shard,
+}
+
+fn strip_ext(p: &Path) -> PathBuf {
+    match p.extension().and_then(|e| e.to_str()) {
+        Some("json" | "npy") => p.with_extension(""),
+        _ => p.to_path_buf(),
+    }
+}
+
+/// The most bytes of a shard's JSON `dtr merge` reads.
+const JSON_CAP: u64 = 64 << 20;
+
+fn read_shard(prefix: &Path) -> anyhow::Result<ShardFiles> {
+    let path = with_suffix(prefix, "json");
+    let text = crate::scene::read_regular_file(&path, JSON_CAP)
+        .with_context(|| format!("{}: cannot read the shard's JSON", path.display()))?;
+    let meta: Value =
+        serde_json::from_str(&text).with_context(|| format!("{}: not the JSON of a dtr render", path.display()))?;
+    let field = |name: &str| {
+        meta.get(name).with_context(|| {
+            format!(
+                "{}: no field {name:?}: not written by `dtr render --shard I/N` of this version",
+                path.display()
+            )
+        })
+    };
+    let s = field("shard")?;
+    let num = |k: &str| s.get(k).and_then(Value::as_u64).and_then(|v| u32::try_from(v).ok());
+    let (Some(index), Some(count)) = (num("index"), num("count")) else {
+        bail!(
+            "{}: field \"shard\" needs integer \"index\" and \"count\"",
+            path.display()
+        );
+    };
+    let shard = Shard::new(index, count).with_context(|| format!("{}: field \"shard\"", path.display()))?;
+    field("identity")?;
+    Ok(ShardFiles {
+        prefix: prefix.to_path_buf(),
+        meta,
+        shard,
+    })
+}
+
+/// Reads a float32 C-order .npy written by `dtr render`, checking its shape.
+fn read_npy(path: &Path, shape: &[usize]) -> anyhow::Result<Vec<f32>> {
+    let expected: usize = shape.iter().product();
+    let cap = 256 + 4 * expected as u64;
+    let meta = std::fs::metadata(path).with_context(|| format!("{}: cannot read the shard's film", path.display()))?;
+    if !meta.is_file() || meta.len() > cap {
+        bail!("{}: expected a .npy file of float32 {shape:?}", path.display());
+    }
+    let bytes = std::fs::read(path).with_context(|| format!("{}: cannot read the shard's film", path.display()))?;
+    let npy = npyz::NpyFile::new(&bytes[..]).with_context(|| format!("{}: not a .npy file", path.display()))?;
+    let got: Vec<usize> = npy.shape().iter().map(|&d| d as usize).collect();
+    if got != shape
+        || npy.order() != npyz::Order::C
+        || npy.dtype() != npyz::DType::new_scalar("<f4".parse().expect("<f4 is a type string"))
+    {
+        bail!(
+            "{}: holds {:?} {got:?}, expected float32 {shape:?} in C order (the render's JSON says so)",
+            path.display(),
+            npy.dtype()
+        );
+    }
+    let data: Vec<f32> = npy
+        .into_vec()
+        .with_context(|| format!("{}: cannot decode", path.display()))?;
+    Ok(data)
+}
+
+/// The shards, checked to be exactly the shards 0..N of one render.
+fn check_complete(shards: &mut [ShardFiles]) -> anyhow::Result<()> {
+    let first = &shards[0];
+    let json0 = with_suffix(&first.prefix, "json");
+    for s in shards.iter().skip(1) {
+        let path = with_suffix(&s.prefix, "json");
+        if s.shard.count != first.shard.count {
+            bail!(
+                "{} is shard {} but {} is shard {}: not shards of one split",
+                path.display(),
+                s.shard,
+                json0.display(),
+                first.shard
+            );
+        }
+        let (a, b) = (&first.meta["identity"], &s.meta["identity"]);
+        if a != b {
+            let keys: Vec<String> = a.as_object().map(|o| o.keys().cloned().collect()).unwrap_or_default();
+            let key = keys.into_iter().find(|k| a.get(k) != b.get(k)).unwrap_or_default();
+            bail!(
+                "{} and {} are not shards of one render: identity.{key} differs ({} vs {})",
+                json0.display(),
+                path.display(),
+                a.get(&key).unwrap_or(a),
+                b.get(&key).unwrap_or(b),
+            );
+        }
+    }
+    shards.sort_by_key(|s| s.shard.index);
+    for pair in shards.windows(2) {
+        if pair[0].shard.index == pair[1].shard.index {
+            bail!(
+                "shard {} is given twice ({} and {}): the shards overlap",
+                pair[0].shard,
+                pair[0].prefix.display(),
+                pair[1].prefix.display()
+            );
+        }
+    }
+    let n = first_count(shards);
+    let have: Vec<u32> = shards.iter().map(|s| s.shard.index).collect();
+    let missing: Vec<String> = (0..n)
+        .filter(|i| !have.contains(i))
+        .map(|i| format!("{i}/{n}"))
+        .collect();
+    if !missing.is_empty() {
+        bail!(
+            "missing shard(s) {}: the merge needs every shard of the render",
+            missing.join(", ")
+        );
+    }
+    Ok(())
+}
+
+fn first_count(shards: &[ShardFiles]) -> u32 {
+    shards[0].shard.count
+}
+
+fn shape_of(meta: &Value, path: &Path) -> anyhow::Result<[usize; 4]> {
+    let v: Vec<usize> = meta["shape"]
+        .as_array()
+        .map(|a| a.iter().filter_map(|d| d.as_u64().map(|d| d as usize)).collect())
+        .unwrap_or_default();
+    v.try_into()
+        .map_err(|_| anyhow::anyhow!("{}: field \"shape\" should be [H, W, T, C]", path.display()))
+}
+
+fn axis_of(meta: &Value, path: &Path) -> anyhow::Result<crate::temporal::TimeAxis> {
+    serde_json::from_value(meta["time_axis"].clone()).with_context(|| {
+        format!(
+            "{}: field \"time_axis\" should hold start_opl, bin_width_opl, bins",
+            path.display()
+        )
+    })
+}
+
+/// Reads one shard's films: the transient with its steady image, then each derivative.
+fn read_films(s: &ShardFiles, diff: &[String]) -> anyhow::Result<(Transient, Vec<Transient>)> {
+    let json = with_suffix(&s.prefix, "json");
+    let [h, w, t, c] = shape_of(&s.meta, &json)?;
+    let axis = axis_of(&s.meta, &json)?;
+    if axis.bins != t {
+        bail!(
+            "{}: time_axis.bins {} but shape has {t} bins",
+            json.display(),
+            axis.bins
+        );
+    }
+    let mut film = Transient::zeros(w, h, axis, c);
+    film.data = read_npy(&with_suffix(&s.prefix, "npy"), &[h, w, t, c])?;
+    film.steady = read_npy(&with_suffix(&s.prefix, "steady.npy"), &[h, w, c])?;
+    let mut derivs = Vec::new();
+    for name in diff {
+        let mut d = Transient::zeros(w, h, axis, c);
+        d.data = read_npy(&with_suffix(&s.prefix, &format!("d_{name}.npy")), &[h, w, t, c])?;
+        derivs.push(d);
+    }
+    Ok((film, derivs))
+}
+
+pub fn run(a: MergeArgs) -> anyhow::Result<()> {
+    let mut shards = a
+        .shards
+        .iter()
+        .map(|p| read_shard(&strip_ext(p)))
+        .collect::<anyhow::Result<Vec<_>>>()?;
+    check_complete(&mut shards)?;
+    let diff: Vec<String> = serde_json::from_value(shards[0].meta["identity"]["diff"].clone())
+        .context("the shards' identity.diff should be a list of parameter names")?;
+    // every file of every shard is an input: the merge never replaces one
+    let mut inputs = Vec::new();
+    for s in &shards {
+        inputs.extend(["json", "npy", "steady.npy"].iter().map(|e| with_suffix(&s.prefix, e)));
+        inputs.extend(diff.iter().map(|n| with_suffix(&s.prefix, &format!("d_{n}.npy"))));
+    }
+    let scene_path = PathBuf::from(shards[0].meta["scene"].as_str().unwrap_or("merged"));
+    let mut planned: Vec<String> = vec!["npy".into(), "json".into()];
+    planned.extend(diff.iter().map(|n| format!("d_{n}.npy")));
+    if a.exr {
+        planned.push("exr".into());
+    }
+    if a.preview {
+        planned.extend(["frames.png", "steady.png", "plot.png"].map(String::from));
+    }
+    let mut set = OutputSet::prepare(&a.output, &inputs, &scene_path, &planned)?;
+    let mut films = Vec::new();
+    let mut derivs: Vec<Vec<Transient>> = vec![Vec::new(); diff.len()];
+    for s in &shards {
+        let (f, d) = read_films(s, &diff)?;
+        films.push(f);
+        d.into_iter().zip(derivs.iter_mut()).for_each(|(d, all)| all.push(d));
+    }
+    let film = crate::shard::add_films(&films.iter().collect::<Vec<_>>())?;
+    let derivs = derivs
+        .iter()
+        .map(|all| crate::shard::add_films(&all.iter().collect::<Vec<_>>()))
+        .collect::<Result<Vec<_>, _>>()?;
+    crate::output::write_npy(&set.stage("npy")?, &film.shape(), &film.data)?;
+    for (name, d) in diff.iter().zip(&derivs) {
+        crate::output::write_npy(&set.stage(&format!("d_{name}.npy"))?, &d.shape(), &d.data)?;
+    }
+    if a.exr {
+        crate::output::write_exr_layers(&set.stage("exr")?, super::render_cmd::view(&film))?;
+    }
+    if a.preview {
+        super::render_cmd::write_previews(&film, &mut set, None)?;
+    }
+    let mut meta = merged_metadata(&shards, set.prefix(), &diff);
+    meta["files"] = json!(set.names_with("json"));
+    let warning = meta["energy"]["warning"].as_str().map(str::to_string);
+    crate::output::write_json(&set.stage("json")?, &meta)?;
+    let prefix = set.commit()?;
+    if let Some(w) = warning {
+        eprintln!("warning: {}: {w}", scene_path.display());
+    }
+    if !a.quiet {
+        eprintln!(
+            "{}: {} shards merged ({}x{}x{}x{})",
+            with_suffix(&prefix, "npy").display(),
+            shards.len(),
+            film.height,
+            film.width,
+            film.axis.bins,
+            film.channels
+        );
+    }
+    Ok(())
+}
+
+/// The merged render's JSON: the first shard's, with the additive tallies summed over the
+/// shards, the energy report recombined, and each shard's own record under `shards`.
+fn merged_metadata(shards: &[ShardFiles], prefix: &Path, diff: &[String]) -> Value {
+    let mut meta = shards[0].meta.clone();
+    let sum = |k: &str| -> f64 { shards.iter().map(|s| s.meta[k].as_f64().unwrap_or(0.0)).sum() };
+    for k in [
+        "paths",
+        "rays",
+        "intersect_rays",
+        "occluded_rays",
+        "non_finite_samples",
+        "boundary_samples",
+    ] {
+        meta[k] = json!(sum(k) as u64);
+    }
+    for k in [
+        "wall_seconds",
+        "cpu_seconds",
+        "total_wall_seconds",
+        "total_cpu_seconds",
+        "boundary_seconds",
+        "bvh_build_seconds",
+    ] {
+        meta[k] = json!(sum(k));
+    }
+    for k in ["tracing", "shading", "film"] {
+        meta["phase_seconds"][k] = json!(
+            shards
+                .iter()
+                .map(|s| s.meta["phase_seconds"][k].as_f64().unwrap_or(0.0))
+                .sum::<f64>()
+        );
+    }
+    let (paths, rays, cpu, wall) = (
+        sum("paths"),
+        sum("rays"),
+        sum("cpu_seconds").max(1e-9),
+        sum("wall_seconds").max(1e-9),
+    );
+    meta["paths_per_cpu_second"] = json!(paths / cpu);
+    meta["rays_per_cpu_second"] = json!(rays / cpu);
+    meta["paths_per_second"] = json!(paths / wall);
+    meta["rays_per_second"] = json!(rays / wall);
+    meta["threads"] = Value::Null;
+    meta["boundary"] = Value::Null;
+    meta["derivatives"] = json!(
+        diff.iter()
+            .zip(meta["derivatives"].as_array().cloned().unwrap_or_default())
+            .map(|(n, mut d)| {
+                d["file"] = json!(format!("{}.d_{n}.npy", prefix.display()));
+                d
+            })
+            .collect::<Vec<_>>()
+    );
+    meta["energy"] = merged_energy(shards);
+    meta.as_object_mut().map(|o| o.remove("shard"));
+    meta["merged"] = json!({
+        "about": "dtr merge: the films are the sums of the shards' films (added in f64); paths, rays and seconds are summed over the shards (per-second rates divide by the summed seconds); threads and the boundary record are per shard, under shards",
+        "shards": shards.iter().map(|s| json!({
+            "prefix": s.prefix.display().to_string(),
+            "shard": s.meta["shard"],
+            "threads": s.meta["threads"],
+            "wall_seconds": s.meta["wall_seconds"],
+            "cpu_seconds": s.meta["cpu_seconds"],
+            "boundary": s.meta["boundary"],
+        })).collect::<Vec<_>>(),
+    });
+    meta
+}
+
+/// The energy report of the whole render from its shards': before and inside add up; after
+/// adds up too, unless an uncut pilot estimated it (every shard runs the same pilot, so any
+/// one of them holds the whole render's estimate).
+fn merged_energy(shards: &[ShardFiles]) -> Value {
+    let e = |s: &ShardFiles, k: &str| s.meta["energy"]["primal"][k].as_f64().unwrap_or(0.0);
+    let sum = |k: &str| shards.iter().map(|s| e(s, k)).sum::<f64>();
+    let pilot = shards[0].meta["energy"]["primal"]["after_pilot_paths"]
+        .as_u64()
+        .unwrap_or(0);
+    let (before, inside) = (sum("before"), sum("inside"));
+    let (after, total) = if pilot > 0 {
+        let after = e(&shards[0], "after");
+        (after, before + inside + after)
+    } else {
+        (sum("after"), sum("total"))
+    };
+    let primal = crate::film::WindowEnergy {
+        total,
+        before,
+        inside,
+        after,
+        inside_fraction: if total > 0.0 { inside / total } else { 0.0 },
+        after_pilot_paths: pilot,
+    };
+    let mut energy = shards[0].meta["energy"].clone();
+    let axis = axis_of(&shards[0].meta, Path::new("shard 0")).ok();
+    energy["primal"] = json!(primal);
+    energy["warning"] = json!(axis.and_then(|a| primal.warning(&a)));
+    let derivs = energy["derivatives"].as_array().cloned().unwrap_or_default();
+    energy["derivatives"] = json!(derivs
+        .iter()
+        .enumerate()
+        .map(|(k, d)| {
+            let part = |f: &str| -> Option<f64> {
+                shards.iter().map(|s| s.meta["energy"]["derivatives"][k][f].as_f64()).sum()
+            };
+            json!({"param": d["param"], "total": part("total"), "inside": part("inside"), "outside": part("outside")})
+        })
+        .collect::<Vec<_>>());
+    energy
+}

@@ -1,0 +1,122 @@
+//! `dtr render --shard I/N` and `dtr merge` (src/cli/shard_set.rs): the merged output set is
+//! the whole render's up to float reordering (tests/shards.rs has the bounds; here the CLI's
+//! plumbing: files, derivatives, JSON), and shards that do not belong together are refused
+//! before anything is written.
+
+mod common;
+use common::dtr;
+use std::path::Path;
+use std::process::Output;
+
+fn ok(o: Output) -> Output {
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    o
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn npy(path: &Path) -> Vec<f32> {
+    let bytes = std::fs::read(path).unwrap();
+    npyz::NpyFile::new(&bytes[..]).unwrap().into_vec().unwrap()
+}
+
+fn json(path: &Path) -> serde_json::Value {
+    serde_json::from_slice(&std::fs::read(path).unwrap()).unwrap()
+}
+
+const SCENE: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/silhouette_slide.toml");
+
+fn render(dir: &Path, out: &str, extra: &[&str]) {
+    let mut args = vec![
+        "render",
+        SCENE,
+        "--spp",
+        "3",
+        "--spp-boundary",
+        "2",
+        "--diff",
+        "cube_x",
+        "-q",
+        "-o",
+        out,
+    ];
+    args.extend(extra);
+    ok(dtr(&args, dir));
+}
+
+#[test]
+fn merged_shards_are_the_whole_render() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path();
+    render(dir, "whole", &[]);
+    for i in 0..3 {
+        render(dir, &format!("s{i}"), &["--shard", &format!("{i}/3")]);
+    }
+    ok(dtr(&["merge", "s2", "s0.json", "s1.npy", "-o", "merged", "-q"], dir));
+    for file in ["npy", "d_cube_x.npy"] {
+        let (w, m) = (
+            npy(&dir.join(format!("whole.{file}"))),
+            npy(&dir.join(format!("merged.{file}"))),
+        );
+        assert_eq!(w.len(), m.len());
+        let scale = w.iter().fold(0.0f32, |a, v| a.max(v.abs()));
+        assert!(scale > 0.0, "{file} is empty");
+        for (a, b) in w.iter().zip(&m) {
+            assert!((a - b).abs() <= 1e-5 * scale, "{file}: {a} vs {b}");
+        }
+    }
+    let (w, m) = (json(&dir.join("whole.json")), json(&dir.join("merged.json")));
+    assert_eq!(w["paths"], m["paths"]);
+    assert_eq!(w["identity"], m["identity"]);
+    assert_eq!(m["merged"]["shards"].as_array().unwrap().len(), 3);
+    assert!(m.get("shard").is_none());
+    let e = |v: &serde_json::Value, k: &str| v["energy"]["primal"][k].as_f64().unwrap();
+    for k in ["inside", "after", "total"] {
+        assert!((e(&w, k) - e(&m, k)).abs() <= 1e-9 * e(&w, "total"), "energy.{k}");
+    }
+    let files: Vec<String> = serde_json::from_value(m["files"].clone()).unwrap();
+    assert_eq!(files, ["merged.npy", "merged.d_cube_x.npy", "merged.json"]);
+}
+
+#[test]
+fn shards_that_do_not_belong_together_are_refused() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path();
+    for i in 0..2 {
+        render(dir, &format!("s{i}"), &["--shard", &format!("{i}/2")]);
+    }
+    render(dir, "other_seed", &["--shard", "1/2", "--seed", "99"]);
+    render(dir, "of3", &["--shard", "1/3"]);
+    render(dir, "plain", &[]);
+    let cases: [(&[&str], &str); 6] = [
+        (&["s0"], "missing shard(s) 1/2"),
+        (&["s0", "s1", "s1"], "given twice"),
+        (&["s0", "other_seed"], "identity.seed differs"),
+        (&["s0", "of3"], "not shards of one split"),
+        (&["s0", "plain"], "is shard 0/1"),
+        (&["s0", "nothing"], "nothing.json"),
+    ];
+    for (shards, message) in cases {
+        let mut args = vec!["merge"];
+        args.extend(shards);
+        args.extend(["-o", "out"]);
+        let o = dtr(&args, dir);
+        assert!(!o.status.success(), "{shards:?} merged");
+        assert!(stderr(&o).contains(message), "{shards:?}: {}", stderr(&o));
+        assert!(!dir.join("out.npy").exists() && !dir.join("out.json").exists());
+    }
+    // the merge never writes over a shard
+    let before = std::fs::read(dir.join("s0.npy")).unwrap();
+    let o = dtr(&["merge", "s0", "s1", "-o", "s0"], dir);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("would replace the input"), "{}", stderr(&o));
+    assert_eq!(std::fs::read(dir.join("s0.npy")).unwrap(), before);
+    // bad --shard values
+    for bad in ["2/2", "1/0", "x"] {
+        let o = dtr(&["render", SCENE, "--shard", bad, "-o", "bad"], dir);
+        assert!(!o.status.success());
+        assert!(stderr(&o).contains("I/N"), "{}", stderr(&o));
+    }
+}
