@@ -135,6 +135,15 @@ impl Bins {
     }
 }
 
+/// A [`TileFilm`]'s running sums, exactly (f32 or f64 bins as the film keeps them).
+#[derive(Clone, Debug, Default)]
+pub struct TileSums {
+    pub data32: Vec<f32>,
+    pub data64: Vec<f64>,
+    pub steady: Vec<f64>,
+    pub tails: [f64; 2],
+}
+
 /// A rectangle of pixels accumulated by one worker; merged into a [`Transient`] in a fixed
 /// order, so results do not depend on the thread count or scheduling.
 #[derive(Clone, Debug)]
@@ -191,6 +200,42 @@ impl TileFilm {
         self.steady.clear();
         self.steady.resize(sn, 0.0);
         self.tails = [0.0; 2];
+    }
+
+    /// The film's running sums as they stand (for a checkpoint, `crate::checkpoint`).
+    pub fn sums(&self) -> TileSums {
+        let (data32, data64) = match &self.data {
+            Bins::F32(v) => (v.clone(), Vec::new()),
+            Bins::F64(v) => (Vec::new(), v.clone()),
+        };
+        TileSums {
+            data32,
+            data64,
+            steady: self.steady.clone(),
+            tails: self.tails,
+        }
+    }
+
+    /// Puts back sums taken by [`TileFilm::sums`] from a film of the same shape; refuses
+    /// sums of another shape or precision.
+    pub fn restore(&mut self, s: TileSums) -> Result<(), String> {
+        let ok = match &mut self.data {
+            Bins::F32(v) if v.len() == s.data32.len() && s.data64.is_empty() => {
+                *v = s.data32;
+                true
+            }
+            Bins::F64(v) if v.len() == s.data64.len() && s.data32.is_empty() => {
+                *v = s.data64;
+                true
+            }
+            _ => false,
+        };
+        if !ok || s.steady.len() != self.steady.len() {
+            return Err("the saved film has another shape or precision".into());
+        }
+        self.steady = s.steady;
+        self.tails = s.tails;
+        Ok(())
     }
 
     /// Primal energy (summed over pixels and channels, not yet divided by spp) that fell

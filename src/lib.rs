@@ -15,6 +15,7 @@
 
 pub mod accel;
 pub mod boundary;
+pub mod checkpoint;
 pub mod cli;
 pub mod error;
 pub mod film;

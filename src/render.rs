@@ -6,6 +6,7 @@
 //! bytes for any thread count.
 
 use crate::accel::{Device, set_flush_denormals};
+use crate::checkpoint::{Checkpointing, Saved};
 use crate::error::Error;
 use crate::film::{DerivWindowEnergy, SteadyMode, TileFilm, Transient, WindowEnergy};
 use crate::integrator::RenderContext;
@@ -64,6 +65,9 @@ pub struct RenderOptions {
     /// whole render's sample counts, so that the shards' films add up to the whole render
     /// ([`crate::shard`]). Default: the whole render.
     pub shard: crate::shard::Shard,
+    /// Write checkpoints (and resume from one): `dtr render --checkpoint SECONDS --resume`
+    /// ([`crate::checkpoint`]). Not with per-strategy films.
+    pub checkpoint: Option<std::sync::Arc<crate::checkpoint::Checkpointing>>,
 }
 
 /// Which parts of the gradient `render_diff` estimates. Tests use the parts to show that the
@@ -448,6 +452,20 @@ struct Run<'s> {
     kind: IntegratorKind,
     robust: bool,
     bvh_build_seconds: f64,
+    /// With checkpoints: what the finished interior pass saved (then the boundary stage).
+    saved: std::sync::Mutex<Option<Saved>>,
+    checkpoint: Option<std::sync::Arc<Checkpointing>>,
+}
+
+fn lock<T>(m: &std::sync::Mutex<T>) -> std::sync::MutexGuard<'_, T> {
+    m.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+/// A checkpoint that cannot be written does not stop the render: it is reported once.
+fn report(ck: &Checkpointing, r: Result<(), Error>) {
+    if let Err(e) = r {
+        eprintln!("warning: checkpoint {} not written: {e}", ck.path.display());
+    }
 }
 
 /// The interior pass's films (the primal, then one per parameter), per-strategy films (BDPT
@@ -479,6 +497,12 @@ impl<'s> Run<'s> {
                 scene.source.display()
             )));
         }
+        if per_strategy && opts.checkpoint.is_some() {
+            return Err(Error::Invalid(format!(
+                "{}: per-strategy films (--strategies) cannot be checkpointed; render them without --checkpoint",
+                scene.source.display()
+            )));
+        }
         let derivs = motion.len();
         let kind = opts.integrator.unwrap_or(scene.integrator.kind);
         check_memory(scene, derivs, kind, opts.threads, per_strategy)?;
@@ -501,7 +525,63 @@ impl<'s> Run<'s> {
             kind,
             robust,
             bvh_build_seconds: t_build.elapsed().as_secs_f64(),
+            saved: std::sync::Mutex::new(None),
+            checkpoint: opts.checkpoint.clone(),
         })
+    }
+
+    fn checkpointing(&self) -> Option<&std::sync::Arc<Checkpointing>> {
+        self.checkpoint.as_ref()
+    }
+
+    /// The checkpoint this render resumes from, once (for `units` units of the interior).
+    fn resumed(&self, units: usize) -> Option<Saved> {
+        let ck = self.checkpointing()?;
+        let saved = ck.resume.lock().unwrap_or_else(|e| e.into_inner()).take()?;
+        assert_eq!(
+            saved.units, units,
+            "a checkpoint of the same render (identity checked) has the same units"
+        );
+        *self.saved.lock().unwrap_or_else(|e| e.into_inner()) = Some(Saved {
+            boundary: saved.boundary.clone(),
+            ..Default::default()
+        });
+        Some(saved)
+    }
+
+    /// On SIGINT/SIGTERM, write the state of the running pass.
+    fn watch(&self, state: &std::sync::Arc<std::sync::Mutex<Saved>>) {
+        if let Some(ck) = self.checkpointing() {
+            let (ck, state) = (ck.clone(), state.clone());
+            crate::checkpoint::set_signal_writer(Some(Box::new(move || {
+                let snapshot = lock(&state).clone();
+                report(&ck, ck.write(&snapshot));
+            })));
+        }
+    }
+
+    /// Writes a checkpoint of `state` when one is due.
+    fn checkpoint_if_due(&self, state: &std::sync::Mutex<Saved>) {
+        if let Some(ck) = self.checkpointing().filter(|ck| ck.due()) {
+            let snapshot = lock(state).clone();
+            report(ck, ck.write(&snapshot));
+        }
+    }
+
+    /// The state at the end of the interior pass; with checkpoints, written and kept (with
+    /// a resumed boundary stage) for the boundary stage's checkpoint.
+    fn finish_pass(&self, state: std::sync::Arc<std::sync::Mutex<Saved>>) -> Saved {
+        crate::checkpoint::set_signal_writer(None);
+        let mut st = std::sync::Arc::try_unwrap(state)
+            .map(|m| m.into_inner().unwrap_or_else(|e| e.into_inner()))
+            .unwrap_or_else(|arc| lock(&arc).clone());
+        if let Some(ck) = self.checkpointing() {
+            let mut kept = self.saved.lock().unwrap_or_else(|e| e.into_inner());
+            st.boundary = kept.take().and_then(|k| k.boundary);
+            report(ck, ck.write(&st));
+            *kept = Some(st.clone());
+        }
+        st
     }
 
     /// The interior estimator (Algorithm 1) over every pixel: the path tracer over tiles or
@@ -526,43 +606,68 @@ impl<'s> Run<'s> {
             IntegratorKind::Path => {
                 // Tiles cover disjoint pixels and `out` starts at zero, so each pixel receives
                 // exactly one tile's sums (0 + x = x): merging as tiles finish gives the same
-                // bytes for any order and thread count. Each worker reuses one film across its
-                // tiles.
-                let merged = std::sync::Mutex::new(&mut out);
+                // bytes for any order and thread count, and a checkpoint's films (the
+                // finished tiles, zero elsewhere) resume to the same bytes. Each worker reuses
+                // one film across its tiles.
+                let units = tiles.len();
+                let mut state = Saved {
+                    units,
+                    done: vec![false; units],
+                    tallies: vec![None; units],
+                    ..Default::default()
+                };
+                if let Some(saved) = self.resumed(units) {
+                    out = saved.frame.clone();
+                    state = saved;
+                }
+                bar.inc(state.done_units() as u64);
+                state.frame = out;
+                let state = std::sync::Arc::new(std::sync::Mutex::new(state));
+                self.watch(&state);
+                let todo: Vec<usize> = {
+                    let st = lock(&state);
+                    (0..units).filter(|&i| !st.done[i]).collect()
+                };
                 self.pool.install(|| {
-                    tiles
-                        .par_iter()
-                        .map_init(
-                            || None::<TileFilm>,
-                            |spare, &(x0, y0)| {
-                                let tw = TILE.min(w - x0);
-                                let th = TILE.min(h - y0);
-                                let mut film = match spare.take() {
-                                    Some(mut f) => {
-                                        f.reset(x0, y0, tw, th);
-                                        f
-                                    }
-                                    None => ctx.tile_film(x0, y0, tw, th, derivs),
-                                };
-                                let mut counts = PathCounts::default();
-                                let tick0 = crate::timing::ticks();
-                                let (f, c) = (&mut film, &mut counts);
-                                dispatch!(
-                                    derivs,
-                                    opts.lanes,
-                                    channels,
-                                    render_tile(ctx, seed, spp, samples, w, f, c)
-                                );
-                                counts.total_ticks = crate::timing::ticks() - tick0;
-                                film.merge_into(&mut merged.lock().unwrap_or_else(|e| e.into_inner()));
-                                let (tails, sums) = (film.tails(), film.block_sums());
-                                *spare = Some(film);
-                                bar.inc(1);
-                                (counts, tails, sums)
-                            },
-                        )
-                        .collect()
-                })
+                    todo.par_iter().for_each_init(
+                        || None::<TileFilm>,
+                        |spare, &i| {
+                            let (x0, y0) = tiles[i];
+                            let tw = TILE.min(w - x0);
+                            let th = TILE.min(h - y0);
+                            let mut film = match spare.take() {
+                                Some(mut f) => {
+                                    f.reset(x0, y0, tw, th);
+                                    f
+                                }
+                                None => ctx.tile_film(x0, y0, tw, th, derivs),
+                            };
+                            let mut counts = PathCounts::default();
+                            let tick0 = crate::timing::ticks();
+                            let (f, c) = (&mut film, &mut counts);
+                            dispatch!(
+                                derivs,
+                                opts.lanes,
+                                channels,
+                                render_tile(ctx, seed, spp, samples, w, f, c)
+                            );
+                            counts.total_ticks = crate::timing::ticks() - tick0;
+                            let tally = (counts, film.tails(), film.block_sums());
+                            {
+                                let mut st = lock(&state);
+                                film.merge_into(&mut st.frame);
+                                st.done[i] = true;
+                                st.tallies[i] = Some(tally);
+                            }
+                            self.checkpoint_if_due(&state);
+                            *spare = Some(film);
+                            bar.inc(1);
+                        },
+                    )
+                });
+                let st = self.finish_pass(state);
+                out = st.frame;
+                st.tallies.into_iter().map(|t| t.expect("every tile ran")).collect()
             }
             IntegratorKind::Bdpt => {
                 let strategies = if per_strategy {
@@ -573,26 +678,62 @@ impl<'s> Run<'s> {
                 let frame_floats = w * h * (axis.bins * channels + channels) * (1 + derivs + strategies);
                 let bytes = if derivs > 0 { 8 } else { 4 };
                 let per_chunk = tiles.len().div_ceil(bdpt_chunks(frame_floats, bytes));
+                let chunks: Vec<&[(usize, usize)]> = tiles.chunks(per_chunk.max(1)).collect();
+                let units = chunks.len();
+                let keep = self.checkpointing().is_some();
+                let mut state = Saved {
+                    units,
+                    done: vec![false; units],
+                    tallies: vec![None; units],
+                    chunks: vec![None; units],
+                    ..Default::default()
+                };
+                if let Some(saved) = self.resumed(units) {
+                    state = saved;
+                }
+                let state = std::sync::Arc::new(std::sync::Mutex::new(state));
+                self.watch(&state);
                 let results: Vec<(BdptFilm, PathCounts)> = self.pool.install(|| {
-                    tiles
-                        .par_chunks(per_chunk.max(1))
-                        .map(|chunk| {
+                    chunks
+                        .par_iter()
+                        .enumerate()
+                        .map(|(c, chunk)| {
                             let mut film = BdptFilm::new(ctx, derivs, per_strategy);
+                            let saved = {
+                                let st = lock(&state);
+                                st.done[c].then(|| (st.chunks[c].clone(), st.tallies[c].clone()))
+                            };
+                            if let Some((Some(sums), Some(tally))) = saved {
+                                film.film
+                                    .restore(sums)
+                                    .expect("a checkpoint of this render's chunk films");
+                                bar.inc(chunk.len() as u64);
+                                return (film, tally.0);
+                            }
                             let mut counts = PathCounts::default();
                             let tick0 = crate::timing::ticks();
-                            let (f, c) = (&mut film, &mut counts);
+                            let (f, cn) = (&mut film, &mut counts);
                             dispatch!(
                                 derivs,
                                 opts.lanes,
                                 channels,
-                                bdpt_tiles(ctx, seed, spp, samples, chunk, TILE, f, c)
+                                bdpt_tiles(ctx, seed, spp, samples, chunk, TILE, f, cn)
                             );
                             counts.total_ticks = crate::timing::ticks() - tick0;
+                            if keep {
+                                let tally = (counts, film.film.tails(), film.film.block_sums());
+                                let mut st = lock(&state);
+                                st.chunks[c] = Some(film.film.sums());
+                                st.done[c] = true;
+                                st.tallies[c] = Some(tally);
+                            }
+                            self.checkpoint_if_due(&state);
                             bar.inc(chunk.len() as u64);
                             (film, counts)
                         })
                         .collect()
                 });
+                self.finish_pass(state);
                 let list_len = results.first().map_or(0, |r| r.0.strategies.len());
                 strategy_out = vec![Transient::zeros(w, h, axis, channels); list_len];
                 for (chunk, _) in &results {
@@ -628,6 +769,14 @@ impl<'s> Run<'s> {
     fn boundary(&self, opts: &RenderOptions) -> Option<crate::boundary::BoundaryParts> {
         let wanted = self.derivs > 0 && self.ctx.motion.moves_geometry() && opts.boundary != BoundaryMode::InteriorOnly;
         wanted.then(|| {
+            let resumed = lock(&self.saved).as_ref().and_then(|s| s.boundary.clone());
+            if let Some((primary, secondary, stats)) = resumed {
+                return crate::boundary::BoundaryParts {
+                    primary,
+                    secondary,
+                    stats,
+                };
+            }
             let settings = crate::boundary::BoundarySettings {
                 spp_boundary: opts.spp_boundary.unwrap_or(self.spp),
                 seed: self.seed,
@@ -638,6 +787,12 @@ impl<'s> Run<'s> {
             let mut parts = crate::boundary::render_boundary(&self.ctx, &settings, &self.pool);
             parts.stats.wall_seconds = t_b.elapsed().as_secs_f64();
             parts.stats.cpu_seconds = cpu_seconds() - cpu_b;
+            if let Some(ck) = self.checkpointing() {
+                let mut kept = lock(&self.saved);
+                let saved = kept.get_or_insert_with(Saved::default);
+                saved.boundary = Some((parts.primary.clone(), parts.secondary.clone(), parts.stats.clone()));
+                report(ck, ck.write(saved));
+            }
             parts
         })
     }

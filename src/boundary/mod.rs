@@ -67,7 +67,7 @@ pub struct BoundaryParts {
 }
 
 /// What the boundary stage did.
-#[derive(Clone, Debug, Default, serde::Serialize)]
+#[derive(Clone, Debug, Default, serde::Serialize, serde::Deserialize)]
 pub struct BoundaryStats {
     pub spp_boundary: u32,
     /// Wall and CPU seconds of the whole stage (set by the render driver).

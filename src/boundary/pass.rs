@@ -31,7 +31,7 @@ const PILOT_STREAM: u64 = 0x7049_1A7B_0000_0001;
 const MIN_SHARE: f64 = 0.125;
 
 /// What the secondary-edge pass did.
-#[derive(Clone, Debug, Default, serde::Serialize)]
+#[derive(Clone, Debug, Default, serde::Serialize, serde::Deserialize)]
 pub struct SecondaryStats {
     pub samples: u64,
     pub pilot_samples: u64,

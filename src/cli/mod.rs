@@ -1,5 +1,6 @@
 //! The `dtr` command line: argument parsing and the commands it runs.
 
+mod checkpoint_cmd;
 mod info;
 pub mod output_set;
 mod render_cmd;

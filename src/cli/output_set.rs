@@ -48,7 +48,9 @@ fn install_signal_cleanup() -> anyhow::Result<()> {
                                 std::fs::remove_file(&p)
                             };
                         }
-                        eprintln!("dtr: interrupted (signal {sig}); nothing was written");
+                        // a checkpointing render saves what it has finished (crate::checkpoint)
+                        crate::checkpoint::write_on_signal();
+                        eprintln!("dtr: interrupted (signal {sig}); no output was written");
                         std::process::exit(128 + sig);
                     }
                 });

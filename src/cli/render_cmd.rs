@@ -79,6 +79,14 @@ pub struct RenderArgs {
     /// Also writes PREFIX.steady.npy (the steady image, for the merge).
     #[arg(long, value_name = "I/N", value_parser = parse_shard)]
     pub shard: Option<crate::shard::Shard>,
+    /// Write the finished work to PREFIX.checkpoint every SECONDS (and on SIGINT/SIGTERM), so
+    /// that `--resume` continues an interrupted render to the same bytes.
+    #[arg(long, value_name = "SECONDS")]
+    pub checkpoint: Option<f64>,
+    /// Continue the render saved in PREFIX.checkpoint (same scene, overrides and settings;
+    /// any thread count). Keeps checkpointing (every --checkpoint seconds, default 300).
+    #[arg(long)]
+    pub resume: bool,
     /// Trace one path at a time instead of 8-wide packets (reference/debug).
     #[arg(long)]
     pub scalar: bool,
@@ -159,7 +167,14 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
             Estimators::Boundary => BoundaryMode::BoundaryOnly,
         },
         shard: a.shard.unwrap_or_default(),
+        checkpoint: None,
     };
+    if let Some(t) = a.checkpoint.filter(|t| !(t.is_finite() && *t > 0.0)) {
+        bail!("--checkpoint {t}: expected a positive number of seconds");
+    }
+    if (a.checkpoint.is_some() || a.resume) && a.strategies {
+        bail!("--strategies cannot be checkpointed; render it without --checkpoint/--resume");
+    }
     if a.shard.is_some() && a.strategies {
         bail!("--strategies cannot be sharded; render it in one process");
     }
@@ -179,6 +194,16 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
         planned.push("steady.npy".into());
     }
     let mut set = OutputSet::prepare(&a.output, &scene.inputs, &a.scene, &planned)?;
+    let mut opts = opts;
+    let checkpoint = if a.checkpoint.is_some() || a.resume {
+        let identity =
+            super::shard_set::identity(&scene, &a.set, &a.diff, &opts, opts.spp.unwrap_or(scene.integrator.spp))?;
+        let ck = super::checkpoint_cmd::prepare(&set, &scene, identity, a.checkpoint, a.resume)?;
+        opts.checkpoint = Some(ck.clone());
+        Some(ck)
+    } else {
+        None
+    };
     let mut strategies = Vec::new();
     let (film, derivs, stats) = if a.strategies {
         let (f, per, s) = render_strategies(&scene, &opts)?;
@@ -229,6 +254,10 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
     meta["files"] = serde_json::json!(set.names_with("json"));
     output::write_json(&set.stage("json")?, &meta)?;
     let prefix_path = set.commit()?;
+    if let Some(ck) = &checkpoint {
+        // the render is whole: its checkpoint has served
+        let _ = std::fs::remove_file(&ck.path);
+    }
     let prefix = |ext: &str| with_suffix(&prefix_path, ext);
     // the primal is left zero on purpose by `--estimators boundary`
     // (a shard holds part of the energy; `dtr merge` checks the whole)

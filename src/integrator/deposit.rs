@@ -91,7 +91,7 @@ impl<const C: usize> LaneContribution<C> {
 }
 
 /// Per-packet tallies.
-#[derive(Clone, Copy, Debug, Default)]
+#[derive(Clone, Copy, Debug, Default, serde::Serialize, serde::Deserialize)]
 pub struct PathCounts {
     pub rays: RayCounts,
     /// Samples dropped because they were not finite (reported, never written to the film).

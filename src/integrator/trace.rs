@@ -14,7 +14,7 @@ pub struct HitLanes<V> {
 }
 
 /// Counts of rays sent to Embree, for rays/s reports.
-#[derive(Clone, Copy, Debug, Default)]
+#[derive(Clone, Copy, Debug, Default, serde::Serialize, serde::Deserialize)]
 pub struct RayCounts {
     pub intersect: u64,
     pub occluded: u64,

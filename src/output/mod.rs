@@ -10,6 +10,7 @@
 //! Film layout everywhere: `[H, W, T, C]` row-major, index `((y*W + x)*T + t)*C + c`.
 
 mod atomic;
+pub(crate) use atomic::write_atomic;
 mod error;
 mod exr_layers;
 mod font;

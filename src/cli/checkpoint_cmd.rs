@@ -1,0 +1,81 @@
+//! `dtr render --checkpoint SECONDS` and `--resume` (the checkpoints themselves:
+//! `crate::checkpoint`): where a render's checkpoint lives (PREFIX.checkpoint, under the
+//! output set's lock, so one render owns it) and whether it may resume from it.
+
+use super::output_set::{OutputSet, with_suffix};
+use crate::checkpoint::Checkpointing;
+use crate::scene::Scene;
+use anyhow::bail;
+use std::sync::Arc;
+use std::time::Duration;
+
+/// How often a resumed render checkpoints when `--checkpoint` is not given.
+const DEFAULT_SECONDS: f64 = 300.0;
+
+/// The checkpointing of a render to `set`'s prefix: every `seconds`, resuming from the
+/// checkpoint there when `resume` (refused when there is none, or it is another render's).
+pub fn prepare(
+    set: &OutputSet,
+    scene: &Scene,
+    identity: serde_json::Value,
+    seconds: Option<f64>,
+    resume: bool,
+) -> anyhow::Result<Arc<Checkpointing>> {
+    let path = with_suffix(set.prefix(), "checkpoint");
+    for input in &scene.inputs {
+        if std::fs::canonicalize(input).ok() == std::fs::canonicalize(&path).ok().filter(|_| path.exists()) {
+            bail!(
+                "the checkpoint {} would replace the input {}",
+                path.display(),
+                input.display()
+            );
+        }
+    }
+    let saved = if resume {
+        if !path.exists() {
+            bail!(
+                "--resume: there is no checkpoint {} (render with --checkpoint SECONDS first, or without --resume)",
+                path.display()
+            );
+        }
+        let (theirs, saved) = crate::checkpoint::read(&path)?;
+        if theirs != identity {
+            let key = identity
+                .as_object()
+                .and_then(|o| {
+                    o.keys()
+                        .find(|k| theirs.get(k.as_str()) != identity.get(k.as_str()))
+                        .cloned()
+                })
+                .unwrap_or_else(|| "identity".into());
+            bail!(
+                "--resume: {} is the checkpoint of another render: {key} was {} there, is {} now",
+                path.display(),
+                theirs.get(&key).unwrap_or(&theirs),
+                identity.get(&key).unwrap_or(&identity)
+            );
+        }
+        eprintln!(
+            "{}: resuming with {} of {} units of the interior pass done{}",
+            path.display(),
+            saved.done_units(),
+            saved.units,
+            if saved.boundary.is_some() {
+                " and the boundary stage"
+            } else {
+                ""
+            }
+        );
+        Some(saved)
+    } else {
+        if path.exists() {
+            eprintln!(
+                "warning: {} holds an earlier render's checkpoint; this render replaces it (--resume continues it instead)",
+                path.display()
+            );
+        }
+        None
+    };
+    let every = Duration::from_secs_f64(seconds.unwrap_or(DEFAULT_SECONDS));
+    Ok(Arc::new(Checkpointing::new(path, every, identity, saved)))
+}

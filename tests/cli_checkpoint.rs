@@ -1,0 +1,177 @@
+//! `dtr render --checkpoint SECONDS` and `--resume` (src/checkpoint.rs): a render killed
+//! part-way (SIGKILL: from its last periodic checkpoint; SIGTERM: from the checkpoint the
+//! signal writes) and resumed, with another thread count, writes the same bytes as the
+//! render that was never interrupted: path tracer, BDPT, and a derivative render whose
+//! boundary stage runs after the resume.
+
+mod common;
+use common::dtr;
+use std::path::Path;
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+const CORNELL: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell_box.toml");
+const SLIDE: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/silhouette_slide.toml");
+
+fn spawn(args: &[&str], cwd: &Path) -> Child {
+    Command::new(env!("CARGO_BIN_EXE_dtr"))
+        .current_dir(cwd)
+        .args(args)
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap()
+}
+
+/// (units done, units) of the checkpoint at `path`, if one is there.
+fn progress(path: &Path) -> Option<(usize, usize)> {
+    let bytes = std::fs::read(path).ok()?;
+    let n = u64::from_le_bytes(bytes.get(8..16)?.try_into().ok()?) as usize;
+    let header: serde_json::Value = serde_json::from_slice(bytes.get(16..16 + n)?).ok()?;
+    let done = header["done"]
+        .as_array()?
+        .iter()
+        .filter(|d| d.as_bool() == Some(true))
+        .count();
+    Some((done, header["units"].as_u64()? as usize))
+}
+
+/// Starts the render and sends `signal` once a checkpoint holds some but not all units.
+fn interrupt(args: &[&str], cwd: &Path, checkpoint: &Path, signal: i32) -> std::process::Output {
+    let child = spawn(args, cwd);
+    let t0 = Instant::now();
+    loop {
+        if let Some((done, units)) = progress(checkpoint) {
+            assert!(
+                done < units,
+                "the render finished before it could be interrupted; make it longer"
+            );
+            if done > 0 {
+                break;
+            }
+        }
+        assert!(t0.elapsed() < Duration::from_secs(120), "no checkpoint appeared");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    // SAFETY: kill(2) on our own child's pid.
+    unsafe { libc::kill(child.id() as i32, signal) };
+    child.wait_with_output().unwrap()
+}
+
+fn resume_equals_uninterrupted(scene: &str, extra: &[&str], files: &[&str], signal: i32) {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path();
+    let mut base = vec!["render", scene, "-q"];
+    base.extend(extra);
+    fn joined<'a>(base: &[&'a str], more: &[&'a str]) -> Vec<&'a str> {
+        base.iter().chain(more).copied().collect()
+    }
+    let with = |more: &[&'static str]| joined(&base, more);
+    let o = dtr(&with(&["-o", "whole", "--threads", "2"]), dir);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let ck = dir.join("r.checkpoint");
+    let o = interrupt(
+        &with(&["-o", "r", "--threads", "2", "--checkpoint", "0.05"]),
+        dir,
+        &ck,
+        signal,
+    );
+    assert!(!o.status.success());
+    if signal == libc::SIGTERM {
+        assert_eq!(
+            o.status.code(),
+            Some(128 + libc::SIGTERM),
+            "{}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+    }
+    let (done, units) = progress(&ck).expect("a checkpoint survives the interruption");
+    assert!(done < units);
+    assert!(!dir.join("r.npy").exists(), "no output of an interrupted render");
+    let o = dtr(&with(&["-o", "r", "--threads", "1", "--resume"]), dir);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(String::from_utf8_lossy(&o.stderr).contains(&format!("resuming with {done} of {units}")));
+    for f in files {
+        let (a, b) = (dir.join(format!("whole.{f}")), dir.join(format!("r.{f}")));
+        assert!(
+            std::fs::read(&a).unwrap() == std::fs::read(&b).unwrap(),
+            "{f} differs after the resume"
+        );
+    }
+    let json = |p: &str| -> serde_json::Value { serde_json::from_slice(&std::fs::read(dir.join(p)).unwrap()).unwrap() };
+    assert_eq!(json("whole.json")["energy"], json("r.json")["energy"]);
+    assert!(!ck.exists(), "the checkpoint is removed once the render is whole");
+}
+
+#[test]
+fn a_killed_path_tracer_render_resumes_to_the_same_bytes() {
+    resume_equals_uninterrupted(CORNELL, &["--spp", "1024"], &["npy"], libc::SIGKILL);
+}
+
+#[test]
+fn a_terminated_render_saves_a_checkpoint_and_resumes() {
+    resume_equals_uninterrupted(CORNELL, &["--spp", "1024"], &["npy"], libc::SIGTERM);
+}
+
+#[test]
+fn a_killed_bdpt_render_resumes_to_the_same_bytes() {
+    resume_equals_uninterrupted(
+        CORNELL,
+        &["--spp", "160", "--integrator", "bdpt"],
+        &["npy"],
+        libc::SIGKILL,
+    );
+}
+
+#[test]
+fn a_killed_derivative_render_resumes_to_the_same_bytes() {
+    // interrupted in the interior pass; the boundary stage runs after the resume
+    resume_equals_uninterrupted(
+        SLIDE,
+        &["--spp", "1024", "--spp-boundary", "4", "--diff", "cube_x"],
+        &["npy", "d_cube_x.npy"],
+        libc::SIGKILL,
+    );
+}
+
+#[test]
+fn resume_refuses_what_is_not_this_render() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path();
+    let o = dtr(&["render", CORNELL, "--spp", "2", "-o", "r", "--resume"], dir);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("there is no checkpoint"));
+    let ck = dir.join("r.checkpoint");
+    let o = interrupt(
+        &[
+            "render",
+            CORNELL,
+            "--spp",
+            "1024",
+            "-q",
+            "-o",
+            "r",
+            "--checkpoint",
+            "0.05",
+        ],
+        dir,
+        &ck,
+        libc::SIGKILL,
+    );
+    assert!(!o.status.success());
+    for (args, field) in [
+        (vec!["--spp", "512"], "spp"),
+        (vec!["--spp", "1024", "--seed", "5"], "seed"),
+        (vec!["--spp", "1024", "--integrator", "bdpt"], "integrator"),
+    ] {
+        let mut v = vec!["render", CORNELL, "-o", "r", "--resume"];
+        v.extend(args);
+        let o = dtr(&v, dir);
+        assert!(!o.status.success());
+        let e = String::from_utf8_lossy(&o.stderr);
+        assert!(e.contains("checkpoint of another render") && e.contains(field), "{e}");
+    }
+    std::fs::write(&ck, b"not a checkpoint").unwrap();
+    let o = dtr(&["render", CORNELL, "--spp", "1024", "-o", "r", "--resume"], dir);
+    assert!(String::from_utf8_lossy(&o.stderr).contains("not a usable dtr checkpoint"));
+}
