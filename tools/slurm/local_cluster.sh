@@ -1,15 +1,14 @@
 #!/usr/bin/env bash
-# Throwaway one-node Slurm cluster on loopback, for CI and integration tests.
-# (Clients talk to 127.0.0.1; the daemons still listen on all addresses, see gotchas below.)
-# Debian 12, run as root, no systemd needed: every daemon is started directly and
-# all config/state/logs/pids live under DIR, so nothing in /etc is used.
-#
-#   local_cluster.sh install        apt-get the packages (no-op if present)
-#   local_cluster.sh start DIR      write config, start munged+slurmctld+slurmd, wait for idle
-#   local_cluster.sh stop DIR       cancel jobs, stop the daemons (no-op if not running)
-#
-# After start: `source DIR/env.sh` (sets SLURM_CONF) before sbatch/squeue/sinfo.
-# Ports can be moved with SLURM_TEST_CTLD_PORT / SLURM_TEST_SLURMD_PORT.
+# Throwaway one-node Slurm cluster for CI and integration tests (Debian 12, as root,
+# no systemd): daemons are started directly; config, munge key, state, logs and pid
+# files all live under DIR, nothing in /etc is used.
+#   local_cluster.sh install     apt-get the packages (no-op if already installed)
+#   local_cluster.sh start DIR   write config, start munged+slurmctld+slurmd, wait for idle
+#   local_cluster.sh stop DIR    cancel jobs, stop the daemons (no-op if not running)
+# Then `source DIR/env.sh` (sets SLURM_CONF) before sbatch/squeue/sinfo.
+# Clients reach the daemons on 127.0.0.1, but the daemons listen on all addresses:
+# CommunicationParameters=NoCtldInAddrAny would bind to what `hostname` resolves to,
+# which breaks when it does not resolve (or resolves to a non-loopback address).
 set -euo pipefail
 
 PKGS=(munge slurmctld slurmd slurm-client)
@@ -52,9 +51,8 @@ port_free() {
 }
 
 write_conf() {
-  local d=$1 host=$2
+  local d=$1 host=$2 mem
   # Half of RAM capped at 1 GiB: slurmd drains the node if RealMemory exceeds what it sees.
-  local mem
   mem=$(awk '/MemTotal/ { m = int($2 / 2048); print (m > 1024 ? 1024 : m) }' /proc/meminfo)
   cat >"$d/slurm.conf" <<EOF
 ClusterName=localtest
@@ -97,11 +95,6 @@ EOF
   echo "export SLURM_CONF=$d/slurm.conf" >"$d/env.sh"
 }
 
-dump_logs() {
-  local f
-  for f in "$1"/log/*; do echo "===== $f" >&2; tail -n 40 "$f" >&2 || true; done
-}
-
 do_start() {
   mkdir -p "$1"
   local d host
@@ -115,6 +108,8 @@ do_start() {
   write_conf "$d" "$host"
   export SLURM_CONF=$d/slurm.conf
 
+  alive "$d/run/slurmctld.pid" slurmctld || port_free "$CTLD_PORT"   # check before starting anything
+  alive "$d/run/slurmd.pid" slurmd || port_free "$SLURMD_PORT"
   if ! alive "$d/run/munged.pid" munged; then
     [ -s "$d/munge/munge.key" ] || mungekey --create --keyfile="$d/munge/munge.key"
     chmod 600 "$d/munge/munge.key"
@@ -122,10 +117,10 @@ do_start() {
       --pid-file="$d/run/munged.pid" --log-file="$d/log/munged.log" \
       --seed-file="$d/munge/munged.seed" --origin=127.0.0.1  # origin: hostname may not resolve
   fi
-  alive "$d/run/slurmctld.pid" slurmctld || { port_free "$CTLD_PORT"; slurmctld -f "$SLURM_CONF"; }
-  alive "$d/run/slurmd.pid" slurmd || { port_free "$SLURMD_PORT"; slurmd -f "$SLURM_CONF"; }
+  alive "$d/run/slurmctld.pid" slurmctld || slurmctld -f "$SLURM_CONF"
+  alive "$d/run/slurmd.pid" slurmd || slurmd -f "$SLURM_CONF"
 
-  local i state=
+  local i f state=
   for ((i = 0; i < WAIT_SECS; i++)); do
     state=$(sinfo -h -N -n "$host" -o %t 2>/dev/null || true)
     [ "$state" = idle ] && break
@@ -133,7 +128,7 @@ do_start() {
   done
   if [ "$state" != idle ]; then
     echo "local_cluster: node $host not idle after ${WAIT_SECS}s (state: '${state}')" >&2
-    dump_logs "$d"
+    for f in "$d"/log/*; do echo "===== $f" >&2; tail -n 40 "$f" >&2 || true; done
     do_stop "$d"
     exit 1
   fi
@@ -153,13 +148,15 @@ do_stop() {
       sleep 1
     done
   fi
+  # TERM all at once (each takes 1-2 s to exit), wait up to 10 s, then KILL.
+  local pids=() pid
   for name in slurmd slurmctld munged; do
-    alive "$d/run/$name.pid" "$name" || continue
-    local pid
-    pid=$(cat "$d/run/$name.pid")
-    kill "$pid"
+    alive "$d/run/$name.pid" "$name" && pids+=("$(cat "$d/run/$name.pid")")
+  done
+  [ ${#pids[@]} -gt 0 ] && kill "${pids[@]}" 2>/dev/null || true
+  for pid in "${pids[@]}"; do
     for ((i = 0; i < 50; i++)); do kill -0 "$pid" 2>/dev/null || break; sleep 0.2; done
-    if kill -0 "$pid" 2>/dev/null; then kill -9 "$pid"; fi
+    kill -9 "$pid" 2>/dev/null || true
   done
   rm -f "$d"/run/*.pid
 }
