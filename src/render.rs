@@ -338,7 +338,16 @@ fn bdpt_chunks(frame_floats: usize, bytes: usize) -> usize {
 /// time axis), or the full-frame chunk films (BDPT), plus the boundary stage's derivative
 /// film. Films that carry derivatives accumulate in f64. In u128: 16384² pixels × 2²⁴ bins
 /// must not overflow.
-fn film_bytes(scene: &Scene, derivs: usize, kind: IntegratorKind, threads: usize, per_strategy: bool) -> u128 {
+/// With `checkpointing`, a snapshot of the films is taken while they are written (path
+/// tracer: the frame; BDPT: every finished chunk film is kept), so those count twice.
+fn film_bytes(
+    scene: &Scene,
+    derivs: usize,
+    kind: IntegratorKind,
+    threads: usize,
+    per_strategy: bool,
+    checkpointing: bool,
+) -> u128 {
     let f = &scene.film;
     let (px, bins, c) = (
         f.width as u128 * f.height as u128,
@@ -362,7 +371,8 @@ fn film_bytes(scene: &Scene, derivs: usize, kind: IntegratorKind, threads: usize
             chunks * floats * acc
         }
     };
-    outputs + workers + frame * d * 8
+    let copies = if checkpointing { 2 } else { 1 };
+    outputs * copies + workers * if kind == IntegratorKind::Bdpt { copies } else { 1 } + frame * d * 8
 }
 
 /// Memory the system can still give (Linux `MemAvailable`), if it can be read.
@@ -382,9 +392,17 @@ fn check_memory(
     kind: IntegratorKind,
     threads: Option<usize>,
     per_strategy: bool,
+    checkpointing: bool,
 ) -> Result<(), Error> {
     let threads = threads.unwrap_or_else(|| std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1));
-    let need = film_bytes(scene, derivs, kind, threads.clamp(1, MAX_THREADS), per_strategy);
+    let need = film_bytes(
+        scene,
+        derivs,
+        kind,
+        threads.clamp(1, MAX_THREADS),
+        per_strategy,
+        checkpointing,
+    );
     // without /proc/meminfo, refuse only what no machine has (1 PiB)
     let have = available_memory().unwrap_or(1 << 50);
     if need <= have {
@@ -505,7 +523,14 @@ impl<'s> Run<'s> {
         }
         let derivs = motion.len();
         let kind = opts.integrator.unwrap_or(scene.integrator.kind);
-        check_memory(scene, derivs, kind, opts.threads, per_strategy)?;
+        check_memory(
+            scene,
+            derivs,
+            kind,
+            opts.threads,
+            per_strategy,
+            opts.checkpoint.is_some(),
+        )?;
         set_flush_denormals();
         let device = Device::new("")?;
         let t_build = Instant::now();
