@@ -163,6 +163,7 @@ fn resume_refuses_what_is_not_this_render() {
         (vec!["--spp", "512"], "spp"),
         (vec!["--spp", "1024", "--seed", "5"], "seed"),
         (vec!["--spp", "1024", "--integrator", "bdpt"], "integrator"),
+        (vec!["--spp", "1024", "--shard", "1/2"], "shard"),
     ] {
         let mut v = vec!["render", CORNELL, "-o", "r", "--resume"];
         v.extend(args);

@@ -196,8 +196,10 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
     let mut set = OutputSet::prepare(&a.output, &scene.inputs, &a.scene, &planned)?;
     let mut opts = opts;
     let checkpoint = if a.checkpoint.is_some() || a.resume {
-        let identity =
+        let mut identity =
             super::shard_set::identity(&scene, &a.set, &a.diff, &opts, opts.spp.unwrap_or(scene.integrator.spp))?;
+        // a checkpoint belongs to one shard of the render
+        identity["shard"] = json!(opts.shard.to_string());
         let ck = super::checkpoint_cmd::prepare(&set, &scene, identity, a.checkpoint, a.resume)?;
         opts.checkpoint = Some(ck.clone());
         Some(ck)
