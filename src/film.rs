@@ -135,6 +135,46 @@ impl Bins {
     }
 }
 
+/// What estimators add path contributions to: a tile's bins ([`TileFilm`]), or the adjoint
+/// contraction of a loss's gradient (`crate::adjoint::AdjointFilm`), which keeps no bins.
+pub trait Accumulate {
+    /// `I += f·S_e(d)` at pixel (x, y).
+    fn add(&mut self, x: usize, y: usize, corr: &Correlation, d: f64, f: &[f32]);
+    /// `I += f·S_e(d)` and `İ_k += ḟ_k·S_e(d) + f·Ṡ_e(d)·ḋ_k` at pixel (x, y) (Algorithm 1);
+    /// `fdot[k*C + c]`, `ddot[k]`.
+    #[allow(clippy::too_many_arguments)]
+    fn add_with_derivs(
+        &mut self,
+        x: usize,
+        y: usize,
+        corr: &Correlation,
+        d: f64,
+        f: &[f32],
+        fdot: &[f32],
+        ddot: &[f32],
+    );
+}
+
+impl Accumulate for TileFilm {
+    #[inline]
+    fn add(&mut self, x: usize, y: usize, corr: &Correlation, d: f64, f: &[f32]) {
+        TileFilm::add(self, x, y, corr, d, f)
+    }
+    #[inline]
+    fn add_with_derivs(
+        &mut self,
+        x: usize,
+        y: usize,
+        corr: &Correlation,
+        d: f64,
+        f: &[f32],
+        fdot: &[f32],
+        ddot: &[f32],
+    ) {
+        TileFilm::add_with_derivs(self, x, y, corr, d, f, fdot, ddot)
+    }
+}
+
 /// A [`TileFilm`]'s running sums, exactly (f32 or f64 bins as the film keeps them).
 #[derive(Clone, Debug, Default)]
 pub struct TileSums {

@@ -14,6 +14,7 @@
 //! geometry, the [`boundary`] integral (Algorithm 2: primary and secondary edges).
 
 pub mod accel;
+pub mod adjoint;
 pub mod boundary;
 pub mod checkpoint;
 pub mod cli;
@@ -28,6 +29,7 @@ pub mod shard;
 pub mod temporal;
 pub mod timing;
 
+pub use adjoint::render_adjoint;
 pub use error::Error;
 pub use film::Transient;
 pub use render::{

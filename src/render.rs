@@ -14,7 +14,8 @@ use crate::integrator::bdpt::{self, film::BdptFilm};
 use crate::integrator::deposit::PathCounts;
 use crate::integrator::motion::{MAX_PARAMS, Motion};
 use crate::integrator::path::{PacketLanes, trace_packet};
-use crate::kernel::{Dual8, Real, f32x8};
+use crate::integrator::sink::Sink;
+use crate::kernel::{Dual8, Real};
 use crate::scene::{IntegratorKind, Scene};
 use rayon::prelude::*;
 use std::time::Instant;
@@ -255,7 +256,7 @@ pub fn render_diff_parts(scene: &Scene, params: &[String], opts: &RenderOptions)
 
 /// Refuses parameters that shift paths in time when S_e is discontinuous in time (delta
 /// pulse, box gate): Ṡ_e is then a Dirac distribution (supplemental Lemma 2.5).
-fn check_time_derivatives(scene: &Scene, params: &[String], motion: &Motion) -> Result<(), Error> {
+pub(crate) fn check_time_derivatives(scene: &Scene, params: &[String], motion: &Motion) -> Result<(), Error> {
     for (k, name) in params.iter().enumerate() {
         if !motion.shifts_time(k) {
             continue;
@@ -436,43 +437,45 @@ fn check_memory(
 macro_rules! dispatch {
     ($derivs:expr, $lanes:expr, $channels:expr, $f:ident ( $($arg:expr),* )) => {
         match ($derivs, $lanes, $channels) {
-            (0, Lanes::Simd8, 1) => $f::<f32x8, 1>($($arg),*),
-            (0, Lanes::Simd8, _) => $f::<f32x8, 3>($($arg),*),
-            (0, Lanes::Scalar, 1) => $f::<f32, 1>($($arg),*),
-            (0, Lanes::Scalar, _) => $f::<f32, 3>($($arg),*),
-            (1, _, 1) => $f::<Dual8<1>, 1>($($arg),*),
-            (1, _, _) => $f::<Dual8<1>, 3>($($arg),*),
-            (2, _, 1) => $f::<Dual8<2>, 1>($($arg),*),
-            (2, _, _) => $f::<Dual8<2>, 3>($($arg),*),
-            (3..=4, _, 1) => $f::<Dual8<4>, 1>($($arg),*),
-            (3..=4, _, _) => $f::<Dual8<4>, 3>($($arg),*),
-            (5..=8, _, 1) => $f::<Dual8<8>, 1>($($arg),*),
-            (5..=8, _, _) => $f::<Dual8<8>, 3>($($arg),*),
-            (_, _, 1) => $f::<Dual8<16>, 1>($($arg),*),
-            (_, _, _) => $f::<Dual8<16>, 3>($($arg),*),
+            (0, $crate::render::Lanes::Simd8, 1) => $f::<$crate::kernel::f32x8, 1, _>($($arg),*),
+            (0, $crate::render::Lanes::Simd8, _) => $f::<$crate::kernel::f32x8, 3, _>($($arg),*),
+            (0, $crate::render::Lanes::Scalar, 1) => $f::<f32, 1, _>($($arg),*),
+            (0, $crate::render::Lanes::Scalar, _) => $f::<f32, 3, _>($($arg),*),
+            (1, _, 1) => $f::<$crate::kernel::Dual8<1>, 1, _>($($arg),*),
+            (1, _, _) => $f::<$crate::kernel::Dual8<1>, 3, _>($($arg),*),
+            (2, _, 1) => $f::<$crate::kernel::Dual8<2>, 1, _>($($arg),*),
+            (2, _, _) => $f::<$crate::kernel::Dual8<2>, 3, _>($($arg),*),
+            (3..=4, _, 1) => $f::<$crate::kernel::Dual8<4>, 1, _>($($arg),*),
+            (3..=4, _, _) => $f::<$crate::kernel::Dual8<4>, 3, _>($($arg),*),
+            (5..=8, _, 1) => $f::<$crate::kernel::Dual8<8>, 1, _>($($arg),*),
+            (5..=8, _, _) => $f::<$crate::kernel::Dual8<8>, 3, _>($($arg),*),
+            (_, _, 1) => $f::<$crate::kernel::Dual8<16>, 1, _>($($arg),*),
+            (_, _, _) => $f::<$crate::kernel::Dual8<16>, 3, _>($($arg),*),
         }
     };
 }
+
+pub(crate) use dispatch;
 
 // The widest instance dispatch! picks has a derivative lane for every parameter allowed.
 const _: () = assert!(<Dual8<16> as Real>::DERIVS == MAX_PARAMS);
 
 /// One render's shared state: the scene prepared for the kernel (BVH, emitters, motion,
 /// window cut), the thread pool, and the samples and seed every estimator draws from.
-struct Run<'s> {
-    ctx: RenderContext<'s>,
-    pool: rayon::ThreadPool,
-    spp: u32,
+pub(crate) struct Run<'s> {
+    pub(crate) ctx: RenderContext<'s>,
+    pub(crate) pool: rayon::ThreadPool,
+    pub(crate) spp: u32,
     /// The sample indices this run traces: `0..spp`, or a shard's part of them.
-    samples: std::ops::Range<u64>,
-    seed: u64,
-    derivs: usize,
-    kind: IntegratorKind,
-    robust: bool,
-    bvh_build_seconds: f64,
+    pub(crate) samples: std::ops::Range<u64>,
+    pub(crate) seed: u64,
+    pub(crate) derivs: usize,
+    pub(crate) kind: IntegratorKind,
+    pub(crate) robust: bool,
+    pub(crate) bvh_build_seconds: f64,
     /// With checkpoints: what the finished interior pass saved (then the boundary stage).
-    saved: std::sync::Mutex<Option<Saved>>,
-    checkpoint: Option<std::sync::Arc<Checkpointing>>,
+    pub(crate) saved: std::sync::Mutex<Option<Saved>>,
+    pub(crate) checkpoint: Option<std::sync::Arc<Checkpointing>>,
 }
 
 fn lock<T>(m: &std::sync::Mutex<T>) -> std::sync::MutexGuard<'_, T> {
@@ -501,7 +504,12 @@ struct Interior {
 
 impl<'s> Run<'s> {
     /// Checks the options and the memory the films need, builds the BVH and the pool.
-    fn new(scene: &'s Scene, motion: Motion, opts: &RenderOptions, per_strategy: bool) -> Result<Self, Error> {
+    pub(crate) fn new(
+        scene: &'s Scene,
+        motion: Motion,
+        opts: &RenderOptions,
+        per_strategy: bool,
+    ) -> Result<Self, Error> {
         let spp = opts.spp.unwrap_or(scene.integrator.spp);
         if spp == 0 {
             return Err(Error::Invalid(format!(
@@ -674,7 +682,7 @@ impl<'s> Run<'s> {
                                 derivs,
                                 opts.lanes,
                                 channels,
-                                render_tile(ctx, seed, spp, samples, w, f, c)
+                                render_tile(ctx, seed, spp, samples, w, (x0, y0, tw, th), f, c)
                             );
                             counts.total_ticks = crate::timing::ticks() - tick0;
                             let tally = (counts, film.tails(), film.block_sums());
@@ -965,7 +973,7 @@ fn pilot_energy_after(
                     0,
                     lanes,
                     ctx.scene.film.channels,
-                    render_tile(ctx, seed ^ PILOT_STREAM, 1, &(0..1), w, f, c)
+                    render_tile(ctx, seed ^ PILOT_STREAM, 1, &(0..1), w, (x0, y0, tw, th), f, c)
                 );
                 (film.tails()[1], (tw * th) as u64)
             })
@@ -979,24 +987,27 @@ fn pilot_energy_after(
 
 /// The samples `samples` (of `spp` per pixel) of one tile: for each sample index, one packet
 /// per tile row (up to 8 pixels).
+/// `rect` = (x0, y0, w, h) of the tile; its paths go to `film`, any [`Sink`].
 #[allow(clippy::too_many_arguments)]
-fn render_tile<R: Real, const C: usize>(
+pub(crate) fn render_tile<R: Real, const C: usize, S: Sink<C>>(
     ctx: &RenderContext,
     seed: u64,
     spp: u32,
     samples: &std::ops::Range<u64>,
     width: usize,
-    film: &mut TileFilm,
+    rect: (usize, usize, usize, usize),
+    film: &mut S,
     counts: &mut PathCounts,
 ) {
     let lanes_per_packet = R::LANES;
+    let (x0, y0, tw, th) = rect;
     for s in samples.clone() {
-        for ty in 0..film.h {
+        for ty in 0..th {
             let mut x = 0;
-            while x < film.w {
-                let n = lanes_per_packet.min(film.w - x);
-                let lanes = PacketLanes::row(film.x0 + x, film.y0 + ty, n, width, spp, s);
-                trace_packet::<R, C, _>(ctx, seed, &lanes, film, counts);
+            while x < tw {
+                let n = lanes_per_packet.min(tw - x);
+                let lanes = PacketLanes::row(x0 + x, y0 + ty, n, width, spp, s);
+                trace_packet::<R, C, S>(ctx, seed, &lanes, film, counts);
                 x += n;
             }
         }

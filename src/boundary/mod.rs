@@ -91,14 +91,11 @@ pub fn render_boundary(ctx: &RenderContext, settings: &BoundarySettings, pool: &
     .0;
     let primary_seconds = t0.elapsed().as_secs_f64();
     let sec = secondary::Secondary::new(ctx);
-    let film = &ctx.scene.film;
-    let samples = settings.spp_boundary as u64 * film.width as u64 * film.height as u64;
-    let guiding = settings.guiding;
-    let pilot = (samples / if guiding { 8 } else { 16 }).max(1024);
+    let (samples, pilot) = secondary_counts(ctx, settings);
     let (secondary, sstats) = sec.render(
         samples,
         pilot,
-        guiding,
+        settings.guiding,
         settings.seed ^ SECONDARY_SEED,
         settings.shard,
         pool,
@@ -114,4 +111,55 @@ pub fn render_boundary(ctx: &RenderContext, settings: &BoundarySettings, pool: &
             ..Default::default()
         },
     }
+}
+
+/// Boundary samples of the secondary pass and of its pilot (1/8 of them when guided, else
+/// 1/16, at least 1024).
+fn secondary_counts(ctx: &RenderContext, settings: &BoundarySettings) -> (u64, u64) {
+    let film = &ctx.scene.film;
+    let samples = settings.spp_boundary as u64 * film.width as u64 * film.height as u64;
+    let pilot = (samples / if settings.guiding { 8 } else { 16 }).max(1024);
+    (samples, pilot)
+}
+
+/// The boundary stage contracted with an adjoint volume (`crate::adjoint`): the same
+/// samples as [`render_boundary`], each path's derivative contracted with ∂L/∂I on the fly.
+/// Returns Σ ⟨∂L/∂I, primary_k + secondary_k⟩ per parameter and the stage's record.
+pub fn boundary_adjoint(
+    ctx: &RenderContext,
+    settings: &BoundarySettings,
+    pool: &rayon::ThreadPool,
+    adjoint: &Transient,
+) -> ([f64; crate::integrator::motion::MAX_PARAMS], BoundaryStats) {
+    let t0 = Instant::now();
+    let (mut grad, _) = primary::primary_adjoint(
+        ctx,
+        settings.spp_boundary,
+        settings.seed ^ PRIMARY_SEED,
+        settings.shard,
+        pool,
+        adjoint,
+    );
+    let primary_seconds = t0.elapsed().as_secs_f64();
+    let sec = secondary::Secondary::new(ctx);
+    let (samples, pilot) = secondary_counts(ctx, settings);
+    let (g2, sstats) = sec.adjoint(
+        samples,
+        pilot,
+        settings.guiding,
+        settings.seed ^ SECONDARY_SEED,
+        settings.shard,
+        pool,
+        adjoint,
+    );
+    grad.iter_mut().zip(g2).for_each(|(a, b)| *a += b);
+    let stats = BoundaryStats {
+        spp_boundary: settings.spp_boundary,
+        primary_seconds,
+        secondary: sstats,
+        edges: sec.edge_count(),
+        wall_seconds: t0.elapsed().as_secs_f64(),
+        ..Default::default()
+    };
+    (grad, stats)
 }

@@ -161,11 +161,81 @@ impl Secondary<'_> {
         shard: crate::shard::Shard,
         pool: &rayon::ThreadPool,
     ) -> (Vec<Transient>, SecondaryStats) {
-        let t0 = Instant::now();
         let film = &self.ctx.scene.film;
         let (w, h) = (film.width as usize, film.height as usize);
-        let channels = film.channels;
-        let mut out = vec![Transient::zeros(w, h, film.axis, channels); 1 + self.params];
+        let mut out = vec![Transient::zeros(w, h, film.axis, film.channels); 1 + self.params];
+        // Bands of film rows bin each batch's paths in parallel, each band every path in
+        // chunk order, so the bytes do not depend on the thread count, and memory stays one
+        // film plus a batch of path lists.
+        let bands = h.clamp(1, BANDS);
+        let mut tiles: Vec<TileFilm> = (0..bands)
+            .map(|b| {
+                let (y0, y1) = (b * h / bands, (b + 1) * h / bands);
+                self.ctx.tile_film(0, y0, w, y1 - y0, self.params)
+            })
+            .collect();
+        let stats = self.trace(samples, pilot, guiding, seed, shard, pool, |paths| {
+            let dropped: Vec<u64> = pool.install(|| {
+                tiles
+                    .par_iter_mut()
+                    .map(|tile| {
+                        let rows = tile.y0..tile.y0 + tile.h;
+                        paths
+                            .iter()
+                            .map(|bp| u64::from(!self.splat(tile, rows.clone(), bp)))
+                            .sum()
+                    })
+                    .collect()
+            });
+            dropped[0]
+        });
+        for tile in &tiles {
+            tile.merge_into(&mut out);
+        }
+        out.remove(0);
+        out.iter_mut().for_each(|t| t.scale(1.0 / samples.max(1) as f32));
+        (out, stats)
+    }
+
+    /// The secondary term contracted with an adjoint volume (`crate::adjoint`): the same
+    /// samples as [`Secondary::render`], each path's İ_k contracted with ∂L/∂I in the bins
+    /// it touches, without a derivative film.
+    #[allow(clippy::too_many_arguments)]
+    pub fn adjoint(
+        &self,
+        samples: u64,
+        pilot: u64,
+        guiding: bool,
+        seed: u64,
+        shard: crate::shard::Shard,
+        pool: &rayon::ThreadPool,
+        adjoint: &Transient,
+    ) -> ([f64; MAX_PARAMS], SecondaryStats) {
+        let mut acc = crate::adjoint::AdjointFilm::new(adjoint);
+        let h = self.ctx.scene.film.height as usize;
+        let stats = self.trace(samples, pilot, guiding, seed, shard, pool, |paths| {
+            paths.iter().map(|bp| u64::from(!self.splat(&mut acc, 0..h, bp))).sum()
+        });
+        let mut grad = acc.grad;
+        grad.iter_mut().for_each(|g| *g /= samples.max(1) as f64);
+        (grad, stats)
+    }
+
+    /// The pilot, then every boundary sample of `shard` in chunks traced in parallel; each
+    /// batch's paths go to `consume` in chunk order, which returns how many it dropped as
+    /// not finite.
+    #[allow(clippy::too_many_arguments)]
+    fn trace(
+        &self,
+        samples: u64,
+        pilot: u64,
+        guiding: bool,
+        seed: u64,
+        shard: crate::shard::Shard,
+        pool: &rayon::ThreadPool,
+        mut consume: impl FnMut(&[BoundaryPath]) -> u64,
+    ) -> SecondaryStats {
+        let t0 = Instant::now();
         let own = shard.range(samples);
         let mut stats = SecondaryStats {
             // this shard's share (the shards' counts add up to `samples`)
@@ -174,8 +244,7 @@ impl Secondary<'_> {
             ..Default::default()
         };
         if self.edges.is_empty() || samples == 0 || self.params == 0 {
-            out.remove(0);
-            return (out, stats);
+            return stats;
         }
         let pl = self.pilot(pilot.max(1), seed ^ PILOT_STREAM, guiding, pool);
         stats.rays += pl.rays;
@@ -187,17 +256,6 @@ impl Secondary<'_> {
         // each strategy's paths carry samples/n_s, so that the final 1/samples averages each
         // over its own count
         let scale = [samples as f32 / n_a as f32, samples as f32 / n_b as f32];
-
-        // Chunks trace in parallel and record their paths; then bands of film rows bin the
-        // paths in parallel, each band every path in chunk order, so the bytes do not depend
-        // on the thread count, and memory stays one film plus a batch of path lists.
-        let bands = h.clamp(1, BANDS);
-        let mut tiles: Vec<TileFilm> = (0..bands)
-            .map(|b| {
-                let (y0, y1) = (b * h / bands, (b + 1) * h / bands);
-                self.ctx.tile_film(0, y0, w, y1 - y0, self.params)
-            })
-            .collect();
         let ids = n_a.max(n_b);
         let mine = shard.range(ids);
         let chunks = ids.div_ceil(CHUNK);
@@ -230,38 +288,21 @@ impl Secondary<'_> {
                     })
                     .collect()
             });
-            let dropped: Vec<u64> = pool.install(|| {
-                tiles
-                    .par_iter_mut()
-                    .map(|tile| {
-                        let mut bad = 0;
-                        for bp in parts.iter().flat_map(|(paths, _)| paths) {
-                            bad += u64::from(!self.splat(tile, bp));
-                        }
-                        bad
-                    })
-                    .collect()
-            });
-            stats.non_finite += dropped[0];
-            for (_, s) in &parts {
+            for (paths, s) in &parts {
+                stats.non_finite += consume(paths);
                 stats.rays += s.rays.intersect + s.rays.occluded;
                 stats.valid_segments += s.valid;
             }
             batch0 += BATCH;
         }
-        for tile in &tiles {
-            tile.merge_into(&mut out);
-        }
-        out.remove(0);
-        out.iter_mut().for_each(|t| t.scale(1.0 / samples as f32));
         stats.seconds = t0.elapsed().as_secs_f64();
-        (out, stats)
+        stats
     }
 
     /// Bins one boundary path into the derivative channels of `tile` (its primal stays 0):
     /// İ_k += f_L·f_S·weight_k·h_j · S_e(d) at each pixel j of the tile's rows that the filter
     /// reaches. False (and nothing added) when a value is not finite.
-    fn splat(&self, tile: &mut TileFilm, bp: &BoundaryPath) -> bool {
+    fn splat<A: crate::film::Accumulate>(&self, tile: &mut A, rows: std::ops::Range<usize>, bp: &BoundaryPath) -> bool {
         let ctx = self.ctx;
         let (c_n, p) = (ctx.scene.film.channels, self.params);
         let finite =
@@ -273,7 +314,6 @@ impl Secondary<'_> {
         let zeros = [0.0f32; 3];
         let ddot = [0.0f32; MAX_PARAMS];
         let mut fdot = [0.0f32; MAX_PARAMS * 3];
-        let rows = tile.y0..tile.y0 + tile.h;
         ctx.camera.for_each_pixel(bp.fx, bp.fy, |px, py, hw| {
             if hw == 0.0 || !rows.contains(&(py as usize)) {
                 return;

@@ -90,9 +90,45 @@ pub fn render_primary_with_stats(
     let (w, h) = (scene.film.width as usize, scene.film.height as usize);
     let blank = Transient::zeros(w, h, scene.film.axis, scene.film.channels);
     let mut out = vec![blank; ctx.motion.len().min(MAX_PARAMS)];
+    let mut sums: Vec<SumFilm> = out.iter().map(SumFilm::new).collect();
+    let stats = for_each_jump(ctx, spp_boundary, seed, shard, pool, |jump| jump.splat(ctx, &mut sums));
+    sums.iter().zip(out.iter_mut()).for_each(|(s, t)| s.store(t));
+    (out, stats)
+}
+
+/// The primary term contracted with an adjoint volume (`crate::adjoint`): Σ over the jumps
+/// of ⟨∂L/∂I, h_j·weight_k·(L⁻ − L⁺)⟩, per parameter, without a derivative film.
+pub fn primary_adjoint(
+    ctx: &RenderContext,
+    spp_boundary: u32,
+    seed: u64,
+    shard: Shard,
+    pool: &rayon::ThreadPool,
+    adjoint: &Transient,
+) -> ([f64; MAX_PARAMS], PrimaryStats) {
+    let mut grad = [0.0f64; MAX_PARAMS];
+    let stats = for_each_jump(ctx, spp_boundary, seed, shard, pool, |jump| {
+        jump.contract(ctx, adjoint, &mut grad)
+    });
+    (grad, stats)
+}
+
+/// Draws the primary-edge samples of `shard` and hands their jumps to `consume` in sample
+/// order (the same order for any thread count).
+fn for_each_jump(
+    ctx: &RenderContext,
+    spp_boundary: u32,
+    seed: u64,
+    shard: Shard,
+    pool: &rayon::ThreadPool,
+    mut consume: impl FnMut(&Jump),
+) -> PrimaryStats {
+    let scene = ctx.scene;
+    let (w, h) = (scene.film.width as usize, scene.film.height as usize);
+    let derivs = ctx.motion.len().min(MAX_PARAMS);
     let mut stats = PrimaryStats::default();
-    if spp_boundary == 0 || out.is_empty() || !ctx.motion.moves_geometry() {
-        return (out, stats);
+    if spp_boundary == 0 || derivs == 0 || !ctx.motion.moves_geometry() {
+        return stats;
     }
     let mut moving = vec![false; scene.shapes.len()];
     for (s, _) in ctx.motion.fields.iter().flatten() {
@@ -103,7 +139,7 @@ pub fn render_primary_with_stats(
     let margin = ctx.camera.filter().radius() as f64;
     let set = SilhouetteSet::build(&scene.geometry, &edges, &pin, margin, |s| moving[s as usize]);
     if set.is_empty() {
-        return (out, stats);
+        return stats;
     }
     let total = spp_boundary as u64 * (w * h) as u64;
     let est = Estimator {
@@ -113,15 +149,14 @@ pub fn render_primary_with_stats(
         seed,
         weight: set.total_length / total as f64,
         samples: total,
-        derivs: out.len(),
+        derivs,
     };
     let mine = shard.range(total);
     let chunks: Vec<(u64, u64)> = (0..total.div_ceil(CHUNK))
         .map(|c| ((c * CHUNK).max(mine.start), ((c + 1) * CHUNK).min(mine.end)))
         .filter(|(a, b)| a < b)
         .collect();
-    // Waves of a few chunks per thread bound the memory; splats are added in chunk order.
-    let mut sums: Vec<SumFilm> = out.iter().map(SumFilm::new).collect();
+    // Waves of a few chunks per thread bound the memory; jumps are consumed in chunk order.
     for wave in chunks.chunks(4 * pool.current_num_threads().max(1)) {
         let done: Vec<(Vec<Jump>, PrimaryStats)> = pool.install(|| {
             wave.par_iter()
@@ -132,16 +167,13 @@ pub fn render_primary_with_stats(
                 .collect()
         });
         for (jumps, s) in &done {
-            for jump in jumps {
-                jump.splat(ctx, &mut sums);
-            }
+            jumps.iter().for_each(&mut consume);
             stats.samples += s.samples;
             stats.traced += s.traced;
             stats.non_finite += s.non_finite;
         }
     }
-    sums.iter().zip(out.iter_mut()).for_each(|(s, t)| s.store(t));
-    (out, stats)
+    stats
 }
 
 /// The traced jump L⁻ − L⁺ of one sample, over bins `lo..` (channels interleaved), and of its
@@ -174,6 +206,25 @@ impl Jump {
                     .iter_mut()
                     .zip(&self.steady)
                     .for_each(|(d, &v)| *d += w * v as f64);
+            }
+        });
+    }
+}
+
+impl Jump {
+    /// Adds ⟨∂L/∂I, h_j · weight_k · (L⁻ − L⁺)⟩ over every pixel j the filter reaches to
+    /// `grad[k]`.
+    fn contract(&self, ctx: &RenderContext, adjoint: &Transient, grad: &mut [f64; MAX_PARAMS]) {
+        let (fx, fy) = (self.film.x as f32, self.film.y as f32);
+        ctx.camera.for_each_pixel(fx, fy, |px, py, hj| {
+            let base = adjoint.index(px as usize, py as usize, self.lo, 0);
+            let a = &adjoint.data[base..base + self.delta.len()];
+            let dot: f64 = a.iter().zip(&self.delta).map(|(&a, &d)| a as f64 * d as f64).sum();
+            if dot == 0.0 {
+                return;
+            }
+            for (g, &wk) in grad.iter_mut().zip(&self.weight) {
+                *g += (hj * wk) as f64 * dot;
             }
         });
     }

@@ -10,7 +10,7 @@
 use super::context::RenderContext;
 use super::motion::MAX_PARAMS;
 use super::trace::RayCounts;
-use crate::film::TileFilm;
+use crate::film::Accumulate;
 use crate::kernel::{Real, Spectrum};
 
 /// A finite contribution of one lane: f (per channel), ḟ, d and ḋ.
@@ -75,7 +75,7 @@ impl<const C: usize> LaneContribution<C> {
 
     /// Adds h·f to pixel (x, y) of `film`, and h·ḟ_k to derivative k (the pixel weight h is a
     /// constant: film points never move).
-    pub fn add_to(&self, ctx: &RenderContext, film: &mut TileFilm, x: usize, y: usize, h: f32) {
+    pub fn add_to<A: Accumulate>(&self, ctx: &RenderContext, film: &mut A, x: usize, y: usize, h: f32) {
         let corr = &ctx.correlations[self.emitter as usize];
         let f: [f32; C] = self.f.map(|v| v * h);
         if self.n_k == 0 {

@@ -34,7 +34,6 @@ use super::deposit::{PathCounts, for_each_lane};
 use super::path::PacketLanes;
 use super::sink::Sink;
 use crate::kernel::{PathSampler, Real, Spectrum};
-use film::BdptFilm;
 use vertex::Vertex;
 use walk::LightOrigin;
 
@@ -141,14 +140,14 @@ pub fn trace_packet<R: Real, const C: usize, S: Sink<C>>(
 /// `tile`-sized tile), in order, into one chunk film: the BDPT counterpart of the path
 /// tracer's per-tile loop.
 #[allow(clippy::too_many_arguments)]
-pub fn render_tiles<R: Real, const C: usize>(
+pub fn render_tiles<R: Real, const C: usize, S: Sink<C>>(
     ctx: &RenderContext,
     seed: u64,
     spp: u32,
     samples: &std::ops::Range<u64>,
     tiles: &[(usize, usize)],
     tile: usize,
-    film: &mut BdptFilm,
+    film: &mut S,
     counts: &mut PathCounts,
 ) {
     let (w, h) = (ctx.scene.film.width as usize, ctx.scene.film.height as usize);

@@ -1,0 +1,228 @@
+//! Adjoint (reverse-mode) gradients of a loss: dL/dθ_k = Σ_bins ⟨∂L/∂I, İ_k⟩, contracted
+//! path by path as the estimators produce İ, so no derivative film is ever stored.
+//!
+//! A user optimises a scalar loss L(I) of the transient. Its gradient with respect to the
+//! scene parameters is the inner product of the adjoint volume ∂L/∂I (one value per pixel,
+//! bin and channel: the film's shape) with each derivative film İ_k. Every estimator writes
+//! İ as a sum of per-path terms binned through S_e (Algorithm 1: ḟ·S_e + f·Ṡ_e·ḋ; the boundary
+//! terms of Algorithm 2 and the primary edges: Δf·V·S_e), so the inner product is the sum over
+//! paths of each term contracted with ∂L/∂I in the bins it touches ([`AdjointFilm`]). Memory
+//! is the adjoint volume plus O(P) per worker, for any number of parameters P
+//! (≤ `MAX_PARAMS` per render today, as the dual-number lanes are).
+//!
+//! [`render_adjoint`] runs the same estimators with the same samples as
+//! `render::render_diff`, so its gradient equals Σ ∂L/∂I·İ of `render_diff` up to float
+//! rounding (tests/adjoint.rs).
+
+use crate::film::{Accumulate, Transient};
+use crate::integrator::motion::MAX_PARAMS;
+use crate::temporal::Correlation;
+
+/// Contracts path contributions with an adjoint volume: `grad[k] += Σ_bins,c ∂L/∂I · İ_k`.
+/// Primal contributions are ignored (the adjoint pass needs only derivatives).
+pub struct AdjointFilm<'a> {
+    adjoint: &'a Transient,
+    /// Σ ⟨∂L/∂I, İ_k⟩ so far (not yet divided by the estimator's sample count).
+    pub grad: [f64; MAX_PARAMS],
+}
+
+impl<'a> AdjointFilm<'a> {
+    pub fn new(adjoint: &'a Transient) -> Self {
+        Self {
+            adjoint,
+            grad: [0.0; MAX_PARAMS],
+        }
+    }
+}
+
+impl Accumulate for AdjointFilm<'_> {
+    #[inline]
+    fn add(&mut self, _: usize, _: usize, _: &Correlation, _: f64, _: &[f32]) {}
+
+    #[inline]
+    fn add_with_derivs(
+        &mut self,
+        x: usize,
+        y: usize,
+        corr: &Correlation,
+        d: f64,
+        f: &[f32],
+        fdot: &[f32],
+        ddot: &[f32],
+    ) {
+        let a = self.adjoint;
+        let c_n = a.channels;
+        let base = a.index(x, y, 0, 0);
+        let n_k = ddot.len().min(MAX_PARAMS);
+        let grad = &mut self.grad;
+        corr.for_each(d, |bin, s, ds| {
+            let adj = &a.data[base + bin * c_n..base + (bin + 1) * c_n];
+            if adj.iter().all(|&v| v == 0.0) {
+                return;
+            }
+            for k in 0..n_k {
+                let dd = ds * ddot[k] as f64;
+                let mut g = 0.0;
+                for c in 0..c_n {
+                    g += adj[c] as f64 * (fdot[k * c_n + c] as f64 * s + f[c] as f64 * dd);
+                }
+                grad[k] += g;
+            }
+        });
+    }
+}
+
+impl<const C: usize> crate::integrator::sink::Sink<C> for AdjointFilm<'_> {
+    #[inline]
+    fn add(
+        &mut self,
+        ctx: &crate::integrator::RenderContext,
+        _: (usize, usize),
+        x: usize,
+        y: usize,
+        lc: &crate::integrator::deposit::LaneContribution<C>,
+        h: f32,
+    ) {
+        lc.add_to(ctx, self, x, y, h);
+    }
+}
+
+/// What an adjoint render did.
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct AdjointStats {
+    pub spp: u32,
+    pub seed: u64,
+    /// Interior paths traced.
+    pub paths: u64,
+    pub non_finite_samples: u64,
+    /// The boundary stage, when a parameter moves geometry.
+    pub boundary: Option<crate::boundary::BoundaryStats>,
+    pub wall_seconds: f64,
+}
+
+/// dL/dθ_k = Σ ⟨∂L/∂I, İ_k⟩ for each parameter in `params`, where `adjoint` is ∂L/∂I: a
+/// film of the scene's shape ([H, W, T, C] and time axis). Runs the estimators of
+/// `render::render_diff` (interior; primary and secondary edges when a parameter moves
+/// geometry) with the same samples for the same options, contracting each path's
+/// derivative on the fly.
+pub fn render_adjoint(
+    scene: &crate::Scene,
+    params: &[String],
+    adjoint: &Transient,
+    opts: &crate::RenderOptions,
+) -> Result<(Vec<f64>, AdjointStats), crate::Error> {
+    use crate::Error;
+    use crate::integrator::deposit::PathCounts;
+    use crate::render::{BoundaryMode, Run, TILE, dispatch, render_tile};
+    use crate::scene::IntegratorKind;
+    use rayon::prelude::*;
+    let f = &scene.film;
+    let shape = [f.height as usize, f.width as usize, f.axis.bins, f.channels];
+    if adjoint.shape() != shape || adjoint.axis != f.axis {
+        return Err(Error::Invalid(format!(
+            "{}: the adjoint (dL/dI) has shape {:?} and time axis {:?}; the scene's film is {shape:?} with {:?}",
+            scene.source.display(),
+            adjoint.shape(),
+            adjoint.axis,
+            f.axis
+        )));
+    }
+    if let Some(i) = adjoint.data.iter().position(|v| !v.is_finite()) {
+        return Err(Error::Invalid(format!(
+            "{}: the adjoint (dL/dI) holds a non-finite value at index {i}",
+            scene.source.display()
+        )));
+    }
+    if opts.checkpoint.is_some() {
+        return Err(Error::Invalid("adjoint renders are not checkpointed".into()));
+    }
+    let motion = crate::integrator::motion::Motion::build(scene, params)?;
+    if motion.len() > MAX_PARAMS || motion.is_empty() {
+        return Err(Error::Invalid(format!(
+            "an adjoint render takes 1 to {MAX_PARAMS} parameters (asked for {})",
+            motion.len()
+        )));
+    }
+    crate::render::check_time_derivatives(scene, params, &motion)?;
+    let t0 = std::time::Instant::now();
+    let run = Run::new(scene, motion, opts, false)?;
+    let (ctx, spp, seed, derivs) = (&run.ctx, run.spp, run.seed, run.derivs);
+    let samples = &run.samples;
+    let (w, h) = (f.width as usize, f.height as usize);
+    let channels = f.channels;
+    let interior = opts.boundary != BoundaryMode::BoundaryOnly;
+    let tiles: Vec<(usize, usize)> = (0..if interior { h.div_ceil(TILE) } else { 0 })
+        .flat_map(|ty| (0..w.div_ceil(TILE)).map(move |tx| (tx * TILE, ty * TILE)))
+        .collect();
+    // Per tile (path tracer) or per fixed chunk of tiles (BDPT), summed in order: the same
+    // gradient for any thread count.
+    let units: Vec<Vec<(usize, usize)>> = match run.kind {
+        IntegratorKind::Path => tiles.iter().map(|&t| vec![t]).collect(),
+        IntegratorKind::Bdpt => tiles
+            .chunks(tiles.len().div_ceil(8).max(1))
+            .map(<[_]>::to_vec)
+            .collect(),
+    };
+    let parts: Vec<([f64; MAX_PARAMS], PathCounts)> = run.pool.install(|| {
+        units
+            .par_iter()
+            .map(|unit| {
+                let mut acc = AdjointFilm::new(adjoint);
+                let mut counts = PathCounts::default();
+                let (a, c) = (&mut acc, &mut counts);
+                match run.kind {
+                    IntegratorKind::Path => {
+                        let (x0, y0) = unit[0];
+                        let rect = (x0, y0, TILE.min(w - x0), TILE.min(h - y0));
+                        dispatch!(
+                            derivs,
+                            opts.lanes,
+                            channels,
+                            render_tile(ctx, seed, spp, samples, w, rect, a, c)
+                        );
+                    }
+                    IntegratorKind::Bdpt => {
+                        use crate::integrator::bdpt::render_tiles;
+                        dispatch!(
+                            derivs,
+                            opts.lanes,
+                            channels,
+                            render_tiles(ctx, seed, spp, samples, unit, TILE, a, c)
+                        );
+                    }
+                }
+                (acc.grad, counts)
+            })
+            .collect()
+    });
+    let mut grad = [0.0f64; MAX_PARAMS];
+    let mut stats = AdjointStats {
+        spp,
+        seed,
+        paths: if interior {
+            (w * h) as u64 * (samples.end - samples.start)
+        } else {
+            0
+        },
+        ..Default::default()
+    };
+    for (g, c) in &parts {
+        grad.iter_mut().zip(g).for_each(|(a, b)| *a += b / spp as f64);
+        stats.non_finite_samples += c.non_finite;
+    }
+    let boundary = derivs > 0 && ctx.motion.moves_geometry() && opts.boundary != BoundaryMode::InteriorOnly;
+    if boundary {
+        let settings = crate::boundary::BoundarySettings {
+            spp_boundary: opts.spp_boundary.unwrap_or(spp),
+            seed,
+            guiding: opts.guiding,
+            shard: opts.shard,
+        };
+        let (g, b) = crate::boundary::boundary_adjoint(ctx, &settings, &run.pool, adjoint);
+        grad.iter_mut().zip(g).for_each(|(a, b)| *a += b);
+        stats.non_finite_samples += b.secondary.non_finite;
+        stats.boundary = Some(b);
+    }
+    stats.wall_seconds = t0.elapsed().as_secs_f64();
+    Ok((grad[..derivs].to_vec(), stats))
+}
