@@ -22,6 +22,7 @@ pub mod error;
 pub mod film;
 pub mod integrator;
 pub mod kernel;
+pub mod optimize;
 pub mod output;
 pub mod render;
 pub mod scene;

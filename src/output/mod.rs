@@ -29,7 +29,7 @@ pub use json::write_json;
 pub use npy::write_npy;
 pub use plot::write_time_plot;
 pub use preview::{MAX_SHEET_FRAMES, write_contact_sheet, write_steady_png};
-pub use xy_plot::write_loglog_plot;
+pub use xy_plot::{write_line_plot, write_loglog_plot};
 
 use std::path::Path;
 

@@ -1,0 +1,65 @@
+//! Adam (Kingma & Ba 2015, Algorithm 1) with a box constraint per parameter: after each step
+//! a parameter is clamped to its bounds (projected gradient descent).
+
+/// Adam's state for n parameters.
+#[derive(Clone, Debug)]
+pub struct Adam {
+    /// Learning rate per parameter.
+    pub lr: Vec<f64>,
+    pub beta1: f64,
+    pub beta2: f64,
+    pub eps: f64,
+    m: Vec<f64>,
+    v: Vec<f64>,
+    t: i32,
+}
+
+impl Adam {
+    /// Adam with a learning rate per parameter (the step it takes per iteration, roughly, in
+    /// its own units: metres, degrees, ...) and the usual β₁ = 0.9, β₂ = 0.999, ε = 10⁻⁸.
+    pub fn new(lr: Vec<f64>) -> Self {
+        let n = lr.len();
+        Self {
+            lr,
+            beta1: 0.9,
+            beta2: 0.999,
+            eps: 1e-8,
+            m: vec![0.0; n],
+            v: vec![0.0; n],
+            t: 0,
+        }
+    }
+
+    /// One step of `x` down the gradient `g`, then `x` clamped to `bounds` (lo, hi).
+    pub fn step(&mut self, x: &mut [f64], g: &[f64], bounds: &[(f64, f64)]) {
+        self.t += 1;
+        let (b1, b2) = (self.beta1, self.beta2);
+        let (c1, c2) = (1.0 - b1.powi(self.t), 1.0 - b2.powi(self.t));
+        for i in 0..x.len() {
+            self.m[i] = b1 * self.m[i] + (1.0 - b1) * g[i];
+            self.v[i] = b2 * self.v[i] + (1.0 - b2) * g[i] * g[i];
+            let (m, v) = (self.m[i] / c1, self.v[i] / c2);
+            x[i] -= self.lr[i] * m / (v.sqrt() + self.eps);
+            let (lo, hi) = bounds[i];
+            x[i] = x[i].clamp(lo, hi);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn adam_finds_the_minimum_of_a_quadratic_and_respects_bounds() {
+        // f = (x − 3)² + 10 (y + 1)²: minimum (3, −1); y bounded to [−0.5, 5]
+        let mut adam = Adam::new(vec![0.05, 0.05]);
+        let mut x = [0.0, 2.0];
+        for _ in 0..2000 {
+            let g = [2.0 * (x[0] - 3.0), 20.0 * (x[1] + 1.0)];
+            adam.step(&mut x, &g, &[(-10.0, 10.0), (-0.5, 5.0)]);
+        }
+        assert!((x[0] - 3.0).abs() < 1e-3, "{x:?}");
+        assert_eq!(x[1], -0.5, "y stops at its bound");
+    }
+}

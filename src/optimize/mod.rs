@@ -1,0 +1,155 @@
+//! Inverse rendering: recover scene parameters from a measured (or rendered) transient by
+//! gradient descent on a loss ([`loss::Loss`]), with gradients from the adjoint renderer
+//! (`crate::adjoint::render_adjoint`) and Adam with bounds ([`adam::Adam`]).
+//!
+//! Each iteration renders the transient at the current parameters (forward kernel, no
+//! derivative lanes), computes the loss and its adjoint ∂L/∂I against the target, and runs
+//! the adjoint render with an independent seed: with one shared set of samples, ∂L/∂I
+//! (a function of the noisy I) and İ would be correlated and their product biased for any
+//! loss that is not linear in I.
+
+pub mod adam;
+pub mod loss;
+
+use crate::error::Error;
+use crate::film::Transient;
+use crate::render::RenderOptions;
+use crate::scene::Scene;
+use std::path::PathBuf;
+
+/// What to recover and from what.
+#[derive(Clone, Debug)]
+pub struct Problem {
+    /// The scene file (re-read at every iteration with the current values as overrides).
+    pub scene: PathBuf,
+    /// Overrides held fixed (`--set`), besides the parameters being optimised.
+    pub fixed: Vec<(String, f64)>,
+    /// The parameters to recover (names of `[[param]]` entries).
+    pub params: Vec<String>,
+    pub target: Transient,
+    pub loss: loss::Loss,
+    /// Samples, threads, estimators; the seed is the first of the run's seed stream.
+    pub opts: RenderOptions,
+    /// Bounds per parameter (lo, hi).
+    pub bounds: Vec<(f64, f64)>,
+}
+
+/// One iteration: the loss at `values` and its gradient there.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Step {
+    pub iteration: usize,
+    pub loss: f64,
+    pub values: Vec<f64>,
+    pub grad: Vec<f64>,
+    pub seconds: f64,
+}
+
+impl Problem {
+    /// The scene with the parameters at `values`.
+    pub fn scene_at(&self, values: &[f64]) -> Result<Scene, Error> {
+        let mut overrides = self.fixed.clone();
+        overrides.extend(self.params.iter().cloned().zip(values.iter().copied()));
+        Ok(Scene::load(&self.scene, &overrides)?)
+    }
+
+    /// The parameters' values in the scene file (with the fixed overrides): the start.
+    pub fn initial_values(&self) -> Result<Vec<f64>, Error> {
+        let scene = Scene::load(&self.scene, &self.fixed)?;
+        self.params
+            .iter()
+            .map(|name| {
+                scene
+                    .params
+                    .iter()
+                    .find(|p| &p.name == name)
+                    .map(|p| p.value)
+                    .ok_or_else(|| {
+                        Error::Invalid(format!(
+                            "{}: no parameter {name:?} (dtr info lists them)",
+                            self.scene.display()
+                        ))
+                    })
+            })
+            .collect()
+    }
+
+    /// L and dL/dθ at `values`, with render seeds `seed` (primal) and `seed + 1` (adjoint).
+    pub fn loss_and_gradient(&self, values: &[f64], seed: u64) -> Result<(f64, Vec<f64>), Error> {
+        let scene = self.scene_at(values)?;
+        let primal = RenderOptions {
+            seed: Some(seed),
+            ..self.opts.clone()
+        };
+        let (image, _) = crate::render::render(&scene, &primal)?;
+        if image.shape() != self.target.shape() {
+            return Err(Error::Invalid(format!(
+                "the target has shape {:?}, the scene renders {:?} ([H, W, T, C])",
+                self.target.shape(),
+                image.shape()
+            )));
+        }
+        let (l, adjoint) = self.loss.value_and_adjoint(&image, &self.target);
+        let adj_opts = RenderOptions {
+            seed: Some(seed.wrapping_add(1)),
+            ..self.opts.clone()
+        };
+        let (grad, _) = crate::adjoint::render_adjoint(&scene, &self.params, &adjoint, &adj_opts)?;
+        Ok((l, grad))
+    }
+
+    /// Runs `iters` iterations of Adam from `start` with learning rates `lr` (one per
+    /// parameter) that decay geometrically to `lr · lr_end` at the last iteration (with noisy
+    /// gradients a constant rate leaves the iterates wandering around the answer; `lr_end = 1`
+    /// keeps it constant); `on_step` sees every iteration and returns false to stop early.
+    /// Returns every step.
+    pub fn optimize(
+        &self,
+        start: &[f64],
+        iters: usize,
+        lr: &[f64],
+        lr_end: f64,
+        mut on_step: impl FnMut(&Step) -> bool,
+    ) -> Result<Vec<Step>, Error> {
+        let n = self.params.len();
+        if !(lr_end > 0.0 && lr_end <= 1.0) {
+            return Err(Error::Invalid(format!(
+                "the final learning-rate fraction {lr_end} must be in (0, 1]"
+            )));
+        }
+        if self.bounds.len() != n || start.len() != n || lr.len() != n {
+            return Err(Error::Invalid(
+                "one start value, one bound and one learning rate per parameter".into(),
+            ));
+        }
+        let mut x = start.to_vec();
+        let mut adam = adam::Adam::new(lr.to_vec());
+        let base = self.opts.seed.unwrap_or(0);
+        let mut steps = Vec::with_capacity(iters);
+        for it in 0..iters {
+            let t0 = std::time::Instant::now();
+            let seed = base.wrapping_add(2 * it as u64);
+            let (l, g) = self.loss_and_gradient(&x, seed)?;
+            if !l.is_finite() || g.iter().any(|v| !v.is_finite()) {
+                return Err(Error::Invalid(format!(
+                    "iteration {it}: the loss ({l}) or its gradient ({g:?}) is not finite"
+                )));
+            }
+            let step = Step {
+                iteration: it,
+                loss: l,
+                values: x.clone(),
+                grad: g.clone(),
+                seconds: t0.elapsed().as_secs_f64(),
+            };
+            let go_on = on_step(&step);
+            steps.push(step);
+            if !go_on {
+                break;
+            }
+            let decay = lr_end.powf((it + 1) as f64 / iters.saturating_sub(1).max(1) as f64);
+            adam.lr = lr.iter().map(|l| l * decay).collect();
+            adam.step(&mut x, &g, &self.bounds);
+        }
+        Ok(steps)
+    }
+}
