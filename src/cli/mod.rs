@@ -2,6 +2,7 @@
 
 mod checkpoint_cmd;
 mod info;
+mod optimize_cmd;
 pub mod output_set;
 mod render_cmd;
 mod shard_set;
@@ -27,6 +28,9 @@ pub enum Command {
     /// Add the shards of one render (`dtr render --shard I/N`) into one output set, as if one
     /// process had rendered it.
     Merge(shard_set::MergeArgs),
+    /// Recover scene parameters from a target transient by gradient descent (Adam on adjoint
+    /// gradients): writes a log, plots and the scene with the recovered values.
+    Optimize(optimize_cmd::OptimizeArgs),
     /// Print a summary of a scene, including every parameter with its name, kind and value.
     Info {
         scene: PathBuf,
@@ -43,6 +47,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Render(args) => render_cmd::run(args),
         Command::Merge(args) => shard_set::run(args),
+        Command::Optimize(args) => optimize_cmd::run(args),
         Command::Info { scene, json, set } => info::run(&scene, json, &set),
     }
 }

@@ -101,7 +101,7 @@ pub enum Steady {
     Full,
 }
 
-#[derive(clap::ValueEnum, Clone, Copy, Debug)]
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Estimators {
     Full,
     Interior,

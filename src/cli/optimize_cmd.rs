@@ -1,0 +1,384 @@
+//! `dtr optimize`: recover scene parameters from a target transient (`crate::optimize`).
+//!
+//! Writes into a new (or empty) folder: `log.csv` (one row per iteration: loss, values,
+//! gradient, seconds; flushed as it goes), `best.json` (the lowest loss so far and its
+//! values), `recovered.toml` or `.json` (the scene with the recovered values: the best so
+//! far while running, the last iterate at the end), and the plots `loss.png` and
+//! `param_NAME.png`. An interrupted run (Ctrl-C) keeps the log and the best values so far.
+
+use crate::film::Transient;
+use crate::optimize::{Problem, Step, loss::Loss};
+use crate::render::{BoundaryMode, RenderOptions};
+use crate::scene::Scene;
+use anyhow::{Context, bail};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+#[derive(clap::Args, Debug)]
+pub struct OptimizeArgs {
+    /// Scene description (.toml or .json) whose [[param]] entries are recovered.
+    pub scene: PathBuf,
+    /// The measured or rendered transient to match: float32 .npy of the scene's film shape
+    /// [H, W, T, C] (as `dtr render` writes it).
+    #[arg(long, value_name = "TARGET.npy")]
+    pub target: PathBuf,
+    /// The parameters to recover (comma-separated names from `dtr info`).
+    #[arg(long, value_delimiter = ',', value_name = "NAME[,NAME...]", required = true)]
+    pub params: Vec<String>,
+    /// Iterations of Adam.
+    #[arg(long, default_value_t = 100)]
+    pub iters: usize,
+    /// Learning rate: roughly the step per iteration, in each parameter's units.
+    #[arg(long, default_value_t = 0.01)]
+    pub lr: f64,
+    /// Learning rate of one parameter (repeatable): --lr-of NAME=X.
+    #[arg(long = "lr-of", value_name = "NAME=X")]
+    pub lr_of: Vec<String>,
+    /// The learning rates decay geometrically to this fraction at the last iteration.
+    #[arg(long = "lr-end", default_value_t = 0.1)]
+    pub lr_end: f64,
+    /// Bounds of one parameter (repeatable): --bound NAME=LO:HI.
+    #[arg(long = "bound", value_name = "NAME=LO:HI")]
+    pub bound: Vec<String>,
+    /// Loss: l2, smooth (Gaussian blur in time, σ = 4 bins), multiscale (time scales of
+    /// 1..16 bins) or steady (time-integrated images only).
+    #[arg(long, default_value = "l2", value_parser = parse_loss)]
+    pub loss: Loss,
+    /// Samples per pixel of each render (primal and adjoint).
+    #[arg(long, default_value_t = 4)]
+    pub spp: u32,
+    /// Boundary samples per pixel (default: --spp).
+    #[arg(long = "spp-boundary")]
+    pub spp_boundary: Option<u32>,
+    /// First seed of the run's seed stream (iteration i renders with seeds S + 2i, S + 2i + 1).
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Override a parameter (repeatable): a recovered parameter starts there, any other
+    /// stays fixed there.
+    #[arg(long = "set", value_name = "NAME=VALUE")]
+    pub set: Vec<String>,
+    /// Which parts of the gradient to use: full (interior + boundary) or interior (to see
+    /// what the boundary term is for).
+    #[arg(long, value_enum, default_value = "full")]
+    pub estimators: super::render_cmd::Estimators,
+    /// Output folder (created; must be empty if it exists).
+    #[arg(short = 'o', long = "output", value_name = "DIR")]
+    pub output: PathBuf,
+    /// No progress line.
+    #[arg(long, short)]
+    pub quiet: bool,
+}
+
+fn parse_loss(s: &str) -> Result<Loss, String> {
+    Loss::parse(s)
+}
+
+/// `NAME=VALUE` pairs of a repeatable option, each name once and among `params`.
+fn named<T>(
+    option: &str,
+    items: &[String],
+    params: &[String],
+    parse: impl Fn(&str) -> Option<T>,
+    expected: &str,
+) -> anyhow::Result<Vec<(usize, T)>> {
+    let mut out: Vec<(usize, T)> = Vec::new();
+    for item in items {
+        let (name, value) = item
+            .split_once('=')
+            .with_context(|| format!("{option} {item:?}: expected NAME={expected}"))?;
+        let k = params.iter().position(|p| p == name.trim()).with_context(|| {
+            format!(
+                "{option} {item:?}: {name:?} is not one of --params {}",
+                params.join(",")
+            )
+        })?;
+        if out.iter().any(|(j, _)| *j == k) {
+            bail!("{option} names {name} more than once");
+        }
+        let v = parse(value.trim()).with_context(|| format!("{option} {item:?}: expected NAME={expected}"))?;
+        out.push((k, v));
+    }
+    Ok(out)
+}
+
+fn read_target(path: &Path, scene: &Scene) -> anyhow::Result<Transient> {
+    let f = &scene.film;
+    let shape = [f.height as usize, f.width as usize, f.axis.bins, f.channels];
+    let meta = std::fs::metadata(path).with_context(|| format!("--target {}: cannot read it", path.display()))?;
+    let expected = 4 * shape.iter().product::<usize>() as u64;
+    if !meta.is_file() || meta.len() > expected + 4096 {
+        bail!(
+            "--target {}: expected a float32 .npy of shape {shape:?} (the scene's [H, W, T, C])",
+            path.display()
+        );
+    }
+    let bytes = std::fs::read(path).with_context(|| format!("--target {}: cannot read it", path.display()))?;
+    let npy =
+        npyz::NpyFile::new(&bytes[..]).with_context(|| format!("--target {}: not a .npy file", path.display()))?;
+    let got: Vec<usize> = npy.shape().iter().map(|&d| d as usize).collect();
+    let f4 = npyz::DType::new_scalar("<f4".parse().expect("<f4 is a type string"));
+    if got != shape || npy.dtype() != f4 || npy.order() != npyz::Order::C {
+        bail!(
+            "--target {}: holds {:?} of shape {got:?}; the scene {} renders float32 {shape:?} ([H, W, T, C], C order)",
+            path.display(),
+            npy.dtype(),
+            scene.source.display()
+        );
+    }
+    let mut t = Transient::zeros(shape[1], shape[0], f.axis, f.channels);
+    t.data = npy
+        .into_vec()
+        .with_context(|| format!("--target {}: cannot decode", path.display()))?;
+    if let Some(i) = t.data.iter().position(|v| !v.is_finite()) {
+        bail!("--target {}: value {i} is not finite", path.display());
+    }
+    Ok(t)
+}
+
+/// The scene file's text with each `[[param]]` named in `values` set to its value.
+fn scene_with(path: &Path, values: &[(String, f64)]) -> anyhow::Result<String> {
+    let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {} again", path.display()))?;
+    let json = path.extension().and_then(|e| e.to_str()) == Some("json");
+    let mut doc: serde_json::Value = if json {
+        serde_json::from_str(&text)?
+    } else {
+        serde_json::to_value(toml::from_str::<toml::Value>(&text)?)?
+    };
+    if let Some(list) = doc.get_mut("param").and_then(|p| p.as_array_mut()) {
+        for p in list {
+            let name = p.get("name").and_then(|n| n.as_str()).map(str::to_string);
+            if let Some((_, v)) = values.iter().find(|(n, _)| Some(n) == name.as_ref()) {
+                p["value"] = serde_json::json!(v);
+            }
+        }
+    }
+    Ok(if json {
+        serde_json::to_string_pretty(&doc)?
+    } else {
+        format!(
+            "# {} with the values recovered by dtr optimize\n{}",
+            path.display(),
+            toml::to_string_pretty(&serde_json::from_value::<toml::Value>(doc)?)?
+        )
+    })
+}
+
+fn write_text(path: &Path, text: &str) -> anyhow::Result<()> {
+    crate::output::write_atomic(path, |w| {
+        w.write_all(text.as_bytes())
+            .map_err(|e| crate::output::OutputError::io(path, e))
+    })?;
+    Ok(())
+}
+
+pub fn run(a: OptimizeArgs) -> anyhow::Result<()> {
+    let sets = super::parse_sets(&a.set)?;
+    if let Some(name) = a
+        .params
+        .iter()
+        .enumerate()
+        .find(|(i, p)| a.params[..*i].contains(p))
+        .map(|(_, p)| p)
+    {
+        bail!("--params names {name} more than once");
+    }
+    if a.iters == 0 || a.spp == 0 || a.spp_boundary == Some(0) {
+        bail!("--iters, --spp and --spp-boundary must be at least 1");
+    }
+    if !(a.lr.is_finite() && a.lr > 0.0) {
+        bail!("--lr {}: expected a positive number", a.lr);
+    }
+    let (start_sets, fixed): (Vec<_>, Vec<_>) = sets.into_iter().partition(|(n, _)| a.params.contains(n));
+    let scene = Scene::load(&a.scene, &fixed)?;
+    let target = read_target(&a.target, &scene)?;
+    let mut lr = vec![a.lr; a.params.len()];
+    for (k, v) in named(
+        "--lr-of",
+        &a.lr_of,
+        &a.params,
+        |s| s.parse().ok().filter(|v: &f64| *v > 0.0),
+        "X (X > 0)",
+    )? {
+        lr[k] = v;
+    }
+    let mut bounds = vec![(f64::NEG_INFINITY, f64::INFINITY); a.params.len()];
+    let parse_bound = |s: &str| {
+        let (lo, hi) = s.split_once(':')?;
+        let (lo, hi): (f64, f64) = (lo.trim().parse().ok()?, hi.trim().parse().ok()?);
+        (lo < hi).then_some((lo, hi))
+    };
+    for (k, b) in named("--bound", &a.bound, &a.params, parse_bound, "LO:HI (LO < HI)")? {
+        bounds[k] = b;
+    }
+    let problem = Problem {
+        scene: a.scene.clone(),
+        fixed,
+        params: a.params.clone(),
+        target,
+        loss: a.loss,
+        opts: RenderOptions {
+            spp: Some(a.spp),
+            spp_boundary: a.spp_boundary,
+            seed: Some(a.seed),
+            threads: a.threads,
+            boundary: match a.estimators {
+                super::render_cmd::Estimators::Full => BoundaryMode::Full,
+                super::render_cmd::Estimators::Interior => BoundaryMode::InteriorOnly,
+                super::render_cmd::Estimators::Boundary => BoundaryMode::BoundaryOnly,
+            },
+            ..Default::default()
+        },
+        bounds,
+    };
+    let mut start = problem.initial_values()?;
+    for (n, v) in &start_sets {
+        let k = a.params.iter().position(|p| p == n).expect("partitioned by name");
+        start[k] = *v;
+    }
+    let dir = prepare_dir(&a.output, &[&a.scene, &a.target])?;
+    let recovered = dir.join(if a.scene.extension().and_then(|e| e.to_str()) == Some("json") {
+        "recovered.json"
+    } else {
+        "recovered.toml"
+    });
+    let mut log = std::io::BufWriter::new(
+        std::fs::File::create(dir.join("log.csv")).with_context(|| format!("cannot write {}", dir.display()))?,
+    );
+    let names = a.params.join(",");
+    let grads: Vec<String> = a.params.iter().map(|p| format!("d_{p}")).collect();
+    writeln!(log, "iteration,loss,{names},{},seconds", grads.join(","))?;
+    log.flush()?;
+    let bar = progress(!a.quiet, a.iters as u64);
+    let mut best = f64::INFINITY;
+    let mut failure: Option<anyhow::Error> = None;
+    let steps = problem.optimize(&start, a.iters, &lr, a.lr_end, |s: &Step| {
+        let row = |v: &[f64]| v.iter().map(|x| format!("{x:e}")).collect::<Vec<_>>().join(",");
+        let mut ok = writeln!(
+            log,
+            "{},{:e},{},{},{}",
+            s.iteration,
+            s.loss,
+            row(&s.values),
+            row(&s.grad),
+            s.seconds
+        )
+        .and_then(|_| log.flush())
+        .map_err(anyhow::Error::from);
+        if ok.is_ok() && s.loss < best {
+            best = s.loss;
+            ok = write_best(&dir, &recovered, &a, s);
+        }
+        bar.set_message(format!("loss {:.3e}  {}", s.loss, pairs(&a.params, &s.values)));
+        bar.inc(1);
+        if let Err(e) = ok {
+            failure = Some(e);
+            return false;
+        }
+        true
+    })?;
+    bar.finish_and_clear();
+    if let Some(e) = failure {
+        return Err(e);
+    }
+    let last = steps.last().context("no iteration ran")?;
+    let values: Vec<(String, f64)> = a.params.iter().cloned().zip(last.values.iter().copied()).collect();
+    write_text(&recovered, &scene_with(&a.scene, &values)?)?;
+    write_plots(&dir, &a.params, &steps)?;
+    if !a.quiet {
+        eprintln!(
+            "{}: {} iterations, loss {:.3e} → {:.3e}; {}",
+            dir.display(),
+            steps.len(),
+            steps[0].loss,
+            last.loss,
+            pairs(&a.params, &last.values)
+        );
+    }
+    Ok(())
+}
+
+fn pairs(names: &[String], values: &[f64]) -> String {
+    names
+        .iter()
+        .zip(values)
+        .map(|(n, v)| format!("{n} = {v:.6}"))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+fn write_best(dir: &Path, recovered: &Path, a: &OptimizeArgs, s: &Step) -> anyhow::Result<()> {
+    let values: Vec<(String, f64)> = a.params.iter().cloned().zip(s.values.iter().copied()).collect();
+    let json = serde_json::json!({
+        "about": "the iterate with the lowest loss so far (losses are Monte Carlo estimates)",
+        "iteration": s.iteration,
+        "loss": s.loss,
+        "params": values.iter().map(|(n, v)| (n.clone(), serde_json::json!(v))).collect::<serde_json::Map<_, _>>(),
+    });
+    crate::output::write_json(&dir.join("best.json"), &json)?;
+    write_text(recovered, &scene_with(&a.scene, &values)?)
+}
+
+fn write_plots(dir: &Path, params: &[String], steps: &[Step]) -> anyhow::Result<()> {
+    let loss: Vec<(f64, f64)> = steps.iter().map(|s| ((s.iteration + 1) as f64, s.loss)).collect();
+    crate::output::write_loglog_plot(
+        &dir.join("loss.png"),
+        "loss over the iterations",
+        "iteration + 1",
+        "loss",
+        &[("loss".to_string(), loss)],
+    )?;
+    for (k, name) in params.iter().enumerate() {
+        let v: Vec<(f64, f64)> = steps.iter().map(|s| (s.iteration as f64, s.values[k])).collect();
+        crate::output::write_line_plot(
+            &dir.join(format!("param_{name}.png")),
+            &format!("{name} over the iterations"),
+            "iteration",
+            name,
+            &[(name.clone(), v)],
+        )?;
+    }
+    Ok(())
+}
+
+/// Creates `dir` (or accepts it empty): an optimisation never mixes its files with another
+/// run's, and never writes where its inputs are.
+fn prepare_dir(dir: &Path, inputs: &[&Path]) -> anyhow::Result<PathBuf> {
+    if dir.exists() {
+        let mut entries =
+            std::fs::read_dir(dir).with_context(|| format!("-o {}: not a readable folder", dir.display()))?;
+        if entries.next().is_some() {
+            bail!(
+                "-o {}: the folder is not empty; give a new or empty folder (runs never mix their logs)",
+                dir.display()
+            );
+        }
+    } else {
+        std::fs::create_dir_all(dir).with_context(|| format!("-o {}: cannot create the folder", dir.display()))?;
+    }
+    let canon = std::fs::canonicalize(dir)?;
+    for input in inputs {
+        if std::fs::canonicalize(input)
+            .ok()
+            .and_then(|p| p.parent().map(Path::to_path_buf))
+            == Some(canon.clone())
+        {
+            bail!("-o {}: holds the input {}", dir.display(), input.display());
+        }
+    }
+    Ok(canon)
+}
+
+fn progress(show: bool, len: u64) -> indicatif::ProgressBar {
+    use std::io::IsTerminal;
+    if !show || !std::io::stderr().is_terminal() {
+        return indicatif::ProgressBar::hidden();
+    }
+    let bar = indicatif::ProgressBar::new(len);
+    if let Ok(style) = indicatif::ProgressStyle::with_template("{elapsed_precise} [{bar:30}] {pos}/{len} {msg}") {
+        bar.set_style(style.progress_chars("=> "));
+    }
+    bar
+}

@@ -1,0 +1,137 @@
+//! `dtr optimize` (src/cli/optimize_cmd.rs): the pose demo from the command line, its files
+//! (log, best values, recovered scene, plots), and the refusals that come before any render.
+
+mod common;
+use common::dtr;
+
+const SCENE: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/pose_plate.toml");
+
+fn stderr(o: &std::process::Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+#[test]
+fn optimize_recovers_the_pose_and_writes_its_files() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path();
+    let o = dtr(&["render", SCENE, "--spp", "1024", "-q", "-o", "target"], dir);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = dtr(
+        &[
+            "optimize",
+            SCENE,
+            "--target",
+            "target.npy",
+            "--params",
+            "plate_x,plate_roll",
+            "--set",
+            "plate_x=0.25",
+            "--set",
+            "plate_roll=28",
+            "--iters",
+            "60",
+            "--lr-of",
+            "plate_roll=0.8",
+            "--spp",
+            "4",
+            "--bound",
+            "plate_roll=0:90",
+            "-o",
+            "run",
+            "-q",
+        ],
+        dir,
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let run = dir.join("run");
+    let log = std::fs::read_to_string(run.join("log.csv")).unwrap();
+    assert_eq!(log.lines().count(), 61, "a header and a row per iteration");
+    assert!(log.starts_with("iteration,loss,plate_x,plate_roll,d_plate_x,d_plate_roll,seconds"));
+    for f in ["best.json", "loss.png", "param_plate_x.png", "param_plate_roll.png"] {
+        assert!(run.join(f).is_file(), "{f}");
+    }
+    // the recovered scene loads and holds the answer
+    let info = dtr(&["info", "run/recovered.toml", "--json"], dir);
+    assert!(info.status.success(), "{}", stderr(&info));
+    let v: serde_json::Value = serde_json::from_slice(&info.stdout).unwrap();
+    let value = |name: &str| {
+        v["params"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|p| p["name"] == name)
+            .unwrap()["value"]
+            .as_f64()
+            .unwrap()
+    };
+    assert!((value("plate_x") - 0.1).abs() < 0.01, "{}", value("plate_x"));
+    assert!((value("plate_roll") - 20.0).abs() < 1.0, "{}", value("plate_roll"));
+    // a second run never mixes its files into the first's folder
+    let again = dtr(
+        &[
+            "optimize",
+            SCENE,
+            "--target",
+            "target.npy",
+            "--params",
+            "plate_x",
+            "-o",
+            "run",
+        ],
+        dir,
+    );
+    assert!(!again.status.success());
+    assert!(stderr(&again).contains("not empty"), "{}", stderr(&again));
+}
+
+#[test]
+fn optimize_refuses_bad_input_before_rendering() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path();
+    let o = dtr(&["render", SCENE, "--spp", "1", "-q", "-o", "target"], dir);
+    assert!(o.status.success());
+    let other = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/diff_room.toml");
+    let cases: [(Vec<&str>, &str); 5] = [
+        (vec![other, "--target", "target.npy", "--params", "albedo"], "the scene"),
+        (
+            vec![SCENE, "--target", "target.npy", "--params", "nope"],
+            "no parameter \"nope\"",
+        ),
+        (
+            vec![SCENE, "--target", "missing.npy", "--params", "plate_x"],
+            "missing.npy",
+        ),
+        (
+            vec![
+                SCENE,
+                "--target",
+                "target.npy",
+                "--params",
+                "plate_x",
+                "--bound",
+                "plate_x=1:0",
+            ],
+            "LO:HI",
+        ),
+        (
+            vec![
+                SCENE,
+                "--target",
+                "target.npy",
+                "--params",
+                "plate_x",
+                "--lr-of",
+                "other=1",
+            ],
+            "not one of --params",
+        ),
+    ];
+    for (args, message) in cases {
+        let mut v = vec!["optimize"];
+        v.extend(args);
+        v.extend(["-o", "out", "--iters", "2"]);
+        let o = dtr(&v, dir);
+        assert!(!o.status.success(), "{v:?}");
+        assert!(stderr(&o).contains(message), "{v:?}: {}", stderr(&o));
+    }
+}
