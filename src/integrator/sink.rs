@@ -4,9 +4,10 @@
 //! the contribution becomes (as mitransient's films receive `add_transient` calls). Today:
 //! - [`TileFilm`]: I += h·f·S_e(d) and İ_k += h·(ḟ_k·S_e + f·Ṡ_e·ḋ_k) (Algorithm 1);
 //! - [`BdptFilm`]: the same, plus one film per (s, t) strategy when asked;
+//! - `crate::adjoint::AdjointFilm`: the adjoint contraction, dL/dθ_k += ⟨∂L/∂I, h·İ_k⟩ over
+//!   the bins a path touches, with no film;
 //!
-//! and the NLOS sensor points and the adjoint contraction (dL/dθ += ⟨dL/dI, h·İ⟩ over the
-//! bins a path touches) are sinks still to come.
+//! and the NLOS sensor points are a sink still to come.
 
 use super::bdpt::film::BdptFilm;
 use super::context::RenderContext;
