@@ -22,6 +22,8 @@ pub mod opl_precision;
 pub mod path;
 pub mod sink;
 pub mod surface;
+#[cfg(test)]
+pub(crate) mod testutil;
 pub mod trace;
 pub mod transport;
 pub mod window;
