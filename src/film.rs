@@ -503,3 +503,6 @@ impl DerivWindowEnergy {
         }
     }
 }
+
+#[cfg(test)]
+mod tests;
