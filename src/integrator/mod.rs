@@ -16,6 +16,8 @@ pub mod context;
 pub mod deposit;
 pub mod emitter_table;
 pub mod emitters;
+#[cfg(test)]
+mod emitters_tests;
 pub mod motion;
 pub mod opl;
 pub mod opl_precision;
