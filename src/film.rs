@@ -543,3 +543,6 @@ impl DerivWindowEnergy {
         }
     }
 }
+
+#[cfg(test)]
+mod tests;

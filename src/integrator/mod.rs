@@ -16,12 +16,16 @@ pub mod context;
 pub mod deposit;
 pub mod emitter_table;
 pub mod emitters;
+#[cfg(test)]
+mod emitters_tests;
 pub mod motion;
 pub mod opl;
 pub mod opl_precision;
 pub mod path;
 pub mod sink;
 pub mod surface;
+#[cfg(test)]
+pub(crate) mod testutil;
 pub mod trace;
 pub mod transport;
 pub mod window;

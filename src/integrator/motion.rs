@@ -233,3 +233,56 @@ impl Motion {
         v
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::Motion;
+    use crate::integrator::testutil::{POSED, POSED_PARAMS, load, param_names, positions_either_side, step};
+
+    /// The velocity field of every pose parameter (translate, rotate, scale; a mirrored
+    /// shape's scale) equals the central difference of the loader's own world positions of
+    /// every vertex, with the parameter set a step either side by `--set`. So the motion model
+    /// and the scene's transform agree on the pivot (the shape's local origin, relative to a
+    /// render origin that is not the world's), the order of rotations (Rz·Ry·Rx), degrees,
+    /// and scale before rotation; and the other shape does not move.
+    ///
+    /// Bugs caught: any of those conventions differing between `Motion::build` and
+    /// `Transform::apply` (e.g. Rx·Ry·Rz, radians, a pivot at the world origin or at the
+    /// file's translate instead of the render-origin-relative one, S⁻¹ on the wrong side),
+    /// and a velocity leaking into another shape's entry of the table.
+    #[test]
+    fn pose_velocities_match_the_loaders_transform() {
+        let scene = load(POSED, &[]);
+        assert_ne!(
+            scene.render_origin, [0.0; 3],
+            "the test wants a render origin off the world's"
+        );
+        let motion = Motion::build(&scene, &param_names(&scene)).unwrap();
+        assert_eq!(motion.len(), POSED_PARAMS);
+        let eps = f32::EPSILON as f64;
+        for (k, p) in scene.params.iter().enumerate() {
+            let h = step(&p.kind);
+            let [minus, plus] = positions_either_side(POSED, &scene, k, h);
+            for (s, shape) in scene.shapes.iter().enumerate() {
+                let first = shape.first_vertex as usize;
+                for i in first..first + shape.vertex_count as usize {
+                    let x = scene.geometry.positions[i];
+                    let fd = (plus[i] - minus[i]).as_dvec3() / (2.0 * h);
+                    let v = motion.velocity(k, s, x).as_dvec3();
+                    // each end is the f64 position rounded to f32 (half an ulp, ≤ 2⁻²⁴·|x|
+                    // per coordinate): the difference is off by up to that / h per axis; the
+                    // velocity A·x + b itself is good to a few f32 ulps of |A|·|x|
+                    let rounding = eps * x.abs().max_element().max(1.0) as f64 * (3f64.sqrt() / h + 8.0);
+                    let tol = 1e-4 * fd.length().max(v.length()) + rounding;
+                    assert!(
+                        (v - fd).length() <= tol,
+                        "param {} ({:?}), shape {}, vertex {i} at {x}: velocity {v} vs central difference {fd} (tol {tol:.2e})",
+                        p.name,
+                        p.kind,
+                        shape.name,
+                    );
+                }
+            }
+        }
+    }
+}

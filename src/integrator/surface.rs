@@ -93,3 +93,134 @@ pub fn self_intersection_eps<V: Real>(p: &V3<V>) -> V {
     let m = p.x.abs().max(p.y.abs()).max(p.z.abs()).max(V::one());
     m * V::splat(1.0 / 262_144.0)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::surface_at;
+    use crate::accel::Device;
+    use crate::integrator::RenderContext;
+    use crate::integrator::motion::Motion;
+    use crate::integrator::testutil::{POSED, POSED_PARAMS, load, param_names, positions_either_side, step};
+    use crate::kernel::{Dual8, Real, V3, f32x8};
+    use crate::scene::{ParamKind, Scene};
+    use glam::{DVec3, Vec3};
+
+    type D = Dual8<POSED_PARAMS>;
+
+    /// (point at barycentrics (u, v), unit normal, area) of triangle `t` with vertex positions
+    /// `pos`, in f64.
+    fn triangle(scene: &Scene, pos: &[Vec3], t: u32, u: f32, v: f32) -> (DVec3, DVec3, f64) {
+        let [a, b, c] = scene.geometry.indices[t as usize].map(|i| pos[i as usize].as_dvec3());
+        let cr = (b - a).cross(c - a);
+        (
+            a + (b - a) * u as f64 + (c - a) * v as f64,
+            cr.normalize(),
+            0.5 * cr.length(),
+        )
+    }
+
+    /// Derivative lane `k` of lane `i` of a vector.
+    fn deriv(v: &V3<D>, k: usize, i: usize) -> DVec3 {
+        DVec3::new(
+            v.x.deriv_lane(k, i) as f64,
+            v.y.deriv_lane(k, i) as f64,
+            v.z.deriv_lane(k, i) as f64,
+        )
+    }
+
+    /// d ln(area)/d s_k of a triangle with local vertices `l` under the scale S of its shape,
+    /// in closed form: the world cross product is R·cof(S)·(local cross product), cof(S) =
+    /// diag(s_y s_z, s_x s_z, s_x s_y), so |c|² = Σ_m (cof_m c_m)² and each term but the k-th
+    /// is linear in s_k.
+    fn scale_log_rate(l: [DVec3; 3], s: DVec3, k: usize) -> f64 {
+        let c = (l[1] - l[0]).cross(l[2] - l[0]);
+        let cof = DVec3::new(s.y * s.z, s.x * s.z, s.x * s.y) * c;
+        let others: f64 = (0..3).filter(|&m| m != k).map(|m| cof[m] * cof[m]).sum();
+        others / (s[k] * cof.length_squared())
+    }
+
+    /// `surface_at` with dual numbers, eight lanes on eight triangles of both shapes of
+    /// [`POSED`] (the mirrored plate among them), against the loader's geometry a step either
+    /// side of every parameter:
+    /// - J = 1 at the current parameters, and ∂J/∂θ = the central difference of the
+    ///   triangle's area over its area: 0 under translation and rotation (rigid motions),
+    ///   d ln A/d s_k in closed form under scale (1/s_k for a face containing axis k, negative
+    ///   for the mirrored plate's s_x < 0);
+    /// - ∂x/∂θ and ∂n/∂θ = the central differences of the point at the same (u, v) and of
+    ///   the unit normal.
+    ///
+    /// Bugs caught: J of the wrong form (|dA(θ₀)|/|dA(θ)|, a missing normalisation, the sign
+    /// of a mirrored triangle's area), velocities gathered for the wrong vertex, shape or lane,
+    /// a normal whose derivative ignores the renormalisation, and any velocity that is not
+    /// the motion of the loader's geometry.
+    #[test]
+    fn area_jacobian_point_and_normal_match_finite_differences() {
+        let scene = load(POSED, &[]);
+        let device = Device::new("").unwrap();
+        let mut ctx = RenderContext::new(&scene, &device).unwrap();
+        ctx.motion = Motion::build(&scene, &param_names(&scene)).unwrap();
+        assert_eq!(scene.params.len(), POSED_PARAMS);
+        // box: triangles 0..12, plate: 12, 13
+        let prims: [u32; 8] = [0, 3, 5, 6, 8, 11, 12, 13];
+        let us = [0.2f32, 0.1, 0.6, 0.3, 0.25, 0.05, 0.4, 0.15];
+        let vs = [0.3f32, 0.7, 0.1, 0.3, 0.5, 0.9, 0.2, 0.6];
+        let sp = surface_at::<D>(&ctx, &prims, f32x8::from(us), f32x8::from(vs));
+        let pos = &scene.geometry.positions;
+        let eps = f32::EPSILON as f64;
+        for (k, p) in scene.params.iter().enumerate() {
+            let h = step(&p.kind);
+            let [minus, plus] = positions_either_side(POSED, &scene, k, h);
+            for (i, &t) in prims.iter().enumerate() {
+                let (x0, _, a0) = triangle(&scene, pos, t, us[i], vs[i]);
+                let (xm, nm, am) = triangle(&scene, &minus, t, us[i], vs[i]);
+                let (xp, np, ap) = triangle(&scene, &plus, t, us[i], vs[i]);
+                let at = format!("param {} ({:?}), lane {i}, triangle {t}", p.name, p.kind);
+                // area/area through the dual division's a·(1/b): 1 to an ulp
+                let j = sp.jacobian.lane(i);
+                assert!((j - 1.0).abs() <= f32::EPSILON, "{at}: J at θ₀ is {j}");
+                // f32 rounding of the loaded vertices (≤ 2⁻²⁴·|x| per coordinate) moves the
+                // area by up to |x|·ε·perimeter and the normal by |x|·ε·perimeter/(2A); a
+                // central difference divides those by h. The dual lanes are f32 sums of
+                // products of O(1) terms: a few ulps.
+                let [va, vb, vc] = scene.geometry.indices[t as usize].map(|j| pos[j as usize].as_dvec3());
+                let size = va.abs().max(vb.abs()).max(vc.abs()).max_element().max(1.0);
+                let perimeter = (vb - va).length() + (vc - vb).length() + (va - vc).length();
+                let area_noise = size * eps * perimeter / a0 / h + 1e-5;
+                let point_noise = size * eps * 3f64.sqrt() / h + 1e-5;
+                let jd = sp.jacobian.deriv_lane(k, i) as f64;
+                let j_fd = (ap - am) / (2.0 * h * a0);
+                assert!(
+                    (jd - j_fd).abs() <= 1e-3 * j_fd.abs() + area_noise,
+                    "{at}: dJ {jd} vs central difference {j_fd} (noise {area_noise:.1e})"
+                );
+                let s = scene.geometry.tri_shape[t as usize];
+                let shape = &scene.shapes[s as usize];
+                let exact = match p.kind {
+                    ParamKind::Scale { shape: moved, axis } if moved == s => {
+                        let local = scene.geometry.indices[t as usize]
+                            .map(|j| shape.local_positions[(j - shape.first_vertex) as usize].as_dvec3());
+                        scale_log_rate(local, shape.transform.scale.as_dvec3(), axis as usize)
+                    }
+                    _ => 0.0,
+                };
+                assert!(
+                    (jd - exact).abs() <= 1e-4 * exact.abs().max(1.0),
+                    "{at}: dJ {jd}, closed form {exact}"
+                );
+                let xd = deriv(&sp.p, k, i);
+                let x_fd = (xp - xm) / (2.0 * h);
+                assert!(
+                    (xd - x_fd).length() <= 1e-3 * x_fd.length() + point_noise,
+                    "{at}: dx {xd} vs central difference {x_fd}"
+                );
+                assert!((sp.p.lane(i).as_dvec3() - x0).length() <= 4.0 * size * eps, "{at}: x");
+                let nd = deriv(&sp.n, k, i);
+                let n_fd = (np - nm) / (2.0 * h);
+                assert!(
+                    (nd - n_fd).length() <= 1e-3 * n_fd.length() + area_noise,
+                    "{at}: dn {nd} vs central difference {n_fd}"
+                );
+            }
+        }
+    }
+}

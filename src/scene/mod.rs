@@ -24,7 +24,7 @@ pub(crate) use read::read_regular_file;
 mod resolve;
 pub mod shapes;
 #[cfg(test)]
-mod testutil;
+pub(crate) mod testutil;
 pub use error::SceneError;
 pub use load::Format;
 

@@ -15,8 +15,11 @@ pub fn scene_text(name: &str) -> String {
     std::fs::read_to_string(scenes_dir().join(name)).unwrap()
 }
 
-/// A minimal valid scene to edit: one white quad, a point light.
-pub const MINI: &str = r#"
+/// The start of a test scene: a camera, a film of ten bins and a white diffuse material (a
+/// macro, so that `concat!` makes constants of the scenes that start with it).
+macro_rules! header {
+    () => {
+        r#"
 [camera]
 position = [0.0, 0.0, 3.0]
 look_at = [0.0, 0.0, 0.0]
@@ -29,7 +32,15 @@ bins = 10
 name = "white"
 type = "diffuse"
 albedo = 0.5
+"#
+    };
+}
+pub(crate) use header;
 
+/// A minimal valid scene to edit: one white quad, a point light.
+pub const MINI: &str = concat!(
+    header!(),
+    r#"
 [[shape]]
 name = "quad"
 type = "rectangle"
@@ -40,7 +51,8 @@ name = "lamp"
 type = "point"
 position = [0.0, 0.0, 3.0]
 intensity = 1.0
-"#;
+"#
+);
 
 pub fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
     let p = dir.join(name);

@@ -282,3 +282,7 @@ fn opl64_step<R: Real, const C: usize>(
     }
     (p64, opl64)
 }
+
+#[cfg(test)]
+#[path = "walk_tests.rs"]
+mod tests;
