@@ -105,7 +105,37 @@ pub struct AdjointStats {
 /// `render::render_diff` (interior; primary and secondary edges when a parameter moves
 /// geometry) with the same samples for the same options, contracting each path's
 /// derivative on the fly.
+///
+/// Any number of parameters: the dual-number kernel carries at most `MAX_PARAMS`
+/// derivative lanes, so longer lists run in groups of that many, each group a render with
+/// the same samples (memory stays O(P); time grows with the number of groups).
 pub fn render_adjoint(
+    scene: &crate::Scene,
+    params: &[String],
+    adjoint: &Transient,
+    opts: &crate::RenderOptions,
+) -> Result<(Vec<f64>, AdjointStats), crate::Error> {
+    if params.is_empty() {
+        return Err(crate::Error::Invalid(
+            "an adjoint render needs at least one parameter".into(),
+        ));
+    }
+    let mut grad = Vec::with_capacity(params.len());
+    let mut stats = AdjointStats::default();
+    for group in params.chunks(MAX_PARAMS) {
+        let (g, s) = render_adjoint_group(scene, group, adjoint, opts)?;
+        grad.extend(g);
+        stats.paths += s.paths;
+        stats.non_finite_samples += s.non_finite_samples;
+        stats.wall_seconds += s.wall_seconds;
+        stats.boundary = s.boundary.or(stats.boundary);
+        (stats.spp, stats.seed) = (s.spp, s.seed);
+    }
+    Ok((grad, stats))
+}
+
+/// [`render_adjoint`] for at most `MAX_PARAMS` parameters: one render.
+fn render_adjoint_group(
     scene: &crate::Scene,
     params: &[String],
     adjoint: &Transient,

@@ -106,3 +106,99 @@ fn a_wrong_adjoint_shape_is_refused() {
     let e = render_adjoint(&scene, &["albedo".to_string()], &bad, &RenderOptions::default()).unwrap_err();
     assert!(e.to_string().contains("the adjoint (dL/dI) has shape"), "{e}");
 }
+
+/// More parameters than the kernel's derivative lanes (16): the adjoint runs them in groups
+/// with the same samples, and each group equals the contraction of `render_diff` over it.
+#[test]
+fn the_adjoint_takes_more_parameters_than_the_dual_lanes() {
+    let mut text = std::fs::read_to_string(common::scene_path("diff_room.toml")).unwrap();
+    text.push_str(
+        r#"
+[[material]]
+name = "panel_paint"
+type = "diffuse"
+albedo = 0.3
+
+[[shape]]
+name = "panel"
+type = "rectangle"
+material = "panel_paint"
+translate = [0.3, -0.2, -2.0]
+scale = [0.2, 0.2, 1.0]
+"#,
+    );
+    let mut names: Vec<String> = [
+        "room_z",
+        "room_rot_y",
+        "room_scale_z",
+        "albedo",
+        "intensity",
+        "eta",
+        "lamp_offset",
+        "room_pitch",
+    ]
+    .map(String::from)
+    .to_vec();
+    let extra = [
+        ("room", "translate", "x", 0.0),
+        ("room", "translate", "y", 0.0),
+        ("room", "rotate", "z", 0.0),
+        ("room", "scale", "x", 2.0),
+        ("room", "scale", "y", 1.5),
+        ("panel", "translate", "x", 0.3),
+        ("panel", "translate", "y", -0.2),
+        ("panel", "translate", "z", -2.0),
+        ("panel", "rotate", "x", 0.0),
+        ("panel", "rotate", "y", 0.0),
+        ("panel", "scale", "x", 0.2),
+    ];
+    for (shape, kind, axis, value) in extra {
+        let name = format!("{shape}_{kind}_{axis}");
+        text.push_str(&format!(
+            "\n[[param]]\nname = \"{name}\"\nkind = \"{kind}\"\nshape = \"{shape}\"\naxis = \"{axis}\"\nvalue = {value}\n"
+        ));
+        names.push(name);
+    }
+    text.push_str("\n[[param]]\nname = \"panel_albedo\"\nkind = \"albedo\"\nmaterial = \"panel_paint\"\nvalue = 0.3\n");
+    names.push("panel_albedo".into());
+    assert!(names.len() > 16);
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("many.toml");
+    std::fs::write(&path, text).unwrap();
+    let scene = difftransient::Scene::load(&path, &[]).unwrap();
+    let opts = RenderOptions {
+        spp: Some(2),
+        spp_boundary: Some(1),
+        seed: Some(9),
+        threads: Some(2),
+        ..Default::default()
+    };
+    let (primal, _) = difftransient::render(&scene, &opts).unwrap();
+    let adj = adjoint_like(&primal);
+    let (grad, _) = render_adjoint(&scene, &names, &adj, &opts).unwrap();
+    assert_eq!(grad.len(), names.len());
+    for (g, group) in names.chunks(16).enumerate() {
+        let parts = render_diff_parts(&scene, group, &opts).unwrap();
+        let sum = parts.sum();
+        for (k, name) in group.iter().enumerate() {
+            let dot: f64 = adj
+                .data
+                .iter()
+                .zip(&sum[k].data)
+                .map(|(&a, &d)| a as f64 * d as f64)
+                .sum();
+            let part = |v: &[Transient], i: usize| v.get(k).map_or(0.0, |t| t.data[i].abs() as f64);
+            let mag: f64 = (0..adj.data.len())
+                .map(|i| {
+                    adj.data[i].abs() as f64
+                        * (part(&parts.interior, i) + part(&parts.primary, i) + part(&parts.secondary, i))
+                })
+                .sum();
+            let a = grad[g * 16 + k];
+            assert!(
+                (a - dot).abs() <= 8.0 * U * mag + 1e-12,
+                "{name}: adjoint {a} vs Σ ∂L/∂I·İ {dot}"
+            );
+        }
+    }
+}
