@@ -7,10 +7,14 @@ settings (resolution, bins, bin width, start, max depth = max_bounces + 1, Russi
 off, box pixel filter, camera segment counted). It checks first that the two transients agree
 within noise (per-bin totals and 8x8 blocks of the time-summed image, z-scores of the
 difference of means over PEER_SEEDS independent seeds per renderer; it stops if they
-disagree), then reports in one run:
-  - our paths per CPU-second / theirs,
-  - our error at equal time / theirs (errors against a high-spp dtr reference, scaled to equal
-    time by error ∝ 1/√time).
+disagree), then times warm renders only, interleaved (ours, theirs, ours, ...; PEER_REPEATS each, after
+one untimed warm-up render of each at the timed spp: Dr.Jit compiles a kernel per sample count,
+so a warm-up at another spp leaves the first timed render compiling), each renderer's CPU
+seconds from its own accounting (ours: the run JSON's interior cpu_seconds; theirs: process
+time around mi.render), and reports medians with their ranges:
+  - our paths per CPU-second / theirs (ratio of medians, and the range of the per-pair ratios),
+  - our error at equal CPU time / theirs (errors against a high-spp dtr reference, scaled to
+    equal time by error ∝ 1/√time, with the median CPU times).
 """
 import json, math, os, subprocess, sys, time, tomllib
 import numpy as np
@@ -26,6 +30,11 @@ SPP = int(os.environ.get("PEER_SPP", "64"))
 # independent seeds per renderer for the agreement test (standard errors from their spread)
 SEEDS = int(os.environ.get("PEER_SEEDS", "6"))
 REF_SPP = int(os.environ.get("PEER_REF_SPP", "1024"))
+# interleaved timed renders per renderer (after the agreement renders and a warm-up each)
+REPEATS = int(os.environ.get("PEER_REPEATS", "5"))
+# extra `dtr render` options, e.g. PEER_DTR_ARGS=--fast-traversal (Embree's non-watertight
+# mode, as Mitsuba traces)
+DTR_ARGS = os.environ.get("PEER_DTR_ARGS", "").split()
 OUT = os.path.join(ROOT, "bench-out", "peer")
 
 
@@ -76,7 +85,7 @@ def mitsuba_scene(d, max_depth):
 
 
 def run_dtr(spp, seed, prefix):
-    subprocess.run([DTR, "render", SCENE, "--spp", str(spp), "--seed", str(seed), "-o", prefix, "-q"], check=True)
+    subprocess.run([DTR, "render", SCENE, "--spp", str(spp), "--seed", str(seed), "-o", prefix, "-q", *DTR_ARGS], check=True)
     with open(prefix + ".json") as f:
         return np.load(prefix + ".npy"), json.load(f)
 
@@ -91,28 +100,31 @@ def main():
         d = tomllib.load(f)
     max_depth = int(d.get("integrator", {}).get("max_bounces", 8)) + 1
     ref, _ = run_dtr(REF_SPP, 777, os.path.join(OUT, "ref"))
-    ours_runs, t_ours, cpu_ours = [], 0.0, 0.0
-    for k in range(SEEDS):
-        o, meta = run_dtr(SPP, 1 + k, os.path.join(OUT, f"ours{k}"))
-        ours_runs.append(o)
-        t_ours += meta["wall_seconds"]
-        cpu_ours += meta["cpu_seconds"]
-
     scene = mi.load_dict(mitsuba_scene(d, max_depth))
-    mi.render(scene, spp=1)  # JIT warm-up, not timed
-    theirs_runs, t_theirs, cpu_theirs, cpu_each = [], 0.0, 0.0, []
+    # warm-ups at the timed spp, not timed: Dr.Jit compiles one kernel per sample count
+    mi.render(scene, spp=SPP, seed=10_000)
+    run_dtr(SPP, 10_000, os.path.join(OUT, "warmup"))
+    ours_runs, theirs_runs = [], []
     for k in range(SEEDS):
-        c0, w0 = time.process_time(), time.perf_counter()
+        ours_runs.append(run_dtr(SPP, 1 + k, os.path.join(OUT, f"ours{k}"))[0])
         _, transient = mi.render(scene, spp=SPP, seed=1 + k)
         theirs_runs.append(np.array(transient)[..., :3])
-        t_theirs += time.perf_counter() - w0
-        cpu_each.append(time.process_time() - c0)
-        cpu_theirs += cpu_each[-1]
-    # the first render at this spp compiles its kernel; later ones reuse Dr.Jit's cache
-    print("mitransient CPU seconds per render:", " ".join(f"{c:.3f}" for c in cpu_each))
+    # timed, interleaved, warm renders only
+    cpu_ours, cpu_theirs, wall_ours, wall_theirs = [], [], [], []
+    for k in range(REPEATS):
+        _, meta = run_dtr(SPP, 100 + k, os.path.join(OUT, f"timed{k}"))
+        cpu_ours.append(meta["cpu_seconds"])
+        wall_ours.append(meta["wall_seconds"])
+        c0, w0 = time.process_time(), time.perf_counter()
+        _, transient = mi.render(scene, spp=SPP, seed=100 + k)
+        np.array(transient)  # evaluate: Dr.Jit is lazy
+        cpu_theirs.append(time.process_time() - c0)
+        wall_theirs.append(time.perf_counter() - w0)
+    print("CPU seconds per render, ours:", " ".join(f"{c:.3f}" for c in cpu_ours))
+    print("CPU seconds per render, mitransient:", " ".join(f"{c:.3f}" for c in cpu_theirs))
     ours, theirs = ours_runs[0], theirs_runs[0]
     print("shapes: ours", ours.shape, "theirs", theirs.shape)
-    paths = ours.shape[0] * ours.shape[1] * SPP * SEEDS
+    paths = ours.shape[0] * ours.shape[1] * SPP
 
     tot = lambda a: float(a.sum())
     bins = lambda a: a.sum(axis=(0, 1, 3))
@@ -143,14 +155,17 @@ def main():
     print(f"per-bin totals rel. L2 vs reference: ours {rel_l2(bins(ours), bins(ref)):.4f}, mitransient {rel_l2(bins(theirs), bins(ref)):.4f}")
     e_ours, e_theirs = rel_l2(ours, ref), rel_l2(theirs, ref)
     print(f"transient rel. L2 vs {REF_SPP}-spp reference: ours {e_ours:.4f}, mitransient {e_theirs:.4f}")
-    ppc_ours, ppc_theirs = paths / cpu_ours, paths / cpu_theirs
-    cpu_ours, cpu_theirs = cpu_ours / SEEDS, cpu_theirs / SEEDS
-    t_ours, t_theirs = t_ours / SEEDS, t_theirs / SEEDS
-    print(f"paths per CPU-second: ours {ppc_ours:.3e} ({t_ours:.2f} s wall), mitransient {ppc_theirs:.3e} ({t_theirs:.2f} s wall)")
-    print(f"ratio ours/theirs paths per CPU-second: {ppc_ours / ppc_theirs:.2f}")
-    eq = (e_ours * math.sqrt(cpu_ours)) / (e_theirs * math.sqrt(cpu_theirs))
+    med = lambda v: float(np.median(v))
+    ppc_ours = [paths / c for c in cpu_ours]
+    ppc_theirs = [paths / c for c in cpu_theirs]
+    pairs = [a / b for a, b in zip(ppc_ours, ppc_theirs)]
+    print(f"paths per CPU-second (median, range over {REPEATS} warm renders): ours {med(ppc_ours):.3e} "
+          f"({min(ppc_ours):.3e}..{max(ppc_ours):.3e}; {med(wall_ours):.2f} s wall), mitransient {med(ppc_theirs):.3e} "
+          f"({min(ppc_theirs):.3e}..{max(ppc_theirs):.3e}; {med(wall_theirs):.2f} s wall)")
+    print(f"ratio ours/theirs paths per CPU-second: {med(ppc_ours) / med(ppc_theirs):.2f} "
+          f"(per interleaved pair {min(pairs):.2f}..{max(pairs):.2f})")
+    eq = (e_ours * math.sqrt(med(cpu_ours))) / (e_theirs * math.sqrt(med(cpu_theirs)))
     print(f"error at equal CPU time, ours/theirs: {eq:.2f}")
-
 
 if __name__ == "__main__":
     sys.exit(main())
