@@ -12,7 +12,10 @@
 //! Lemma 2.5): its derivative is then a Dirac distribution, which
 //! [`Correlation::derivative_is_distribution`] reports.
 
+use normal::{Normal, cdf, pdf as phi};
 use serde::{Deserialize, Serialize};
+
+mod normal;
 
 pub const SPEED_OF_LIGHT_M_PER_S: f64 = 299_792_458.0;
 
@@ -109,21 +112,6 @@ fn check(field: &'static str, v: impl Into<f64>, positive: bool) -> Result<(), T
             got: v.to_string(),
         })
     }
-}
-
-/// Standard normal density and CDF (CDF through erfc: accurate in both tails).
-#[inline]
-fn phi(x: f64) -> f64 {
-    (-0.5 * x * x).exp() * 0.398_942_280_401_432_7
-}
-#[inline]
-fn cdf(x: f64) -> f64 {
-    0.5 * libm::erfc(-x * std::f64::consts::FRAC_1_SQRT_2)
-}
-/// Φ(b) − Φ(a) for a ≤ b, computed on the side of the smaller tail to avoid cancellation.
-#[inline]
-fn cdf_diff(a: f64, b: f64) -> f64 {
-    if a > 0.0 { cdf(-a) - cdf(-b) } else { cdf(b) - cdf(a) }
 }
 
 impl Correlation {
@@ -320,8 +308,8 @@ impl Correlation {
             (Pulse::Delta, Gate::Box) => (if a <= 0.0 && 0.0 < b { 1.0 } else { 0.0 }, 0.0),
             (Pulse::Gaussian { sigma_opl }, Gate::Box) => {
                 let s = sigma_opl as f64;
-                let (za, zb) = (a / s, b / s);
-                (cdf_diff(za, zb), (phi(za) - phi(zb)) / s)
+                let (na, nb) = (Normal::at(a / s), Normal::at(b / s));
+                (na.mass_to(&nb), (na.pdf - nb.pdf) / s)
             }
             (Pulse::Box { width_opl }, Gate::Box) => {
                 let wp = width_opl as f64;
@@ -336,8 +324,8 @@ impl Correlation {
             }
             (Pulse::Box { width_opl }, Gate::Gaussian { sigma_opl }) => {
                 let (wp, s) = (width_opl as f64, sigma_opl as f64);
-                let (za, zb) = ((-0.5 * wp - c) / s, (0.5 * wp - c) / s);
-                (w / wp * cdf_diff(za, zb), w / wp * (phi(zb) - phi(za)) / s)
+                let (na, nb) = (Normal::at((-0.5 * wp - c) / s), Normal::at((0.5 * wp - c) / s));
+                (w / wp * na.mass_to(&nb), w / wp * (nb.pdf - na.pdf) / s)
             }
         }
     }
