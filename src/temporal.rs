@@ -233,6 +233,22 @@ impl Correlation {
             return;
         }
         let u = d + self.offset;
+        if let (Pulse::Gaussian { sigma_opl }, Gate::Box) = (self.pulse, self.gate) {
+            // adjacent bins share an edge: one CDF per edge instead of two per bin, the edges
+            // by `eval_at`'s expression (bin l + 1 starts at (l + 1.0)·w), so the same values
+            let (s, w, r0) = (sigma_opl as f64, self.axis.bin_width_opl, self.axis.start_opl - u);
+            let edge = |l: f64| Normal::at((r0 + l * w) / s);
+            let mut lo = edge(r.start as f64);
+            for l in r {
+                let hi = edge(l as f64 + 1.0);
+                let (se, ds) = gaussian_box(&lo, &hi, s);
+                if se != 0.0 || ds != 0.0 {
+                    f(l, se, ds);
+                }
+                lo = hi;
+            }
+            return;
+        }
         for l in r {
             let (s, ds) = self.eval_pair(l, u);
             if s != 0.0 || ds != 0.0 {
@@ -308,8 +324,7 @@ impl Correlation {
             (Pulse::Delta, Gate::Box) => (if a <= 0.0 && 0.0 < b { 1.0 } else { 0.0 }, 0.0),
             (Pulse::Gaussian { sigma_opl }, Gate::Box) => {
                 let s = sigma_opl as f64;
-                let (na, nb) = (Normal::at(a / s), Normal::at(b / s));
-                (na.mass_to(&nb), (na.pdf - nb.pdf) / s)
+                gaussian_box(&Normal::at(a / s), &Normal::at(b / s), s)
             }
             (Pulse::Box { width_opl }, Gate::Box) => {
                 let wp = width_opl as f64;
@@ -329,6 +344,13 @@ impl Correlation {
             }
         }
     }
+}
+
+/// (S_e, ∂S_e/∂u) of a Gaussian pulse of σ = `s` and a box gate whose bin edges, less u, are
+/// σ·`a.x` and σ·`b.x`.
+#[inline]
+fn gaussian_box(a: &Normal, b: &Normal, s: f64) -> (f64, f64) {
+    (a.mass_to(b), (a.pdf - b.pdf) / s)
 }
 
 /// w · N(x; 0, s) and its derivative in x.

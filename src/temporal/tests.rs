@@ -424,3 +424,45 @@ fn gaussian_bins_match_the_libm_erfc_closed_form() {
     }
     eprintln!("S_e against libm::erfc: max |ΔS_e| {worst:e} of a unit pulse");
 }
+
+/// `for_each` (which takes a Gaussian pulse's CDF once per bin edge) gives every pair's bins
+/// exactly as `eval` and `eval_deriv` do, and leaves out only bins where both are 0.
+#[test]
+fn for_each_equals_eval_to_the_bit() {
+    let nano = TimeAxis {
+        start_opl: 3.99999997,
+        bin_width_opl: 1e-9,
+        bins: 260,
+    };
+    let mut cases: Vec<(TimeAxis, Pulse, Gate)> = Vec::new();
+    for p in pulses() {
+        for g in gates() {
+            cases.push((AXIS, p, g));
+        }
+    }
+    cases.push((nano, Pulse::Gaussian { sigma_opl: 3e-9 }, Gate::Box));
+    cases.push((AXIS, Pulse::Gaussian { sigma_opl: 1e-4 }, Gate::Box));
+    for (axis, pulse, gate) in cases {
+        let c = Correlation::new(axis, pulse, 0.013, gate).unwrap();
+        let span = axis.end_opl() - axis.start_opl;
+        for k in 0..3000 {
+            let d = axis.start_opl - 0.1 * span + 1.2 * span * (k as f64 + 0.29) / 3000.0;
+            let mut seen = Vec::new();
+            c.for_each(d, |l, s, ds| {
+                assert_eq!(
+                    (s, ds),
+                    (c.eval(l, d), c.eval_deriv(l, d)),
+                    "{pulse:?} {gate:?} d {d} bin {l}"
+                );
+                seen.push(l);
+            });
+            for l in c.range(d).filter(|l| !seen.contains(l)) {
+                assert_eq!(
+                    (c.eval(l, d), c.eval_deriv(l, d)),
+                    (0.0, 0.0),
+                    "{pulse:?} {gate:?} d {d} bin {l}"
+                );
+            }
+        }
+    }
+}
