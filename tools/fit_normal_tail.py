@@ -8,14 +8,15 @@ the standard normal (Q = 1 − Φ, φ its density) as two rational functions, an
 Each is the rational function of its degrees that interpolates m (or z·m(z) = h(s) in the
 tail) at the Chebyshev points of its interval (a linear system, solved in 120-digit
 arithmetic; close to the minimax one). The check evaluates the f64 coefficients with f64
-arithmetic exactly as the Rust code does (Horner, no fused multiply-add, glibc's exp) on a
-dense grid of z ∈ [0, 38] and compares with 120-digit values of m and Q. Needs mpmath
+arithmetic exactly as the Rust code does (Horner with fused multiply-adds, each rounded once,
+emulated here with exact fractions; glibc's exp) on a dense grid of z ∈ [0, 38] and compares with 120-digit values of m and Q. Needs mpmath
 (Debian: python3-mpmath). Prints the Rust constants and the errors:
 
     python3 tools/fit_normal_tail.py
 """
 
 import math
+from fractions import Fraction
 
 import mpmath as mp
 
@@ -59,10 +60,15 @@ def rational_fit(f, a, b, n):
     return p, q
 
 
+def fma(a, b, c):
+    # int / int true division is correctly rounded, so this is a·b + c rounded once
+    return float(Fraction(a) * Fraction(b) + Fraction(c))
+
+
 def horner(c, x):
     r = c[-1]
     for cc in reversed(c[:-1]):
-        r = r * x + cc
+        r = fma(r, x, cc)
     return r
 
 
