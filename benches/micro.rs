@@ -1,7 +1,10 @@
 //! Criterion micro-benchmarks of the kernel's pieces.
 //! - `dual`: a fixed chain of kernel-typical arithmetic (V3 dot/cross/normalize, div, sqrt) on
 //!   f32x8 and on Dual8<P>, P ∈ {1, 2, 4, 8, 16}: the cost of each derivative lane.
-//! - `correlation`: S_e and ∂S_e/∂d for one path (`Correlation::for_each`) per pulse/gate pair.
+//! - `correlation`: S_e and ∂S_e/∂d for one path (`Correlation::for_each`) per pulse/gate pair:
+//!   delta, Gaussian and box pulses with a box gate, a box and a Gaussian pulse with a Gaussian
+//!   gate (Gaussian⋆box and box⋆Gaussian evaluate the Gaussian CDF in every bin they touch);
+//!   and `Correlation::tails` of a path whose Gaussian pulse straddles the window's start.
 //! - `film`: adding one path to a 200-bin tile film, primal and with one derivative.
 //!
 //! Run: `cargo bench --bench micro`.
@@ -67,6 +70,7 @@ fn bench_correlation(c: &mut Criterion) {
     for (name, p, gate) in [
         ("delta*box", Pulse::Delta, Gate::Box),
         ("gauss0.01*box", Pulse::Gaussian { sigma_opl: 0.01 }, Gate::Box),
+        ("box0.05*box", Pulse::Box { width_opl: 0.05 }, Gate::Box),
         (
             "box0.05*gauss0.02",
             Pulse::Box { width_opl: 0.05 },
@@ -89,6 +93,15 @@ fn bench_correlation(c: &mut Criterion) {
             })
         });
     }
+    // a Gaussian pulse around the window's start: both tails are its CDF at the axis' ends
+    let corr = Correlation::new(axis, Pulse::Gaussian { sigma_opl: 0.01 }, 0.0, Gate::Box).unwrap();
+    let mut d = -0.04f64;
+    g.bench_function("tails gauss0.01*box", |b| {
+        b.iter(|| {
+            d = if d > 0.04 { -0.04 } else { d + 0.00137 };
+            corr.tails(black_box(d))
+        })
+    });
     g.finish();
 }
 

@@ -12,7 +12,10 @@
 //! Lemma 2.5): its derivative is then a Dirac distribution, which
 //! [`Correlation::derivative_is_distribution`] reports.
 
+use normal::{Normal, cdf, pdf as phi};
 use serde::{Deserialize, Serialize};
+
+mod normal;
 
 pub const SPEED_OF_LIGHT_M_PER_S: f64 = 299_792_458.0;
 
@@ -109,21 +112,6 @@ fn check(field: &'static str, v: impl Into<f64>, positive: bool) -> Result<(), T
             got: v.to_string(),
         })
     }
-}
-
-/// Standard normal density and CDF (CDF through erfc: accurate in both tails).
-#[inline]
-fn phi(x: f64) -> f64 {
-    (-0.5 * x * x).exp() * 0.398_942_280_401_432_7
-}
-#[inline]
-fn cdf(x: f64) -> f64 {
-    0.5 * libm::erfc(-x * std::f64::consts::FRAC_1_SQRT_2)
-}
-/// Φ(b) − Φ(a) for a ≤ b, computed on the side of the smaller tail to avoid cancellation.
-#[inline]
-fn cdf_diff(a: f64, b: f64) -> f64 {
-    if a > 0.0 { cdf(-a) - cdf(-b) } else { cdf(b) - cdf(a) }
 }
 
 impl Correlation {
@@ -245,6 +233,22 @@ impl Correlation {
             return;
         }
         let u = d + self.offset;
+        if let (Pulse::Gaussian { sigma_opl }, Gate::Box) = (self.pulse, self.gate) {
+            // adjacent bins share an edge: one CDF per edge instead of two per bin, the edges
+            // by `eval_at`'s expression (bin l + 1 starts at (l + 1.0)·w), so the same values
+            let (s, w, r0) = (sigma_opl as f64, self.axis.bin_width_opl, self.axis.start_opl - u);
+            let edge = |l: f64| Normal::at((r0 + l * w) / s);
+            let mut lo = edge(r.start as f64);
+            for l in r {
+                let hi = edge(l as f64 + 1.0);
+                let (se, ds) = gaussian_box(&lo, &hi, s);
+                if se != 0.0 || ds != 0.0 {
+                    f(l, se, ds);
+                }
+                lo = hi;
+            }
+            return;
+        }
         for l in r {
             let (s, ds) = self.eval_pair(l, u);
             if s != 0.0 || ds != 0.0 {
@@ -320,8 +324,7 @@ impl Correlation {
             (Pulse::Delta, Gate::Box) => (if a <= 0.0 && 0.0 < b { 1.0 } else { 0.0 }, 0.0),
             (Pulse::Gaussian { sigma_opl }, Gate::Box) => {
                 let s = sigma_opl as f64;
-                let (za, zb) = (a / s, b / s);
-                (cdf_diff(za, zb), (phi(za) - phi(zb)) / s)
+                gaussian_box(&Normal::at(a / s), &Normal::at(b / s), s)
             }
             (Pulse::Box { width_opl }, Gate::Box) => {
                 let wp = width_opl as f64;
@@ -336,11 +339,18 @@ impl Correlation {
             }
             (Pulse::Box { width_opl }, Gate::Gaussian { sigma_opl }) => {
                 let (wp, s) = (width_opl as f64, sigma_opl as f64);
-                let (za, zb) = ((-0.5 * wp - c) / s, (0.5 * wp - c) / s);
-                (w / wp * cdf_diff(za, zb), w / wp * (phi(zb) - phi(za)) / s)
+                let (na, nb) = (Normal::at((-0.5 * wp - c) / s), Normal::at((0.5 * wp - c) / s));
+                (w / wp * na.mass_to(&nb), w / wp * (nb.pdf - na.pdf) / s)
             }
         }
     }
+}
+
+/// (S_e, ∂S_e/∂u) of a Gaussian pulse of σ = `s` and a box gate whose bin edges, less u, are
+/// σ·`a.x` and σ·`b.x`.
+#[inline]
+fn gaussian_box(a: &Normal, b: &Normal, s: f64) -> (f64, f64) {
+    (a.mass_to(b), (a.pdf - b.pdf) / s)
 }
 
 /// w · N(x; 0, s) and its derivative in x.

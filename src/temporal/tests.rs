@@ -246,3 +246,223 @@ fn tails_and_bins_add_up_to_the_whole_pulse() {
         }
     }
 }
+
+/// Q(z) = 1 − Φ(z) at exact f64 points, from 60-digit arithmetic (mpmath's erfc), rounded to f64.
+const UPPER_TAIL: [(f64, f64); 24] = [
+    (0.0, 0.5),
+    (0.125, 0.4502617751698871),
+    (0.5, 0.3085375387259869),
+    (1.0, 0.15865525393145705),
+    (1.5, 0.06680720126885807),
+    (2.0, 0.02275013194817921),
+    (2.5, 0.006209665325776135),
+    (3.0, 0.0013498980316300946),
+    (3.5, 0.00023262907903552504),
+    (3.999755859375, 3.170393118675793e-05),
+    (4.0, 3.1671241833119924e-05),
+    (4.5, 3.3976731247300603e-06),
+    (5.0, 2.866515718791939e-07),
+    (6.0, 9.86587645037698e-10),
+    (7.0, 1.279812543885835e-12),
+    (8.0, 6.220960574271784e-16),
+    (8.5, 9.479534822203318e-18),
+    (10.0, 7.619853024160525e-24),
+    (12.0, 1.776482112077679e-33),
+    (16.0, 6.388754400538087e-58),
+    (20.0, 2.7536241186062337e-89),
+    (26.0, 2.4760633155033892e-149),
+    (30.0, 4.906713927148187e-198),
+    (37.0, 5.725571222524577e-300),
+];
+
+/// The error bound of `normal.rs` (relative, of the smaller tail Q(|x|)): 4·10⁻¹⁵ to 8.5σ,
+/// 4·10⁻¹⁶·(1 + z²) beyond, plus the f64 rounding of the reference value.
+fn tail_bound(z: f64) -> f64 {
+    if z <= 8.5 {
+        4e-15
+    } else {
+        4e-16 * (1.0 + z * z) + 1.2e-16
+    }
+}
+
+#[test]
+fn normal_cdf_matches_high_precision_values() {
+    for (z, q) in UPPER_TAIL {
+        for x in [z, -z] {
+            let n = normal::Normal::at(x);
+            let (small, large) = if x < 0.0 {
+                (n.lower, n.upper)
+            } else {
+                (n.upper, n.lower)
+            };
+            let rel = (small / q - 1.0).abs();
+            assert!(rel <= tail_bound(z), "x {x}: Q {small} vs {q}: relative error {rel:e}");
+            assert!(
+                (large - (1.0 - q)).abs() <= 2.3e-16,
+                "x {x}: 1 − Q {large} vs {}",
+                1.0 - q
+            );
+            assert_eq!(n.pdf, (-0.5 * x * x).exp() * 0.398_942_280_401_432_7);
+        }
+    }
+    for (x, lower) in [
+        (f64::NEG_INFINITY, 0.0),
+        (f64::INFINITY, 1.0),
+        (-1e200, 0.0),
+        (1e200, 1.0),
+        (-40.0, 0.0),
+    ] {
+        let n = normal::Normal::at(x);
+        assert_eq!((n.lower, n.upper, n.pdf), (lower, 1.0 - lower, 0.0), "x {x}");
+    }
+    assert!(normal::Normal::at(f64::NAN).lower.is_nan());
+}
+
+/// Φ(x) through `libm::erfc`, the f64 reference the fast CDF replaced.
+fn libm_cdf(x: f64) -> f64 {
+    0.5 * libm::erfc(-x * std::f64::consts::FRAC_1_SQRT_2)
+}
+
+/// Against `libm::erfc` on a grid of step 10⁻⁴ over |x| ≤ 40 (past the 8σ cut and past where
+/// Q underflows): the smaller tail within the bound above plus libm's own error, whose input
+/// x/√2 is rounded (2 ulps relative of x/√2 move erfc by 2z²·2⁻⁵³ relative); the larger side
+/// within an ulp of 1.
+#[test]
+fn normal_cdf_matches_libm_erfc_over_both_tails() {
+    let (mut worst_abs, mut worst_rel_cut) = (0.0f64, 0.0f64);
+    for i in -400_000..=400_000 {
+        let x = i as f64 * 1e-4;
+        let z = x.abs();
+        let n = normal::Normal::at(x);
+        let reference = libm_cdf(x);
+        let abs = (n.lower - reference).abs();
+        worst_abs = worst_abs.max(abs);
+        assert!(abs <= 2.3e-16, "x {x}: Φ {} vs libm {reference}", n.lower);
+        let (small, small_ref) = if x < 0.0 {
+            (n.lower, reference)
+        } else {
+            (n.upper, libm_cdf(-x))
+        };
+        if small_ref > 1e-300 {
+            let rel = (small / small_ref - 1.0).abs();
+            if z <= GAUSSIAN_CUTOFF_SIGMAS {
+                worst_rel_cut = worst_rel_cut.max(rel);
+            }
+            let libm_error = 2.3e-16 * (1.0 + z * z) + 2.3e-16;
+            assert!(
+                rel <= tail_bound(z) + libm_error,
+                "x {x}: Q {small} vs libm {small_ref}: relative error {rel:e}"
+            );
+        }
+    }
+    eprintln!("against libm::erfc: max |ΔΦ| {worst_abs:e}, max relative ΔQ within 8σ {worst_rel_cut:e}");
+}
+
+/// A Gaussian factor's bins (S_e) with the fast CDF against the same closed form through
+/// `libm::erfc`, and ∂S_e/∂d unchanged to the bit, for bins wide and narrow against σ (the
+/// opl_precision test's 3 nm pulse in 1 nm bins among them). A bin is a difference of two
+/// tails Q ≤ ½ (times w/w_p ≤ 1.5 for a box pulse): within 2·1.5·(½·4·10⁻¹⁵ + libm's share)
+/// < 10⁻¹⁴ of the unit pulse mass, far below any Monte Carlo noise and below an f32 film's
+/// resolution (6·10⁻⁸ of a bin).
+#[test]
+fn gaussian_bins_match_the_libm_erfc_closed_form() {
+    let libm_diff = |a: f64, b: f64| {
+        if a > 0.0 {
+            libm_cdf(-a) - libm_cdf(-b)
+        } else {
+            libm_cdf(b) - libm_cdf(a)
+        }
+    };
+    let phi = |x: f64| (-0.5 * x * x).exp() * 0.398_942_280_401_432_7;
+    let nano = TimeAxis {
+        start_opl: 3.99999997,
+        bin_width_opl: 1e-9,
+        bins: 260,
+    };
+    let cases = [
+        (AXIS, Pulse::Gaussian { sigma_opl: 0.03 }, Gate::Box),
+        (AXIS, Pulse::Gaussian { sigma_opl: 0.003 }, Gate::Box),
+        (AXIS, Pulse::Gaussian { sigma_opl: 1.0 }, Gate::Box),
+        (AXIS, Pulse::Box { width_opl: 0.07 }, Gate::Gaussian { sigma_opl: 0.05 }),
+        (AXIS, Pulse::Box { width_opl: 0.5 }, Gate::Gaussian { sigma_opl: 0.01 }),
+        (nano, Pulse::Gaussian { sigma_opl: 3e-9 }, Gate::Box),
+    ];
+    let mut worst = 0.0f64;
+    for (axis, pulse, gate) in cases {
+        let c = Correlation::new(axis, pulse, 0.0, gate).unwrap();
+        let w = axis.bin_width_opl;
+        let span = axis.end_opl() - axis.start_opl;
+        for k in 0..2000 {
+            let u = axis.start_opl - 0.1 * span + 1.2 * span * (k as f64 + 0.37) / 2000.0;
+            let r0 = axis.start_opl - u;
+            let lo = c.range(u).start as i64 - 2;
+            for l in lo..lo + c.range(u).len() as i64 + 4 {
+                let l = l as f64;
+                let (a, b, centre) = (r0 + l * w, r0 + (l + 1.0) * w, r0 + (l + 0.5) * w);
+                let reference = match (pulse, gate) {
+                    (Pulse::Gaussian { sigma_opl }, Gate::Box) => {
+                        let s = sigma_opl as f64;
+                        (libm_diff(a / s, b / s), (phi(a / s) - phi(b / s)) / s)
+                    }
+                    (Pulse::Box { width_opl }, Gate::Gaussian { sigma_opl }) => {
+                        let (wp, s) = (width_opl as f64, sigma_opl as f64);
+                        let (za, zb) = ((-0.5 * wp - centre) / s, (0.5 * wp - centre) / s);
+                        (w / wp * libm_diff(za, zb), w / wp * (phi(zb) - phi(za)) / s)
+                    }
+                    _ => unreachable!(),
+                };
+                let (s, ds) = c.eval_at(l, u);
+                worst = worst.max((s - reference.0).abs());
+                assert!(
+                    (s - reference.0).abs() <= 1e-14,
+                    "{pulse:?} {gate:?} u {u} bin {l}: S_e {s} vs libm {}",
+                    reference.0
+                );
+                assert_eq!(ds, reference.1, "{pulse:?} {gate:?} u {u} bin {l}: ∂S_e/∂d");
+            }
+        }
+    }
+    eprintln!("S_e against libm::erfc: max |ΔS_e| {worst:e} of a unit pulse");
+}
+
+/// `for_each` (which takes a Gaussian pulse's CDF once per bin edge) gives every pair's bins
+/// exactly as `eval` and `eval_deriv` do, and leaves out only bins where both are 0.
+#[test]
+fn for_each_equals_eval_to_the_bit() {
+    let nano = TimeAxis {
+        start_opl: 3.99999997,
+        bin_width_opl: 1e-9,
+        bins: 260,
+    };
+    let mut cases: Vec<(TimeAxis, Pulse, Gate)> = Vec::new();
+    for p in pulses() {
+        for g in gates() {
+            cases.push((AXIS, p, g));
+        }
+    }
+    cases.push((nano, Pulse::Gaussian { sigma_opl: 3e-9 }, Gate::Box));
+    cases.push((AXIS, Pulse::Gaussian { sigma_opl: 1e-4 }, Gate::Box));
+    for (axis, pulse, gate) in cases {
+        let c = Correlation::new(axis, pulse, 0.013, gate).unwrap();
+        let span = axis.end_opl() - axis.start_opl;
+        for k in 0..3000 {
+            let d = axis.start_opl - 0.1 * span + 1.2 * span * (k as f64 + 0.29) / 3000.0;
+            let mut seen = Vec::new();
+            c.for_each(d, |l, s, ds| {
+                assert_eq!(
+                    (s, ds),
+                    (c.eval(l, d), c.eval_deriv(l, d)),
+                    "{pulse:?} {gate:?} d {d} bin {l}"
+                );
+                seen.push(l);
+            });
+            for l in c.range(d).filter(|l| !seen.contains(l)) {
+                assert_eq!(
+                    (c.eval(l, d), c.eval_deriv(l, d)),
+                    (0.0, 0.0),
+                    "{pulse:?} {gate:?} d {d} bin {l}"
+                );
+            }
+        }
+    }
+}
