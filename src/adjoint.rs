@@ -175,7 +175,8 @@ fn render_adjoint_group(
     }
     crate::render::check_time_derivatives(scene, params, &motion)?;
     let t0 = std::time::Instant::now();
-    let run = Run::new(scene, motion, opts, false)?;
+    // no derivative film is stored: the memory check counts the primal's alone
+    let run = Run::with_films(scene, motion, opts, false, false)?;
     let (ctx, spp, seed, derivs) = (&run.ctx, run.spp, run.seed, run.derivs);
     let samples = &run.samples;
     let (w, h) = (f.width as usize, f.height as usize);

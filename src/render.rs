@@ -510,6 +510,18 @@ impl<'s> Run<'s> {
         opts: &RenderOptions,
         per_strategy: bool,
     ) -> Result<Self, Error> {
+        Self::with_films(scene, motion, opts, per_strategy, true)
+    }
+
+    /// [`Run::new`]; `derivative_films`: whether the render stores a film per parameter (an
+    /// adjoint render contracts them away, so only the primal counts for its memory check).
+    pub(crate) fn with_films(
+        scene: &'s Scene,
+        motion: Motion,
+        opts: &RenderOptions,
+        per_strategy: bool,
+        derivative_films: bool,
+    ) -> Result<Self, Error> {
         let spp = opts.spp.unwrap_or(scene.integrator.spp);
         if spp == 0 {
             return Err(Error::Invalid(format!(
@@ -533,7 +545,7 @@ impl<'s> Run<'s> {
         let kind = opts.integrator.unwrap_or(scene.integrator.kind);
         check_memory(
             scene,
-            derivs,
+            if derivative_films { derivs } else { 0 },
             kind,
             opts.threads,
             per_strategy,
