@@ -91,15 +91,7 @@ pub fn render_boundary(ctx: &RenderContext, settings: &BoundarySettings, pool: &
     .0;
     let primary_seconds = t0.elapsed().as_secs_f64();
     let sec = secondary::Secondary::new(ctx);
-    let (samples, pilot) = secondary_counts(ctx, settings);
-    let (secondary, sstats) = sec.render(
-        samples,
-        pilot,
-        settings.guiding,
-        settings.seed ^ SECONDARY_SEED,
-        settings.shard,
-        pool,
-    );
+    let (secondary, sstats) = sec.render(settings, pool);
     BoundaryParts {
         primary,
         secondary,
@@ -111,15 +103,6 @@ pub fn render_boundary(ctx: &RenderContext, settings: &BoundarySettings, pool: &
             ..Default::default()
         },
     }
-}
-
-/// Boundary samples of the secondary pass and of its pilot (1/8 of them when guided, else
-/// 1/16, at least 1024).
-fn secondary_counts(ctx: &RenderContext, settings: &BoundarySettings) -> (u64, u64) {
-    let film = &ctx.scene.film;
-    let samples = settings.spp_boundary as u64 * film.width as u64 * film.height as u64;
-    let pilot = (samples / if settings.guiding { 8 } else { 16 }).max(1024);
-    (samples, pilot)
 }
 
 /// The boundary stage contracted with an adjoint volume (`crate::adjoint`): the same
@@ -142,16 +125,7 @@ pub fn boundary_adjoint(
     );
     let primary_seconds = t0.elapsed().as_secs_f64();
     let sec = secondary::Secondary::new(ctx);
-    let (samples, pilot) = secondary_counts(ctx, settings);
-    let (g2, sstats) = sec.adjoint(
-        samples,
-        pilot,
-        settings.guiding,
-        settings.seed ^ SECONDARY_SEED,
-        settings.shard,
-        pool,
-        adjoint,
-    );
+    let (g2, sstats) = sec.adjoint(settings, pool, adjoint);
     grad.iter_mut().zip(g2).for_each(|(a, b)| *a += b);
     let stats = BoundaryStats {
         spp_boundary: settings.spp_boundary,

@@ -14,6 +14,7 @@
 
 use super::guiding::{GuideGrid, RESOLUTION, UNIFORM_MIX};
 use super::secondary::{BoundaryPath, LIGHT_STREAM, Scratch, Secondary};
+use super::{BoundarySettings, SECONDARY_SEED};
 use crate::film::{TileFilm, Transient};
 use crate::integrator::motion::MAX_PARAMS;
 use rayon::prelude::*;
@@ -148,19 +149,11 @@ impl Secondary<'_> {
         }
     }
 
-    /// Runs `samples` boundary samples of stream `seed` after a pilot of `pilot` samples
-    /// (guiding the edge-directed rays if `guiding`) and returns one derivative transient per
-    /// parameter. With a `shard`, only its part of the sample indices is traced (every shard
-    /// runs the same pilot), still normalised by `samples`.
-    pub fn render(
-        &self,
-        samples: u64,
-        pilot: u64,
-        guiding: bool,
-        seed: u64,
-        shard: crate::shard::Shard,
-        pool: &rayon::ThreadPool,
-    ) -> (Vec<Transient>, SecondaryStats) {
+    /// The secondary pass of `settings` (`spp_boundary · W · H` boundary samples after a
+    /// pilot, guided or not, on the secondary seed stream) returning one derivative transient
+    /// per parameter. With a shard, only its part of the sample indices is traced (every
+    /// shard runs the same pilot), still normalised by all the samples.
+    pub fn render(&self, settings: &BoundarySettings, pool: &rayon::ThreadPool) -> (Vec<Transient>, SecondaryStats) {
         let film = &self.ctx.scene.film;
         let (w, h) = (film.width as usize, film.height as usize);
         let mut out = vec![Transient::zeros(w, h, film.axis, film.channels); 1 + self.params];
@@ -174,7 +167,7 @@ impl Secondary<'_> {
                 self.ctx.tile_film(0, y0, w, y1 - y0, self.params)
             })
             .collect();
-        let stats = self.trace(samples, pilot, guiding, seed, shard, pool, |paths| {
+        let (stats, samples) = self.trace(settings, pool, |paths| {
             let dropped: Vec<u64> = pool.install(|| {
                 tiles
                     .par_iter_mut()
@@ -200,20 +193,15 @@ impl Secondary<'_> {
     /// The secondary term contracted with an adjoint volume (`crate::adjoint`): the same
     /// samples as [`Secondary::render`], each path's İ_k contracted with ∂L/∂I in the bins
     /// it touches, without a derivative film.
-    #[allow(clippy::too_many_arguments)]
     pub fn adjoint(
         &self,
-        samples: u64,
-        pilot: u64,
-        guiding: bool,
-        seed: u64,
-        shard: crate::shard::Shard,
+        settings: &BoundarySettings,
         pool: &rayon::ThreadPool,
         adjoint: &Transient,
     ) -> ([f64; MAX_PARAMS], SecondaryStats) {
         let mut acc = crate::adjoint::AdjointFilm::new(adjoint);
         let h = self.ctx.scene.film.height as usize;
-        let stats = self.trace(samples, pilot, guiding, seed, shard, pool, |paths| {
+        let (stats, samples) = self.trace(settings, pool, |paths| {
             paths.iter().map(|bp| u64::from(!self.splat(&mut acc, 0..h, bp))).sum()
         });
         let mut grad = acc.grad;
@@ -221,20 +209,23 @@ impl Secondary<'_> {
         (grad, stats)
     }
 
-    /// The pilot, then every boundary sample of `shard` in chunks traced in parallel; each
-    /// batch's paths go to `consume` in chunk order, which returns how many it dropped as
-    /// not finite.
-    #[allow(clippy::too_many_arguments)]
+    /// The pilot, then every boundary sample of the settings' shard in chunks traced in
+    /// parallel; each batch's paths go to `consume` in chunk order, which returns how many it
+    /// dropped as not finite. Returns the pass's record and its sample count (the
+    /// normalisation of every shard).
     fn trace(
         &self,
-        samples: u64,
-        pilot: u64,
-        guiding: bool,
-        seed: u64,
-        shard: crate::shard::Shard,
+        settings: &BoundarySettings,
         pool: &rayon::ThreadPool,
         mut consume: impl FnMut(&[BoundaryPath]) -> u64,
-    ) -> SecondaryStats {
+    ) -> (SecondaryStats, u64) {
+        let film = &self.ctx.scene.film;
+        let samples = settings.spp_boundary as u64 * film.width as u64 * film.height as u64;
+        // the pilot: 1/8 of the samples when it fits guiding grids, else 1/16 (only the budget
+        // split), at least 1024
+        let (guiding, shard) = (settings.guiding, settings.shard);
+        let pilot = (samples / if guiding { 8 } else { 16 }).max(1024);
+        let seed = settings.seed ^ SECONDARY_SEED;
         let t0 = Instant::now();
         let own = shard.range(samples);
         let mut stats = SecondaryStats {
@@ -244,7 +235,7 @@ impl Secondary<'_> {
             ..Default::default()
         };
         if self.edges.is_empty() || samples == 0 || self.params == 0 {
-            return stats;
+            return (stats, samples);
         }
         let pl = self.pilot(pilot.max(1), seed ^ PILOT_STREAM, guiding, pool);
         stats.rays += pl.rays;
@@ -296,7 +287,7 @@ impl Secondary<'_> {
             batch0 += BATCH;
         }
         stats.seconds = t0.elapsed().as_secs_f64();
-        stats
+        (stats, samples)
     }
 
     /// Bins one boundary path into the derivative channels of `tile` (its primal stays 0):
