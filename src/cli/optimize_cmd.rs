@@ -107,34 +107,12 @@ fn named<T>(
 fn read_target(path: &Path, scene: &Scene) -> anyhow::Result<Transient> {
     let f = &scene.film;
     let shape = [f.height as usize, f.width as usize, f.axis.bins, f.channels];
-    let meta = std::fs::metadata(path).with_context(|| format!("--target {}: cannot read it", path.display()))?;
-    let expected = 4 * shape.iter().product::<usize>() as u64;
-    if !meta.is_file() || meta.len() > expected + 4096 {
-        bail!(
-            "--target {}: expected a float32 .npy of shape {shape:?} (the scene's [H, W, T, C])",
-            path.display()
-        );
-    }
-    let bytes = std::fs::read(path).with_context(|| format!("--target {}: cannot read it", path.display()))?;
-    let npy =
-        npyz::NpyFile::new(&bytes[..]).with_context(|| format!("--target {}: not a .npy file", path.display()))?;
-    let got: Vec<usize> = npy.shape().iter().map(|&d| d as usize).collect();
-    let f4 = npyz::DType::new_scalar("<f4".parse().expect("<f4 is a type string"));
-    if got != shape || npy.dtype() != f4 || npy.order() != npyz::Order::C {
-        bail!(
-            "--target {}: holds {:?} of shape {got:?}; the scene {} renders float32 {shape:?} ([H, W, T, C], C order)",
-            path.display(),
-            npy.dtype(),
-            scene.source.display()
-        );
-    }
+    let what = format!(
+        "the --target (the scene {} renders [H, W, T, C])",
+        scene.source.display()
+    );
     let mut t = Transient::zeros(shape[1], shape[0], f.axis, f.channels);
-    t.data = npy
-        .into_vec()
-        .with_context(|| format!("--target {}: cannot decode", path.display()))?;
-    if let Some(i) = t.data.iter().position(|v| !v.is_finite()) {
-        bail!("--target {}: value {i} is not finite", path.display());
-    }
+    t.data = super::npy_in::read_f32(path, &shape, &what)?;
     Ok(t)
 }
 

@@ -8,6 +8,7 @@
 //! `spp` samples the two differ by at most about `(2·spp + 8)·2⁻²⁴` of the value
 //! (recursive summation of non-negative terms); tests/cli_shards.rs asserts that bound.
 
+use super::npy_in::read_f32;
 use super::output_set::{OutputSet, with_suffix};
 use crate::film::Transient;
 use crate::render::RenderOptions;
@@ -124,33 +125,6 @@ fn read_shard(prefix: &Path) -> anyhow::Result<ShardFiles> {
     })
 }
 
-/// Reads a float32 C-order .npy written by `dtr render`, checking its shape.
-fn read_npy(path: &Path, shape: &[usize]) -> anyhow::Result<Vec<f32>> {
-    let expected: usize = shape.iter().product();
-    let cap = 256 + 4 * expected as u64;
-    let meta = std::fs::metadata(path).with_context(|| format!("{}: cannot read the shard's film", path.display()))?;
-    if !meta.is_file() || meta.len() > cap {
-        bail!("{}: expected a .npy file of float32 {shape:?}", path.display());
-    }
-    let bytes = std::fs::read(path).with_context(|| format!("{}: cannot read the shard's film", path.display()))?;
-    let npy = npyz::NpyFile::new(&bytes[..]).with_context(|| format!("{}: not a .npy file", path.display()))?;
-    let got: Vec<usize> = npy.shape().iter().map(|&d| d as usize).collect();
-    if got != shape
-        || npy.order() != npyz::Order::C
-        || npy.dtype() != npyz::DType::new_scalar("<f4".parse().expect("<f4 is a type string"))
-    {
-        bail!(
-            "{}: holds {:?} {got:?}, expected float32 {shape:?} in C order (the render's JSON says so)",
-            path.display(),
-            npy.dtype()
-        );
-    }
-    let data: Vec<f32> = npy
-        .into_vec()
-        .with_context(|| format!("{}: cannot decode", path.display()))?;
-    Ok(data)
-}
-
 /// The shards, checked to be exactly the shards 0..N of one render.
 fn check_complete(shards: &mut [ShardFiles]) -> anyhow::Result<()> {
     let first = &shards[0];
@@ -227,6 +201,9 @@ fn axis_of(meta: &Value, path: &Path) -> anyhow::Result<crate::temporal::TimeAxi
     })
 }
 
+/// What the shard's .npy files are, in messages.
+const FILM: &str = "the shard's film (its JSON gives the shape)";
+
 /// Reads one shard's films: the transient with its steady image, then each derivative.
 fn read_films(s: &ShardFiles, diff: &[String]) -> anyhow::Result<(Transient, Vec<Transient>)> {
     let json = with_suffix(&s.prefix, "json");
@@ -240,12 +217,12 @@ fn read_films(s: &ShardFiles, diff: &[String]) -> anyhow::Result<(Transient, Vec
         );
     }
     let mut film = Transient::zeros(w, h, axis, c);
-    film.data = read_npy(&with_suffix(&s.prefix, "npy"), &[h, w, t, c])?;
-    film.steady = read_npy(&with_suffix(&s.prefix, "steady.npy"), &[h, w, c])?;
+    film.data = read_f32(&with_suffix(&s.prefix, "npy"), &[h, w, t, c], FILM)?;
+    film.steady = read_f32(&with_suffix(&s.prefix, "steady.npy"), &[h, w, c], FILM)?;
     let mut derivs = Vec::new();
     for name in diff {
         let mut d = Transient::zeros(w, h, axis, c);
-        d.data = read_npy(&with_suffix(&s.prefix, &format!("d_{name}.npy")), &[h, w, t, c])?;
+        d.data = read_f32(&with_suffix(&s.prefix, &format!("d_{name}.npy")), &[h, w, t, c], FILM)?;
         derivs.push(d);
     }
     Ok((film, derivs))
