@@ -195,9 +195,11 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
     }
     let mut set = OutputSet::prepare(&a.output, &scene.inputs, &a.scene, &planned)?;
     let mut opts = opts;
+    // what makes this render's numbers (for the JSON, `dtr merge` and `--resume`), hashed once
+    let identity =
+        super::shard_set::identity(&scene, &a.set, &a.diff, &opts, opts.spp.unwrap_or(scene.integrator.spp))?;
     let checkpoint = if a.checkpoint.is_some() || a.resume {
-        let mut identity =
-            super::shard_set::identity(&scene, &a.set, &a.diff, &opts, opts.spp.unwrap_or(scene.integrator.spp))?;
+        let mut identity = identity.clone();
         // a checkpoint belongs to one shard of the render
         identity["shard"] = json!(opts.shard.to_string());
         let ck = super::checkpoint_cmd::prepare(&set, &scene, identity, a.checkpoint, a.resume)?;
@@ -244,7 +246,7 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
         output::write_npy(&set.stage("steady.npy")?, &shape, &film.steady)?;
     }
     let mut meta = metadata(&scene, &film, &stats, &a, set.prefix());
-    meta["identity"] = super::shard_set::identity(&scene, &a.set, &a.diff, &opts, stats.spp)?;
+    meta["identity"] = identity;
     let shard = opts.shard;
     meta["shard"] = json!({
         "index": shard.index,
