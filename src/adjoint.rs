@@ -182,15 +182,18 @@ fn render_adjoint_group(
     let (w, h) = (f.width as usize, f.height as usize);
     let channels = f.channels;
     let interior = opts.boundary != BoundaryMode::BoundaryOnly;
-    let tiles: Vec<(usize, usize)> = (0..if interior { h.div_ceil(TILE) } else { 0 })
-        .flat_map(|ty| (0..w.div_ceil(TILE)).map(move |tx| (tx * TILE, ty * TILE)))
-        .collect();
-    // Per tile (path tracer) or per fixed chunk of tiles (BDPT), summed in order: the same
-    // gradient for any thread count.
+    let tiles = if interior {
+        crate::render::tiles(w, h)
+    } else {
+        Vec::new()
+    };
+    // Per tile (path tracer) or per fixed chunk of tiles (BDPT, as many as a render's most:
+    // there is no chunk film to bound), summed in order: the same gradient for any thread
+    // count.
     let units: Vec<Vec<(usize, usize)>> = match run.kind {
         IntegratorKind::Path => tiles.iter().map(|&t| vec![t]).collect(),
         IntegratorKind::Bdpt => tiles
-            .chunks(tiles.len().div_ceil(8).max(1))
+            .chunks(tiles.len().div_ceil(crate::render::BDPT_CHUNKS).max(1))
             .map(<[_]>::to_vec)
             .collect(),
     };

@@ -23,6 +23,14 @@ use std::time::Instant;
 /// Tile edge in pixels. A tile row of 8 pixels is one packet.
 pub const TILE: usize = 8;
 
+/// The corners (x0, y0) of the tiles of a w × h film, row by row: the order tiles are
+/// merged and summed in.
+pub(crate) fn tiles(w: usize, h: usize) -> Vec<(usize, usize)> {
+    (0..h.div_ceil(TILE))
+        .flat_map(|ty| (0..w.div_ceil(TILE)).map(move |tx| (tx * TILE, ty * TILE)))
+        .collect()
+}
+
 /// How many paths the kernel carries at once.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum Lanes {
@@ -321,7 +329,7 @@ pub fn render_strategies(
 
 /// Most chunks a BDPT render is split into: each owns a full-frame film (splats land
 /// anywhere), and chunks are merged in order, so the bytes do not depend on threads.
-const BDPT_CHUNKS: usize = 8;
+pub(crate) const BDPT_CHUNKS: usize = 8;
 
 /// Memory the chunk films of a BDPT render may take together.
 const BDPT_FILM_BUDGET_BYTES: usize = 2 << 30;
@@ -639,10 +647,12 @@ impl<'s> Run<'s> {
         let axis = scene.film.axis;
         let channels = scene.film.channels;
         let ran = opts.boundary != BoundaryMode::BoundaryOnly || derivs == 0;
-        let tiles: Vec<(usize, usize)> = (0..if ran { h.div_ceil(TILE) } else { 0 })
-            .flat_map(|ty| (0..w.div_ceil(TILE)).map(move |tx| (tx * TILE, ty * TILE)))
-            .collect();
-        let bar = progress_bar(opts.progress, tiles.len() as u64);
+        let tiles = if ran { tiles(w, h) } else { Vec::new() };
+        let bar = progress_bar(
+            opts.progress,
+            tiles.len() as u64,
+            "{elapsed_precise} [{bar:40}] {pos}/{len} tiles ({eta})",
+        );
         let cpu0 = cpu_seconds();
         let t0 = Instant::now();
         let mut out = vec![Transient::zeros(w, h, axis, channels); 1 + derivs];
@@ -967,9 +977,7 @@ fn pilot_energy_after(
     ctx.cut_to_window(SteadyMode::Full);
     let ctx = &*ctx;
     let (w, h) = (ctx.scene.film.width as usize, ctx.scene.film.height as usize);
-    let tiles: Vec<(usize, usize)> = (0..h.div_ceil(TILE))
-        .flat_map(|ty| (0..w.div_ceil(TILE)).map(move |tx| (tx * TILE, ty * TILE)))
-        .collect();
+    let tiles = tiles(w, h);
     let target = (render_paths / PILOT_SHARE).clamp(PILOT_PATHS.0, PILOT_PATHS.1);
     let step = (w * h).div_ceil(target).max(1);
     let picked: Vec<(usize, usize)> = tiles.iter().copied().step_by(step).collect();
@@ -1026,14 +1034,15 @@ pub(crate) fn render_tile<R: Real, const C: usize, S: Sink<C>>(
     }
 }
 
-fn progress_bar(show: bool, len: u64) -> indicatif::ProgressBar {
+/// A progress bar on stderr in indicatif's `template`, hidden unless `show` and stderr is a
+/// terminal.
+pub(crate) fn progress_bar(show: bool, len: u64, template: &str) -> indicatif::ProgressBar {
     use std::io::IsTerminal;
     if !show || !std::io::stderr().is_terminal() {
         return indicatif::ProgressBar::hidden();
     }
     let bar = indicatif::ProgressBar::new(len);
-    if let Ok(style) = indicatif::ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {pos}/{len} tiles ({eta})")
-    {
+    if let Ok(style) = indicatif::ProgressStyle::with_template(template) {
         bar.set_style(style.progress_chars("=> "));
     }
     bar

@@ -229,7 +229,11 @@ pub fn run(a: OptimizeArgs) -> anyhow::Result<()> {
     let grads: Vec<String> = a.params.iter().map(|p| format!("d_{p}")).collect();
     writeln!(log, "iteration,loss,{names},{},seconds", grads.join(","))?;
     log.flush()?;
-    let bar = progress(!a.quiet, a.iters as u64);
+    let bar = crate::render::progress_bar(
+        !a.quiet,
+        a.iters as u64,
+        "{elapsed_precise} [{bar:30}] {pos}/{len} {msg}",
+    );
     let mut best = f64::INFINITY;
     let mut failure: Option<anyhow::Error> = None;
     let steps = problem.optimize(&start, a.iters, &lr, a.lr_end, |s: &Step| {
@@ -347,16 +351,4 @@ fn prepare_dir(dir: &Path, inputs: &[&Path]) -> anyhow::Result<PathBuf> {
         }
     }
     Ok(canon)
-}
-
-fn progress(show: bool, len: u64) -> indicatif::ProgressBar {
-    use std::io::IsTerminal;
-    if !show || !std::io::stderr().is_terminal() {
-        return indicatif::ProgressBar::hidden();
-    }
-    let bar = indicatif::ProgressBar::new(len);
-    if let Ok(style) = indicatif::ProgressStyle::with_template("{elapsed_precise} [{bar:30}] {pos}/{len} {msg}") {
-        bar.set_style(style.progress_chars("=> "));
-    }
-    bar
 }
