@@ -10,14 +10,7 @@ use difftransient::optimize::{Problem, loss::Loss};
 
 fn run(loss: Loss) -> Vec<f64> {
     let scene = common::scene_path("diff_room.toml");
-    let truth = difftransient::Scene::load(&scene, &[]).unwrap();
-    let target_opts = RenderOptions {
-        spp: Some(1024),
-        seed: Some(1000),
-        threads: Some(2),
-        ..Default::default()
-    };
-    let (target, _) = difftransient::render(&truth, &target_opts).unwrap();
+    let target = common::converged_target(&scene);
     let p = Problem {
         scene,
         fixed: vec![],

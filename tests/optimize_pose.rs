@@ -14,14 +14,7 @@ const START: [f64; 2] = [0.25, 28.0];
 
 fn problem(boundary: BoundaryMode) -> Problem {
     let scene = common::scene_path("pose_plate.toml");
-    let target_scene = difftransient::Scene::load(&scene, &[]).unwrap();
-    let target_opts = RenderOptions {
-        spp: Some(1024),
-        seed: Some(1000),
-        threads: Some(2),
-        ..Default::default()
-    };
-    let (target, _) = difftransient::render(&target_scene, &target_opts).unwrap();
+    let target = common::converged_target(&scene);
     Problem {
         scene,
         fixed: vec![],

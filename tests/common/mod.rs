@@ -101,3 +101,16 @@ pub fn dtr(args: &[&str], cwd: &std::path::Path) -> std::process::Output {
         .output()
         .unwrap()
 }
+
+/// The scene file's transient at its own parameter values, rendered at 1024 spp: a target
+/// for inverse rendering whose noise barely moves the loss's minimum.
+pub fn converged_target(scene: &std::path::Path) -> Transient {
+    let truth = Scene::load(scene, &[]).unwrap();
+    let opts = RenderOptions {
+        spp: Some(1024),
+        seed: Some(1000),
+        threads: Some(2),
+        ..Default::default()
+    };
+    render(&truth, &opts).unwrap().0
+}
