@@ -10,7 +10,7 @@
 //! Run: `cargo bench --bench micro`.
 
 use criterion::{Criterion, Throughput, black_box, criterion_group, criterion_main};
-use difftransient::film::TileFilm;
+use difftransient::film::{Accumulate, TileFilm};
 use difftransient::kernel::{Dual8, Real, V3, f32x8};
 use difftransient::temporal::{Correlation, Gate, Pulse, TimeAxis};
 use std::time::Duration;

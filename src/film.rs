@@ -155,11 +155,38 @@ pub trait Accumulate {
     );
 }
 
+/// A tile film bins each path through S_e into its own pixels.
 impl Accumulate for TileFilm {
+    /// Adds one path of OPL `d` with throughput `f` (per channel) to pixel (x, y) (global
+    /// coordinates, inside this tile).
     #[inline]
     fn add(&mut self, x: usize, y: usize, corr: &Correlation, d: f64, f: &[f32]) {
-        TileFilm::add(self, x, y, corr, d, f)
+        let p = (y - self.y0) * self.w + (x - self.x0);
+        let c_n = self.channels;
+        let full = self.steady_mode == SteadyMode::Full;
+        if full {
+            for c in 0..c_n {
+                self.steady[p * c_n + c] += f[c] as f64;
+            }
+        }
+        self.add_tails(corr, d, f);
+        let base = p * self.bins * c_n;
+        let (data, steady) = (&mut self.data, &mut self.steady[p * c_n..(p + 1) * c_n]);
+        corr.for_each(d, |bin, s, _ds| {
+            let i = base + bin * c_n;
+            for (c, &fc) in f.iter().enumerate().take(c_n) {
+                data.add(i + c, fc as f64 * s);
+                if !full {
+                    steady[c] += fc as f64 * s;
+                }
+            }
+        });
     }
+
+    /// Adds one path and its derivatives in a single pass over S_e.range(d) (S_e and Ṡ_e are
+    /// evaluated once for all films): `I += f·S_e(d)` and, for each parameter k,
+    /// `İ_k += ḟ_k·S_e(d) + f·Ṡ_e(d)·ḋ_k` (Algorithm 1). `fdot[k*C + c]` and `ddot[k]` are the
+    /// derivatives of throughput and OPL; `fdot.len() == ddot.len() * C`.
     #[inline]
     fn add_with_derivs(
         &mut self,
@@ -171,7 +198,45 @@ impl Accumulate for TileFilm {
         fdot: &[f32],
         ddot: &[f32],
     ) {
-        TileFilm::add_with_derivs(self, x, y, corr, d, f, fdot, ddot)
+        let p = (y - self.y0) * self.w + (x - self.x0);
+        let c_n = self.channels;
+        let n_k = ddot.len().min(self.derivs);
+        let sblock = self.w * self.h * c_n;
+        let full = self.steady_mode == SteadyMode::Full;
+        if full {
+            for c in 0..c_n {
+                self.steady[p * c_n + c] += f[c] as f64;
+            }
+            for k in 0..n_k {
+                for c in 0..c_n {
+                    self.steady[sblock * (1 + k) + p * c_n + c] += fdot[k * c_n + c] as f64;
+                }
+            }
+        }
+        self.add_tails(corr, d, f);
+        let block = self.block();
+        let base = p * self.bins * c_n;
+        let (data, steady) = (&mut self.data, &mut self.steady);
+        corr.for_each(d, |bin, s, ds| {
+            let i = base + bin * c_n;
+            for (c, &fc) in f.iter().enumerate().take(c_n) {
+                data.add(i + c, fc as f64 * s);
+                if !full {
+                    steady[p * c_n + c] += fc as f64 * s;
+                }
+            }
+            for k in 0..n_k {
+                let ik = block * (1 + k) + i;
+                let dd = ds * ddot[k] as f64;
+                for c in 0..c_n {
+                    let v = fdot[k * c_n + c] as f64 * s + f[c] as f64 * dd;
+                    data.add(ik + c, v);
+                    if !full {
+                        steady[sblock * (1 + k) + p * c_n + c] += v;
+                    }
+                }
+            }
+        });
     }
 }
 
@@ -311,88 +376,6 @@ impl TileFilm {
     #[inline]
     fn block(&self) -> usize {
         self.w * self.h * self.bins * self.channels
-    }
-
-    /// Adds one path of OPL `d` with throughput `f` (per channel) to pixel (x, y) (global
-    /// coordinates, inside this tile).
-    #[inline]
-    pub fn add(&mut self, x: usize, y: usize, corr: &Correlation, d: f64, f: &[f32]) {
-        let p = (y - self.y0) * self.w + (x - self.x0);
-        let c_n = self.channels;
-        let full = self.steady_mode == SteadyMode::Full;
-        if full {
-            for c in 0..c_n {
-                self.steady[p * c_n + c] += f[c] as f64;
-            }
-        }
-        self.add_tails(corr, d, f);
-        let base = p * self.bins * c_n;
-        let (data, steady) = (&mut self.data, &mut self.steady[p * c_n..(p + 1) * c_n]);
-        corr.for_each(d, |bin, s, _ds| {
-            let i = base + bin * c_n;
-            for (c, &fc) in f.iter().enumerate().take(c_n) {
-                data.add(i + c, fc as f64 * s);
-                if !full {
-                    steady[c] += fc as f64 * s;
-                }
-            }
-        });
-    }
-
-    /// Adds one path and its derivatives in a single pass over S_e.range(d) (S_e and Ṡ_e are
-    /// evaluated once for all films): `I += f·S_e(d)` and, for each parameter k,
-    /// `İ_k += ḟ_k·S_e(d) + f·Ṡ_e(d)·ḋ_k` (Algorithm 1). `fdot[k*C + c]` and `ddot[k]` are the
-    /// derivatives of throughput and OPL; `fdot.len() == ddot.len() * C`.
-    #[inline]
-    pub fn add_with_derivs(
-        &mut self,
-        x: usize,
-        y: usize,
-        corr: &Correlation,
-        d: f64,
-        f: &[f32],
-        fdot: &[f32],
-        ddot: &[f32],
-    ) {
-        let p = (y - self.y0) * self.w + (x - self.x0);
-        let c_n = self.channels;
-        let n_k = ddot.len().min(self.derivs);
-        let sblock = self.w * self.h * c_n;
-        let full = self.steady_mode == SteadyMode::Full;
-        if full {
-            for c in 0..c_n {
-                self.steady[p * c_n + c] += f[c] as f64;
-            }
-            for k in 0..n_k {
-                for c in 0..c_n {
-                    self.steady[sblock * (1 + k) + p * c_n + c] += fdot[k * c_n + c] as f64;
-                }
-            }
-        }
-        self.add_tails(corr, d, f);
-        let block = self.block();
-        let base = p * self.bins * c_n;
-        let (data, steady) = (&mut self.data, &mut self.steady);
-        corr.for_each(d, |bin, s, ds| {
-            let i = base + bin * c_n;
-            for (c, &fc) in f.iter().enumerate().take(c_n) {
-                data.add(i + c, fc as f64 * s);
-                if !full {
-                    steady[p * c_n + c] += fc as f64 * s;
-                }
-            }
-            for k in 0..n_k {
-                let ik = block * (1 + k) + i;
-                let dd = ds * ddot[k] as f64;
-                for c in 0..c_n {
-                    let v = fdot[k * c_n + c] as f64 * s + f[c] as f64 * dd;
-                    data.add(ik + c, v);
-                    if !full {
-                        steady[sblock * (1 + k) + p * c_n + c] += v;
-                    }
-                }
-            }
-        });
     }
 
     /// Copies this tile into the full films (primal first, then derivatives).
