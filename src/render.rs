@@ -665,18 +665,14 @@ impl<'s> Run<'s> {
                 // finished tiles, zero elsewhere) resume to the same bytes. Each worker reuses
                 // one film across its tiles.
                 let units = tiles.len();
-                let mut state = Saved {
+                let state = self.resumed(units).unwrap_or_else(|| Saved {
                     units,
                     done: vec![false; units],
                     tallies: vec![None; units],
+                    frame: std::mem::take(&mut out),
                     ..Default::default()
-                };
-                if let Some(saved) = self.resumed(units) {
-                    out = saved.frame.clone();
-                    state = saved;
-                }
+                });
                 bar.inc(state.done_units() as u64);
-                state.frame = out;
                 let state = std::sync::Arc::new(std::sync::Mutex::new(state));
                 self.watch(&state);
                 let todo: Vec<usize> = {
