@@ -164,7 +164,7 @@ fn check_complete(shards: &mut [ShardFiles]) -> anyhow::Result<()> {
             );
         }
     }
-    let n = first_count(shards);
+    let n = shards[0].shard.count;
     let have: Vec<u32> = shards.iter().map(|s| s.shard.index).collect();
     let missing: Vec<String> = (0..n)
         .filter(|i| !have.contains(i))
@@ -177,10 +177,6 @@ fn check_complete(shards: &mut [ShardFiles]) -> anyhow::Result<()> {
         );
     }
     Ok(())
-}
-
-fn first_count(shards: &[ShardFiles]) -> u32 {
-    shards[0].shard.count
 }
 
 fn shape_of(meta: &Value, path: &Path) -> anyhow::Result<[usize; 4]> {
