@@ -116,7 +116,7 @@ pub fn boundary_adjoint(
     settings: &BoundarySettings,
     pool: &rayon::ThreadPool,
     adjoint: &Transient,
-) -> ([f64; crate::integrator::motion::MAX_PARAMS], BoundaryStats) {
+) -> ([f64; crate::params::MAX_PARAMS], BoundaryStats) {
     let t0 = Instant::now();
     let (mut grad, _) = primary::primary_adjoint(
         ctx,

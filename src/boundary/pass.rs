@@ -16,7 +16,7 @@ use super::guiding::{GuideGrid, RESOLUTION, UNIFORM_MIX};
 use super::secondary::{BoundaryPath, LIGHT_STREAM, Prepared, Scratch, Secondary};
 use super::{BoundarySettings, SECONDARY_SEED};
 use crate::film::{TileFilm, Transient};
-use crate::integrator::motion::MAX_PARAMS;
+use crate::params::MAX_PARAMS;
 use rayon::prelude::*;
 use std::time::Instant;
 

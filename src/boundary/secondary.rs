@@ -57,10 +57,10 @@ use super::subpaths::{SegmentSample, SourceTerm, Terms, subpaths};
 use super::velocity::{Crossing, ray_form_velocity};
 use crate::integrator::context::RenderContext;
 use crate::integrator::deposit::PathCounts;
-use crate::integrator::motion::MAX_PARAMS;
 use crate::integrator::opl::{on_plane64, segment};
 use crate::integrator::surface::self_intersection_eps;
 use crate::kernel::{PathSampler, V3};
+use crate::params::MAX_PARAMS;
 use crate::scene::EmitterKind;
 use glam::{DVec3, Vec3};
 

@@ -16,7 +16,7 @@ use super::deposit::PathCounts;
 use super::opl::points64;
 use super::path::SurfaceStarts;
 use super::surface::{SurfacePoint, surface_at};
-use super::trace::{SegmentEnd, shadow_segment, spawn_point, unoccluded};
+use super::trace::{SegmentEnd, next_hits, shadow_segment, spawn_point, unoccluded};
 use super::transport::scatter;
 use super::window;
 use crate::kernel::{Mask, PathSampler, Real, Spectrum, V3};
@@ -146,7 +146,7 @@ pub fn trace_importance_packet<R: Real, const C: usize>(
         // on by sampling the BSDF
         let (dir, _) = scatter(ctx, &mut sampler, &n, &side, &f, &mut beta, &mut active, j);
         let o = spawn_point(&p, &n, &ray_d, &dir);
-        let (hit, found) = window::next_hits(
+        let (hit, found) = next_hits(
             &ctx.accel,
             ctx.opl_budget,
             &o,

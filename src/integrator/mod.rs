@@ -19,7 +19,6 @@ pub mod emitters;
 #[cfg(test)]
 mod emitters_tests;
 pub mod importance;
-pub mod motion;
 pub mod opl;
 pub mod opl_precision;
 pub mod path;

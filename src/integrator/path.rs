@@ -20,7 +20,7 @@ use super::opl::points64;
 use super::power_heuristic;
 use super::sink::Sink;
 use super::surface::surface_at;
-use super::trace::{SegmentEnd, shadow_segment, spawn_point, unoccluded};
+use super::trace::{SegmentEnd, next_hits, shadow_segment, spawn_point, unoccluded};
 use super::transport::{emitter_hits, scatter};
 use super::window;
 use crate::kernel::{Mask, PathSampler, Real, Spectrum, V3};
@@ -171,7 +171,7 @@ pub fn trace_packet_from<R: Real, const C: usize, S: Sink<C>>(
             None => {
                 // the window cut: no hit farther than the OPL left can reach a bin (`super::window`)
                 let counted = !(depth == 1 && scene.film.unwarp);
-                let (hit, found) = window::next_hits(
+                let (hit, found) = next_hits(
                     &ctx.accel,
                     ctx.opl_budget,
                     &ray_o,

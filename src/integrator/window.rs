@@ -17,9 +17,7 @@
 //! time-summed (steady) image, which then integrates the window ([`crate::film::SteadyMode`]);
 //! `--steady full` turns the cut off.
 
-use super::trace::{HitLanes, RayCounts, intersect};
-use crate::accel::Accel;
-use crate::kernel::{Mask, Real, V3};
+use crate::kernel::{Mask, Real};
 use crate::temporal::Correlation;
 
 /// Relative slack added to the bound: the kernel's f32 OPL and the f64 OPL the film bins
@@ -55,34 +53,6 @@ pub fn within<V: Real>(budget: Option<f32>, d: V) -> V::Mask {
         Some(b) => d.le(V::splat(b)),
         None => V::Mask::from_bools(&[true; 8][..V::LANES]),
     }
-}
-
-/// The next vertices of the lanes of `active`: the closest hits along (o, d) no farther than
-/// the OPL left after `opl` allows (through a medium of index `eta`; no bound when `cut` is
-/// false, e.g. for the uncounted camera leg of an unwarped film). Returns the hits and the
-/// lanes that found one within the bound.
-#[allow(clippy::too_many_arguments)]
-#[inline(always)]
-pub fn next_hits<V: Real>(
-    accel: &Accel,
-    budget: Option<f32>,
-    o: &V3<V>,
-    d: &V3<V>,
-    opl: V,
-    eta: V,
-    cut: bool,
-    active: V::Mask,
-    coherent: bool,
-    counts: &mut RayCounts,
-) -> (HitLanes<V>, V::Mask) {
-    let t_far = match cut {
-        true => t_far(budget, opl, eta),
-        false => V::splat(f32::INFINITY),
-    };
-    let active = active & t_far.gt(V::zero());
-    let hit = intersect(accel, o, d, V::zero(), t_far, active, coherent, counts);
-    let found: [bool; 8] = std::array::from_fn(|i| hit.prim[i] != u32::MAX);
-    (hit, active & V::Mask::from_bools(&found[..V::LANES]))
 }
 
 #[cfg(test)]

@@ -11,9 +11,8 @@ use crate::integrator::bsdf::{albedo, diffuse_eval, sample_cosine};
 use crate::integrator::context::RenderContext;
 use crate::integrator::path::{PacketLanes, ray_plane_point};
 use crate::integrator::surface::{offset_origin, surface_at};
-use crate::integrator::trace::{RayCounts, spawn_point};
+use crate::integrator::trace::{RayCounts, next_hits, spawn_point};
 use crate::integrator::transport::scatter;
-use crate::integrator::window;
 use crate::kernel::{Mask, PathSampler, Real, Spectrum, V3};
 use glam::Vec3;
 
@@ -55,7 +54,7 @@ fn random_walk<R: Real, const C: usize>(
         // the window cut (`crate::integrator::window`): any full path through a vertex
         // farther than the OPL left would land past the window
         let cut = !(ray_form && ctx.scene.film.unwarp);
-        let (hit, found) = window::next_hits(
+        let (hit, found) = next_hits(
             &ctx.accel,
             ctx.opl_budget,
             &ray_o,
