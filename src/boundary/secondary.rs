@@ -154,26 +154,15 @@ impl<'a> Secondary<'a> {
                 if moves { MOVING_EDGE_FACTOR } else { 1.0 }
             }),
             params: ctx.motion.len().min(MAX_PARAMS),
-            laser_spots: ctx
-                .scene
-                .emitters
-                .iter()
-                .map(|e| match e.kind {
-                    EmitterKind::Laser {
-                        position, direction, ..
-                    } => {
-                        let dir = direction.normalize();
-                        let hit = ctx
-                            .accel
-                            .intersect1(position.to_array(), dir.to_array(), 0.0, f32::INFINITY)?;
-                        let [p0, p1, p2] = ctx.tri_verts[hit.prim as usize];
-                        Some(SourceMotion::Ray {
-                            shape: ctx.scene.geometry.tri_shape[hit.prim as usize] as usize,
-                            dir,
-                            n: (p1 - p0).cross(p2 - p0).normalize_or_zero(),
-                        })
-                    }
-                    _ => None,
+            laser_spots: (0..ctx.scene.emitters.len())
+                .map(|e| {
+                    let spot = ctx.emitters.laser_spot(e)?;
+                    let [p0, p1, p2] = ctx.tri_verts[spot.prim as usize];
+                    Some(SourceMotion::Ray {
+                        shape: ctx.scene.geometry.tri_shape[spot.prim as usize] as usize,
+                        dir: spot.direction,
+                        n: (p1 - p0).cross(p2 - p0).normalize_or_zero(),
+                    })
                 })
                 .collect(),
         }
