@@ -160,7 +160,8 @@ pub fn cpu_seconds() -> f64 {
 /// `--threads 100000` is refused before any thread is spawned).
 pub const MAX_THREADS: usize = 4096;
 
-/// Builds a rayon pool whose workers set flush-to-zero / denormals-are-zero (EMBREE.md).
+/// Builds a rayon pool whose workers set flush-to-zero / denormals-are-zero, as Embree's
+/// documentation asks of every thread that calls it (rtcIntersect / rtcOccluded, "MXCSR").
 pub fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool, Error> {
     let n = threads.unwrap_or_else(|| std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1));
     if n == 0 {
