@@ -153,7 +153,7 @@ def test_renders_release_the_gil():
 
     def work():
         t0 = time.perf_counter()
-        dt.render(s, spp=8, threads=1)
+        dt.render(s, spp=48, threads=1)
         done["seconds"] = time.perf_counter() - t0
 
     th = threading.Thread(target=work)
