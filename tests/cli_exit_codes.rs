@@ -56,7 +56,7 @@ fn completions_cover_the_subcommands_and_options() {
         let o = common::dtr(&["completions", shell], dir.path());
         assert!(o.status.success());
         let script = String::from_utf8_lossy(&o.stdout);
-        for word in ["render", "merge", "optimize", "--spp", "--preview", "--normalise"] {
+        for word in ["render", "merge", "optimize", "spp", "preview", "normalise"] {
             assert!(script.contains(word), "{shell} completions lack {word}");
         }
     }
