@@ -179,6 +179,7 @@ pub enum ShapeType {
     Cube,
     Sphere,
     Obj,
+    Ply,
 }
 
 impl ShapeType {
@@ -188,6 +189,7 @@ impl ShapeType {
             ShapeType::Cube => "cube",
             ShapeType::Sphere => "sphere",
             ShapeType::Obj => "obj",
+            ShapeType::Ply => "ply",
         }
     }
 }

@@ -19,6 +19,7 @@ mod info;
 mod load;
 mod materials;
 mod origin;
+pub mod ply;
 mod read;
 pub(crate) use read::read_regular_file;
 mod resolve;

@@ -1,4 +1,5 @@
-//! Bounded reads: the scene description (`load.rs`) and the OBJ meshes it names (`shapes.rs`).
+//! Bounded reads: the scene description (`load.rs`) and the OBJ and PLY meshes it names
+//! (`shapes.rs`, `ply.rs`).
 
 use std::path::Path;
 
@@ -6,6 +7,12 @@ use std::path::Path;
 /// (`/dev/zero`) and folders are refused before they are opened, so reading never hangs or
 /// runs out of memory.
 pub(crate) fn read_regular_file(path: &Path, cap: u64) -> std::io::Result<String> {
+    String::from_utf8(read_regular_bytes(path, cap)?)
+        .map_err(|e| std::io::Error::new(std::io::ErrorKind::InvalidData, format!("not UTF-8 text: {e}")))
+}
+
+/// [`read_regular_file`] for bytes (binary meshes).
+pub(crate) fn read_regular_bytes(path: &Path, cap: u64) -> std::io::Result<Vec<u8>> {
     use std::io::Read;
     let meta = std::fs::metadata(path)?;
     if !meta.is_file() {
@@ -18,10 +25,10 @@ pub(crate) fn read_regular_file(path: &Path, cap: u64) -> std::io::Result<String
             cap
         )));
     }
-    let mut text = String::new();
-    let n = std::fs::File::open(path)?.take(cap + 1).read_to_string(&mut text)?;
+    let mut bytes = Vec::new();
+    let n = std::fs::File::open(path)?.take(cap + 1).read_to_end(&mut bytes)?;
     if n as u64 > cap {
         return Err(std::io::Error::other(format!("more than the {cap} bytes read at most")));
     }
-    Ok(text)
+    Ok(bytes)
 }

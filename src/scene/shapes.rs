@@ -358,10 +358,10 @@ fn local_mesh(ctx: &Ctx, i: usize, d: &ShapeDesc) -> Result<LocalMesh, SceneErro
             format!("only applies to type sphere (this shape is a {})", d.ty.as_str()),
         ));
     }
-    if d.ty != ShapeType::Obj && d.file.is_some() {
+    if !matches!(d.ty, ShapeType::Obj | ShapeType::Ply) && d.file.is_some() {
         return Err(ctx.invalid(
             at("file"),
-            format!("only applies to type obj (this shape is a {})", d.ty.as_str()),
+            format!("only applies to types obj and ply (this shape is a {})", d.ty.as_str()),
         ));
     }
     Ok(match d.ty {
@@ -377,18 +377,25 @@ fn local_mesh(ctx: &Ctx, i: usize, d: &ShapeDesc) -> Result<LocalMesh, SceneErro
             }
             icosphere(level as u32).into()
         }
-        ShapeType::Obj => {
+        ShapeType::Obj | ShapeType::Ply => {
+            let kind = d.ty.as_str();
             let Some(file) = &d.file else {
                 return Err(ctx.invalid(
                     at("file"),
-                    "missing: an obj shape needs file = \"path/to/mesh.obj\" (relative to the scene file)",
+                    format!(
+                        "missing: an {kind} shape needs file = \"path/to/mesh.{kind}\" (relative to the scene file)"
+                    ),
                 ));
             };
-            let obj = obj_path(ctx.path, file);
-            load_obj(&obj).map_err(|message| SceneError::Obj {
+            let mesh_path = obj_path(ctx.path, file);
+            let loaded = match d.ty {
+                ShapeType::Obj => load_obj(&mesh_path),
+                _ => super::ply::load_ply(&mesh_path),
+            };
+            loaded.map_err(|message| SceneError::Obj {
                 path: ctx.path.to_path_buf(),
                 at: at("file"),
-                obj,
+                obj: mesh_path,
                 message,
             })?
         }
@@ -470,7 +477,7 @@ pub(crate) fn build(
         let tri_count = geo.indices.len() - first_tri;
         if tri_count == 0 {
             let (what, of) = match &d.file {
-                Some(f) if d.ty == ShapeType::Obj => ("file", format!(" of {f}")),
+                Some(f) if matches!(d.ty, ShapeType::Obj | ShapeType::Ply) => ("file", format!(" of {f}")),
                 _ => ("scale", String::new()),
             };
             return Err(ctx.invalid(

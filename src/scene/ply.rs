@@ -1,0 +1,130 @@
+//! PLY meshes (the Stanford polygon format, ASCII or binary) read with `ply-rs-bw`: the
+//! `vertex` element's `x`, `y`, `z` and the `face` element's `vertex_indices` (or
+//! `vertex_index`) lists; polygons are split into triangle fans, every other element and
+//! property is ignored.
+
+use super::shapes::LocalMesh;
+use glam::DVec3;
+use ply_rs_bw::parser::Parser;
+use ply_rs_bw::ply::{DefaultElement, Property};
+use std::path::Path;
+
+/// The largest PLY file read (as for OBJ).
+const MAX_PLY_BYTES: u64 = 2 << 30;
+
+/// Reads a PLY file; errors say what is wrong with it (the caller names the scene and field).
+pub fn load_ply(path: &Path) -> Result<LocalMesh, String> {
+    let bytes = super::read::read_regular_bytes(path, MAX_PLY_BYTES).map_err(|e| format!("cannot read it: {e}"))?;
+    parse_ply(&bytes)
+}
+
+/// [`load_ply`] for bytes already read.
+pub fn parse_ply(bytes: &[u8]) -> Result<LocalMesh, String> {
+    let parsed =
+        std::panic::catch_unwind(|| Parser::<DefaultElement>::new().read_ply(&mut std::io::Cursor::new(bytes)))
+            .map_err(|_| "the PLY parser failed on this file".to_string())?;
+    let ply = parsed.map_err(|e| format!("cannot parse it: {e}"))?;
+    let vertices = ply.payload.get("vertex").ok_or("no vertex element")?;
+    let mut mesh = LocalMesh::default();
+    for (i, v) in vertices.iter().enumerate() {
+        let coord = |k: &str| -> Result<f64, String> {
+            let c = match v.get(k) {
+                Some(Property::Float(x)) => *x as f64,
+                Some(Property::Double(x)) => *x,
+                Some(p) => scalar(p).ok_or_else(|| format!("vertex {i}: {k} is a list"))?,
+                None => return Err(format!("vertex {i} has no {k} property")),
+            };
+            if !(c as f32).is_finite() {
+                return Err(format!("vertex {i}: {k} = {c} is not finite"));
+            }
+            Ok(c)
+        };
+        mesh.positions.push(DVec3::new(coord("x")?, coord("y")?, coord("z")?));
+    }
+    let n = mesh.positions.len();
+    let faces = ply.payload.get("face").map(Vec::as_slice).unwrap_or_default();
+    for (f, face) in faces.iter().enumerate() {
+        let list = face
+            .get("vertex_indices")
+            .or_else(|| face.get("vertex_index"))
+            .ok_or_else(|| format!("face {f} has no vertex_indices list"))?;
+        let idx = indices(list).ok_or_else(|| format!("face {f}: vertex_indices is not a list of integers"))?;
+        if let Some(&bad) = idx.iter().find(|&&k| k < 0 || k as usize >= n) {
+            return Err(format!("face {f} names vertex {bad}, but there are {n} vertices"));
+        }
+        for k in 1..idx.len().saturating_sub(1) {
+            mesh.tris.push([idx[0], idx[k], idx[k + 1]].map(|v| v as u32));
+        }
+    }
+    if mesh.tris.is_empty() {
+        return Err("empty mesh: it has no faces with 3 or more vertices".to_string());
+    }
+    Ok(mesh)
+}
+
+fn scalar(p: &Property) -> Option<f64> {
+    Some(match p {
+        Property::Char(v) => *v as f64,
+        Property::UChar(v) => *v as f64,
+        Property::Short(v) => *v as f64,
+        Property::UShort(v) => *v as f64,
+        Property::Int(v) => *v as f64,
+        Property::UInt(v) => *v as f64,
+        Property::Float(v) => *v as f64,
+        Property::Double(v) => *v,
+        _ => return None,
+    })
+}
+
+fn indices(p: &Property) -> Option<Vec<i64>> {
+    Some(match p {
+        Property::ListChar(v) => v.iter().map(|&x| x as i64).collect(),
+        Property::ListUChar(v) => v.iter().map(|&x| x as i64).collect(),
+        Property::ListShort(v) => v.iter().map(|&x| x as i64).collect(),
+        Property::ListUShort(v) => v.iter().map(|&x| x as i64).collect(),
+        Property::ListInt(v) => v.iter().map(|&x| x as i64).collect(),
+        Property::ListUInt(v) => v.iter().map(|&x| x as i64).collect(),
+        _ => return None,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const QUAD: &str = "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n\
+        element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n4 0 1 2 3\n";
+
+    #[test]
+    fn an_ascii_quad_becomes_a_triangle_fan() {
+        let m = parse_ply(QUAD.as_bytes()).unwrap();
+        assert_eq!(m.positions.len(), 4);
+        assert_eq!(m.tris, vec![[0, 1, 2], [0, 2, 3]]);
+        assert_eq!(m.positions[2], DVec3::new(1.0, 1.0, 0.0));
+    }
+
+    #[test]
+    fn a_binary_mesh_reads_like_its_ascii_twin() {
+        let mut b = b"ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty double x\nproperty double y\n\
+            property double z\nelement face 1\nproperty list uchar uint vertex_indices\nend_header\n"
+            .to_vec();
+        for v in [[0.0f64, 0.0, 0.0], [2.0, 0.0, 0.0], [0.0, 3.0, 0.5]] {
+            v.iter().for_each(|c| b.extend(c.to_le_bytes()));
+        }
+        b.push(3);
+        [0u32, 1, 2].iter().for_each(|i| b.extend(i.to_le_bytes()));
+        let m = parse_ply(&b).unwrap();
+        assert_eq!(m.tris, vec![[0, 1, 2]]);
+        assert_eq!(m.positions[2], DVec3::new(0.0, 3.0, 0.5));
+    }
+
+    #[test]
+    fn bad_files_say_what_is_wrong() {
+        let e = |t: &str| parse_ply(t.as_bytes()).unwrap_err();
+        assert!(e(&QUAD.replace("4 0 1 2 3", "3 0 1 9")).contains("names vertex 9, but there are 4"));
+        assert!(e(&QUAD.replace("1 1 0\n", "1 1e40 0\n")).contains("not finite"));
+        assert!(e(&QUAD.replace("4 0 1 2 3", "2 0 1")).contains("no faces"));
+        assert!(e("not a ply").contains("cannot parse"));
+        assert!(e(&QUAD.replace("property float z\n", "").replace(" 0\n", "\n")).contains("no z property"));
+    }
+}
