@@ -155,3 +155,41 @@ fn per_frame_normalisation_brings_every_lit_frame_to_white() {
     assert!(!bad.status.success());
     assert!(String::from_utf8_lossy(&bad.stderr).contains("normalise"));
 }
+
+/// `--exr` layers carry the film's time axis (f64 metres of OPL and ns), as the JSON does.
+#[test]
+fn exr_layers_carry_the_time_axis() {
+    use exr::meta::attribute::{AttributeValue, Text};
+    let dir = tempfile::tempdir().unwrap();
+    let scene = common::scene_path(SCENE);
+    let prefix = dir.path().join("p");
+    let out = common::dtr(
+        &[
+            "render",
+            scene.to_str().unwrap(),
+            "--spp",
+            "1",
+            "--exr",
+            "--set",
+            "film.start_opl=4.0000001",
+            "-o",
+            prefix.to_str().unwrap(),
+        ],
+        dir.path(),
+    );
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let meta = exr::meta::MetaData::read_from_file(with(&prefix, "exr"), false).unwrap();
+    let json: serde_json::Value = serde_json::from_slice(&std::fs::read(with(&prefix, "json")).unwrap()).unwrap();
+    let width = json["time_axis"]["bin_width_opl"].as_f64().unwrap();
+    assert_eq!(json["time_axis"]["start_opl"].as_f64(), Some(4.0000001));
+    for (t, header) in meta.headers.iter().enumerate() {
+        let get = |k: &str| header.own_attributes.other.get(&Text::from(k)).cloned();
+        assert_eq!(get("start_opl"), Some(AttributeValue::F64(4.0000001)));
+        assert_eq!(get("bin_width_opl"), Some(AttributeValue::F64(width)));
+        assert_eq!(
+            get("opl_begin"),
+            Some(AttributeValue::F64(4.0000001 + t as f64 * width))
+        );
+        assert_eq!(get("opl_units"), Some(AttributeValue::Text(Text::from("metres"))));
+    }
+}

@@ -245,7 +245,8 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
         output::write_npy(&set.stage(&format!("s{s}_t{t}.npy"))?, &f.shape(), &f.data)?;
     }
     if a.exr {
-        output::write_exr_layers(&set.stage("exr")?, view(&film))?;
+        let axis = (film.axis.start_opl, film.axis.bin_width_opl);
+        output::write_exr_layers_with_axis(&set.stage("exr")?, view(&film), Some(axis))?;
     }
     if a.preview {
         let normalise = match a.normalise.as_str() {

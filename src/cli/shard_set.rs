@@ -266,7 +266,8 @@ pub fn run(a: MergeArgs) -> anyhow::Result<()> {
         crate::output::write_npy(&set.stage(&format!("d_{name}.npy"))?, &d.shape(), &d.data)?;
     }
     if a.exr {
-        crate::output::write_exr_layers(&set.stage("exr")?, super::render_cmd::view(&film))?;
+        let axis = (film.axis.start_opl, film.axis.bin_width_opl);
+        crate::output::write_exr_layers_with_axis(&set.stage("exr")?, super::render_cmd::view(&film), Some(axis))?;
     }
     if a.preview {
         super::render_cmd::write_previews(&film, &mut set, None, crate::output::Normalise::Global)?;

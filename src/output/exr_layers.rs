@@ -19,9 +19,9 @@ pub fn write_exr_layers(path: &Path, film: FilmView) -> Result<(), OutputError> 
 
 /// [`write_exr_layers`], plus the time axis as custom attributes when `axis` is
 /// `Some((start_opl, bin_width_opl))` (metres of optical path length): on every layer
-/// `start_opl`, `bin_width_opl` and this bin's `opl_begin`/`opl_end` (f32), `time_begin_ns`
-/// (f32) and the text `opl_units` = `metres`.
-pub fn write_exr_layers_with_axis(path: &Path, film: FilmView, axis: Option<(f32, f32)>) -> Result<(), OutputError> {
+/// `start_opl`, `bin_width_opl` and this bin's `opl_begin`/`opl_end` and `time_begin_ns`
+/// (f64, like the time axis everywhere) and the text `opl_units` = `metres`.
+pub fn write_exr_layers_with_axis(path: &Path, film: FilmView, axis: Option<(f64, f64)>) -> Result<(), OutputError> {
     film.validate(path)?;
     if let Some((start, width)) = axis
         && (!start.is_finite() || !width.is_finite() || width <= 0.0)
@@ -60,17 +60,14 @@ pub fn write_exr_layers_with_axis(path: &Path, film: FilmView, axis: Option<(f32
         let other = &mut attributes.other;
         other.insert(Text::from("time_bin"), AttributeValue::I32(t as i32));
         if let Some((start, width)) = axis {
-            let begin = start as f64 + t as f64 * width as f64;
-            other.insert(Text::from("start_opl"), AttributeValue::F32(start));
-            other.insert(Text::from("bin_width_opl"), AttributeValue::F32(width));
-            other.insert(Text::from("opl_begin"), AttributeValue::F32(begin as f32));
-            other.insert(
-                Text::from("opl_end"),
-                AttributeValue::F32((begin + width as f64) as f32),
-            );
+            let begin = start + t as f64 * width;
+            other.insert(Text::from("start_opl"), AttributeValue::F64(start));
+            other.insert(Text::from("bin_width_opl"), AttributeValue::F64(width));
+            other.insert(Text::from("opl_begin"), AttributeValue::F64(begin));
+            other.insert(Text::from("opl_end"), AttributeValue::F64(begin + width));
             other.insert(
                 Text::from("time_begin_ns"),
-                AttributeValue::F32((begin / SPEED_OF_LIGHT_M_PER_S * 1e9) as f32),
+                AttributeValue::F64(begin / SPEED_OF_LIGHT_M_PER_S * 1e9),
             );
             other.insert(Text::from("opl_units"), AttributeValue::Text(Text::from("metres")));
         }
@@ -170,7 +167,7 @@ mod tests {
             assert_eq!(other.get(&Text::from("time_bin")), Some(&AttributeValue::I32(b as i32)));
             assert_eq!(
                 other.get(&Text::from("opl_begin")),
-                Some(&AttributeValue::F32(1.5 + 0.25 * b as f32))
+                Some(&AttributeValue::F64(1.5 + 0.25 * b as f64))
             );
         }
         assert_eq!(entries(dir.path()), vec!["film.exr"]);
