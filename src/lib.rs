@@ -26,6 +26,7 @@ pub mod optimize;
 pub mod output;
 pub mod render;
 pub mod scene;
+pub mod sensor_noise;
 pub mod shard;
 pub mod temporal;
 pub mod timing;

@@ -34,6 +34,8 @@ pub struct WallGrid {
     pub nx: usize,
     pub ny: usize,
     pub points: Vec<WallPoint>,
+    /// Explicit points (`nlos.points`), not a grid.
+    pub explicit: bool,
 }
 
 impl WallGrid {
@@ -137,7 +139,7 @@ pub(super) fn resolve(
         )
     })?;
     let sensors = match (&d.grid, &d.points) {
-        (Some(g), None) => grid(ctx, &at("grid"), *g, &tris, &frame)?,
+        (Some(g), None) => grid(ctx, "grid", *g, &tris, &frame)?,
         (None, Some(pts)) => explicit(ctx, pts, &tris, &frame, origin)?,
         (Some(_), Some(_)) => {
             return Err(ctx.invalid(
@@ -159,7 +161,7 @@ pub(super) fn resolve(
                 "does not apply to a confocal scan (its laser points are the sensor points)",
             ));
         }
-        (NlosScan::Exhaustive, Some(g)) => grid(ctx, &at("laser_grid"), g, &tris, &frame)?,
+        (NlosScan::Exhaustive, Some(g)) => grid(ctx, "laser_grid", g, &tris, &frame)?,
         _ => sensors.clone(),
     };
     for (i, s) in sensors.points.iter().enumerate() {
@@ -300,13 +302,26 @@ fn extent(tris: &[(u32, [DVec3; 3])], frame: &[Vec3; 3]) -> [(f64, f64); 3] {
 /// An nx × ny grid of cell centres over the wall's extent in (u, v), projected onto the wall.
 fn grid(
     ctx: &Ctx,
-    at: &str,
+    field: &str,
     g: [i64; 2],
     tris: &[(u32, [DVec3; 3])],
     frame: &[Vec3; 3],
 ) -> Result<WallGrid, SceneError> {
-    let nx = count(ctx, format!("{at}[0]"), g[0], 1, MAX_WALL_POINTS)? as usize;
-    let ny = count(ctx, format!("{at}[1]"), g[1], 1, MAX_WALL_POINTS)? as usize;
+    let at = &table_field("nlos", field);
+    let nx = count(
+        ctx,
+        table_field("nlos", &format!("{field}[0]")),
+        g[0],
+        1,
+        MAX_WALL_POINTS,
+    )? as usize;
+    let ny = count(
+        ctx,
+        table_field("nlos", &format!("{field}[1]")),
+        g[1],
+        1,
+        MAX_WALL_POINTS,
+    )? as usize;
     if (nx * ny) as i64 > MAX_WALL_POINTS {
         return Err(ctx.invalid(at, format!("{nx} × {ny} points is more than {MAX_WALL_POINTS}")));
     }
@@ -330,7 +345,12 @@ fn grid(
             points.push(p);
         }
     }
-    Ok(WallGrid { nx, ny, points })
+    Ok(WallGrid {
+        nx,
+        ny,
+        points,
+        explicit: false,
+    })
 }
 
 /// Explicit points (file coordinates), each projected onto the wall along its mean normal.
@@ -370,6 +390,7 @@ fn explicit(
         nx: points.len(),
         ny: 1,
         points,
+        explicit: true,
     })
 }
 
