@@ -74,13 +74,13 @@ impl NlosSensor {
                 albedo
             })
             .collect();
+        // from the SPAD (on no surface) to just short of the wall point
         let seen = sensors
             .iter()
             .map(|s| {
-                let o = s.p + s.n * super::surface::self_intersection_eps(&crate::kernel::V3::<f32>::splat(s.p));
-                let to = spad - o;
+                let to = s.p - spad;
                 let len = to.length();
-                !accel.occluded1(o.to_array(), (to / len).to_array(), 0.0, len * (1.0 - 1e-5))
+                !accel.occluded1(spad.to_array(), (to / len).to_array(), 0.0, len * (1.0 - 1e-5))
             })
             .collect();
         let spad_leg = sensors
