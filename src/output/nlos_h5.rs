@@ -36,20 +36,7 @@ pub fn h_array(spec: &NlosSpec, film: &Transient) -> (Vec<usize>, Vec<f32>, i32)
         };
         (0..c).map(|ch| film.at(x, y, k, ch)).sum()
     };
-    let sensor_order: Vec<usize> = if grids {
-        (0..s.nx)
-            .flat_map(|ix| (0..s.ny).map(move |iy| iy * s.nx + ix))
-            .collect()
-    } else {
-        (0..s.len()).collect()
-    };
-    let laser_order: Vec<usize> = if grids {
-        (0..l.nx)
-            .flat_map(|ix| (0..l.ny).map(move |iy| iy * l.nx + ix))
-            .collect()
-    } else {
-        (0..l.len()).collect()
-    };
+    let (sensor_order, laser_order) = (order(s, grids), order(l, grids));
     let mut data = Vec::with_capacity(t * sensor_order.len() * if spec.exhaustive() { l.len() } else { 1 });
     for k in 0..t {
         if spec.exhaustive() {
@@ -73,15 +60,20 @@ pub fn h_array(spec: &NlosSpec, film: &Transient) -> (Vec<usize>, Vec<f32>, i32)
     (shape, data, format)
 }
 
-/// Grid positions and normals in y-tal's order ((X, Y, 3) or (N, 3)), file coordinates.
-fn grid_arrays(g: &WallGrid, grids: bool, origin: [f64; 3]) -> (Vec<usize>, Vec<f32>, Vec<f32>) {
-    let order: Vec<usize> = if grids {
+/// The points of `g` in y-tal's order: ix major, iy minor (X, Y), or as listed (N).
+fn order(g: &WallGrid, grids: bool) -> Vec<usize> {
+    if grids {
         (0..g.nx)
             .flat_map(|ix| (0..g.ny).map(move |iy| iy * g.nx + ix))
             .collect()
     } else {
         (0..g.len()).collect()
-    };
+    }
+}
+
+/// Grid positions and normals in y-tal's order ((X, Y, 3) or (N, 3)), file coordinates.
+fn grid_arrays(g: &WallGrid, grids: bool, origin: [f64; 3]) -> (Vec<usize>, Vec<f32>, Vec<f32>) {
+    let order = order(g, grids);
     let mut xyz = Vec::with_capacity(order.len() * 3);
     let mut nrm = Vec::with_capacity(order.len() * 3);
     for &i in &order {
