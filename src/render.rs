@@ -518,7 +518,9 @@ fn check_nlos(scene: &Scene, motion: &Motion, kind: IntegratorKind, opts: &Rende
         return Err(Error::Invalid(format!(
             "{file}: {}: derivatives of an NLOS capture with respect to geometry \
              need the boundary term at the relay wall's sensor points, which is not implemented yet (the interior alone \
-             would be a biased gradient). Differentiate albedo, radiance/power, eta or pulse_offset parameters instead",
+             would be a biased gradient). Differentiate albedo, radiance/power, eta or pulse_offset parameters instead, \
+             or, where nothing that moves changes a visibility (examples/nlos_tracking/README.md), ask for the interior \
+             alone with --estimators interior",
             moved.join(", ")
         )));
     }

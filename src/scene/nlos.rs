@@ -217,7 +217,8 @@ fn wall_triangles(shape: &Shape, geo: &Geometry) -> Vec<(u32, [DVec3; 3])> {
         .collect()
 }
 
-/// The wall's area-weighted mean normal, turned towards the SPAD, and in-plane axes u, v
+/// The wall's area-weighted mean normal (of its triangles' winding), turned towards the SPAD,
+/// and in-plane axes u, v
 /// (u ⟂ world Y when possible, so v points up on an upright wall).
 fn wall_frame(tris: &[(u32, [DVec3; 3])], spad: Vec3) -> Option<[Vec3; 3]> {
     let mut sum = DVec3::ZERO;
@@ -225,14 +226,16 @@ fn wall_frame(tris: &[(u32, [DVec3; 3])], spad: Vec3) -> Option<[Vec3; 3]> {
     let mut area = 0.0;
     for (_, [a, b, c]) in tris {
         let cr = (*b - *a).cross(*c - *a);
-        // orient each face towards the SPAD, so a two-sided wall mesh does not cancel out
-        let toward = (spad.as_dvec3() - *a).dot(cr) >= 0.0;
-        sum += if toward { cr } else { -cr };
+        sum += cr;
         let ar = 0.5 * cr.length();
         centre += (*a + *b + *c) / 3.0 * ar;
         area += ar;
     }
-    let n = sum.normalize_or_zero();
+    // the winding's mean normal, turned towards the SPAD's side of the wall
+    let mut n = sum.normalize_or_zero();
+    if (spad.as_dvec3() - centre / area.max(1e-300)).dot(n) < 0.0 {
+        n = -n;
+    }
     if n == DVec3::ZERO || !(area > 0.0) {
         return None;
     }
