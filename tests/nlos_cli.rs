@@ -292,3 +292,48 @@ fn unsupported_renders_are_refused() {
         "{err}"
     );
 }
+
+/// Explicit sensor points: y-tal's point-list formats ((T, Si) and (N, 3) grids), and
+/// `dtr info` describes the capture.
+#[test]
+fn explicit_points_and_info() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = scene_file(dir.path(), "pts.toml", &scene_text("nlos_hidden_patch.toml"));
+    let out = common::dtr(
+        &["render", scene.to_str().unwrap(), "-o", "pts", "--spp", "64", "--quiet"],
+        dir.path(),
+    );
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let (shape, data) = npy(&dir.path().join("pts.npy"));
+    assert_eq!(shape, vec![1, 3, 80, 1]);
+    #[cfg(feature = "hdf5")]
+    {
+        let f = hdf5::File::open(dir.path().join("pts.h5")).unwrap();
+        assert_eq!(f.dataset("H").unwrap().shape(), vec![80, 3]);
+        let hv: Vec<f32> = f.dataset("H").unwrap().read_raw().unwrap();
+        assert_eq!(hv[12 * 3 + 2], data[2 * 80 + 12]);
+        assert_eq!(f.dataset("H_format").unwrap().read_scalar::<i32>().unwrap(), 3);
+        assert_eq!(
+            f.dataset("sensor_grid_format").unwrap().read_scalar::<i32>().unwrap(),
+            1
+        );
+        let xyz: Vec<f32> = f.dataset("sensor_grid_xyz").unwrap().read_raw().unwrap();
+        assert_eq!(xyz.len(), 9);
+        // the second point as written, [0.3, 0, 0]
+        assert!(
+            (xyz[3] - 0.3).abs() < 1e-6 && xyz[4].abs() < 1e-6 && xyz[5].abs() < 1e-6,
+            "{xyz:?}"
+        );
+    }
+    let info = common::dtr(&["info", scene.to_str().unwrap()], dir.path());
+    let text = String::from_utf8_lossy(&info.stdout);
+    assert!(
+        text.contains("nlos: confocal scan on shape \"wall\": 3 sensor point(s) (explicit)"),
+        "{text}"
+    );
+    assert!(text.contains("relay legs out of the time of flight"), "{text}");
+    let json = common::dtr(&["info", scene.to_str().unwrap(), "--json"], dir.path());
+    let v: serde_json::Value = serde_json::from_slice(&json.stdout).unwrap();
+    assert_eq!(v["nlos"]["scan"], "confocal");
+    assert_eq!(v["nlos"]["wall"], "wall");
+}
