@@ -306,6 +306,7 @@ fn explicit_points_and_info() {
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let (shape, data) = npy(&dir.path().join("pts.npy"));
     assert_eq!(shape, vec![1, 3, 80, 1]);
+    assert!(data.iter().sum::<f32>() > 0.0);
     #[cfg(feature = "hdf5")]
     {
         let f = hdf5::File::open(dir.path().join("pts.h5")).unwrap();

@@ -15,6 +15,7 @@ mod error;
 mod exr_layers;
 mod font;
 mod json;
+#[cfg(feature = "hdf5")]
 mod nlos_h5;
 mod npy;
 mod plot;
@@ -27,9 +28,8 @@ pub use error::OutputError;
 pub use exr_layers::{write_exr_layers, write_exr_layers_with_axis};
 pub use font::FONT_ENV;
 pub use json::write_json;
-pub use nlos_h5::h_array;
 #[cfg(feature = "hdf5")]
-pub use nlos_h5::write_nlos_h5;
+pub use nlos_h5::{h_array, write_nlos_h5};
 pub use npy::write_npy;
 pub use plot::write_time_plot;
 pub use preview::{MAX_SHEET_FRAMES, write_contact_sheet, write_steady_png};

@@ -15,7 +15,8 @@
 //! | `scene_info` | YAML text: the writer, the scene file, the scan and the noise model |
 //!
 //! Positions are in the scene file's coordinates (the render origin added back in f64).
-//! Grid index (ix, iy) runs along the wall frame's u and v axes (`scene::nlos`).
+//! Grid index (ix, iy) runs along the wall frame's u and v axes (`scene::nlos`). Built with the
+//! `hdf5` feature (on by default).
 
 use super::OutputError;
 use crate::film::Transient;
@@ -88,7 +89,6 @@ fn grid_arrays(g: &WallGrid, grids: bool, origin: [f64; 3]) -> (Vec<usize>, Vec<
 }
 
 /// Writes `film` (a render of `scene`'s capture) to `path` in the layout above.
-#[cfg(feature = "hdf5")]
 pub fn write_nlos_h5(path: &Path, scene: &Scene, film: &Transient, what: &str) -> Result<(), OutputError> {
     let spec = scene.nlos.as_ref().expect("an NLOS scene");
     if let Some(bad) = film.data.iter().position(|v| !v.is_finite()) {
@@ -109,7 +109,6 @@ pub fn write_nlos_h5(path: &Path, scene: &Scene, film: &Transient, what: &str) -
     }
 }
 
-#[cfg(feature = "hdf5")]
 fn write(path: &Path, scene: &Scene, spec: &NlosSpec, film: &Transient, what: &str) -> hdf5::Result<()> {
     use hdf5::types::VarLenUnicode;
     let f = hdf5::File::create(path)?;
