@@ -338,3 +338,34 @@ fn explicit_points_and_info() {
     assert_eq!(v["nlos"]["scan"], "confocal");
     assert_eq!(v["nlos"]["wall"], "wall");
 }
+
+/// An exhaustive capture's shards (`--shard I/N`, merged by `dtr merge`) and a checkpointed
+/// render give the whole render's bytes; a shard writes no HDF5 or noisy copy.
+#[test]
+fn shards_and_checkpoints_of_a_capture() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = scene_text("nlos_occluder.toml")
+        .replace("scan = \"confocal\"", "scan = \"exhaustive\"")
+        .replace("grid = [16, 16]", "grid = [4, 4]");
+    let scene = scene_file(dir.path(), "ex.toml", &text);
+    let s = scene.to_str().unwrap();
+    let run = |args: &[&str]| {
+        let out = common::dtr(args, dir.path());
+        assert!(
+            out.status.success(),
+            "{args:?}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    };
+    run(&["render", s, "-o", "whole", "--spp", "8", "--quiet"]);
+    run(&["render", s, "-o", "s0", "--spp", "8", "--shard", "0/2", "--quiet"]);
+    run(&["render", s, "-o", "s1", "--spp", "8", "--shard", "1/2", "--quiet"]);
+    run(&["merge", "s0", "s1", "-o", "merged"]);
+    run(&["render", s, "-o", "ck", "--spp", "8", "--checkpoint", "100", "--quiet"]);
+    let (shape, whole) = npy(&dir.path().join("whole.npy"));
+    assert_eq!(shape, vec![16, 16, 128, 1]);
+    assert!(whole.iter().sum::<f32>() > 0.0);
+    assert_eq!(npy(&dir.path().join("merged.npy")).1, whole);
+    assert_eq!(npy(&dir.path().join("ck.npy")).1, whole);
+    assert!(!dir.path().join("s0.h5").exists() && !dir.path().join("s0.noisy.npy").exists());
+}
