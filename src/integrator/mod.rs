@@ -18,7 +18,7 @@ pub mod emitter_table;
 pub mod emitters;
 #[cfg(test)]
 mod emitters_tests;
-pub mod motion;
+pub mod importance;
 pub mod nlos;
 pub mod nlos_start;
 pub mod opl;

@@ -10,7 +10,7 @@ use glam::Vec3;
 
 /// Where a packet's paths start on the wall (per lane): the first ray, the sensor point and
 /// its normal, the direction's pdf and the starting weight ρ_s (with its derivatives).
-pub struct PathStart<R: Real, const C: usize> {
+pub struct SensorStart<R: Real, const C: usize> {
     pub o: V3<R::Value>,
     pub d: V3<R::Value>,
     pub p: V3<R>,
@@ -28,14 +28,14 @@ pub fn start<R: Real, const C: usize>(
     sensor: &[usize; 8],
     u1: R::Value,
     u2: R::Value,
-) -> PathStart<R, C> {
+) -> SensorStart<R, C> {
     let pts: [Vec3; 8] = std::array::from_fn(|i| scan.sensors[sensor[i]].p);
     let nrm: [Vec3; 8] = std::array::from_fn(|i| scan.sensors[sensor[i]].n);
     let prims: [u32; 8] = std::array::from_fn(|i| scan.sensors[sensor[i]].prim);
     let p = V3::<R::Value>::from_lane_vecs(&pts[..R::LANES]);
     let n = V3::<R::Value>::from_lane_vecs(&nrm[..R::LANES]);
     let (d, pdf) = sample_cosine(&n, &n, u1, u2);
-    PathStart {
+    SensorStart {
         o: spawn_point(&p, &n, &V3::zero(), &d),
         d,
         p: V3::from_value(p),
