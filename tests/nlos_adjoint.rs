@@ -8,19 +8,6 @@ use difftransient::{RenderOptions, Scene, Transient, render_adjoint, render_diff
 
 const U: f64 = 1.0 / 16_777_216.0;
 
-/// A fixed pseudo-random adjoint of both signs.
-fn adjoint_like(t: &Transient) -> Transient {
-    let mut a = t.clone();
-    let mut x = 0x9e37_79b9_7f4a_7c15u64;
-    for v in a.data.iter_mut() {
-        x ^= x << 13;
-        x ^= x >> 7;
-        x ^= x << 17;
-        *v = (x >> 40) as f32 / (1u64 << 24) as f32 * 2.0 - 1.0;
-    }
-    a
-}
-
 fn check(scene: &Scene) {
     let params: Vec<String> = ["hidden_albedo", "wall_albedo", "laser_offset", "eta"]
         .iter()
@@ -33,7 +20,7 @@ fn check(scene: &Scene) {
         ..Default::default()
     };
     let (primal, d, _) = render_diff(scene, &params, &opts).unwrap();
-    let adj = adjoint_like(&primal);
+    let adj = common::adjoint_like(&primal);
     let (grad, stats) = render_adjoint(scene, &params, &adj, &opts).unwrap();
     assert_eq!(stats.non_finite_samples, 0);
     for (k, p) in params.iter().enumerate() {
