@@ -47,3 +47,18 @@ fn exit_status_names_what_failed() {
     assert_eq!(c, Some(3), "{err}");
     assert!(err.contains("cannot create the output folder"), "{err}");
 }
+
+/// `dtr completions SHELL` prints a script that completes the subcommands and their options.
+#[test]
+fn completions_cover_the_subcommands_and_options() {
+    let dir = tempfile::tempdir().unwrap();
+    for shell in ["bash", "zsh", "fish"] {
+        let o = common::dtr(&["completions", shell], dir.path());
+        assert!(o.status.success());
+        let script = String::from_utf8_lossy(&o.stdout);
+        for word in ["render", "merge", "optimize", "spp", "preview", "normalise"] {
+            assert!(script.contains(word), "{shell} completions lack {word}");
+        }
+    }
+    assert_eq!(common::dtr(&["completions", "nosh"], dir.path()).status.code(), Some(2));
+}

@@ -43,6 +43,12 @@ pub enum Command {
         #[arg(long = "set", value_name = "NAME=VALUE")]
         set: Vec<String>,
     },
+    /// Print a shell completion script: `dtr completions bash > /etc/bash_completion.d/dtr`
+    /// (or zsh, fish, elvish, powershell).
+    Completions {
+        #[arg(value_enum)]
+        shell: clap_complete::Shell,
+    },
 }
 
 pub fn run(cli: Cli) -> anyhow::Result<()> {
@@ -51,6 +57,17 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Merge(args) => shard_set::run(args),
         Command::Optimize(args) => optimize_cmd::run(args),
         Command::Info { scene, json, set } => info::run(&scene, json, &set),
+        Command::Completions { shell } => {
+            use clap::CommandFactory;
+            use std::io::Write;
+            let mut script = Vec::new();
+            clap_complete::generate(shell, &mut Cli::command(), "dtr", &mut script);
+            match std::io::stdout().write_all(&script) {
+                // a reader that stops early (`| head`) is not an error
+                Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => Err(e.into()),
+                _ => Ok(()),
+            }
+        }
     }
 }
 

@@ -28,7 +28,8 @@ pub struct RenderArgs {
     /// Worker threads (default: all cores).
     #[arg(long)]
     pub threads: Option<usize>,
-    /// Override a parameter value: --set NAME=VALUE (repeatable; see `dtr info`).
+    /// Override a parameter value: --set NAME=VALUE (repeatable; see `dtr info`), or any number
+    /// of the description by its dotted path: --set film.bins=100, --set camera.resolution.0=128.
     #[arg(long = "set", value_name = "NAME=VALUE")]
     pub set: Vec<String>,
     /// Also write PREFIX.exr: one layer per time bin.
