@@ -53,6 +53,7 @@ fn main() {
     std::fs::create_dir_all(&out).unwrap();
     let cornell = Scene::load(&root.join("scenes/cornell_box.toml"), &[]).unwrap();
     let gated = Scene::load(&root.join("scenes/gated_laser_room.toml"), &[]).unwrap();
+    let nlos = Scene::load(&root.join("scenes/nlos_occluder.toml"), &[]).unwrap();
     let forward = |name, scene: Scene, integrator, estimator, reference| Workload {
         name,
         scene,
@@ -87,6 +88,16 @@ fn main() {
         // where BDPT's light subpaths from the spot might pay
         forward("gated_laser", gated.clone(), None, "path", "gated_laser"),
         forward("gated_laser", gated, Some(IntegratorKind::Bdpt), "bdpt", "gated_laser"),
+        // relay-wall captures (scenes/nlos_occluder.toml): a 16 × 16 confocal scan, and an
+        // 8 × 8 exhaustive one (each sensor path connected to all 64 laser points)
+        forward("nlos_confocal", nlos.clone(), None, "path", "nlos_confocal"),
+        forward(
+            "nlos_exhaustive",
+            nlos_exhaustive(&root),
+            None,
+            "path",
+            "nlos_exhaustive",
+        ),
     ];
     let mut csv = String::from(
         "workload,estimator,spp,threads,wall_s,cpu_s,paths_per_cpu_s,rays_per_s,bare_embree_rays_per_s,ratio_to_bare,\
@@ -302,7 +313,8 @@ fn bare_embree_rate(scene: &Scene, st: &RenderStats, threads: usize, robust: boo
     let dev = Device::new("").unwrap();
     let pos: Vec<[f32; 3]> = scene.geometry.positions.iter().map(|p| p.to_array()).collect();
     let accel = Accel::build_with(&dev, &pos, &scene.geometry.indices, BuildQuality::High, robust).unwrap();
-    let n_primary = (scene.film.width * scene.film.height) as u64 * st.spp as u64;
+    // one first ray per path (pixels × spp; an exhaustive NLOS scan: sensor points × spp)
+    let n_primary = st.paths;
     let n_bounce = st.intersect_rays.saturating_sub(n_primary);
     let (primary, bounce, shadow) = (
         camera_rays(scene),
@@ -315,6 +327,18 @@ fn bare_embree_rate(scene: &Scene, st: &RenderStats, threads: usize, robust: boo
         + time(&bounce, n_bounce, &|r| accel.raw_intersect8_batch(r, false))
         + time(&shadow, st.occluded_rays, &|r| accel.raw_occluded8_batch(r, false));
     (st.intersect_rays + st.occluded_rays) as f64 / t.max(1e-9)
+}
+
+/// scenes/nlos_occluder.toml as an 8 × 8 exhaustive scan (64 laser × 64 sensor points).
+fn nlos_exhaustive(root: &Path) -> Scene {
+    let text = std::fs::read_to_string(root.join("scenes/nlos_occluder.toml"))
+        .unwrap()
+        .replace("scan = \"confocal\"", "scan = \"exhaustive\"")
+        .replace("grid = [16, 16]", "grid = [8, 8]");
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("nlos_exhaustive.toml");
+    std::fs::write(&path, text).unwrap();
+    Scene::load(&path, &[]).unwrap()
 }
 
 /// Peak resident set size of this process so far (VmHWM), MiB.

@@ -182,20 +182,23 @@ fn render_adjoint_group(
     let (w, h) = (f.width as usize, f.height as usize);
     let channels = f.channels;
     let interior = opts.boundary != BoundaryMode::BoundaryOnly;
-    let tiles = if interior {
-        crate::render::tiles(w, h)
-    } else {
-        Vec::new()
-    };
-    // Per tile (path tracer) or per fixed chunk of tiles (BDPT, as many as a render's most:
-    // there is no chunk film to bound), summed in order: the same gradient for any thread
-    // count.
-    let units: Vec<Vec<(usize, usize)>> = match run.kind {
-        IntegratorKind::Path => tiles.iter().map(|&t| vec![t]).collect(),
-        IntegratorKind::Bdpt => tiles
-            .chunks(tiles.len().div_ceil(crate::render::BDPT_CHUNKS).max(1))
-            .map(<[_]>::to_vec)
-            .collect(),
+    // Per tile (path tracer: `render::tile_rects`) or per fixed chunk of tiles (BDPT, as many
+    // as a render's most: there is no chunk film to bound), summed in order: the same
+    // gradient for any thread count.
+    enum Unit {
+        Tile((usize, usize, usize, usize)),
+        Chunk(Vec<(usize, usize)>),
+    }
+    let units: Vec<Unit> = match (interior, run.kind) {
+        (false, _) => Vec::new(),
+        (true, IntegratorKind::Path) => crate::render::tile_rects(scene).into_iter().map(Unit::Tile).collect(),
+        (true, IntegratorKind::Bdpt) => {
+            let tiles = crate::render::tiles(w, h);
+            tiles
+                .chunks(tiles.len().div_ceil(crate::render::BDPT_CHUNKS).max(1))
+                .map(|c| Unit::Chunk(c.to_vec()))
+                .collect()
+        }
     };
     let parts: Vec<([f64; MAX_PARAMS], PathCounts)> = run.pool.install(|| {
         units
@@ -204,10 +207,9 @@ fn render_adjoint_group(
                 let mut acc = AdjointFilm::new(adjoint);
                 let mut counts = PathCounts::default();
                 let (a, c) = (&mut acc, &mut counts);
-                match run.kind {
-                    IntegratorKind::Path => {
-                        let (x0, y0) = unit[0];
-                        let rect = (x0, y0, TILE.min(w - x0), TILE.min(h - y0));
+                match unit {
+                    Unit::Tile(rect) => {
+                        let rect = *rect;
                         dispatch!(
                             derivs,
                             opts.lanes,
@@ -215,13 +217,13 @@ fn render_adjoint_group(
                             render_tile(ctx, seed, spp, samples, w, rect, a, c)
                         );
                     }
-                    IntegratorKind::Bdpt => {
+                    Unit::Chunk(chunk) => {
                         use crate::integrator::bdpt::render_tiles;
                         dispatch!(
                             derivs,
                             opts.lanes,
                             channels,
-                            render_tiles(ctx, seed, spp, samples, unit, TILE, a, c)
+                            render_tiles(ctx, seed, spp, samples, chunk, TILE, a, c)
                         );
                     }
                 }
@@ -234,7 +236,7 @@ fn render_adjoint_group(
         spp,
         seed,
         paths: if interior {
-            (w * h) as u64 * (samples.end - samples.start)
+            crate::render::paths_per_sample(scene) * (samples.end - samples.start)
         } else {
             0
         },

@@ -27,6 +27,7 @@ pub mod output;
 pub mod params;
 pub mod render;
 pub mod scene;
+pub mod sensor_noise;
 pub mod shard;
 pub mod temporal;
 pub mod timing;

@@ -32,6 +32,30 @@ pub(crate) fn tiles(w: usize, h: usize) -> Vec<(usize, usize)> {
         .collect()
 }
 
+/// The tiles of a path-traced render as (x0, y0, w, h): 8 × 8 pixels, except for an
+/// exhaustive NLOS scan, whose tiles are 8 sensor columns × every laser row (one path per
+/// sensor point serves every laser point: `integrator::nlos`).
+pub(crate) fn tile_rects(scene: &Scene) -> Vec<(usize, usize, usize, usize)> {
+    let (w, h) = (scene.film.width as usize, scene.film.height as usize);
+    let exhaustive = scene.nlos.as_ref().is_some_and(|n| n.exhaustive());
+    let rows = if exhaustive { 1 } else { h };
+    tiles(w, rows)
+        .into_iter()
+        .map(|(x0, y0)| {
+            let th = if exhaustive { h } else { TILE.min(h - y0) };
+            (x0, y0, TILE.min(w - x0), th)
+        })
+        .collect()
+}
+
+/// Paths one sample traces: one per pixel, or one per sensor point of an exhaustive scan.
+pub(crate) fn paths_per_sample(scene: &Scene) -> u64 {
+    match &scene.nlos {
+        Some(n) if n.exhaustive() => n.sensors.len() as u64,
+        _ => scene.film.width as u64 * scene.film.height as u64,
+    }
+}
+
 /// How many paths the kernel carries at once.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum Lanes {
@@ -342,8 +366,13 @@ fn film_bytes(
     let acc = if derivs > 0 { 8 } else { 4 };
     let d = derivs as u128;
     let outputs = frame * (1 + d) * 4;
+    // a path tracer's tile: 8 × 8 pixels, or 8 sensor columns × every laser row (`tile_rects`)
+    let tile_px = match &scene.nlos {
+        Some(n) if n.exhaustive() => TILE as u128 * n.lasers.len() as u128,
+        _ => (TILE * TILE) as u128,
+    };
     let workers = match kind {
-        IntegratorKind::Path => threads as u128 * (TILE * TILE) as u128 * (bins * c + c) * (1 + d) * acc,
+        IntegratorKind::Path => threads as u128 * tile_px * (bins * c + c) * (1 + d) * acc,
         IntegratorKind::Bdpt => {
             let strategies = if per_strategy {
                 bdpt::film::strategy_list(scene.integrator.max_bounces).len() as u128
@@ -394,6 +423,29 @@ fn check_memory(
     }
     let gib = |b: u128| b as f64 / (1u64 << 30) as f64;
     let f = &scene.film;
+    if let Some(n) = &scene.nlos {
+        return Err(Error::Invalid(format!(
+            "{}: the NLOS capture needs about {:.1} GiB for its films, but {:.1} GiB of memory are available: \
+             a {} scan of {} laser point(s) × {} sensor point(s) (nlos.grid {}×{}{}) × film.bins {} × {} channel(s) × {} film(s); \
+             scan fewer points (nlos.grid, nlos.laser_grid), lower film.bins or narrow the window",
+            scene.source.display(),
+            gib(need),
+            gib(have),
+            if n.exhaustive() { "exhaustive" } else { "confocal" },
+            n.lasers.len(),
+            n.sensors.len(),
+            n.sensors.nx,
+            n.sensors.ny,
+            if n.exhaustive() {
+                format!(", nlos.laser_grid {}×{}", n.lasers.nx, n.lasers.ny)
+            } else {
+                String::new()
+            },
+            f.axis.bins,
+            f.channels,
+            1 + derivs
+        )));
+    }
     Err(Error::Invalid(format!(
         "{}: the render needs about {:.1} GiB for its films, but {:.1} GiB of memory are available: \
          camera.resolution {}×{} × film.bins {} × {} channel(s) × {} film(s) (the transient{}); \
@@ -413,6 +465,41 @@ fn check_memory(
             ""
         }
     )))
+}
+
+/// What an NLOS capture cannot render yet, refused before anything runs: BDPT (its camera
+/// subpaths start at the pinhole), per-strategy films, and derivatives with respect to a
+/// parameter that moves geometry, whose boundary term needs the boundary stage's sensor
+/// subpaths to end at the wall's sensor points (`integrator::nlos::NlosSensor::project`);
+/// without it the gradient would be silently biased.
+fn check_nlos(scene: &Scene, motion: &Motion, kind: IntegratorKind, opts: &RenderOptions) -> Result<(), Error> {
+    let file = scene.source.display();
+    if kind == IntegratorKind::Bdpt {
+        return Err(Error::Invalid(format!(
+            "{file}: an NLOS capture ([nlos]) renders with the path tracer only: set [integrator] kind = \"path\" (or --integrator path)"
+        )));
+    }
+    if motion.moves_geometry() && opts.boundary != BoundaryMode::InteriorOnly {
+        let moved: Vec<String> = (0..motion.len())
+            .filter(|&k| !motion.fields[k].is_empty())
+            .map(|k| {
+                let shapes: Vec<&str> = motion.fields[k]
+                    .iter()
+                    .map(|(s, _)| scene.shapes[*s].name.as_str())
+                    .collect();
+                format!("parameter {} moves {shapes:?}", k + 1)
+            })
+            .collect();
+        return Err(Error::Invalid(format!(
+            "{file}: {}: derivatives of an NLOS capture with respect to geometry \
+             need the boundary term at the relay wall's sensor points, which is not implemented yet (the interior alone \
+             would be a biased gradient). Differentiate albedo, radiance/power, eta or pulse_offset parameters instead, \
+             or, where nothing that moves changes a visibility (examples/nlos_tracking/README.md), ask for the interior \
+             alone with --estimators interior",
+            moved.join(", ")
+        )));
+    }
+    Ok(())
 }
 
 /// Picks the kernel instance for (derivative lanes, lane width, channels) and calls
@@ -526,6 +613,9 @@ impl<'s> Run<'s> {
         }
         let derivs = motion.len();
         let kind = opts.integrator.unwrap_or(scene.integrator.kind);
+        if scene.nlos.is_some() {
+            check_nlos(scene, &motion, kind, opts)?;
+        }
         check_memory(
             scene,
             if derivative_films { derivs } else { 0 },
@@ -623,9 +713,10 @@ impl<'s> Run<'s> {
         let channels = scene.film.channels;
         let ran = opts.boundary != BoundaryMode::BoundaryOnly || derivs == 0;
         let tiles = if ran { tiles(w, h) } else { Vec::new() };
+        let rects = if ran { tile_rects(scene) } else { Vec::new() };
         let bar = progress_bar(
             opts.progress,
-            tiles.len() as u64,
+            rects.len() as u64,
             "{elapsed_precise} [{bar:40}] {pos}/{len} tiles ({eta})",
         );
         let cpu0 = cpu_seconds();
@@ -639,7 +730,7 @@ impl<'s> Run<'s> {
                 // bytes for any order and thread count, and a checkpoint's films (the
                 // finished tiles, zero elsewhere) resume to the same bytes. Each worker reuses
                 // one film across its tiles.
-                let units = tiles.len();
+                let units = rects.len();
                 let state = self.resumed(units).unwrap_or_else(|| Saved {
                     units,
                     done: vec![false; units],
@@ -658,9 +749,7 @@ impl<'s> Run<'s> {
                     todo.par_iter().for_each_init(
                         || None::<TileFilm>,
                         |spare, &i| {
-                            let (x0, y0) = tiles[i];
-                            let tw = TILE.min(w - x0);
-                            let th = TILE.min(h - y0);
+                            let (x0, y0, tw, th) = rects[i];
                             let mut film = match spare.take() {
                                 Some(mut f) => {
                                     f.reset(x0, y0, tw, th);
@@ -840,7 +929,7 @@ impl<'s> Run<'s> {
             wall_seconds: wall,
             cpu_seconds: cpu,
             paths: if interior.ran {
-                (w * h) as u64 * (self.samples.end - self.samples.start)
+                paths_per_sample(self.ctx.scene) * (self.samples.end - self.samples.start)
             } else {
                 0
             },
@@ -948,15 +1037,14 @@ fn pilot_energy_after(
     ctx.cut_to_window(SteadyMode::Full);
     let ctx = &*ctx;
     let (w, h) = (ctx.scene.film.width as usize, ctx.scene.film.height as usize);
-    let tiles = tiles(w, h);
+    let rects = tile_rects(ctx.scene);
     let target = (render_paths / PILOT_SHARE).clamp(PILOT_PATHS.0, PILOT_PATHS.1);
     let step = (w * h).div_ceil(target).max(1);
-    let picked: Vec<(usize, usize)> = tiles.iter().copied().step_by(step).collect();
+    let picked: Vec<_> = rects.iter().copied().step_by(step).collect();
     let (after, pixels) = pool.install(|| {
         picked
             .par_iter()
-            .map(|&(x0, y0)| {
-                let (tw, th) = (TILE.min(w - x0), TILE.min(h - y0));
+            .map(|&(x0, y0, tw, th)| {
                 let mut film = ctx.tile_film(x0, y0, tw, th, 0);
                 let mut counts = PathCounts::default();
                 let (f, c) = (&mut film, &mut counts);
@@ -992,8 +1080,14 @@ pub(crate) fn render_tile<R: Real, const C: usize, S: Sink<C>>(
 ) {
     let lanes_per_packet = R::LANES;
     let (x0, y0, tw, th) = rect;
+    // an exhaustive scan's paths start at the sensor points (tile row 0) and reach every laser row
+    let rows = if ctx.nlos.as_ref().is_some_and(|n| n.exhaustive) {
+        1
+    } else {
+        th
+    };
     for s in samples.clone() {
-        for ty in 0..th {
+        for ty in 0..rows {
             let mut x = 0;
             while x < tw {
                 let n = lanes_per_packet.min(tw - x);

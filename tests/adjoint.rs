@@ -11,19 +11,6 @@ use difftransient::{RenderOptions, Transient, render_adjoint};
 
 const U: f64 = 1.0 / 16_777_216.0;
 
-/// A fixed pseudo-random adjoint of both signs over the film.
-fn adjoint_like(t: &Transient) -> Transient {
-    let mut a = t.clone();
-    let mut x = 0x2545_f491_4f6c_dd1du64;
-    for v in a.data.iter_mut() {
-        x ^= x << 13;
-        x ^= x >> 7;
-        x ^= x << 17;
-        *v = (x >> 40) as f32 / (1u64 << 24) as f32 * 2.0 - 1.0;
-    }
-    a
-}
-
 /// Σ ∂L/∂I·İ_k of `parts` (parameter k) and the rounding bound of comparing it with an
 /// adjoint: 8u · Σ |∂L/∂I| · (|interior| + |primary| + |secondary|), since each part is summed
 /// in f64, stored as f32, and the parts are added in f32.
@@ -53,7 +40,7 @@ fn check(name: &str, params: &[&str], integrator: IntegratorKind) {
         ..Default::default()
     };
     let parts = render_diff_parts(&scene, &params, &opts).unwrap();
-    let adj = adjoint_like(&parts.primal);
+    let adj = common::adjoint_like(&parts.primal);
     let (grad, stats) = render_adjoint(&scene, &params, &adj, &opts).unwrap();
     assert_eq!(grad.len(), params.len());
     for (k, p) in params.iter().enumerate() {
@@ -178,7 +165,7 @@ scale = [0.2, 0.2, 1.0]
         ..Default::default()
     };
     let (primal, _) = difftransient::render(&scene, &opts).unwrap();
-    let adj = adjoint_like(&primal);
+    let adj = common::adjoint_like(&primal);
     let (grad, _) = render_adjoint(&scene, &names, &adj, &opts).unwrap();
     assert_eq!(grad.len(), names.len());
     for (g, group) in names.chunks(16).enumerate() {

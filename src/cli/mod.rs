@@ -2,6 +2,7 @@
 
 mod checkpoint_cmd;
 mod info;
+mod nlos_out;
 mod npy_in;
 mod optimize_cmd;
 pub mod output_set;

@@ -202,6 +202,7 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
     if a.shard.is_some() || a.preview {
         planned.push("steady.npy".into());
     }
+    planned.extend(super::nlos_out::planned(&scene, a.shard.is_some()));
     let mut set = OutputSet::prepare(&a.output, &scene.inputs, &a.scene, &planned)?;
     let mut opts = opts;
     // what makes this render's numbers (for the JSON, `dtr merge` and `--resume`), hashed once
@@ -262,7 +263,11 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
         let shape = [film.height, film.width, film.channels];
         output::write_npy(&set.stage("steady.npy")?, &shape, &film.steady)?;
     }
+    super::nlos_out::write(&scene, &film, &mut set, a.shard.is_some())?;
     let mut meta = metadata(&scene, &film, &stats, &a, set.prefix());
+    if let Some(n) = super::nlos_out::describe(&scene, set.prefix(), a.shard.is_some()) {
+        meta["nlos"] = n;
+    }
     meta["identity"] = identity;
     let shard = opts.shard;
     meta["shard"] = json!({

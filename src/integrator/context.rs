@@ -33,6 +33,8 @@ pub struct RenderContext<'a> {
     /// The window cut (`super::window`): the largest OPL a traced path may reach, `None` to
     /// trace every path to its end (set with [`Self::cut_to_window`]).
     pub opl_budget: Option<f32>,
+    /// The relay-wall sensor and laser spots of an NLOS capture (`super::nlos`).
+    pub nlos: Option<super::nlos::NlosSensor>,
 }
 
 impl<'a> RenderContext<'a> {
@@ -62,6 +64,10 @@ impl<'a> RenderContext<'a> {
             .map(|&s| scene.shapes[s as usize].emitter.unwrap_or(u32::MAX))
             .collect();
         let emitters = EmitterTable::new(scene, &accel);
+        let nlos = scene
+            .nlos
+            .as_ref()
+            .map(|n| super::nlos::NlosSensor::new(scene, n, &accel));
         let correlations = scene
             .emitters
             .iter()
@@ -81,6 +87,7 @@ impl<'a> RenderContext<'a> {
             opl: OplPrecision::choose(scene),
             steady: SteadyMode::Full,
             opl_budget: None,
+            nlos,
         })
     }
 

@@ -31,6 +31,35 @@ pub struct LaserSpot {
     pub direction: Vec3,
 }
 
+/// The spot a laser at `position` aimed along `direction` lights: the first surface its beam
+/// meets (`None` if it meets nothing), radiating Φ·albedo/π·cos θ.
+pub fn laser_spot(scene: &Scene, accel: &Accel, position: Vec3, direction: Vec3, power: [f32; 3]) -> Option<LaserSpot> {
+    let geo = &scene.geometry;
+    accel
+        .intersect1(position.to_array(), direction.to_array(), 0.0, f32::INFINITY)
+        .map(|h| {
+            let mat = scene.shapes[geo.tri_shape[h.prim as usize] as usize].material;
+            let Material::Diffuse { albedo } = scene.materials[mat as usize].material;
+            let [a, b, c] = geo.indices[h.prim as usize].map(|i| geo.positions[i as usize]);
+            let side = if (b - a).cross(c - a).dot(direction) < 0.0 {
+                1.0
+            } else {
+                -1.0
+            };
+            LaserSpot {
+                side,
+                origin: position,
+                direction: direction.normalize(),
+                prim: h.prim,
+                u: h.u,
+                v: h.v,
+                distance: h.t * direction.length(),
+                intensity: std::array::from_fn(|c| power[c] * albedo[c] * std::f32::consts::FRAC_1_PI),
+                intensity_per_power: albedo.map(|a| a * std::f32::consts::FRAC_1_PI),
+            }
+        })
+}
+
 /// One emitter as the sampler sees it (`emitters.rs` reads the variants).
 #[derive(Clone, Debug)]
 pub(super) enum Entry {
@@ -91,29 +120,7 @@ impl EmitterTable {
                     direction,
                     power,
                 } => {
-                    let spot = accel
-                        .intersect1(position.to_array(), direction.to_array(), 0.0, f32::INFINITY)
-                        .map(|h| {
-                            let mat = scene.shapes[geo.tri_shape[h.prim as usize] as usize].material;
-                            let Material::Diffuse { albedo } = scene.materials[mat as usize].material;
-                            let [a, b, c] = geo.indices[h.prim as usize].map(|i| geo.positions[i as usize]);
-                            let side = if (b - a).cross(c - a).dot(*direction) < 0.0 {
-                                1.0
-                            } else {
-                                -1.0
-                            };
-                            LaserSpot {
-                                side,
-                                origin: *position,
-                                direction: direction.normalize(),
-                                prim: h.prim,
-                                u: h.u,
-                                v: h.v,
-                                distance: h.t * direction.length(),
-                                intensity: std::array::from_fn(|c| power[c] * albedo[c] * std::f32::consts::FRAC_1_PI),
-                                intensity_per_power: albedo.map(|a| a * std::f32::consts::FRAC_1_PI),
-                            }
-                        });
+                    let spot = laser_spot(scene, accel, *position, *direction, *power);
                     Entry::Laser { spot }
                 }
             })

@@ -42,6 +42,32 @@ impl EmitterTable {
         u2: R::Value,
         active: R::Mask,
     ) -> LightSample<R, C> {
+        self.sample_with(ctx, u0, u1, u2, active, None)
+    }
+
+    /// The laser spots `scan.spots[points[i]]` of laser `scan.laser`, one per lane (an NLOS
+    /// scan's laser points, `super::nlos`), each chosen with probability 1; with
+    /// `scan.laser_leg` false the laser-to-spot length is left out of `pre_length`.
+    pub fn sample_laser_points<R: Real, const C: usize>(
+        &self,
+        ctx: &RenderContext,
+        scan: &super::nlos::NlosSensor,
+        points: &[u32; 8],
+        active: R::Mask,
+    ) -> LightSample<R, C> {
+        let z = R::Value::zero();
+        self.sample_with(ctx, z, z, z, active, Some((scan, points)))
+    }
+
+    fn sample_with<R: Real, const C: usize>(
+        &self,
+        ctx: &RenderContext,
+        u0: R::Value,
+        u1: R::Value,
+        u2: R::Value,
+        active: R::Mask,
+        scan: Option<(&super::nlos::NlosSensor, &[u32; 8])>,
+    ) -> LightSample<R, C> {
         let n_e = self.entries.len();
         let mut emitter = [u32::MAX; 8];
         let mut prim = [0u32; 8];
@@ -64,10 +90,22 @@ impl EmitterTable {
                 continue;
             }
             let sel = u0.lane(i) * n_e as f32;
-            let e = (sel as usize).min(n_e - 1);
+            let mut e = (sel as usize).min(n_e - 1);
+            let mut p_sel = 1.0 / n_e as f32;
+            let scanned;
+            let entry = match scan {
+                Some((sc, points)) => {
+                    e = sc.laser as usize;
+                    p_sel = 1.0;
+                    scanned = Entry::Laser {
+                        spot: sc.spots[points[i] as usize].clone(),
+                    };
+                    &scanned
+                }
+                None => &self.entries[e],
+            };
             emitter[i] = e as u32;
-            let p_sel = 1.0 / n_e as f32;
-            match &self.entries[e] {
+            match entry {
                 Entry::Area {
                     tris,
                     cdf,
@@ -100,7 +138,11 @@ impl EmitterTable {
                     prim[i] = s.prim;
                     bu[i] = s.u;
                     bv[i] = s.v;
-                    pre[i] = s.distance;
+                    pre[i] = if scan.is_none_or(|(sc, _)| sc.laser_leg) {
+                        s.distance
+                    } else {
+                        0.0
+                    };
                     side[i] = s.side;
                     radiance_rgb[i] = s.intensity;
                     inv_pdf[i] = 1.0 / p_sel;
@@ -127,7 +169,7 @@ impl EmitterTable {
                 } else {
                     point[i].as_dvec3()
                 };
-                if laser[i] {
+                if laser[i] && pre[i] != 0.0 {
                     pre64[i] = (p64[i] - laser_o[i].as_dvec3()).length();
                 }
             }
@@ -142,7 +184,8 @@ impl EmitterTable {
             let d = V3::<R>::from_lane_vecs(&laser_d[..R::LANES]);
             let spot = ray_plane_point(&o, &d, &surf.p, &surf.n);
             p = V3::select(is_laser, spot, p);
-            pre_length = R::select(is_laser, (spot - o).dot(d), pre_length);
+            let counted = R::Value::from_lanes(&pre).gt(R::Value::zero());
+            pre_length = R::select(is_laser & counted, (spot - o).dot(d), pre_length);
         }
         let mut radiance = Spectrum::<R, C>::from_lane_rgb(&radiance_rgb[..R::LANES]);
         if R::DERIVS > 0 {

@@ -19,6 +19,8 @@ pub mod emitters;
 #[cfg(test)]
 mod emitters_tests;
 pub mod importance;
+pub mod nlos;
+pub mod nlos_start;
 pub mod opl;
 pub mod opl_precision;
 pub mod path;

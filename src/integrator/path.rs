@@ -156,6 +156,21 @@ pub fn trace_packet_from<R: Real, const C: usize, S: Sink<C>>(
     let exact = ctx.opl.f64_paths;
     let mut opl64 = [0.0f64; 8];
     let mut prev64 = [ctx.camera.position.as_dvec3(); 8];
+    // An NLOS capture starts each camera path at its lane's sensor point on the relay wall
+    // (`super::nlos`): the first vertex is then an ordinary (material-form) vertex.
+    let nlos = ctx.nlos.as_ref().filter(|_| matches!(start, PathStart::Camera));
+    let mut sensor = [0usize; 8];
+    if let Some(n) = nlos {
+        let mut seen = [false; 8];
+        for i in 0..lanes.count.min(R::LANES) {
+            sensor[i] = n.sensor_of(lanes.px[i], lanes.py[i]);
+            seen[i] = n.seen[sensor[i]];
+        }
+        active = active & R::Mask::from_bools(&seen[..R::LANES]);
+        let st = super::nlos_start::start::<R, C>(ctx, n, &sensor, f1, f2);
+        (ray_o, ray_d, prev_p, prev_n, prev_pdf, beta) = (st.o, st.d, st.p, st.n, st.pdf, st.beta);
+        prev64 = st.p64;
+    }
     let mut x64 = prev64;
     if let Some(s) = surface {
         opl = R::from_lanes(&s.opl.map(|d| d as f32)[..R::LANES]);
@@ -188,7 +203,8 @@ pub fn trace_packet_from<R: Real, const C: usize, S: Sink<C>>(
                     break;
                 }
                 let mut x = surface_at::<R>(ctx, &hit.prim, hit.u, hit.v);
-                if R::DERIVS > 0 && depth == 1 {
+                let from_camera = depth == 1 && nlos.is_none();
+                if R::DERIVS > 0 && from_camera {
                     // The camera ray is fixed in the image plane: the first vertex moves along it
                     // (x₁ = o + t(θ)·ω), so the pixel filter is never differentiated.
                     x.p = ray_plane_point(&prev_p, &V3::from_value(ray_d), &x.p, &x.n);
@@ -198,9 +214,9 @@ pub fn trace_packet_from<R: Real, const C: usize, S: Sink<C>>(
                 let r = r2.sqrt();
                 let w_in = seg * R::safe_div(R::one(), r);
                 let cos_i = x.n.dot(w_in).abs();
-                if R::DERIVS > 0 && depth > 1 {
+                if R::DERIVS > 0 && !from_camera {
                     // G·J (dual) over its value: the derivative of the geometry of this segment.
-                    let cos_prev = if depth == 1 { R::one() } else { prev_n.dot(w_in).abs() };
+                    let cos_prev = prev_n.dot(w_in).abs();
                     let g = cos_prev * cos_i / r2;
                     let ratio = R::safe_div(g, R::from_value(g.value())) * x.jacobian;
                     beta = beta.scale(ratio);
@@ -251,66 +267,86 @@ pub fn trace_packet_from<R: Real, const C: usize, S: Sink<C>>(
             break;
         }
 
-        // Next-event estimation.
+        // Next-event estimation: one sampled emitter point, or the laser points of an NLOS
+        // scan (the lane's own, or every one in turn: `super::nlos`).
         let alb = albedo::<R, C>(ctx, &x.prim);
         let f = diffuse_eval(alb);
         let (u0, u1) = sampler.next2::<V<R>>();
         let u2 = sampler.next::<V<R>>();
-        let ls = ctx.emitters.sample::<R, C>(ctx, u0, u1, u2, active);
-        let to = ls.p - x.p;
-        let d2 = to.length_squared();
-        let dist = d2.sqrt();
-        let wl = to * R::safe_div(R::one(), dist);
-        let cos_x_signed = x.n.dot(wl);
-        let incoming_side = x.n.value().dot(-ray_d);
-        let same_side = (cos_x_signed.value() * incoming_side).gt(V::<R>::zero());
-        let cos_y = R::select(ls.has_cos, -ls.n.dot(wl), R::one());
-        let d = opl + eta * (dist + ls.pre_length);
-        let lit = active & ls.valid & same_side & cos_y.value().gt(V::<R>::zero()) & d2.value().gt(V::<R>::zero());
-        let lit = lit & window::within(ctx.opl_budget, d.value());
-        if lit.any() {
-            let p_bsdf = cos_x_signed.value().abs() * V::<R>::splat(std::f32::consts::FRAC_1_PI);
-            let p_l = R::Value::safe_div(ls.pdf_area * d2.value(), cos_y.value());
-            let w = V::<R>::select(
-                ls.pdf_area.gt(V::<R>::zero()),
-                power_heuristic(p_l, p_bsdf),
-                V::<R>::one(),
-            );
-            let here = SegmentEnd {
-                p: x.p.value(),
-                n: x.n.value(),
-                w_in: ray_d,
-            };
-            let light = SegmentEnd {
-                p: ls.p.value(),
-                n: V3::select(ls.has_cos, ls.n.value(), V3::zero()),
-                w_in: V3::zero(),
-            };
-            let (o, dir, len) = shadow_segment(&here, &light);
-            let visible = unoccluded(&ctx.accel, &o, &dir, V::<R>::zero(), len, lit, &mut counts.rays);
-            let lit = lit & visible;
-            if lit.any() {
-                let g = cos_x_signed.abs() * cos_y / d2;
-                let contrib = (beta * f * ls.weight).scale(g * R::from_value(w));
-                let mut d64 = [0.0f64; 8];
-                if exact {
-                    for i in 0..R::LANES {
-                        let seg = (ls.p64[i] - x64[i]).length() + ls.pre64[i];
-                        d64[i] = opl64[i] + eta.value().lane(i) as f64 * seg;
+        for target in 0..nlos.map_or(1, |n| n.laser_points()) {
+            let (ls, to_lanes, spad_leg) = match nlos {
+                None => (ctx.emitters.sample::<R, C>(ctx, u0, u1, u2, active), *lanes, None),
+                Some(n) => {
+                    let points: [u32; 8] =
+                        std::array::from_fn(|i| if n.exhaustive { target as u32 } else { sensor[i] as u32 });
+                    let mut to_lanes = *lanes;
+                    if n.exhaustive {
+                        to_lanes.py = [target as u32; 8];
                     }
+                    let leg: [f64; 8] = std::array::from_fn(|i| n.spad_leg[sensor[i]]);
+                    let ls = ctx.emitters.sample_laser_points::<R, C>(ctx, n, &points, active);
+                    (ls, to_lanes, Some(leg))
                 }
-                splat(
-                    ctx,
-                    sink,
-                    (1, depth as usize + 1),
-                    lanes,
-                    &ls.emitter,
-                    d,
-                    exact.then_some(&d64),
-                    &contrib,
-                    lit,
-                    counts,
+            };
+            let to = ls.p - x.p;
+            let d2 = to.length_squared();
+            let dist = d2.sqrt();
+            let wl = to * R::safe_div(R::one(), dist);
+            let cos_x_signed = x.n.dot(wl);
+            let incoming_side = x.n.value().dot(-ray_d);
+            let same_side = (cos_x_signed.value() * incoming_side).gt(V::<R>::zero());
+            let cos_y = R::select(ls.has_cos, -ls.n.dot(wl), R::one());
+            let mut d = opl + eta * (dist + ls.pre_length);
+            if let Some(leg) = &spad_leg {
+                d += eta * R::from_lanes(&leg.map(|l| l as f32));
+            }
+            let lit = active & ls.valid & same_side & cos_y.value().gt(V::<R>::zero()) & d2.value().gt(V::<R>::zero());
+            let lit = lit & window::within(ctx.opl_budget, d.value());
+            if lit.any() {
+                let p_bsdf = cos_x_signed.value().abs() * V::<R>::splat(std::f32::consts::FRAC_1_PI);
+                let p_l = R::Value::safe_div(ls.pdf_area * d2.value(), cos_y.value());
+                let w = V::<R>::select(
+                    ls.pdf_area.gt(V::<R>::zero()),
+                    power_heuristic(p_l, p_bsdf),
+                    V::<R>::one(),
                 );
+                let here = SegmentEnd {
+                    p: x.p.value(),
+                    n: x.n.value(),
+                    w_in: ray_d,
+                };
+                let light = SegmentEnd {
+                    p: ls.p.value(),
+                    n: V3::select(ls.has_cos, ls.n.value(), V3::zero()),
+                    w_in: V3::zero(),
+                };
+                let (o, dir, len) = shadow_segment(&here, &light);
+                let visible = unoccluded(&ctx.accel, &o, &dir, V::<R>::zero(), len, lit, &mut counts.rays);
+                let lit = lit & visible;
+                if lit.any() {
+                    let g = cos_x_signed.abs() * cos_y / d2;
+                    let contrib = (beta * f * ls.weight).scale(g * R::from_value(w));
+                    let mut d64 = [0.0f64; 8];
+                    if exact {
+                        for i in 0..R::LANES {
+                            let leg = spad_leg.map_or(0.0, |l| l[i]);
+                            let seg = (ls.p64[i] - x64[i]).length() + ls.pre64[i] + leg;
+                            d64[i] = opl64[i] + eta.value().lane(i) as f64 * seg;
+                        }
+                    }
+                    splat(
+                        ctx,
+                        sink,
+                        (1, depth as usize + 1),
+                        &to_lanes,
+                        &ls.emitter,
+                        d,
+                        exact.then_some(&d64),
+                        &contrib,
+                        lit,
+                        counts,
+                    );
+                }
             }
         }
 

@@ -5,9 +5,10 @@
 //! - [`TileFilm`]: I += h·f·S_e(d) and İ_k += h·(ḟ_k·S_e + f·Ṡ_e·ḋ_k) (Algorithm 1);
 //! - [`BdptFilm`]: the same, plus one film per (s, t) strategy when asked;
 //! - `crate::adjoint::AdjointFilm`: the adjoint contraction, dL/dθ_k += ⟨∂L/∂I, h·İ_k⟩ over
-//!   the bins a path touches, with no film;
+//!   the bins a path touches, with no film.
 //!
-//! and the NLOS sensor points are a sink still to come.
+//! An NLOS capture's film points are its cells (sensor grid cell, or (sensor, laser) point;
+//! `super::nlos`), so every sink above takes a capture as it is.
 
 use super::bdpt::film::BdptFilm;
 use super::context::RenderContext;

@@ -16,6 +16,8 @@ mod exr_layers;
 mod flight;
 mod font;
 mod json;
+#[cfg(feature = "hdf5")]
+mod nlos_h5;
 mod npy;
 mod plot;
 mod png;
@@ -31,6 +33,8 @@ pub use flight::{
 };
 pub use font::FONT_ENV;
 pub use json::write_json;
+#[cfg(feature = "hdf5")]
+pub use nlos_h5::{h_array, write_nlos_h5};
 pub use npy::write_npy;
 pub use plot::write_time_plot;
 pub use preview::{MAX_SHEET_FRAMES, write_contact_sheet, write_steady_png};

@@ -27,6 +27,8 @@ pub struct SceneDesc {
     pub emitter: Vec<EmitterDesc>,
     #[serde(default)]
     pub param: Vec<ParamDesc>,
+    /// A relay-wall capture (`[nlos]`, see the NLOS section at the end of this file).
+    pub nlos: Option<NlosDesc>,
 }
 
 #[derive(Clone, Debug, Deserialize)]
@@ -461,4 +463,61 @@ mod exact {
     ) -> Result<Option<[T; N]>, D::Error> {
         Option::<Vec<T>>::deserialize(d)?.map(fixed).transpose()
     }
+}
+
+// ---- [nlos]: a relay-wall capture, resolved by `super::nlos` ----
+
+/// Which laser points each sensor point is measured with.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum NlosScan {
+    /// Laser point = sensor point.
+    Confocal,
+    /// Every laser point with every sensor point.
+    Exhaustive,
+}
+
+/// Whether the laser-to-wall and wall-to-SPAD legs count in the time of flight.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Deserialize, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum RelayLegs {
+    /// Time starts when light leaves the laser spot and stops when it reaches the sensor point.
+    #[default]
+    Excluded,
+    /// Time runs from the laser to the SPAD.
+    Included,
+}
+
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NlosDesc {
+    /// The relay wall: a shape name.
+    pub wall: String,
+    /// The laser emitter whose position the scan aims from.
+    pub laser: String,
+    pub scan: NlosScan,
+    /// Sensor points: a regular grid [nx, ny] over the wall ...
+    #[serde(default, deserialize_with = "exact::option_array")]
+    pub grid: Option<[i64; 2]>,
+    /// ... or explicit points, each projected onto the wall.
+    pub points: Option<Vec<Vec<f64>>>,
+    /// Exhaustive scans: the laser grid (default: the sensor points).
+    #[serde(default, deserialize_with = "exact::option_array")]
+    pub laser_grid: Option<[i64; 2]>,
+    #[serde(default)]
+    pub relay_legs: RelayLegs,
+    pub noise: Option<NoiseDesc>,
+}
+
+/// Photon noise of a synthetic capture, applied to a copy of the transient.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NoiseDesc {
+    /// Expected photon counts per unit of transient value.
+    pub photons_per_unit: f64,
+    /// Expected dark counts per bin of every histogram.
+    #[serde(default)]
+    pub dark_counts: f64,
+    #[serde(default)]
+    pub seed: u64,
 }

@@ -212,6 +212,12 @@ impl Scene {
                 "rr_depth": it.rr_depth,
             },
             "params": params,
+            "nlos": self.nlos.as_ref().map(|n| {
+                let mut v = super::nlos::describe(n);
+                v["wall"] = serde_json::json!(self.shapes[n.wall as usize].name);
+                v["laser"] = serde_json::json!(self.emitters[n.laser as usize].name);
+                v
+            }),
         })
     }
 }
@@ -359,6 +365,31 @@ impl fmt::Display for Scene {
             it.seed,
             it.rr_depth.map_or("off".to_string(), |d| format!("from bounce {d}"))
         )?;
+        if let Some(n) = &self.nlos {
+            writeln!(
+                out,
+                "  nlos: {} scan on shape {:?}: {} sensor point(s) ({}), {} laser point(s) of laser {:?}; the SPAD is the camera position; relay legs {} the time of flight{}",
+                if n.exhaustive() { "exhaustive" } else { "confocal" },
+                self.shapes[n.wall as usize].name,
+                n.sensors.len(),
+                if n.sensors.explicit {
+                    "explicit".to_string()
+                } else {
+                    format!("grid {}x{}", n.sensors.nx, n.sensors.ny)
+                },
+                n.lasers.len(),
+                self.emitters[n.laser as usize].name,
+                if n.relay_legs == super::RelayLegs::Included {
+                    "in"
+                } else {
+                    "out of"
+                },
+                n.noise.map_or(String::new(), |z| format!(
+                    ", noise: Poisson({} photons per unit + {} dark counts), seed {}",
+                    z.photons_per_unit, z.dark_counts, z.seed
+                ))
+            )?;
+        }
         if self.params.is_empty() {
             writeln!(out, "  params: none")?;
         } else {

@@ -18,6 +18,9 @@ pub mod fuzzing;
 mod info;
 mod load;
 mod materials;
+pub mod nlos;
+pub use desc::{NlosScan, RelayLegs};
+pub use nlos::{NlosSpec, NoiseSpec, WallGrid, WallPoint};
 mod origin;
 pub mod ply;
 mod read;
@@ -205,4 +208,7 @@ pub struct Scene {
     /// Area-emitter shapes that lay flush on another surface and were moved off it towards
     /// their emitting side (`flush.rs`: the emitting face wins).
     pub lifted_emitters: Vec<String>,
+    /// A relay-wall capture (`[nlos]`, `nlos.rs`): the film is then the capture's grid and the
+    /// camera position is the SPAD's.
+    pub nlos: Option<NlosSpec>,
 }

@@ -58,9 +58,23 @@ pub(crate) fn resolve(mut desc: SceneDesc, path: &Path, overrides: &[(String, f6
     let materials = materials::materials(&desc.material, &ctx)?;
     let emitters = emitters::emitters(&desc, &names, origin, &ctx)?;
     let channels = camera_film::channels(&desc, &params, &ctx)?;
-    let film = camera_film::film(&desc.film, width, height, channels, filter, &ctx)?;
+    let mut film = camera_film::film(&desc.film, width, height, channels, filter, &ctx)?;
     let (mut shapes, mut geometry) = super::shapes::build(&desc, &names, &emitters, &ctx, meshes, origin)?;
     let lifted_emitters = super::flush::lift_flush_emitters(&mut shapes, &mut geometry);
+    let nlos = super::nlos::resolve(
+        &desc,
+        &names,
+        &emitters,
+        &shapes,
+        &geometry,
+        &materials,
+        camera.position,
+        origin,
+        &ctx,
+    )?;
+    if let Some(n) = &nlos {
+        (film.width, film.height) = n.film_size();
+    }
 
     Ok(Scene {
         source: path.to_path_buf(),
@@ -83,6 +97,7 @@ pub(crate) fn resolve(mut desc: SceneDesc, path: &Path, overrides: &[(String, f6
         params,
         render_origin: origin.to_array(),
         lifted_emitters,
+        nlos,
     })
 }
 

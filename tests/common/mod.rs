@@ -114,3 +114,17 @@ pub fn converged_target(scene: &std::path::Path) -> Transient {
     };
     render(&truth, &opts).unwrap().0
 }
+
+/// A fixed pseudo-random adjoint ∂L/∂I of both signs over the film of `t` (xorshift values in
+/// [−1, 1)), for tests of adjoint gradients.
+pub fn adjoint_like(t: &Transient) -> Transient {
+    let mut a = t.clone();
+    let mut x = 0x2545_f491_4f6c_dd1du64;
+    for v in a.data.iter_mut() {
+        x ^= x << 13;
+        x ^= x >> 7;
+        x ^= x << 17;
+        *v = (x >> 40) as f32 / (1u64 << 24) as f32 * 2.0 - 1.0;
+    }
+    a
+}

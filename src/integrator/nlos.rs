@@ -1,0 +1,151 @@
+//! The NLOS sensor: points on a relay wall seen by a SPAD, and the laser spots of the scan
+//! (the scene's `[nlos]`, `crate::scene::nlos`), in the form the path kernel uses.
+//!
+//! Sensor point s measures the radiance the wall sends from s towards the SPAD,
+//! L_o(s → SPAD) = ∫ f_r(s) L_i(s, ω) |cos θ| dω with the wall's diffuse f_r = ρ_s/π: its
+//! importance is f_r × cos, a delta in position at s. The kernel starts each lane's path at its
+//! sensor point with a cosine-sampled direction about the wall's normal, so the path's weight
+//! starts at f_r·cos/pdf = ρ_s (`nlos_start.rs`); it ends by next-event estimation at
+//! the laser spots: the lane's own spot (confocal) or every laser point in turn (exhaustive),
+//! each a point source I(θ) = Φ·ρ/π·cos θ (`emitter_table::laser_spot`). One traced path thus
+//! serves every laser point of an exhaustive scan.
+//!
+//! Film points: (x, y) = the sensor grid cell (confocal), or (sensor index, laser index)
+//! (exhaustive). The time of flight counts the hidden legs always, and the laser-to-spot and
+//! wall-to-SPAD legs with `relay_legs = "included"`.
+//!
+//! [`NlosSensor::project`] is the sensor's projection for connections that end at the sensor
+//! (light tracing, the boundary stage's sensor subpaths), as `CameraSampler::project` is the
+//! pinhole's: a scene point → (sensor index, importance, squared distance).
+
+use super::emitter_table::{LaserSpot, laser_spot};
+use crate::accel::Accel;
+use crate::scene::{EmitterKind, Material, NlosSpec, RelayLegs, Scene, WallPoint};
+use glam::Vec3;
+
+/// A connection from a scene point to one sensor point.
+#[derive(Clone, Copy, Debug)]
+pub struct SensorProjection {
+    /// Index of the sensor point.
+    pub index: usize,
+    /// f_r(s)·|cos θ_s| towards the point per channel (RGB; per steradian at s, for radiance
+    /// towards the SPAD).
+    pub importance: [f32; 3],
+    /// Squared distance from the sensor point.
+    pub dist2: f32,
+    /// Unit direction from the sensor point to the scene point.
+    pub dir: Vec3,
+}
+
+/// The scan as the kernel sees it. Built once per render.
+#[derive(Clone, Debug)]
+pub struct NlosSensor {
+    /// The laser emitter (its pulse and S_e are the scan's).
+    pub laser: u32,
+    pub exhaustive: bool,
+    /// Sensor grid width (confocal film x = ix, y = iy).
+    pub nx: usize,
+    pub sensors: Vec<WallPoint>,
+    /// ρ of the wall at each sensor point, RGB.
+    pub albedo: Vec<[f32; 3]>,
+    /// Whether the SPAD sees each sensor point (an occluder between them makes it read 0).
+    pub seen: Vec<bool>,
+    /// Wall-to-SPAD length per sensor point when it is counted, else 0 (f64).
+    pub spad_leg: Vec<f64>,
+    /// The spot each laser point lights (`None`: the beam meets nothing).
+    pub spots: Vec<Option<LaserSpot>>,
+    /// Whether the laser-to-spot length counts in the time of flight.
+    pub laser_leg: bool,
+}
+
+impl NlosSensor {
+    pub fn new(scene: &Scene, spec: &NlosSpec, accel: &Accel) -> Self {
+        let spad = scene.camera.position;
+        let EmitterKind::Laser { position, power, .. } = scene.emitters[spec.laser as usize].kind else {
+            unreachable!("scene::nlos checks that the scan's emitter is a laser")
+        };
+        let included = spec.relay_legs == RelayLegs::Included;
+        let sensors = spec.sensors.points.clone();
+        let albedo = sensors
+            .iter()
+            .map(|s| {
+                let shape = scene.geometry.tri_shape[s.prim as usize] as usize;
+                let Material::Diffuse { albedo } = scene.materials[scene.shapes[shape].material as usize].material;
+                albedo
+            })
+            .collect();
+        // from the SPAD (on no surface) to just short of the wall point
+        let seen = sensors
+            .iter()
+            .map(|s| {
+                let to = s.p - spad;
+                let len = to.length();
+                !accel.occluded1(spad.to_array(), (to / len).to_array(), 0.0, len * (1.0 - 1e-5))
+            })
+            .collect();
+        let spad_leg = sensors
+            .iter()
+            .map(|s| {
+                if included {
+                    (spad.as_dvec3() - s.p.as_dvec3()).length()
+                } else {
+                    0.0
+                }
+            })
+            .collect();
+        let spots = spec
+            .lasers
+            .points
+            .iter()
+            .map(|l| laser_spot(scene, accel, position, (l.p - position).normalize(), power))
+            .collect();
+        Self {
+            laser: spec.laser,
+            exhaustive: spec.exhaustive(),
+            nx: spec.sensors.nx,
+            sensors,
+            albedo,
+            seen,
+            spad_leg,
+            spots,
+            laser_leg: included,
+        }
+    }
+
+    /// The sensor point of film pixel (x, y): the grid cell (confocal) or column x (exhaustive).
+    #[inline]
+    pub fn sensor_of(&self, x: u32, y: u32) -> usize {
+        if self.exhaustive {
+            x as usize
+        } else {
+            y as usize * self.nx + x as usize
+        }
+    }
+
+    /// Laser points each sensor path connects to: the lane's own (confocal) or all of them.
+    pub fn laser_points(&self) -> usize {
+        if self.exhaustive { self.spots.len() } else { 1 }
+    }
+
+    /// The projection of scene point `x` onto sensor point `i` (visibility not tested).
+    pub fn project(&self, i: usize, x: Vec3) -> Option<SensorProjection> {
+        let s = self.sensors.get(i)?;
+        if !self.seen[i] {
+            return None;
+        }
+        let d = x - s.p;
+        let dist2 = d.length_squared();
+        let dir = d / dist2.sqrt();
+        let cos = s.n.dot(dir);
+        if !(dist2 > 0.0 && cos > 0.0) {
+            return None;
+        }
+        let rho = self.albedo[i];
+        Some(SensorProjection {
+            index: i,
+            importance: rho.map(|r| r * std::f32::consts::FRAC_1_PI * cos),
+            dist2,
+            dir,
+        })
+    }
+}

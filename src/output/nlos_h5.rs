@@ -1,0 +1,164 @@
+//! NLOS captures as HDF5 in y-tal's capture layout (the `HDF5_TAL` format its reader and
+//! reconstructions open directly; y-tal also converts the Z-NLOS datasets into it), so that
+//! a rendered capture goes straight into NLOS reconstruction code:
+//!
+//! | dataset | contents |
+//! |---|---|
+//! | `H` | float32 transient: confocal (T, Sx, Sy), exhaustive (T, Lx, Ly, Sx, Sy); with explicit points (T, Si) / (T, Li, Si); channels summed |
+//! | `H_format` | int: 1 = T_Sx_Sy, 2 = T_Lx_Ly_Sx_Sy, 3 = T_Si, 4 = T_Li_Si |
+//! | `sensor_xyz`, `laser_xyz` | (3,) the SPAD's and the laser's positions |
+//! | `sensor_grid_xyz`, `sensor_grid_normals` | (Sx, Sy, 3) or (Si, 3) points on the wall and the wall's normals there |
+//! | `laser_grid_xyz`, `laser_grid_normals` | the same for the laser points |
+//! | `sensor_grid_format`, `laser_grid_format` | int: 1 = N_3, 2 = X_Y_3 |
+//! | `delta_t`, `t_start` | bin width and the first bin's start, OPL metres |
+//! | `t_accounts_first_and_last_bounces` | bool: the relay legs are in the time of flight |
+//! | `scene_info` | YAML text: the writer, the scene file, the scan and the noise model |
+//!
+//! Positions are in the scene file's coordinates (the render origin added back in f64).
+//! Grid index (ix, iy) runs along the wall frame's u and v axes (`scene::nlos`). Built with the
+//! `hdf5` feature (on by default).
+
+use super::OutputError;
+use crate::film::Transient;
+use crate::scene::{NlosSpec, Scene, WallGrid};
+use std::path::Path;
+
+/// The `H` array (and its shape and `H_format`) of `film`, in y-tal's axis order.
+pub fn h_array(spec: &NlosSpec, film: &Transient) -> (Vec<usize>, Vec<f32>, i32) {
+    let (t, c) = (film.axis.bins, film.channels);
+    let grids = !spec.sensors.explicit && !spec.lasers.explicit;
+    let (s, l) = (&spec.sensors, &spec.lasers);
+    // film value of (laser j, sensor i) at bin k, channels summed
+    let value = |j: usize, i: usize, k: usize| -> f32 {
+        let (x, y) = if spec.exhaustive() {
+            (i, j)
+        } else {
+            (i % s.nx, i / s.nx)
+        };
+        (0..c).map(|ch| film.at(x, y, k, ch)).sum()
+    };
+    let (sensor_order, laser_order) = (order(s, grids), order(l, grids));
+    let mut data = Vec::with_capacity(t * sensor_order.len() * if spec.exhaustive() { l.len() } else { 1 });
+    for k in 0..t {
+        if spec.exhaustive() {
+            for &j in &laser_order {
+                for &i in &sensor_order {
+                    data.push(value(j, i, k));
+                }
+            }
+        } else {
+            for &i in &sensor_order {
+                data.push(value(i, i, k));
+            }
+        }
+    }
+    let (shape, format) = match (spec.exhaustive(), grids) {
+        (false, true) => (vec![t, s.nx, s.ny], 1),
+        (true, true) => (vec![t, l.nx, l.ny, s.nx, s.ny], 2),
+        (false, false) => (vec![t, s.len()], 3),
+        (true, false) => (vec![t, l.len(), s.len()], 4),
+    };
+    (shape, data, format)
+}
+
+/// The points of `g` in y-tal's order: ix major, iy minor (X, Y), or as listed (N).
+fn order(g: &WallGrid, grids: bool) -> Vec<usize> {
+    if grids {
+        (0..g.nx)
+            .flat_map(|ix| (0..g.ny).map(move |iy| iy * g.nx + ix))
+            .collect()
+    } else {
+        (0..g.len()).collect()
+    }
+}
+
+/// Grid positions and normals in y-tal's order ((X, Y, 3) or (N, 3)), file coordinates.
+fn grid_arrays(g: &WallGrid, grids: bool, origin: [f64; 3]) -> (Vec<usize>, Vec<f32>, Vec<f32>) {
+    let order = order(g, grids);
+    let mut xyz = Vec::with_capacity(order.len() * 3);
+    let mut nrm = Vec::with_capacity(order.len() * 3);
+    for &i in &order {
+        let p = g.points[i];
+        for a in 0..3 {
+            xyz.push((p.p[a] as f64 + origin[a]) as f32);
+            nrm.push(p.n[a]);
+        }
+    }
+    let shape = if grids { vec![g.nx, g.ny, 3] } else { vec![g.len(), 3] };
+    (shape, xyz, nrm)
+}
+
+/// Writes `film` (a render of `scene`'s capture) to `path` in the layout above.
+pub fn write_nlos_h5(path: &Path, scene: &Scene, film: &Transient, what: &str) -> Result<(), OutputError> {
+    let spec = scene.nlos.as_ref().expect("an NLOS scene");
+    if let Some(bad) = film.data.iter().position(|v| !v.is_finite()) {
+        return Err(OutputError::invalid(
+            path,
+            format!("value {bad} of the transient is not finite; refusing to write"),
+        ));
+    }
+    // written beside the destination and renamed into place, like every writer here
+    let tmp = path.with_extension("h5.partial");
+    let result = write(&tmp, scene, spec, film, what).map_err(|e| OutputError::encode(path, "HDF5", e));
+    match result.and_then(|()| std::fs::rename(&tmp, path).map_err(|e| OutputError::io(path, e))) {
+        Ok(()) => Ok(()),
+        Err(e) => {
+            let _ = std::fs::remove_file(&tmp);
+            Err(e)
+        }
+    }
+}
+
+fn write(path: &Path, scene: &Scene, spec: &NlosSpec, film: &Transient, what: &str) -> hdf5::Result<()> {
+    use hdf5::types::VarLenUnicode;
+    let f = hdf5::File::create(path)?;
+    let (shape, data, format) = h_array(spec, film);
+    let grids = format == 1 || format == 2;
+    let array = |name: &str, shape: &[usize], data: &[f32]| -> hdf5::Result<()> {
+        f.new_dataset::<f32>().shape(shape).create(name)?.write_raw(data)
+    };
+    let int = |name: &str, v: i32| -> hdf5::Result<()> { f.new_dataset::<i32>().create(name)?.write_scalar(&v) };
+    let float = |name: &str, v: f64| -> hdf5::Result<()> { f.new_dataset::<f64>().create(name)?.write_scalar(&v) };
+    array("H", &shape, &data)?;
+    int("H_format", format)?;
+    let origin = scene.render_origin;
+    let world = |p: glam::Vec3| -> [f32; 3] { std::array::from_fn(|a| (p[a] as f64 + origin[a]) as f32) };
+    array("sensor_xyz", &[3], &world(scene.camera.position))?;
+    let crate::scene::EmitterKind::Laser { position, .. } = scene.emitters[spec.laser as usize].kind else {
+        unreachable!("scene::nlos checks that the scan's emitter is a laser")
+    };
+    array("laser_xyz", &[3], &world(position))?;
+    for (name, g) in [("sensor", &spec.sensors), ("laser", &spec.lasers)] {
+        let (gs, xyz, nrm) = grid_arrays(g, grids, origin);
+        array(&format!("{name}_grid_xyz"), &gs, &xyz)?;
+        array(&format!("{name}_grid_normals"), &gs, &nrm)?;
+        int(&format!("{name}_grid_format"), if grids { 2 } else { 1 })?;
+    }
+    float("delta_t", film.axis.bin_width_opl)?;
+    float("t_start", film.axis.start_opl)?;
+    f.new_dataset::<bool>()
+        .create("t_accounts_first_and_last_bounces")?
+        .write_scalar(&(spec.relay_legs == crate::scene::RelayLegs::Included))?;
+    let info = format!(
+        "original_format: difftransient\ncontents: {what}\nscene: {:?}\nscan: {}\nrelay_legs: {}\nnoise: {}\n",
+        scene.source.display().to_string(),
+        if spec.exhaustive() { "exhaustive" } else { "confocal" },
+        if spec.relay_legs == crate::scene::RelayLegs::Included {
+            "included"
+        } else {
+            "excluded"
+        },
+        match &spec.noise {
+            Some(n) => format!(
+                "{{photons_per_unit: {}, dark_counts: {}, seed: {}}}",
+                n.photons_per_unit, n.dark_counts, n.seed
+            ),
+            None => "null".into(),
+        }
+    );
+    let text: VarLenUnicode = info.parse().map_err(|e| hdf5::Error::from(format!("{e}")))?;
+    f.new_dataset::<VarLenUnicode>()
+        .create("scene_info")?
+        .write_scalar(&text)?;
+    f.close()
+}

@@ -1,0 +1,371 @@
+//! `dtr render` of NLOS captures end to end: the files it writes (the transient, the noisy copy,
+//! HDF5 in y-tal's layout read back here), the JSON's `nlos` block, and bad `[nlos]` input
+//! refused with the file and the field named, no panic and no output.
+
+mod common;
+use std::path::{Path, PathBuf};
+
+fn scene_text(name: &str) -> String {
+    std::fs::read_to_string(common::scene_path(name)).unwrap()
+}
+
+/// Writes `text` as a scene next to the scenes folder's meshes (so OBJ paths resolve).
+fn scene_file(dir: &Path, name: &str, text: &str) -> PathBuf {
+    std::fs::create_dir_all(dir.join("meshes")).unwrap();
+    std::fs::copy(
+        common::scene_path("meshes/curved_wall.obj"),
+        dir.join("meshes/curved_wall.obj"),
+    )
+    .unwrap();
+    let p = dir.join(name);
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+fn npy(path: &Path) -> (Vec<u64>, Vec<f32>) {
+    let bytes = std::fs::read(path).unwrap();
+    let r = npyz::NpyFile::new(&bytes[..]).unwrap();
+    let shape = r.shape().to_vec();
+    (shape, r.into_vec::<f32>().unwrap())
+}
+
+/// A confocal capture with noise writes PREFIX.{npy, json, h5, noisy.npy, noisy.h5}; the noisy
+/// copy is whole photon counts with the mean the model gives; the JSON says the scan, the
+/// relay-leg convention and the layout.
+#[test]
+fn confocal_capture_writes_its_files() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = scene_file(
+        dir.path(),
+        "occ.toml",
+        &scene_text("nlos_occluder.toml").replace("grid = [16, 16]", "grid = [6, 5]"),
+    );
+    let out = common::dtr(
+        &["render", scene.to_str().unwrap(), "-o", "cap", "--spp", "64", "--quiet"],
+        dir.path(),
+    );
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let mut names: Vec<String> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.starts_with("cap"))
+        .collect();
+    names.sort();
+    let mut expected = vec!["cap.json", "cap.noisy.npy", "cap.npy"];
+    if cfg!(feature = "hdf5") {
+        expected.extend(["cap.h5", "cap.noisy.h5"]);
+    }
+    expected.sort();
+    assert_eq!(names, expected);
+    let (shape, clean) = npy(&dir.path().join("cap.npy"));
+    assert_eq!(shape, vec![5, 6, 128, 1]);
+    let (nshape, noisy) = npy(&dir.path().join("cap.noisy.npy"));
+    assert_eq!(nshape, shape);
+    assert!(noisy.iter().all(|&c| c >= 0.0 && c.fract() == 0.0));
+    // E[counts] = 1e6 · I + 0.01 per bin: the sums agree within 5 Poisson standard deviations
+    let expect: f64 = clean.iter().map(|&v| 1e6 * v as f64 + 0.01).sum();
+    let got: f64 = noisy.iter().map(|&v| v as f64).sum();
+    assert!(expect > 1000.0);
+    assert!((got - expect).abs() < 5.0 * expect.sqrt(), "{got} counts vs {expect}");
+    let meta: serde_json::Value = serde_json::from_slice(&std::fs::read(dir.path().join("cap.json")).unwrap()).unwrap();
+    let n = &meta["nlos"];
+    assert_eq!(n["scan"], "confocal");
+    assert_eq!(n["relay_legs"], "excluded");
+    assert_eq!(n["sensor_grid"], serde_json::json!([6, 5]));
+    assert!(n["time_of_flight"].as_str().unwrap().contains("left out"));
+    assert_eq!(n["noise"]["photons_per_unit"], 1e6);
+    #[cfg(feature = "hdf5")]
+    {
+        let f = hdf5::File::open(dir.path().join("cap.h5")).unwrap();
+        let h = f.dataset("H").unwrap();
+        assert_eq!(h.shape(), vec![128, 6, 5]);
+        let hv: Vec<f32> = h.read_raw().unwrap();
+        // H[t, ix, iy] = npy[iy, ix, t, 0]
+        for (t, ix, iy) in [(40, 2, 3), (70, 5, 0), (10, 0, 4)] {
+            assert_eq!(hv[(t * 6 + ix) * 5 + iy], clean[(iy * 6 + ix) * 128 + t]);
+        }
+        assert_eq!(f.dataset("H_format").unwrap().read_scalar::<i32>().unwrap(), 1);
+        assert_eq!(
+            f.dataset("sensor_grid_format").unwrap().read_scalar::<i32>().unwrap(),
+            2
+        );
+        assert_eq!(f.dataset("sensor_grid_xyz").unwrap().shape(), vec![6, 5, 3]);
+        assert_eq!(f.dataset("delta_t").unwrap().read_scalar::<f64>().unwrap(), 0.02);
+        assert_eq!(f.dataset("t_start").unwrap().read_scalar::<f64>().unwrap(), 1.0);
+        assert!(
+            !f.dataset("t_accounts_first_and_last_bounces")
+                .unwrap()
+                .read_scalar::<bool>()
+                .unwrap()
+        );
+        let spad: Vec<f32> = f.dataset("sensor_xyz").unwrap().read_raw().unwrap();
+        assert_eq!(spad, vec![-1.5, -0.5, 2.0]);
+        // grid points lie on the wall (z = 0) in file coordinates, normals +z
+        let xyz: Vec<f32> = f.dataset("sensor_grid_xyz").unwrap().read_raw().unwrap();
+        let nrm: Vec<f32> = f.dataset("sensor_grid_normals").unwrap().read_raw().unwrap();
+        assert!(
+            xyz.chunks(3)
+                .all(|p| p[2].abs() < 1e-6 && p[0].abs() < 1.0 && p[1].abs() < 1.0)
+        );
+        assert!(nrm.chunks(3).all(|n| (n[2] - 1.0).abs() < 1e-6));
+        // ix runs along +x: the first two points differ in x by the cell width 2/6
+        assert!((xyz[3 * 5] - xyz[0] - 2.0 / 6.0).abs() < 1e-5, "{:?}", &xyz[..18]);
+        let noisy_h5: Vec<f32> = hdf5::File::open(dir.path().join("cap.noisy.h5"))
+            .unwrap()
+            .dataset("H")
+            .unwrap()
+            .read_raw()
+            .unwrap();
+        assert_eq!(noisy_h5.iter().sum::<f32>(), noisy.iter().sum::<f32>());
+    }
+}
+
+/// An exhaustive capture on the curved wall with relay legs included: [L, S, T, C] in the npy,
+/// (T, Lx, Ly, Sx, Sy) in the HDF5, and the convention in both.
+#[test]
+fn exhaustive_capture_layout() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = scene_text("nlos_curved_wall.toml")
+        .replace(
+            "scan = \"confocal\"",
+            "scan = \"exhaustive\"\nlaser_grid = [2, 3]\nrelay_legs = \"included\"",
+        )
+        .replace("grid = [16, 16]", "grid = [4, 2]")
+        .replace("start_opl = 1.0", "start_opl = 4.0");
+    let scene = scene_file(dir.path(), "ex.toml", &text);
+    let out = common::dtr(
+        &["render", scene.to_str().unwrap(), "-o", "ex", "--spp", "16", "--quiet"],
+        dir.path(),
+    );
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let (shape, data) = npy(&dir.path().join("ex.npy"));
+    assert_eq!(shape, vec![6, 8, 128, 1]);
+    assert!(data.iter().sum::<f32>() > 0.0);
+    let meta: serde_json::Value = serde_json::from_slice(&std::fs::read(dir.path().join("ex.json")).unwrap()).unwrap();
+    assert_eq!(meta["nlos"]["scan"], "exhaustive");
+    assert_eq!(meta["nlos"]["relay_legs"], "included");
+    assert_eq!(meta["nlos"]["laser_grid"], serde_json::json!([2, 3]));
+    #[cfg(feature = "hdf5")]
+    {
+        let f = hdf5::File::open(dir.path().join("ex.h5")).unwrap();
+        let h = f.dataset("H").unwrap();
+        assert_eq!(h.shape(), vec![128, 2, 3, 4, 2]);
+        let hv: Vec<f32> = h.read_raw().unwrap();
+        // H[t, jx, jy, ix, iy] = npy[jy * 2 + jx, iy * 4 + ix, t, 0]
+        let (t, jx, jy, ix, iy) = (60, 1, 2, 3, 1);
+        let j = jy * 2 + jx;
+        let i = iy * 4 + ix;
+        assert_eq!(
+            hv[(((t * 2 + jx) * 3 + jy) * 4 + ix) * 2 + iy],
+            data[(j * 8 + i) * 128 + t]
+        );
+        assert_eq!(f.dataset("H_format").unwrap().read_scalar::<i32>().unwrap(), 2);
+        assert!(
+            f.dataset("t_accounts_first_and_last_bounces")
+                .unwrap()
+                .read_scalar::<bool>()
+                .unwrap()
+        );
+        assert_eq!(f.dataset("laser_grid_xyz").unwrap().shape(), vec![2, 3, 3]);
+    }
+}
+
+/// Runs `dtr render` on `text` and returns its error; checks there is no panic and no output.
+fn refused(text: &str, extra: &[&str]) -> String {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = scene_file(dir.path(), "bad.toml", text);
+    let mut args = vec![
+        "render",
+        scene.to_str().unwrap(),
+        "-o",
+        "out/x",
+        "--spp",
+        "1",
+        "--quiet",
+    ];
+    args.extend(extra);
+    std::fs::create_dir(dir.path().join("out")).unwrap();
+    let out = common::dtr(&args, dir.path());
+    let err = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert!(!out.status.success(), "accepted: {text}");
+    assert!(!err.contains("panicked"), "{err}");
+    assert_eq!(std::fs::read_dir(dir.path().join("out")).unwrap().count(), 0, "{err}");
+    assert!(err.contains("bad.toml"), "{err}");
+    err
+}
+
+#[test]
+fn bad_nlos_input_names_the_field() {
+    let base = scene_text("nlos_occluder.toml");
+    let cases: Vec<(String, Vec<&str>)> = vec![
+        (
+            base.replace("wall = \"wall\"", "wall = \"wal\""),
+            vec!["nlos: field 'wall'", "no shape named \"wal\""],
+        ),
+        (
+            base.replace("laser = \"laser\"\nscan", "laser = \"lazer\"\nscan"),
+            vec!["nlos: field 'laser'", "no emitter"],
+        ),
+        (
+            base.replace("grid = [16, 16]", "grid = [0, 16]"),
+            vec!["nlos: field 'grid[0]'", "at least 1"],
+        ),
+        (
+            base.replace("grid = [16, 16]", "grid = [16, 16, 2]"),
+            vec!["nlos: field 'grid'", "length 2"],
+        ),
+        (
+            base.replace("grid = [16, 16]", ""),
+            vec!["nlos: field 'grid'", "missing"],
+        ),
+        (
+            base.replace("grid = [16, 16]", "grid = [4, 4]\npoints = [[0, 0, 0]]"),
+            vec!["nlos: field 'points'", "not both"],
+        ),
+        (
+            base.replace("grid = [16, 16]", "points = [[0, 0]]"),
+            vec!["nlos: field 'points[0]'", "[x, y, z]"],
+        ),
+        (
+            base.replace("grid = [16, 16]", "points = [[5.0, 0, 0]]"),
+            vec!["nlos: field 'points[0]'", "misses the wall"],
+        ),
+        (
+            base.replace("grid = [16, 16]", "grid = [4, 4]\nlaser_grid = [2, 2]"),
+            vec!["nlos: field 'laser_grid'", "confocal"],
+        ),
+        (
+            base.replace("scan = \"confocal\"", "scan = \"diagonal\""),
+            vec!["nlos: field 'scan'", "confocal"],
+        ),
+        (
+            base.replace("relay_legs", "relay_leg")
+                .replace("scan = \"confocal\"", "scan = \"confocal\"\nrelay_legs = \"both\""),
+            vec!["nlos: field 'relay_legs'"],
+        ),
+        (
+            base.replace("photons_per_unit = 1e6", "photons_per_unit = -1"),
+            vec!["nlos.noise: field 'photons_per_unit'", "> 0"],
+        ),
+        (
+            base.replace("dark_counts = 0.01", "dark_counts = nan"),
+            vec!["dark_counts"],
+        ),
+        (
+            base.replace("channels = \"mono\"", "channels = \"mono\"\nunwarp = true"),
+            vec!["film: field 'unwarp'", "relay_legs"],
+        ),
+        (
+            base.replace(
+                "[nlos]",
+                "[[emitter]]\nname = \"lamp\"\ntype = \"point\"\nposition = [0, 0, 1]\nintensity = 1.0\n\n[nlos]",
+            ),
+            vec!["emitter[1] \"lamp\"", "laser alone"],
+        ),
+        (
+            base.replace(
+                "[nlos]",
+                "[[emitter]]\nname = \"lamp\"\ntype = \"point\"\nposition = [0, 0, 1]\nintensity = 1.0\n\n[nlos]",
+            )
+            .replace("laser = \"laser\"\nscan", "laser = \"lamp\"\nscan"),
+            vec!["nlos: field 'laser'", "not a laser"],
+        ),
+    ];
+    for (text, want) in &cases {
+        let err = refused(text, &[]);
+        for w in want {
+            assert!(err.contains(w), "expected {w:?} in: {err}");
+        }
+    }
+}
+
+/// What a capture cannot do yet is refused before rendering: BDPT, and derivatives with
+/// respect to geometry (they need the boundary term at the sensor points).
+#[test]
+fn unsupported_renders_are_refused() {
+    let base = scene_text("nlos_occluder.toml");
+    let err = refused(&base, &["--integrator", "bdpt"]);
+    assert!(err.contains("path tracer only"), "{err}");
+    let err = refused(&base, &["--diff", "hidden_albedo,hidden_x"]);
+    assert!(
+        err.contains("parameter 2 moves [\"hidden\"]") && err.contains("boundary term"),
+        "{err}"
+    );
+}
+
+/// Explicit sensor points: y-tal's point-list formats ((T, Si) and (N, 3) grids), and
+/// `dtr info` describes the capture.
+#[test]
+fn explicit_points_and_info() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = scene_file(dir.path(), "pts.toml", &scene_text("nlos_hidden_patch.toml"));
+    let out = common::dtr(
+        &["render", scene.to_str().unwrap(), "-o", "pts", "--spp", "64", "--quiet"],
+        dir.path(),
+    );
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let (shape, data) = npy(&dir.path().join("pts.npy"));
+    assert_eq!(shape, vec![1, 3, 80, 1]);
+    assert!(data.iter().sum::<f32>() > 0.0);
+    #[cfg(feature = "hdf5")]
+    {
+        let f = hdf5::File::open(dir.path().join("pts.h5")).unwrap();
+        assert_eq!(f.dataset("H").unwrap().shape(), vec![80, 3]);
+        let hv: Vec<f32> = f.dataset("H").unwrap().read_raw().unwrap();
+        assert_eq!(hv[12 * 3 + 2], data[2 * 80 + 12]);
+        assert_eq!(f.dataset("H_format").unwrap().read_scalar::<i32>().unwrap(), 3);
+        assert_eq!(
+            f.dataset("sensor_grid_format").unwrap().read_scalar::<i32>().unwrap(),
+            1
+        );
+        let xyz: Vec<f32> = f.dataset("sensor_grid_xyz").unwrap().read_raw().unwrap();
+        assert_eq!(xyz.len(), 9);
+        // the second point as written, [0.3, 0, 0]
+        assert!(
+            (xyz[3] - 0.3).abs() < 1e-6 && xyz[4].abs() < 1e-6 && xyz[5].abs() < 1e-6,
+            "{xyz:?}"
+        );
+    }
+    let info = common::dtr(&["info", scene.to_str().unwrap()], dir.path());
+    let text = String::from_utf8_lossy(&info.stdout);
+    assert!(
+        text.contains("nlos: confocal scan on shape \"wall\": 3 sensor point(s) (explicit)"),
+        "{text}"
+    );
+    assert!(text.contains("relay legs out of the time of flight"), "{text}");
+    let json = common::dtr(&["info", scene.to_str().unwrap(), "--json"], dir.path());
+    let v: serde_json::Value = serde_json::from_slice(&json.stdout).unwrap();
+    assert_eq!(v["nlos"]["scan"], "confocal");
+    assert_eq!(v["nlos"]["wall"], "wall");
+}
+
+/// An exhaustive capture's shards (`--shard I/N`, merged by `dtr merge`) and a checkpointed
+/// render give the whole render's bytes; a shard writes no HDF5 or noisy copy.
+#[test]
+fn shards_and_checkpoints_of_a_capture() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = scene_text("nlos_occluder.toml")
+        .replace("scan = \"confocal\"", "scan = \"exhaustive\"")
+        .replace("grid = [16, 16]", "grid = [4, 4]");
+    let scene = scene_file(dir.path(), "ex.toml", &text);
+    let s = scene.to_str().unwrap();
+    let run = |args: &[&str]| {
+        let out = common::dtr(args, dir.path());
+        assert!(
+            out.status.success(),
+            "{args:?}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    };
+    run(&["render", s, "-o", "whole", "--spp", "8", "--quiet"]);
+    run(&["render", s, "-o", "s0", "--spp", "8", "--shard", "0/2", "--quiet"]);
+    run(&["render", s, "-o", "s1", "--spp", "8", "--shard", "1/2", "--quiet"]);
+    run(&["merge", "s0", "s1", "-o", "merged"]);
+    run(&["render", s, "-o", "ck", "--spp", "8", "--checkpoint", "100", "--quiet"]);
+    let (shape, whole) = npy(&dir.path().join("whole.npy"));
+    assert_eq!(shape, vec![16, 16, 128, 1]);
+    assert!(whole.iter().sum::<f32>() > 0.0);
+    assert_eq!(npy(&dir.path().join("merged.npy")).1, whole);
+    assert_eq!(npy(&dir.path().join("ck.npy")).1, whole);
+    assert!(!dir.path().join("s0.h5").exists() && !dir.path().join("s0.noisy.npy").exists());
+}

@@ -1,0 +1,66 @@
+//! Interior derivatives of NLOS captures against central finite differences with common random
+//! numbers (the statistics of tests/common/fd.rs: per-pixel time sums and per-bin totals,
+//! Student-t z of AD − FD over 12 seeds widened by the finite difference's own error), for the
+//! parameters a capture may differentiate today: albedo (of the hidden object, and of the relay
+//! wall, which weights the sensor points and the laser spots), laser power, pulse offset and η
+//! (with the relay legs both left out and counted). Geometric parameters are refused
+//! (tests/nlos_cli.rs).
+
+mod common;
+use difftransient::scene::RelayLegs;
+use difftransient::temporal::{Gate, Pulse};
+
+fn check(name: &str, value: f32, h: f32, edit: fn(&mut difftransient::Scene)) {
+    common::fd::FdCheck {
+        scene: "nlos_occluder.toml",
+        k: 12,
+        spp: 64,
+        integrator: None,
+        edit,
+        require_signal: true,
+    }
+    .check(name, value, h);
+}
+
+/// Time derivatives: a wider pulse and gate than the scene's (σ 4 cm and 2 cm of OPL on
+/// 2 cm bins) keep the finite difference's truncation error under a percent of the derivative.
+fn smooth(s: &mut difftransient::Scene) {
+    s.emitters[0].pulse = Pulse::Gaussian { sigma_opl: 0.04 };
+    s.film.gate = Gate::Gaussian { sigma_opl: 0.02 };
+}
+
+/// [`smooth`] with the relay legs counted: a time axis over [5.5, 11.9] m, where the capture
+/// then lies (laser and SPAD legs of 4.1 to 6.8 m).
+fn legs_included(s: &mut difftransient::Scene) {
+    smooth(s);
+    s.nlos.as_mut().unwrap().relay_legs = RelayLegs::Included;
+    s.film.axis.start_opl = 5.5;
+    s.film.axis.bin_width_opl = 0.05;
+}
+
+#[test]
+fn hidden_albedo_matches_finite_differences() {
+    check("hidden_albedo", 0.7, 0.01, |_| {});
+}
+
+#[test]
+fn wall_albedo_matches_finite_differences() {
+    check("wall_albedo", 0.8, 0.01, |_| {});
+}
+
+#[test]
+fn laser_power_matches_finite_differences() {
+    check("laser_power", 1.0, 0.02, |_| {});
+}
+
+#[test]
+fn pulse_offset_matches_finite_differences() {
+    check("laser_offset", 0.0, 0.002, smooth);
+    check("laser_offset", 0.0, 0.002, legs_included);
+}
+
+#[test]
+fn eta_matches_finite_differences() {
+    check("eta", 1.0, 0.001, smooth);
+    check("eta", 1.0, 0.001, legs_included);
+}
