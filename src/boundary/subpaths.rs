@@ -20,7 +20,6 @@ use crate::integrator::power_heuristic;
 use crate::integrator::surface::{offset_origin, self_intersection_eps};
 use crate::integrator::trace::RayCounts;
 use crate::kernel::{PathSampler, V3};
-use crate::scene::Material;
 use glam::{DVec3, Vec3};
 
 /// A surface point found by a plain ray.
@@ -124,9 +123,12 @@ fn scatter(
     Some((y, dir, pdf))
 }
 
+/// The albedo of a diffuse triangle (the boundary stage refuses scenes with other materials:
+/// `Motion::build`).
 fn albedo(ctx: &RenderContext, prim: u32) -> [f32; 3] {
-    let Material::Diffuse { albedo } = ctx.scene.materials[ctx.tri_material[prim as usize] as usize].material;
-    albedo
+    ctx.scene.materials[ctx.tri_material[prim as usize] as usize]
+        .material
+        .tint()
 }
 
 fn mul(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {

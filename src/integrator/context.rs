@@ -61,7 +61,7 @@ impl<'a> RenderContext<'a> {
             .iter()
             .map(|&s| scene.shapes[s as usize].emitter.unwrap_or(u32::MAX))
             .collect();
-        let emitters = EmitterTable::new(scene, &accel);
+        let emitters = EmitterTable::new(scene, &accel)?;
         let correlations = scene
             .emitters
             .iter()

@@ -57,7 +57,9 @@ pub struct EmitterTable {
 }
 
 impl EmitterTable {
-    pub fn new(scene: &Scene, accel: &Accel) -> Self {
+    /// The tables of `scene`'s emitters; a laser whose spot lands on a material that is not
+    /// diffuse is refused (its spot is a Lambertian secondary source).
+    pub fn new(scene: &Scene, accel: &Accel) -> Result<Self, crate::error::Error> {
         let geo = &scene.geometry;
         let entries = scene
             .emitters
@@ -75,17 +77,17 @@ impl EmitterTable {
                     }
                     let area = acc as f32;
                     cdf.iter_mut().for_each(|c| *c /= area.max(1e-30));
-                    Entry::Area {
+                    Ok(Entry::Area {
                         tris,
                         cdf,
                         area,
                         radiance: *radiance,
-                    }
+                    })
                 }
-                EmitterKind::Point { position, intensity } => Entry::Point {
+                EmitterKind::Point { position, intensity } => Ok(Entry::Point {
                     position: *position,
                     intensity: *intensity,
-                },
+                }),
                 EmitterKind::Laser {
                     position,
                     direction,
@@ -93,16 +95,25 @@ impl EmitterTable {
                 } => {
                     let spot = accel
                         .intersect1(position.to_array(), direction.to_array(), 0.0, f32::INFINITY)
-                        .map(|h| {
+                        .map(|h| -> Result<_, crate::error::Error> {
                             let mat = scene.shapes[geo.tri_shape[h.prim as usize] as usize].material;
-                            let Material::Diffuse { albedo } = scene.materials[mat as usize].material;
+                            let material = &scene.materials[mat as usize];
+                            let Material::Diffuse { albedo } = material.material else {
+                                return Err(crate::error::Error::Invalid(format!(
+                                    "{}: emitter {:?} (laser): its spot lands on material {:?} of type {}; a laser's spot must be on a diffuse surface",
+                                    scene.source.display(),
+                                    e.name,
+                                    material.name,
+                                    material.material.type_name()
+                                )));
+                            };
                             let [a, b, c] = geo.indices[h.prim as usize].map(|i| geo.positions[i as usize]);
                             let side = if (b - a).cross(c - a).dot(*direction) < 0.0 {
                                 1.0
                             } else {
                                 -1.0
                             };
-                            LaserSpot {
+                            Ok(LaserSpot {
                                 side,
                                 origin: *position,
                                 direction: direction.normalize(),
@@ -112,13 +123,14 @@ impl EmitterTable {
                                 distance: h.t * direction.length(),
                                 intensity: std::array::from_fn(|c| power[c] * albedo[c] * std::f32::consts::FRAC_1_PI),
                                 intensity_per_power: albedo.map(|a| a * std::f32::consts::FRAC_1_PI),
-                            }
-                        });
-                    Entry::Laser { spot }
+                            })
+                        })
+                        .transpose()?;
+                    Ok(Entry::Laser { spot })
                 }
             })
-            .collect();
-        Self { entries }
+            .collect::<Result<Vec<_>, crate::error::Error>>()?;
+        Ok(Self { entries })
     }
 
     pub fn count(&self) -> usize {

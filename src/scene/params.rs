@@ -115,6 +115,7 @@ pub(crate) fn apply_params(
             ParamKindDesc::Albedo => (&["material", "channel"], Some("material")),
             ParamKindDesc::Radiance => (&["emitter", "channel"], Some("emitter")),
             ParamKindDesc::Eta => (&[], None),
+            ParamKindDesc::Roughness | ParamKindDesc::Ior => (&["material"], Some("material")),
             ParamKindDesc::PulseOffset => (&["emitter"], Some("emitter")),
         };
         let given = [
@@ -262,6 +263,54 @@ pub(crate) fn apply_params(
                     "medium eta".to_string(),
                     vec![0],
                 )
+            }
+            ParamKindDesc::Roughness | ParamKindDesc::Ior => {
+                use super::desc::MaterialType;
+                let m = target(&names.materials, "material", "materials", &p.material)?;
+                let mat = &mut desc.material[m];
+                let (field, fits, range_ok, expected) = match p.kind {
+                    ParamKindDesc::Roughness => (
+                        "roughness",
+                        matches!(mat.ty, MaterialType::Roughconductor | MaterialType::Roughdielectric),
+                        v > 0.0 && v <= 1.0,
+                        "a roughness (GGX α) must be in (0, 1]",
+                    ),
+                    _ => (
+                        "int_ior",
+                        mat.ty == MaterialType::Roughdielectric,
+                        v > 0.0,
+                        "an index of refraction must be > 0",
+                    ),
+                };
+                if !fits {
+                    let types = match p.kind {
+                        ParamKindDesc::Roughness => "roughconductor or roughdielectric",
+                        _ => "roughdielectric (derivatives through smooth, Dirac lobes are not supported)",
+                    };
+                    return Err(ctx.invalid(
+                        at("material"),
+                        format!(
+                            "material {:?} is of type {}; kind {kind_name} applies to {types}",
+                            mat.name,
+                            mat.ty.as_str()
+                        ),
+                    ));
+                }
+                if !range_ok {
+                    return Err(bad_value(format!("{expected} (got {v})")));
+                }
+                let kind = match p.kind {
+                    ParamKindDesc::Roughness => {
+                        mat.roughness = Some(v as f32);
+                        ParamKind::Roughness { material: m as u32 }
+                    }
+                    _ => {
+                        mat.int_ior = Some(v as f32);
+                        ParamKind::Ior { material: m as u32 }
+                    }
+                };
+                let loc = item_field("material", m, &mat.name, field);
+                (kind, loc, format!("material {:?} {field}", mat.name), vec![0])
             }
             ParamKindDesc::PulseOffset => {
                 let e = target(&names.emitters, "emitter", "emitters", &p.emitter)?;

@@ -433,6 +433,15 @@ pub(crate) fn build(
                 ));
             }
         };
+        if d.ty == ShapeType::Rectangle && desc.material[material].ty.is_dielectric() {
+            return Err(ctx.invalid(
+                at("material"),
+                format!(
+                    "material {:?} is a dielectric, which needs a closed shape (cube, sphere or a closed obj) to have an inside; a rectangle has none",
+                    desc.material[material].name
+                ),
+            ));
+        }
         let (mut transform, translate) = transform(ctx, i, d)?;
         transform.translate = (translate - origin).as_vec3();
         let world: Vec<Vec3> = world_f64(&transform, translate - origin, &mesh)
