@@ -393,7 +393,8 @@ fn available_memory() -> Option<u128> {
 }
 
 /// Refuses what the materials beyond Lambertian do not support yet, naming the material:
-/// BDPT with any of them; derivatives through a Dirac lobe (smooth conductor or dielectric:
+/// BDPT with a Dirac lobe (smooth conductor or dielectric: its vertices would need delta
+/// flags in the MIS densities); derivatives through a Dirac lobe (smooth conductor or dielectric:
 /// the material-form vertices of Algorithm 1 cannot move along a specular chain, and the
 /// boundary theory assumes no Dirac BSDFs, supplemental assumption A.4); and the boundary stage
 /// (a parameter that moves geometry) with any of them, whose scalar subpaths are Lambertian
@@ -404,9 +405,14 @@ fn check_materials(scene: &Scene, motion: &Motion, kind: IntegratorKind, boundar
     };
     let what = format!("material {:?} (type {})", m.name, m.material.type_name());
     let refuse = |why: String| Err(Error::Invalid(format!("{}: {why}", scene.source.display())));
-    if kind == IntegratorKind::Bdpt {
+    if kind == IntegratorKind::Bdpt
+        && let Some(d) = scene.first_delta_material()
+    {
         return refuse(format!(
-            "{what}: BDPT supports diffuse materials only so far; render with [integrator] kind = \"path\""
+            "material {:?} (type {}) is smooth (a Dirac lobe), which BDPT does not support yet; render with [integrator] kind = \"path\" or use type rough{}",
+            d.name,
+            d.material.type_name(),
+            d.material.type_name()
         ));
     }
     if !motion.is_empty() {

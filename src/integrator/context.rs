@@ -33,6 +33,9 @@ pub struct RenderContext<'a> {
     /// The window cut (`super::window`): the largest OPL a traced path may reach, `None` to
     /// trace every path to its end (set with [`Self::cut_to_window`]).
     pub opl_budget: Option<f32>,
+    /// Whether every material is Lambertian (`Scene::diffuse_only`): the kernels then keep
+    /// their diffuse-only path.
+    pub diffuse_only: bool,
 }
 
 impl<'a> RenderContext<'a> {
@@ -81,6 +84,7 @@ impl<'a> RenderContext<'a> {
             opl: OplPrecision::choose(scene),
             steady: SteadyMode::Full,
             opl_budget: None,
+            diffuse_only: scene.diffuse_only(),
         })
     }
 

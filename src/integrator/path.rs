@@ -113,7 +113,7 @@ pub fn trace_packet_from<R: Real, const C: usize, S: Sink<C>>(
     // those paths), and the previous vertex's material and direction towards its own
     // predecessor, for the derivative of its f once this vertex is known. A diffuse-only
     // scene never touches them past the medium, which stays η.
-    let general = !scene.diffuse_only();
+    let general = !ctx.diffuse_only;
     let mut eta_med = eta;
     let mut no_mis = R::Mask::splat(false);
     let mut prev_lobes: Option<(Lobes<R, C>, V3<R>)> = None;

@@ -181,3 +181,173 @@ fn exterior(list: &[MaterialDesc], names: &[String], i: usize, e: &str, ctx: &Ct
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::super::testutil::*;
+    use super::super::{Material, Scene};
+
+    /// `MINI` plus `materials` (TOML) and a cube named "box" of material `box_material`.
+    fn with(materials: &str, box_material: &str) -> String {
+        format!(
+            "{MINI}\n{materials}\n[[shape]]\nname = \"box\"\ntype = \"cube\"\nmaterial = \"{box_material}\"\nscale = 0.2\n"
+        )
+    }
+
+    const GLASS: &str = "[[material]]\nname = \"glass\"\ntype = \"dielectric\"\nint_ior = 1.5\n";
+
+    #[test]
+    fn every_type_loads_with_its_fields() {
+        let text = with(
+            concat!(
+                "[[material]]\nname = \"gold\"\ntype = \"roughconductor\"\nroughness = 0.3\neta = [0.2, 0.4, 1.4]\nk = [3.6, 2.4, 1.8]\n",
+                "[[material]]\nname = \"mirror\"\ntype = \"conductor\"\nspecular_reflectance = 0.9\n",
+                "[[material]]\nname = \"glass\"\ntype = \"dielectric\"\nint_ior = 1.5\n",
+                "[[material]]\nname = \"water\"\ntype = \"roughdielectric\"\nroughness = 0.1\nint_ior = 1.33\nexterior = \"glass\"\n",
+            ),
+            "water",
+        );
+        let s: Scene = load_text("all.toml", &text, &[], &[]).unwrap();
+        let m = |n: &str| s.materials.iter().find(|m| m.name == n).unwrap().material.clone();
+        assert_eq!(
+            m("gold"),
+            Material::Conductor {
+                roughness: 0.3,
+                specular: [1.0; 3],
+                ior: Some(([0.2, 0.4, 1.4], [3.6, 2.4, 1.8]))
+            }
+        );
+        assert!(m("mirror").is_delta() && m("glass").is_delta() && !m("water").is_delta());
+        let glass = s.materials.iter().position(|m| m.name == "glass").unwrap() as u32;
+        assert_eq!(
+            m("water"),
+            Material::Dielectric {
+                roughness: 0.1,
+                int_ior: 1.33,
+                exterior: Some(glass)
+            }
+        );
+        let water = s.materials.iter().position(|m| m.name == "water").unwrap() as u32;
+        assert_eq!(s.exterior_eta(water), 1.5, "the water's outside is the glass's inside");
+        assert_eq!(s.exterior_eta(glass), s.eta, "the glass's outside is the medium");
+        assert!(!s.diffuse_only());
+    }
+
+    /// Each mistake names the file, the material and the field, and says what was expected.
+    #[test]
+    fn material_errors_name_the_field() {
+        let cases: &[(&str, &str, &[&str])] = &[
+            (
+                "[[material]]\nname = \"m\"\ntype = \"roughconductor\"\n",
+                "m",
+                &["material[1] \"m\": field 'roughness'", "missing", "(0, 1]"],
+            ),
+            (
+                "[[material]]\nname = \"m\"\ntype = \"roughconductor\"\nroughness = 0\n",
+                "m",
+                &["field 'roughness'", "(0, 1]", "type conductor"],
+            ),
+            (
+                "[[material]]\nname = \"m\"\ntype = \"conductor\"\nroughness = 0.2\n",
+                "m",
+                &["field 'roughness'", "does not apply to type conductor"],
+            ),
+            (
+                "[[material]]\nname = \"m\"\ntype = \"diffuse\"\nalbedo = 0.5\nint_ior = 1.5\n",
+                "m",
+                &["field 'int_ior'", "does not apply to type diffuse", "it takes: albedo"],
+            ),
+            (
+                "[[material]]\nname = \"m\"\ntype = \"conductor\"\neta = 0.2\n",
+                "m",
+                &["field 'k'", "missing: eta needs k"],
+            ),
+            (
+                "[[material]]\nname = \"m\"\ntype = \"dielectric\"\n",
+                "m",
+                &["field 'int_ior'", "missing"],
+            ),
+            (
+                "[[material]]\nname = \"m\"\ntype = \"dielectric\"\nint_ior = -1\n",
+                "m",
+                &["field 'int_ior'", "> 0", "-1"],
+            ),
+            (
+                "[[material]]\nname = \"m\"\ntype = \"dielectric\"\nint_ior = 1.3\nexterior = \"white\"\n",
+                "m",
+                &[
+                    "field 'exterior'",
+                    "\"white\" is of type diffuse",
+                    "must be a dielectric",
+                ],
+            ),
+            (
+                "[[material]]\nname = \"m\"\ntype = \"dielectric\"\nint_ior = 1.3\nexterior = \"nope\"\n",
+                "m",
+                &["field 'exterior'", "nope"],
+            ),
+            (
+                "[[material]]\nname = \"a\"\ntype = \"dielectric\"\nint_ior = 1.3\nexterior = \"b\"\n[[material]]\nname = \"b\"\ntype = \"dielectric\"\nint_ior = 1.5\nexterior = \"a\"\n",
+                "a",
+                &["material[1] \"a\": field 'exterior'", "ambiguous media", "a -> b -> a"],
+            ),
+        ];
+        for (i, (materials, used, parts)) in cases.iter().enumerate() {
+            expect_err(&format!("mat{i}.toml"), &with(materials, used), &[], parts);
+        }
+        // a dielectric on a rectangle has no inside
+        let text = format!("{}{GLASS}", mini_with("material = \"white\"", "material = \"glass\""));
+        expect_err(
+            "flat_glass.toml",
+            &text,
+            &[],
+            &["shape[0] \"quad\": field 'material'", "needs a closed shape"],
+        );
+    }
+
+    /// Params of the new kinds: roughness and ior set the material's field (and `--set`
+    /// overrides them); each refuses a material it does not apply to, naming it.
+    #[test]
+    fn roughness_and_ior_params() {
+        let rough = "[[material]]\nname = \"frost\"\ntype = \"roughdielectric\"\nroughness = 0.2\nint_ior = 1.5\n";
+        let params = "[[param]]\nname = \"a\"\nkind = \"roughness\"\nmaterial = \"frost\"\nvalue = 0.25\n[[param]]\nname = \"n\"\nkind = \"ior\"\nmaterial = \"frost\"\nvalue = 1.4\n";
+        let text = format!("{}{params}", with(rough, "frost"));
+        let s = load_text("params.toml", &text, &[], &[("n".to_string(), 1.45)]).unwrap();
+        let m = &s.materials.iter().find(|m| m.name == "frost").unwrap().material;
+        assert_eq!(
+            *m,
+            Material::Dielectric {
+                roughness: 0.25,
+                int_ior: 1.45,
+                exterior: None
+            }
+        );
+        let smooth = format!(
+            "{}[[param]]\nname = \"n\"\nkind = \"ior\"\nmaterial = \"glass\"\nvalue = 1.4\n",
+            with(GLASS, "glass")
+        );
+        expect_err(
+            "smooth_ior.toml",
+            &smooth,
+            &[],
+            &["param[0] \"n\": field 'material'", "type dielectric", "roughdielectric"],
+        );
+        let albedo = format!(
+            "{}[[param]]\nname = \"g\"\nkind = \"albedo\"\nmaterial = \"glass\"\nvalue = 0.4\n",
+            with(GLASS, "glass")
+        );
+        expect_err(
+            "glass_albedo.toml",
+            &albedo,
+            &[],
+            &["param[0] \"g\": field 'material'", "applies to diffuse"],
+        );
+        let bad = format!("{}{params}", with(rough, "frost")).replace("value = 0.25", "value = 1.5");
+        expect_err(
+            "rough_range.toml",
+            &bad,
+            &[],
+            &["param[0] \"a\": field 'value'", "(0, 1]"],
+        );
+    }
+}

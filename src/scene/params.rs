@@ -210,6 +210,16 @@ pub(crate) fn apply_params(
             }
             ParamKindDesc::Albedo => {
                 let m = target(&names.materials, "material", "materials", &p.material)?;
+                if desc.material[m].ty != super::desc::MaterialType::Diffuse {
+                    return Err(ctx.invalid(
+                        at("material"),
+                        format!(
+                            "material {:?} is of type {}; kind albedo applies to diffuse materials",
+                            desc.material[m].name,
+                            desc.material[m].ty.as_str()
+                        ),
+                    ));
+                }
                 if !(0.0..=1.0).contains(&v) {
                     return Err(bad_value(format!("an albedo must be in [0, 1] (got {v})")));
                 }
