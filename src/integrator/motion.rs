@@ -334,4 +334,53 @@ mod tests {
             }
         }
     }
+
+    /// The derivative lanes of a material gather in nested media (scenes/liquid_glass.toml,
+    /// params liquid_ior and glass_ior): the liquid's interior index moves with liquid_ior
+    /// only, its exterior index (the glass's interior) with glass_ior only; the glass's
+    /// interior with glass_ior, its exterior (the scene's medium) with neither; the wall
+    /// (diffuse) with none.
+    ///
+    /// Bugs caught: the exterior lane taken from the material itself or from the medium when
+    /// `exterior` names another material, a derivative leaking onto another material's lanes.
+    #[test]
+    fn nested_media_derivative_lanes() {
+        use crate::integrator::bsdf::Lobes;
+        use crate::integrator::testutil::load;
+        use crate::kernel::{Dual8, Real};
+        let text =
+            std::fs::read_to_string(std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/liquid_glass.toml"))
+                .unwrap();
+        let scene = load(&text, &[]);
+        let motion = Motion::build(&scene, &["liquid_ior".into(), "glass_ior".into()]).unwrap();
+        let idx = |n: &str| scene.materials.iter().position(|m| m.name == n).unwrap() as u32;
+        let (liquid, glass, wall) = (idx("liquid"), idx("glass"), idx("wall"));
+        let mats = [liquid, glass, wall, liquid, glass, wall, liquid, glass];
+        let (mut alpha, mut eta_int, mut eta_ext) = (Dual8::<2>::one(), Dual8::<2>::one(), Dual8::<2>::one());
+        motion.material_derivs(&scene, &mats, &mut alpha, &mut eta_int, &mut eta_ext);
+        for (i, &m) in mats.iter().enumerate() {
+            let int = [eta_int.deriv_lane(0, i), eta_int.deriv_lane(1, i)];
+            let ext = [eta_ext.deriv_lane(0, i), eta_ext.deriv_lane(1, i)];
+            let (want_int, want_ext) = match m {
+                m if m == liquid => ([1.0, 0.0], [0.0, 1.0]),
+                m if m == glass => ([0.0, 1.0], [0.0, 0.0]),
+                _ => ([0.0, 0.0], [0.0, 0.0]),
+            };
+            assert_eq!((int, ext), (want_int, want_ext), "lane {i} (material {m})");
+            assert_eq!([alpha.deriv_lane(0, i), alpha.deriv_lane(1, i)], [0.0, 0.0]);
+        }
+        // the same through the gather, with the values
+        let prims: [u32; 8] = std::array::from_fn(|i| {
+            let m = mats[i];
+            let shape = scene.shapes.iter().find(|s| s.material == m).unwrap();
+            shape.first_tri
+        });
+        let device = crate::accel::Device::new("").unwrap();
+        let mut ctx = crate::integrator::RenderContext::new(&scene, &device).unwrap();
+        ctx.motion = motion;
+        let l = Lobes::<Dual8<2>, 1>::gather(&ctx, &prims);
+        assert_eq!((l.eta_int.lane(0), l.eta_ext.lane(0)), (1.33, 1.5));
+        assert_eq!((l.eta_int.lane(1), l.eta_ext.lane(1)), (1.5, scene.eta));
+        assert_eq!(l.eta_ext.deriv_lane(1, 0), 1.0);
+    }
 }

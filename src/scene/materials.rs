@@ -340,7 +340,10 @@ mod tests {
             "glass_albedo.toml",
             &albedo,
             &[],
-            &["param[0] \"g\": field 'material'", "applies to diffuse"],
+            &[
+                "param[0] \"g\": field 'material'",
+                "applies to diffuse materials (albedo) and roughconductor",
+            ],
         );
         let bad = format!("{}{params}", with(rough, "frost")).replace("value = 0.25", "value = 1.5");
         expect_err(

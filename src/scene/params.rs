@@ -210,32 +210,42 @@ pub(crate) fn apply_params(
             }
             ParamKindDesc::Albedo => {
                 let m = target(&names.materials, "material", "materials", &p.material)?;
-                if desc.material[m].ty != super::desc::MaterialType::Diffuse {
-                    return Err(ctx.invalid(
-                        at("material"),
-                        format!(
-                            "material {:?} is of type {}; kind albedo applies to diffuse materials",
-                            desc.material[m].name,
-                            desc.material[m].ty.as_str()
-                        ),
-                    ));
-                }
+                use super::desc::MaterialType;
+                // a diffuse albedo, or a rough conductor's specular reflectance
+                let field = match desc.material[m].ty {
+                    MaterialType::Diffuse => "albedo",
+                    MaterialType::Roughconductor => "specular_reflectance",
+                    ty => {
+                        return Err(ctx.invalid(
+                            at("material"),
+                            format!(
+                                "material {:?} is of type {}; kind albedo applies to diffuse materials (albedo) and roughconductor (specular_reflectance)",
+                                desc.material[m].name,
+                                ty.as_str()
+                            ),
+                        ));
+                    }
+                };
                 if !(0.0..=1.0).contains(&v) {
                     return Err(bad_value(format!("an albedo must be in [0, 1] (got {v})")));
                 }
                 let c = p.channel.map(channel);
                 let mat = &mut desc.material[m];
-                if c.is_none() || mat.albedo.is_some() {
-                    mat.albedo = Some(set_component(mat.albedo, 0.0, c, v as f32));
+                let (slot, default) = match field {
+                    "albedo" => (&mut mat.albedo, 0.0),
+                    _ => (&mut mat.specular_reflectance, 1.0),
+                };
+                if c.is_none() || slot.is_some() || default == 1.0 {
+                    *slot = Some(set_component(*slot, default, c, v as f32));
                 }
-                let loc = item_field("material", m, &mat.name, "albedo");
+                let loc = item_field("material", m, &mat.name, field);
                 (
                     ParamKind::Albedo {
                         material: m as u32,
                         channel: c,
                     },
                     loc,
-                    format!("material {:?} albedo", mat.name),
+                    format!("material {:?} {field}", mat.name),
                     c.map_or(vec![0, 1, 2], |c| vec![c]),
                 )
             }
