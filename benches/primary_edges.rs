@@ -13,7 +13,7 @@
 use difftransient::accel::Device;
 use difftransient::boundary::primary::render_primary_with_stats;
 use difftransient::integrator::RenderContext;
-use difftransient::integrator::motion::Motion;
+use difftransient::params::lanes::Motion;
 use difftransient::render::thread_pool;
 use difftransient::{RenderOptions, Scene, Transient, render};
 use std::path::PathBuf;

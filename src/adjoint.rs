@@ -15,7 +15,7 @@
 //! rounding (tests/adjoint.rs).
 
 use crate::film::{Accumulate, Transient};
-use crate::integrator::motion::MAX_PARAMS;
+use crate::params::MAX_PARAMS;
 use crate::temporal::Correlation;
 
 /// Contracts path contributions with an adjoint volume: `grad[k] += Σ_bins,c ∂L/∂I · İ_k`.
@@ -166,14 +166,14 @@ fn render_adjoint_group(
     if opts.checkpoint.is_some() {
         return Err(Error::Invalid("adjoint renders are not checkpointed".into()));
     }
-    let motion = crate::integrator::motion::Motion::build(scene, params)?;
+    let motion = crate::params::lanes::Motion::build(scene, params)?;
     if motion.len() > MAX_PARAMS || motion.is_empty() {
         return Err(Error::Invalid(format!(
             "an adjoint render takes 1 to {MAX_PARAMS} parameters (asked for {})",
             motion.len()
         )));
     }
-    crate::render::check_time_derivatives(scene, params, &motion)?;
+    motion.check_time_derivatives(scene, params)?;
     let t0 = std::time::Instant::now();
     // no derivative film is stored: the memory check counts the primal's alone
     let run = Run::with_films(scene, motion, opts, false, false)?;

@@ -24,6 +24,7 @@ pub mod integrator;
 pub mod kernel;
 pub mod optimize;
 pub mod output;
+pub mod params;
 pub mod render;
 pub mod scene;
 pub mod shard;

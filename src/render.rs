@@ -12,10 +12,11 @@ use crate::film::{DerivWindowEnergy, SteadyMode, TileFilm, Transient, WindowEner
 use crate::integrator::RenderContext;
 use crate::integrator::bdpt::{self, film::BdptFilm};
 use crate::integrator::deposit::PathCounts;
-use crate::integrator::motion::{MAX_PARAMS, Motion};
 use crate::integrator::path::{PacketLanes, trace_packet};
 use crate::integrator::sink::Sink;
 use crate::kernel::{Dual8, Real};
+use crate::params::MAX_PARAMS;
+use crate::params::lanes::Motion;
 use crate::scene::{IntegratorKind, Scene};
 use rayon::prelude::*;
 use std::time::Instant;
@@ -159,7 +160,8 @@ pub fn cpu_seconds() -> f64 {
 /// `--threads 100000` is refused before any thread is spawned).
 pub const MAX_THREADS: usize = 4096;
 
-/// Builds a rayon pool whose workers set flush-to-zero / denormals-are-zero (EMBREE.md).
+/// Builds a rayon pool whose workers set flush-to-zero / denormals-are-zero, as Embree's
+/// documentation asks of every thread that calls it (rtcIntersect / rtcOccluded, "MXCSR").
 pub fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool, Error> {
     let n = threads.unwrap_or_else(|| std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1));
     if n == 0 {
@@ -245,7 +247,7 @@ pub fn render_diff_parts(scene: &Scene, params: &[String], opts: &RenderOptions)
             motion.len()
         )));
     }
-    check_time_derivatives(scene, params, &motion)?;
+    motion.check_time_derivatives(scene, params)?;
     let mut run = Run::new(scene, motion, opts, false)?;
     let mut interior = run.interior(opts, false);
     let boundary = run.boundary(opts);
@@ -260,33 +262,6 @@ pub fn render_diff_parts(scene: &Scene, params: &[String], opts: &RenderOptions)
         secondary,
         stats,
     })
-}
-
-/// Refuses parameters that shift paths in time when S_e is discontinuous in time (delta
-/// pulse, box gate): Ṡ_e is then a Dirac distribution (supplemental Lemma 2.5).
-pub(crate) fn check_time_derivatives(scene: &Scene, params: &[String], motion: &Motion) -> Result<(), Error> {
-    for (k, name) in params.iter().enumerate() {
-        if !motion.shifts_time(k) {
-            continue;
-        }
-        for (e, emitter) in scene.emitters.iter().enumerate() {
-            let corr =
-                crate::temporal::Correlation::new(scene.film.axis, emitter.pulse, emitter.offset_opl, scene.film.gate)?;
-            if corr.derivative_is_distribution()
-                && (motion.pulse_offset[k].is_none() || motion.pulse_offset[k] == Some(e))
-            {
-                return Err(Error::Invalid(format!(
-                    "{}: parameter {name:?} shifts paths in time, but emitter {:?} has a delta pulse and the film a box gate: \
-                     S_e is then discontinuous in time and its derivative is a Dirac distribution, which needs a temporal \
-                     boundary term we do not have yet. Use a Gaussian pulse (pulse = {{ type = \"gaussian\", sigma_opl = ... }}) \
-                     or a Gaussian gate (film.gate = {{ type = \"gaussian\", sigma_opl = ... }}).",
-                    scene.source.display(),
-                    emitter.name
-                )));
-            }
-        }
-    }
-    Ok(())
 }
 
 /// Renders with BDPT and also returns one transient per (s, t) strategy, in the order of

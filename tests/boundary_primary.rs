@@ -15,7 +15,7 @@ mod common;
 use difftransient::accel::Device;
 use difftransient::boundary::primary::render_primary;
 use difftransient::integrator::RenderContext;
-use difftransient::integrator::motion::Motion;
+use difftransient::params::lanes::Motion;
 use difftransient::render::thread_pool;
 use difftransient::{BoundaryMode, RenderOptions, Scene, Transient, render, render_diff};
 

@@ -221,6 +221,40 @@ fn occluder_shadow_edge_matches_finite_differences() {
     check("shadow_hidden_occluder.toml", "occluder", "occluder_x", 0.1, 0.02);
 }
 
+/// Four bounces: the source subpath (started at x_L on the path tracer's kernel) reflects up to
+/// three times and the sensor subpath (the importance walk from x_S) joins the pinhole from up
+/// to three vertices, so both ends of the boundary paths carry indirect light; RGB film, so
+/// the kernel runs three channels. Then scenes/shadow_in_wall_light.toml, where the shadow
+/// reaches the picture only through the wall it lights: every boundary path's sensor subpath
+/// joins the pinhole from its second vertex or later (three times the seeds: the signal is
+/// weaker).
+#[test]
+fn occluder_shadow_with_four_bounces_matches_finite_differences() {
+    let four_rgb = |s: &mut Scene| {
+        s.integrator.max_bounces = 4;
+        s.film.channels = 3;
+    };
+    check_with(
+        "shadow_hidden_occluder.toml",
+        Some("occluder"),
+        "occluder_x",
+        0.1,
+        0.02,
+        four_rgb,
+        &[],
+    );
+    check_seeds(
+        3 * K,
+        "shadow_in_wall_light.toml",
+        Some("occluder"),
+        "occluder_x",
+        0.1,
+        0.02,
+        four_rgb,
+        &[],
+    );
+}
+
 /// A laser spot on the ceiling lights the floor past the occluder (light-directed rays from
 /// the spot, a point source with a cosine).
 #[test]

@@ -36,7 +36,7 @@
 //! λ = 2ε/|ω·n| along the line. Where that exceeds `REACH`·ε (|cos_L| < 2/`REACH`) the sample
 //! is dropped: its weight carries |cos_L|, so the loss is of order (2/`REACH`)².
 use super::edge_sampler::EdgeRecord;
-use super::subpaths::{SurfaceHit, trace};
+use super::hit::{SurfaceHit, trace};
 use crate::integrator::context::RenderContext;
 use crate::integrator::surface::self_intersection_eps;
 use crate::integrator::trace::RayCounts;

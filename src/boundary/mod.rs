@@ -7,7 +7,9 @@
 //! - [`edge_sampler`]: boundary rays (x_B, ω_B) on silhouette directions, by edge importance.
 //! - [`guiding`]: a grid over the sampler's inputs fitted by a pilot pass.
 //! - [`velocity`]: how fast a discontinuity sweeps over a path vertex (V_∂Ω).
-//! - [`subpaths`]: source and sensor subpaths without derivatives.
+//! - [`hit`]: plain rays for the boundary segment's ends.
+//! - [`subpaths`]: source and sensor subpaths without derivatives, eight boundary samples at
+//!   a time on the interior's kernel (the path tracer from x_L, the importance walk from x_S).
 //! - [`secondary`]: secondary edges, Algorithm 2 with Eqs. 18–19 and 30–32: two strategies.
 //! - [`pass`]: the secondary pass: pilot (budget split, guiding), chunks, ordered binning.
 //! - [`primary`]: silhouettes seen from the camera (and flat-shading creases, sampled by projected length in
@@ -20,6 +22,7 @@ pub mod contact;
 pub mod edge_sampler;
 pub mod edges;
 pub mod guiding;
+pub mod hit;
 pub mod pass;
 pub mod primary;
 pub mod secondary;
@@ -113,7 +116,7 @@ pub fn boundary_adjoint(
     settings: &BoundarySettings,
     pool: &rayon::ThreadPool,
     adjoint: &Transient,
-) -> ([f64; crate::integrator::motion::MAX_PARAMS], BoundaryStats) {
+) -> ([f64; crate::params::MAX_PARAMS], BoundaryStats) {
     let t0 = Instant::now();
     let (mut grad, _) = primary::primary_adjoint(
         ctx,

@@ -13,10 +13,10 @@
 //! `samples` boundary samples stand for 2·samples strategy evaluations, split as above.
 
 use super::guiding::{GuideGrid, RESOLUTION, UNIFORM_MIX};
-use super::secondary::{BoundaryPath, LIGHT_STREAM, Scratch, Secondary};
+use super::secondary::{BoundaryPath, LIGHT_STREAM, Prepared, Scratch, Secondary};
 use super::{BoundarySettings, SECONDARY_SEED};
 use crate::film::{TileFilm, Transient};
-use crate::integrator::motion::MAX_PARAMS;
+use crate::params::MAX_PARAMS;
 use rayon::prelude::*;
 use std::time::Instant;
 
@@ -56,11 +56,80 @@ struct Pilot {
     rays: u64,
 }
 
-/// Per-chunk pilot tallies: guiding cell sums, then per strategy Σ mag², rays.
-struct PilotPart {
-    cells: [Vec<f64>; 2],
-    m2: [f64; 2],
-    rays: [u64; 2],
+/// Boundary samples of one strategy waiting for their subpaths, run 8 at a time
+/// ([`Secondary::complete`]), in the order they were drawn.
+struct Queue {
+    seed: u64,
+    items: Vec<Prepared>,
+}
+
+impl Queue {
+    fn new(seed: u64) -> Self {
+        Self {
+            seed,
+            items: Vec::with_capacity(8),
+        }
+    }
+
+    fn push(
+        &mut self,
+        sec: &Secondary,
+        p: Option<Prepared>,
+        scratch: &mut Scratch,
+        emit: &mut impl FnMut(&Prepared, &BoundaryPath),
+    ) {
+        if let Some(p) = p {
+            self.items.push(p);
+            if self.items.len() == 8 {
+                self.flush(sec, scratch, emit);
+            }
+        }
+    }
+
+    fn flush(&mut self, sec: &Secondary, scratch: &mut Scratch, emit: &mut impl FnMut(&Prepared, &BoundaryPath)) {
+        if !self.items.is_empty() {
+            sec.complete(self.seed, &self.items, scratch, &mut *emit);
+            self.items.clear();
+        }
+    }
+}
+
+/// One strategy's pilot tallies over a chunk: per guiding cell Σ of each sample's total
+/// |contribution|, and Σ of its square. Paths arrive sample by sample.
+struct PilotTally {
+    cells: Vec<f64>,
+    m2: f64,
+    /// The sample whose paths are arriving: its id, cell and Σ so far.
+    open: Option<(u64, usize, f64)>,
+}
+
+impl PilotTally {
+    fn new(cells: usize) -> Self {
+        Self {
+            cells: vec![0.0; cells],
+            m2: 0.0,
+            open: None,
+        }
+    }
+
+    fn add(&mut self, grid: &GuideGrid, p: &Prepared, mag: f64) {
+        match &mut self.open {
+            Some((id, _, sum)) if *id == p.segment.id => *sum += mag,
+            _ => {
+                self.close();
+                self.open = Some((p.segment.id, grid.cell_of(p.u), mag));
+            }
+        }
+    }
+
+    fn close(&mut self) {
+        if let Some((_, cell, mag)) = self.open.take()
+            && mag.is_finite()
+        {
+            self.cells[cell] += mag;
+            self.m2 += mag * mag;
+        }
+    }
 }
 
 /// Σ_c |f_c| · Σ_k |weight_k| of one path.
@@ -75,54 +144,43 @@ impl Secondary<'_> {
         let uniform = GuideGrid::uniform(RESOLUTION);
         let cells = uniform.cells();
         let chunks: Vec<u64> = (0..samples.div_ceil(CHUNK)).collect();
-        let parts: Vec<PilotPart> = pool.install(|| {
+        let parts: Vec<([PilotTally; 2], [u64; 2])> = pool.install(|| {
             chunks
                 .par_iter()
                 .map(|&c| {
-                    let mut part = PilotPart {
-                        cells: [vec![0.0; cells], vec![0.0; cells]],
-                        m2: [0.0; 2],
-                        rays: [0; 2],
-                    };
-                    let mut scratch = Scratch::default();
+                    let mut tally = [PilotTally::new(cells), PilotTally::new(cells)];
+                    let mut scratch = [Scratch::default(), Scratch::default()];
+                    let mut queue = [Queue::new(seed), Queue::new(seed ^ LIGHT_STREAM)];
+                    let params = self.params;
                     for id in c * CHUNK..((c + 1) * CHUNK).min(samples) {
-                        let before = scratch.rays.intersect + scratch.rays.occluded;
-                        let mut mag = 0.0f64;
-                        let u = self.evaluate(seed, id, &uniform, 1.0, &mut scratch, |p| {
-                            mag += magnitude(p, self.params)
-                        });
-                        let mid = scratch.rays.intersect + scratch.rays.occluded;
-                        if mag.is_finite() {
-                            if let Some(u) = u {
-                                part.cells[0][uniform.cell_of(u)] += mag;
-                            }
-                            part.m2[0] += mag * mag;
+                        for s in 0..2 {
+                            let p = match s {
+                                0 => self.prepare(seed, id, &uniform, 1.0, &mut scratch[0]),
+                                _ => self.prepare_light(seed ^ LIGHT_STREAM, id, &uniform, 1.0, &mut scratch[1]),
+                            };
+                            let t = &mut tally[s];
+                            let mut emit = |p: &Prepared, bp: &BoundaryPath| t.add(&uniform, p, magnitude(bp, params));
+                            queue[s].push(self, p, &mut scratch[s], &mut emit);
                         }
-                        let mut mag_b = 0.0f64;
-                        let u_b = self.evaluate_light(seed ^ LIGHT_STREAM, id, &uniform, 1.0, &mut scratch, |p| {
-                            mag_b += magnitude(p, self.params)
-                        });
-                        if mag_b.is_finite() {
-                            part.cells[1][uniform.cell_of(u_b)] += mag_b;
-                            part.m2[1] += mag_b * mag_b;
-                        }
-                        let after = scratch.rays.intersect + scratch.rays.occluded;
-                        part.rays[0] += mid - before;
-                        part.rays[1] += after - mid;
                     }
-                    part
+                    for s in 0..2 {
+                        let t = &mut tally[s];
+                        queue[s].flush(self, &mut scratch[s], &mut |p, bp| {
+                            t.add(&uniform, p, magnitude(bp, params))
+                        });
+                        t.close();
+                    }
+                    (tally, [scratch[0].rays(), scratch[1].rays()])
                 })
                 .collect()
         });
         let mut sums = [vec![0.0f64; cells], vec![0.0f64; cells]];
         let (mut m2, mut rays) = ([0.0f64; 2], [0u64; 2]);
-        for p in &parts {
+        for (t, r) in &parts {
             for s in 0..2 {
-                sums[s].iter_mut().zip(&p.cells[s]).for_each(|(a, b)| *a += b);
-            }
-            for s in 0..2 {
-                m2[s] += p.m2[s];
-                rays[s] += p.rays[s];
+                sums[s].iter_mut().zip(&t[s].cells).for_each(|(a, b)| *a += b);
+                m2[s] += t[s].m2;
+                rays[s] += r[s];
             }
         }
         let n = samples.max(1) as f64;
@@ -259,29 +317,29 @@ impl Secondary<'_> {
                     .map(|&c| {
                         let mut scratch = Scratch::default();
                         let mut paths = Vec::new();
+                        let mut queue = [Queue::new(seed), Queue::new(seed ^ LIGHT_STREAM)];
+                        let mut keep = |_: &Prepared, bp: &BoundaryPath| paths.push(*bp);
                         for id in (c * CHUNK).max(mine.start)..((c + 1) * CHUNK).min(mine.end) {
-                            let mut keep = |bp: &BoundaryPath| paths.push(*bp);
                             if id < n_a {
-                                self.evaluate(seed, id, &pl.grid, scale[0], &mut scratch, &mut keep);
+                                let p = self.prepare(seed, id, &pl.grid, scale[0], &mut scratch);
+                                queue[0].push(self, p, &mut scratch, &mut keep);
                             }
                             if id < n_b {
-                                self.evaluate_light(
-                                    seed ^ LIGHT_STREAM,
-                                    id,
-                                    &pl.grid_light,
-                                    scale[1],
-                                    &mut scratch,
-                                    &mut keep,
-                                );
+                                let p =
+                                    self.prepare_light(seed ^ LIGHT_STREAM, id, &pl.grid_light, scale[1], &mut scratch);
+                                queue[1].push(self, p, &mut scratch, &mut keep);
                             }
+                        }
+                        for q in &mut queue {
+                            q.flush(self, &mut scratch, &mut keep);
                         }
                         (paths, scratch)
                     })
                     .collect()
             });
             for (paths, s) in &parts {
-                stats.non_finite += consume(paths);
-                stats.rays += s.rays.intersect + s.rays.occluded;
+                stats.non_finite += consume(paths) + s.counts.non_finite;
+                stats.rays += s.rays();
                 stats.valid_segments += s.valid;
             }
             batch0 += BATCH;

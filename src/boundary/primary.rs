@@ -39,9 +39,9 @@ use super::silhouette::{Pinhole, SilhouetteSet};
 use crate::film::{TileFilm, Transient};
 use crate::integrator::RenderContext;
 use crate::integrator::deposit::PathCounts;
-use crate::integrator::motion::MAX_PARAMS;
-use crate::integrator::path::{PacketLanes, PrimaryRays, trace_packet_from};
+use crate::integrator::path::{PacketLanes, PathStart, PrimaryRays, trace_packet_from};
 use crate::kernel::{PathSampler, f32x8};
+use crate::params::MAX_PARAMS;
 use crate::shard::Shard;
 use glam::{DVec2, Vec3};
 use rayon::prelude::*;
@@ -365,7 +365,7 @@ impl Estimator<'_> {
             ctx,
             self.seed ^ PATH_STREAM,
             &lanes,
-            Some(&rays),
+            PathStart::Rays(&rays),
             &mut scratch,
             &mut counts,
         );

@@ -52,25 +52,17 @@
 use super::contact::{SegmentEnds, segment_ends};
 use super::edge_sampler::{EdgeRecord, EdgeSampler};
 use super::guiding::GuideGrid;
-use super::subpaths::{SensorTerm, SourceTerm, SurfaceHit, pre_length, sensor_subpath, source_subpath};
+use super::hit::{SurfaceHit, pre_length};
+use super::subpaths::{SegmentSample, SourceTerm, Terms, subpaths};
 use super::velocity::{Crossing, ray_form_velocity};
 use crate::integrator::context::RenderContext;
-use crate::integrator::motion::MAX_PARAMS;
+use crate::integrator::deposit::PathCounts;
 use crate::integrator::opl::{on_plane64, segment};
 use crate::integrator::surface::self_intersection_eps;
-use crate::integrator::trace::RayCounts;
 use crate::kernel::{PathSampler, V3};
+use crate::params::MAX_PARAMS;
 use crate::scene::EmitterKind;
 use glam::{DVec3, Vec3};
-
-/// The first random dimension of the sensor subpath (far past what the sampling of the
-/// boundary ray and the source subpath draw).
-const SENSOR_DIM: u64 = 1 << 16;
-
-/// The window cut's OPL bound for whole boundary paths (`integrator::window`), +∞ without it.
-fn opl_budget(ctx: &RenderContext) -> f64 {
-    ctx.opl_budget.map_or(f64::INFINITY, |b| b as f64)
-}
 
 /// Edges of shapes that a parameter moves are drawn this many times more often per metre: their
 /// shadows move whatever else does (edges of static shapes contribute only where x_L or x_S
@@ -103,6 +95,7 @@ pub(super) enum SourceMotion {
 }
 
 /// dh̃/dθ_k with x_S in material form and in ray form (the camera-connected vertex).
+#[derive(Clone, Copy, Debug)]
 struct Rates {
     material: [f32; MAX_PARAMS],
     ray: [f32; MAX_PARAMS],
@@ -117,12 +110,30 @@ impl Rates {
     }
 }
 
+/// What a worker keeps between boundary samples: term lists, and its tallies.
 #[derive(Default)]
 pub(super) struct Scratch {
-    source: Vec<SourceTerm>,
-    sensor: Vec<SensorTerm>,
-    pub(super) rays: RayCounts,
+    terms: Terms,
+    /// Rays of the boundary rays and of the subpaths; subpath terms dropped as not finite.
+    pub(super) counts: PathCounts,
     pub(super) valid: u64,
+}
+
+impl Scratch {
+    pub(super) fn rays(&self) -> u64 {
+        self.counts.rays.intersect + self.counts.rays.occluded
+    }
+}
+
+/// A boundary sample whose segment has been found, waiting for its subpaths: the weight of
+/// its paths is `common · dh̃/dθ_k` (`rates`), times the subpaths' terms.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Prepared {
+    pub(super) segment: SegmentSample,
+    rates: Rates,
+    common: f32,
+    /// The point of the unit cube it was drawn from (the pilot's guiding cell).
+    pub(super) u: [f32; 3],
 }
 
 /// The estimator's fixed inputs.
@@ -143,26 +154,15 @@ impl<'a> Secondary<'a> {
                 if moves { MOVING_EDGE_FACTOR } else { 1.0 }
             }),
             params: ctx.motion.len().min(MAX_PARAMS),
-            laser_spots: ctx
-                .scene
-                .emitters
-                .iter()
-                .map(|e| match e.kind {
-                    EmitterKind::Laser {
-                        position, direction, ..
-                    } => {
-                        let dir = direction.normalize();
-                        let hit = ctx
-                            .accel
-                            .intersect1(position.to_array(), dir.to_array(), 0.0, f32::INFINITY)?;
-                        let [p0, p1, p2] = ctx.tri_verts[hit.prim as usize];
-                        Some(SourceMotion::Ray {
-                            shape: ctx.scene.geometry.tri_shape[hit.prim as usize] as usize,
-                            dir,
-                            n: (p1 - p0).cross(p2 - p0).normalize_or_zero(),
-                        })
-                    }
-                    _ => None,
+            laser_spots: (0..ctx.scene.emitters.len())
+                .map(|e| {
+                    let spot = ctx.emitters.laser_spot(e)?;
+                    let [p0, p1, p2] = ctx.tri_verts[spot.prim as usize];
+                    Some(SourceMotion::Ray {
+                        shape: ctx.scene.geometry.tri_shape[spot.prim as usize] as usize,
+                        dir: spot.direction,
+                        n: (p1 - p0).cross(p2 - p0).normalize_or_zero(),
+                    })
                 })
                 .collect(),
         }
@@ -235,77 +235,72 @@ impl<'a> Secondary<'a> {
         }
     }
 
-    /// Completes the sensor side from x_S and emits every (source term, sensor term) pair
-    /// within the bounce budget, with derivative weight `common · dh̃/dθ_k`.
-    #[allow(clippy::too_many_arguments)]
-    fn finish(
+    /// Runs the subpaths of `group` (at most 8 samples of one strategy, stream `seed`) on the
+    /// kernel and calls `emit(sample, path)` for every (source term, sensor term) pair within
+    /// the bounce budget, with derivative weight `common · dh̃/dθ_k`, sample by sample in the
+    /// order of `group`.
+    pub(super) fn complete(
         &self,
-        x_s: &SurfaceHit,
-        omega: Vec3,
-        d_b: f64,
-        common: f32,
-        rates: &Rates,
-        rng: &mut PathSampler,
+        seed: u64,
+        group: &[Prepared],
         scratch: &mut Scratch,
-        emit: &mut impl FnMut(&BoundaryPath),
+        mut emit: impl FnMut(&Prepared, &BoundaryPath),
     ) {
         let ctx = self.ctx;
         let max_bounces = ctx.scene.integrator.max_bounces;
-        let Some(min_source) = scratch.source.iter().map(|t| t.scatters).min() else {
-            return;
-        };
-        // the window cut: what the sensor side may add to the shortest source term
-        let shortest = scratch.source.iter().map(|t| t.opl).fold(f64::INFINITY, f64::min);
-        let budget = opl_budget(ctx) - d_b - shortest;
-        scratch.sensor.clear();
-        // the sensor side's random numbers start at a fixed dimension, whatever the source
-        // side drew (so that ending the source side early changes no other number)
-        rng.set_dim(SENSOR_DIM);
-        sensor_subpath(
-            ctx,
-            x_s,
-            omega,
-            max_bounces.saturating_sub(min_source),
-            budget,
-            rng,
-            &mut scratch.rays,
-            &mut scratch.sensor,
-        );
-        for sen in &scratch.sensor {
-            let r = if sen.direct { &rates.ray } else { &rates.material };
-            let mut weight = [0.0f32; MAX_PARAMS];
-            for k in 0..self.params {
-                weight[k] = common * r[k];
-            }
-            for src in &scratch.source {
-                if src.scatters + sen.scatters > max_bounces {
-                    continue;
+        let mut segments = [group[0].segment; 8];
+        for (o, p) in segments.iter_mut().zip(group) {
+            *o = p.segment;
+        }
+        let segments = &segments[..group.len()];
+        let terms = &mut scratch.terms;
+        match ctx.scene.film.channels {
+            1 => subpaths::<1>(ctx, seed, segments, &mut scratch.counts, terms),
+            _ => subpaths::<3>(ctx, seed, segments, &mut scratch.counts, terms),
+        }
+        for (i, p) in group.iter().enumerate() {
+            for sen in &terms.sensor[i] {
+                let r = if sen.scatters == 1 {
+                    &p.rates.ray
+                } else {
+                    &p.rates.material
+                };
+                let mut weight = [0.0f32; MAX_PARAMS];
+                for k in 0..self.params {
+                    weight[k] = p.common * r[k];
                 }
-                emit(&BoundaryPath {
-                    fx: sen.fx,
-                    fy: sen.fy,
-                    opl: src.opl + d_b + sen.opl,
-                    emitter: src.emitter,
-                    rgb: std::array::from_fn(|c| src.rgb[c] * sen.rgb[c]),
-                    weight,
-                });
+                for src in &terms.source[i] {
+                    if src.scatters + sen.scatters > max_bounces {
+                        continue;
+                    }
+                    emit(
+                        p,
+                        &BoundaryPath {
+                            fx: sen.fx,
+                            fy: sen.fy,
+                            opl: src.opl + sen.opl,
+                            emitter: src.emitter,
+                            rgb: std::array::from_fn(|c| src.rgb[c] * sen.rgb[c]),
+                            weight,
+                        },
+                    );
+                }
             }
         }
     }
 
     /// Strategy A, boundary sample `id` of stream `seed`: a boundary ray drawn from `grid` and
     /// the edge sampler, traced both ways; x_L's emission is left to strategy B (a partition
-    /// of the integrand, so no MIS is needed), its reflected light is estimated here. Calls
-    /// `emit` for each full path; returns the point of the unit cube used.
-    pub(super) fn evaluate(
+    /// of the integrand, so no MIS is needed), its reflected light is estimated by the source
+    /// subpath ([`Secondary::complete`]). None when the sample adds nothing.
+    pub(super) fn prepare(
         &self,
         seed: u64,
         id: u64,
         grid: &GuideGrid,
         scale: f32,
         scratch: &mut Scratch,
-        mut emit: impl FnMut(&BoundaryPath),
-    ) -> Option<[f32; 3]> {
+    ) -> Option<Prepared> {
         let ctx = self.ctx;
         let mut rng = PathSampler::new(seed, &[id]);
         let pick = rng.next::<f32>();
@@ -313,28 +308,27 @@ impl<'a> Secondary<'a> {
         let (u, p_guide) = grid.sample(pick, inner);
         let br = self.edges.sample(u[0], u[1], u[2])?;
         let rec = &self.edges.edges[br.index];
-        let Some(s_o) = self.blocked_side(rec, br.omega) else {
-            return Some(u);
+        let s_o = self.blocked_side(rec, br.omega)?;
+        let rays = &mut scratch.counts.rays;
+        let (mut x_l, mut x_s, rates, common, contact) = match segment_ends(self.ctx, rec, br.x_b, br.omega, s_o, rays)?
+        {
+            SegmentEnds::Open { x_s, x_l } => {
+                let x_l = x_l?;
+                let seg = x_l.t + x_s.t;
+                let shape_l = ctx.scene.geometry.tri_shape[x_l.prim as usize] as usize;
+                let rates = self.rates(rec, x_l.p, SourceMotion::Material(shape_l), &x_s);
+                (x_l, x_s, rates, -s_o / seg, false)
+            }
+            SegmentEnds::Contact { x_l, x_s, outward } => {
+                let rates = self.contact_rates(rec, &x_l, outward);
+                let cos_l = br.omega.dot(x_l.n).abs();
+                (x_l, x_s, rates, cos_l * (rec.v1 - rec.v0).length(), true)
+            }
         };
-        let (mut x_l, mut x_s, rates, common, contact) =
-            match segment_ends(self.ctx, rec, br.x_b, br.omega, s_o, &mut scratch.rays)? {
-                SegmentEnds::Open { x_s, x_l } => {
-                    let x_l = x_l?;
-                    let seg = x_l.t + x_s.t;
-                    let shape_l = ctx.scene.geometry.tri_shape[x_l.prim as usize] as usize;
-                    let rates = self.rates(rec, x_l.p, SourceMotion::Material(shape_l), &x_s);
-                    (x_l, x_s, rates, -s_o / seg, false)
-                }
-                SegmentEnds::Contact { x_l, x_s, outward } => {
-                    let rates = self.contact_rates(rec, &x_l, outward);
-                    let cos_l = br.omega.dot(x_l.n).abs();
-                    (x_l, x_s, rates, cos_l * (rec.v1 - rec.v0).length(), true)
-                }
-            };
         scratch.valid += 1;
         let seg = x_l.t + x_s.t;
         if rates.is_zero(self.params) || !(seg > 0.0) || !common.is_finite() {
-            return Some(u);
+            return None;
         }
         let omega64 = br.omega.as_dvec3();
         if contact {
@@ -345,23 +339,19 @@ impl<'a> Secondary<'a> {
         } else {
             self.on_boundary_line(rec, br.x_b, |_| omega64, Some(&mut x_l), &mut x_s);
         }
-        scratch.source.clear();
-        let max_bounces = ctx.scene.integrator.max_bounces;
-        let d_b = ctx.scene.eta as f64 * segment(ctx, x_l.p64, x_s.p64, seg);
-        source_subpath(
-            ctx,
-            &x_l,
-            br.omega,
-            max_bounces.saturating_sub(1),
-            false,
-            opl_budget(ctx) - d_b,
-            &mut rng,
-            &mut scratch.rays,
-            &mut scratch.source,
-        );
-        let common = common * scale / (br.pdf_edge_dir * p_guide);
-        self.finish(&x_s, br.omega, d_b, common, &rates, &mut rng, scratch, &mut emit);
-        Some(u)
+        Some(Prepared {
+            segment: SegmentSample {
+                id,
+                x_l,
+                x_s,
+                omega: br.omega,
+                d_b: ctx.scene.eta as f64 * segment(ctx, x_l.p64, x_s.p64, seg),
+                emitted: None,
+            },
+            rates,
+            common: common * scale / (br.pdf_edge_dir * p_guide),
+            u,
+        })
     }
 
     /// Strategy B, boundary sample `id` of stream `seed`: shadow edges of direct light. A
@@ -370,97 +360,94 @@ impl<'a> Secondary<'a> {
     /// steradian is pdf_A(y) · t_L² / |cos_L|, so the weight of strategy A becomes
     /// −s_o · (L_e / pdf_A) · |cos_L| / (t_L² (t_L + t_S) p_e); for a point light L_e/pdf_A · |cos_L|
     /// is I / p_select (the density is a delta in ω); a laser spot is such a point source with
-    /// intensity ∝ cos_L, moving along the beam (ray form).
-    pub(super) fn evaluate_light(
+    /// intensity ∝ cos_L, moving along the beam (ray form). The inputs (edge coordinate,
+    /// emitter choice, point on the emitter) come from `grid`.
+    pub(super) fn prepare_light(
         &self,
         seed: u64,
         id: u64,
         grid: &GuideGrid,
         scale: f32,
         scratch: &mut Scratch,
-        mut emit: impl FnMut(&BoundaryPath),
-    ) -> [f32; 3] {
+    ) -> Option<Prepared> {
+        let ctx = self.ctx;
         let mut rng = PathSampler::new(seed, &[id]);
         let pick = rng.next::<f32>();
         let inner = [rng.next::<f32>(), rng.next::<f32>(), rng.next::<f32>()];
         let (u, p_guide) = grid.sample(pick, inner);
         let e2 = rng.next::<f32>();
-        self.light_path(u, e2, scale / p_guide, &mut rng, scratch, &mut emit);
-        u
-    }
-
-    /// Strategy B for the point (u0, e0, e1) of the unit cube (u0: edge coordinate, e0 and
-    /// e1: emitter choice and point) and e2, each path's weight multiplied by `scale`.
-    fn light_path(
-        &self,
-        [u0, e0, e1]: [f32; 3],
-        e2: f32,
-        scale: f32,
-        rng: &mut PathSampler,
-        scratch: &mut Scratch,
-        emit: &mut impl FnMut(&BoundaryPath),
-    ) {
-        let ctx = self.ctx;
-        let Some(br) = self.edges.sample(u0, 0.5, 0.5) else {
-            return;
-        };
+        let [u0, e0, e1] = u;
+        let br = self.edges.sample(u0, 0.5, 0.5)?;
         let rec = &self.edges.edges[br.index];
         let ls = ctx.emitters.sample::<f32, 3>(ctx, e0, e1, e2, true);
         if !ls.valid {
-            return;
+            return None;
         }
         let e = ls.emitter[0] as usize;
         let motion_l = match ctx.scene.emitters[e].kind {
             EmitterKind::Area { shape, .. } => SourceMotion::Material(shape as usize),
             EmitterKind::Point { .. } => SourceMotion::Fixed,
-            EmitterKind::Laser { .. } => match self.laser_spots[e] {
-                Some(m) => m,
-                None => return,
-            },
+            EmitterKind::Laser { .. } => self.laser_spots[e]?,
         };
         let y = ls.p.lane(0);
         let to = br.x_b - y;
         let t_l = to.length();
         if !(t_l > 0.0) {
-            return;
+            return None;
         }
         let omega = to / t_l;
         let cos_l = if ls.has_cos { ls.n.lane(0).dot(omega) } else { 1.0 };
         if !(cos_l > 0.0) {
-            return;
+            return None;
         }
-        let Some(s_o) = self.blocked_side(rec, omega) else {
-            return;
-        };
+        let s_o = self.blocked_side(rec, omega)?;
         // y → x_B must be free (a hit short of y, ε from its surface, blocks it); a contact
         // edge has x_L = x_B, never y (contact.rs)
         let Some(SegmentEnds::Open { mut x_s, x_l }) =
-            segment_ends(self.ctx, rec, br.x_b, omega, s_o, &mut scratch.rays)
+            segment_ends(self.ctx, rec, br.x_b, omega, s_o, &mut scratch.counts.rays)
         else {
-            return;
+            return None;
         };
         let reach = t_l - self_intersection_eps(&V3::<f32>::splat(y));
         if !(reach > 0.0) || x_l.is_some_and(|h| h.t < reach) {
-            return;
+            return None;
         }
         scratch.valid += 1;
         let rates = self.rates(rec, y, motion_l, &x_s);
         let seg = t_l + x_s.t;
         if rates.is_zero(self.params) {
-            return;
+            return None;
         }
-        scratch.source.clear();
-        scratch.source.push(SourceTerm {
-            rgb: ls.weight.0,
-            opl: ctx.scene.eta as f64 * pre_length(ctx, &ls),
-            emitter: e as u32,
-            scatters: 0,
-        });
-        let common = -s_o * scale * cos_l / (t_l * t_l * seg * self.edges.edge_pmf(br.index));
         let y64 = ls.p64[0];
         self.on_boundary_line(rec, br.x_b, |x_b64| (x_b64 - y64).normalize(), None, &mut x_s);
-        let d_b = ctx.scene.eta as f64 * segment(ctx, y64, x_s.p64, seg);
-        self.finish(&x_s, omega, d_b, common, &rates, rng, scratch, emit);
+        let eta = ctx.scene.eta as f64;
+        let d_b = eta * segment(ctx, y64, x_s.p64, seg);
+        let x_l = SurfaceHit {
+            p: y,
+            p64: y64,
+            n: ls.n.lane(0),
+            prim: 0,
+            t: t_l,
+        };
+        let common = -s_o * scale * cos_l / (t_l * t_l * seg * self.edges.edge_pmf(br.index) * p_guide);
+        Some(Prepared {
+            segment: SegmentSample {
+                id,
+                x_l,
+                x_s,
+                omega,
+                d_b,
+                emitted: Some(SourceTerm {
+                    rgb: ls.weight.0,
+                    opl: eta * pre_length(ctx, &ls) + d_b,
+                    emitter: e as u32,
+                    scatters: 0,
+                }),
+            },
+            rates,
+            common,
+            u,
+        })
     }
 
     /// With f64 OPLs: x_B projected in f64 onto its edge, the ends' `p64` moved onto the line

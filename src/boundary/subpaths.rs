@@ -1,147 +1,42 @@
-//! The two ends of a boundary path (Algorithm 2: EstimateSourceSubpath, EstimateSensorSubpath),
-//! plain `f32`, no derivatives: unbiased estimates of the radiance leaving x_L towards x_S and
-//! of the importance arriving at x_S from x_L, each split into terms with their own optical
-//! path length (so that S_e bins every full path at its own d).
+//! The two ends of a boundary path (Algorithm 2: EstimateSourceSubpath, EstimateSensorSubpath)
+//! for up to eight boundary samples at once, on the interior's kernel: unbiased estimates of
+//! the radiance leaving x_L towards x_S and of the importance arriving at x_S from x_L, each
+//! split into terms with their own optical path length (so that S_e bins every full path at
+//! its own d). Plain numbers, mono or RGB as the film is: the boundary stage differentiates
+//! the visibility jump, not the subpaths.
 //!
-//! Both use the interior's conventions (integrator/path.rs): two-sided Lambertian reflection
-//! on the side light arrives from, one-sided area emitters, next-event estimation with the
-//! power heuristic (Veach 1997, Eq. 9.13) against BSDF-sampled emission, and a path has at
-//! most `max_bounces` scattering vertices.
+//! - The source side is the path tracer itself (`integrator::path`, `PathStart::Surface`):
+//!   started at x_L as if a camera ray had arrived there against ω, with its next-event
+//!   estimation, power-heuristic MIS (Veach 1997, Eq. 9.13) and BSDF sampling, and
+//!   without x_L's own emission (strategy B of `secondary.rs` estimates that). A term of
+//!   strategy (s, t) has t − 2 + s scattering vertices, x_L included.
+//! - The sensor side is the importance walk (`integrator::importance`): x_S and each later
+//!   vertex joined to the pinhole.
 //!
-//! Optical path lengths are f64: when the render carries f64 OPLs (`integrator::opl`), each
-//! segment is measured between points rebuilt in f64 from Embree's barycentrics (a narrow
-//! pulse's S_e, supplemental Eq. 24, would otherwise see f32 lengths quantised to ~10⁻⁷ m).
+//! So a new BSDF or emitter reaches the boundary stage through the same code as the interior.
+//! Optical path lengths are f64 when the render carries f64 OPLs (`integrator::opl`): each
+//! segment is measured between points rebuilt in f64 from Embree's barycentrics, from x_L's
+//! and x_S's f64 points on the boundary line.
 
-use crate::integrator::bsdf::sample_cosine;
+use super::hit::SurfaceHit;
 use crate::integrator::context::RenderContext;
-use crate::integrator::emitters::LightSample;
-use crate::integrator::opl::{point64, segment};
-use crate::integrator::power_heuristic;
-use crate::integrator::surface::{offset_origin, self_intersection_eps};
-use crate::integrator::trace::RayCounts;
-use crate::kernel::{PathSampler, V3};
-use glam::{DVec3, Vec3};
+use crate::integrator::deposit::{LaneContribution, PathCounts};
+use crate::integrator::importance::trace_importance_packet;
+use crate::integrator::path::{PacketLanes, PathStart, SurfaceStarts, trace_packet_from};
+use crate::integrator::sink::Sink;
+use glam::Vec3;
+use wide::f32x8;
 
-/// A surface point found by a plain ray.
-#[derive(Clone, Copy, Debug)]
-pub struct SurfaceHit {
-    pub p: Vec3,
-    /// `p` in f64: rebuilt from Embree's barycentrics when the render carries f64 OPLs
-    /// (`integrator::opl::point64`), else `p` widened.
-    pub p64: DVec3,
-    /// Unit geometric normal (winding order).
-    pub n: Vec3,
-    pub prim: u32,
-    /// Distance from the ray origin.
-    pub t: f32,
-}
+/// The first random dimension of the source subpath (past what the sampling of the boundary
+/// ray draws).
+const SOURCE_DIM: u64 = 1 << 8;
+/// The first random dimension of the sensor subpath (far past what the source subpath draws,
+/// so that ending the source side early changes no other number).
+const SENSOR_DIM: u64 = 1 << 16;
 
-/// Closest hit of the ray `o + t·d` (d unit), t ∈ (0, ∞).
-pub fn trace(ctx: &RenderContext, o: Vec3, d: Vec3, counts: &mut RayCounts) -> Option<SurfaceHit> {
-    trace_within(ctx, o, d, f32::INFINITY, counts)
-}
-
-/// Closest hit of the ray `o + t·d` (d unit), t ∈ (0, t_far).
-fn trace_within(ctx: &RenderContext, o: Vec3, d: Vec3, t_far: f32, counts: &mut RayCounts) -> Option<SurfaceHit> {
-    if !(t_far > 0.0) {
-        return None;
-    }
-    let t0 = crate::timing::ticks();
-    counts.intersect += 1;
-    let hit = ctx.accel.intersect1(o.to_array(), d.to_array(), 0.0, t_far);
-    counts.trace_ticks += crate::timing::ticks() - t0;
-    let h = hit?;
-    let [p0, p1, p2] = ctx.tri_verts[h.prim as usize];
-    let p = p0 + (p1 - p0) * h.u + (p2 - p0) * h.v;
-    Some(SurfaceHit {
-        p,
-        p64: if ctx.opl.f64_paths {
-            point64(ctx, h.prim, h.u, h.v)
-        } else {
-            p.as_dvec3()
-        },
-        n: (p1 - p0).cross(p2 - p0).normalize_or_zero(),
-        prim: h.prim,
-        t: h.t,
-    })
-}
-
-/// Whether nothing blocks the segment from `x` (on a surface of normal `n`) to `target`.
-pub fn visible(ctx: &RenderContext, x: Vec3, n: Vec3, target: Vec3, counts: &mut RayCounts) -> bool {
-    let t0 = crate::timing::ticks();
-    counts.occluded += 1;
-    let to = target - x;
-    let o = offset(x, n, to);
-    let to_o = target - o;
-    let len = to_o.length();
-    let tfar = len - self_intersection_eps(&V3::<f32>::splat(target));
-    let free = tfar > 0.0 && !ctx.accel.occluded1(o.to_array(), (to_o / len).to_array(), 0.0, tfar);
-    counts.trace_ticks += crate::timing::ticks() - t0;
-    free
-}
-
-/// The length travelled before a light sample's point (laser to spot, else 0), in f64 when the
-/// render carries f64 OPLs.
-pub fn pre_length(ctx: &RenderContext, ls: &LightSample<f32, 3>) -> f64 {
-    if ctx.opl.f64_paths {
-        ls.pre64[0]
-    } else {
-        ls.pre_length as f64
-    }
-}
-
-/// How far a ray may go from a subpath of OPL `opl` before every path through its hit lands
-/// past `budget` (+∞ without a cut); ≤ 0 once the subpath is past it.
-fn t_far(budget: f64, opl: f64, eta: f64) -> f32 {
-    ((budget - opl) / eta) as f32
-}
-
-/// `offset_origin` for one plain point.
-fn offset(p: Vec3, n: Vec3, dir: Vec3) -> Vec3 {
-    offset_origin::<f32>(&V3::splat(p), &V3::splat(n), &V3::splat(dir)).lane(0)
-}
-
-/// Samples a cosine-weighted direction on the `side` of x and traces it as far as `t_far`:
-/// the next vertex and the direction and its solid-angle pdf, or None when the sample or the
-/// ray goes nowhere. With a Lambertian BSDF the weight f·cos/pdf is the albedo, which the
-/// caller multiplies in.
-fn scatter(
-    ctx: &RenderContext,
-    sampler: &mut PathSampler,
-    x: &SurfaceHit,
-    side: Vec3,
-    t_far: f32,
-    counts: &mut RayCounts,
-) -> Option<(SurfaceHit, Vec3, f32)> {
-    let (b1, b2) = sampler.next2::<f32>();
-    let (dir, pdf) = sample_cosine(&V3::splat(x.n), &V3::splat(side), b1, b2);
-    let dir = dir.lane(0);
-    if !(pdf > 0.0) {
-        return None;
-    }
-    let y = trace_within(ctx, offset(x.p, x.n, dir), dir, t_far, counts)?;
-    Some((y, dir, pdf))
-}
-
-/// The albedo of a diffuse triangle (the boundary stage refuses scenes with other materials:
-/// `Motion::build`).
-fn albedo(ctx: &RenderContext, prim: u32) -> [f32; 3] {
-    ctx.scene.materials[ctx.tri_material[prim as usize] as usize]
-        .material
-        .tint()
-}
-
-fn mul(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
-    std::array::from_fn(|c| a[c] * b[c])
-}
-
-fn scale(a: [f32; 3], s: f32) -> [f32; 3] {
-    a.map(|v| v * s)
-}
-
-/// One term of the source estimate: radiance `rgb` from `emitter`, optical length `opl` from
-/// the emitter (pulse offsets excluded: S_e holds them) to x_L, `scatters` scattering vertices
-/// (x_L included when it reflects).
+/// One term of the source estimate: radiance `rgb` from `emitter` (channels past the film's
+/// are 0), optical length `opl` from the emitter (pulse offsets excluded: S_e holds them) to
+/// x_S (d_B included), `scatters` scattering vertices (x_L included when it reflects).
 #[derive(Clone, Copy, Debug)]
 pub struct SourceTerm {
     pub rgb: [f32; 3],
@@ -150,104 +45,10 @@ pub struct SourceTerm {
     pub scatters: u32,
 }
 
-/// Radiance leaving x_L in direction `out` (towards x_S): emission when x_L is on the front
-/// of an area emitter (if `with_emission`), plus reflected light by next-event estimation and BSDF sampling over
-/// at most `max_scatters` scattering vertices. Terms whose OPL would exceed `budget` (the
-/// window cut, `integrator::window`: what the rest of the path may still add is ≥ 0) are
-/// neither traced nor kept.
-#[allow(clippy::too_many_arguments)]
-pub fn source_subpath(
-    ctx: &RenderContext,
-    x_l: &SurfaceHit,
-    out: Vec3,
-    max_scatters: u32,
-    with_emission: bool,
-    budget: f64,
-    sampler: &mut PathSampler,
-    counts: &mut RayCounts,
-    terms: &mut Vec<SourceTerm>,
-) {
-    let eta = ctx.scene.eta;
-    let eta64 = eta as f64;
-    let e = ctx.tri_emitter[x_l.prim as usize];
-    if with_emission && e != u32::MAX && x_l.n.dot(out) > 0.0 {
-        terms.push(SourceTerm {
-            rgb: ctx.emitters.radiance(e),
-            opl: 0.0,
-            emitter: e,
-            scatters: 0,
-        });
-    }
-    let mut x = *x_l;
-    let mut side = out;
-    let mut beta = [1.0f32; 3];
-    let mut opl = 0.0f64;
-    for i in 1..=max_scatters {
-        let alb = albedo(ctx, x.prim);
-        let f = scale(alb, std::f32::consts::FRAC_1_PI);
-        if f.iter().all(|&v| v == 0.0) {
-            break;
-        }
-        // next-event estimation
-        let (u0, u1) = sampler.next2::<f32>();
-        let u2 = sampler.next::<f32>();
-        let ls = ctx.emitters.sample::<f32, 3>(ctx, u0, u1, u2, true);
-        let lp = ls.p.lane(0);
-        let to = lp - x.p;
-        let d2 = to.length_squared();
-        let dist = d2.sqrt();
-        let wl = to / dist;
-        let cos_x = x.n.dot(wl);
-        let cos_y = if ls.has_cos { -ls.n.lane(0).dot(wl) } else { 1.0 };
-        let nee_opl = opl + eta64 * (segment(ctx, x.p64, ls.p64[0], dist) + pre_length(ctx, &ls));
-        if ls.valid
-            && cos_x * x.n.dot(side) > 0.0
-            && cos_y > 0.0
-            && d2 > 0.0
-            && nee_opl <= budget
-            && visible(ctx, x.p, x.n, lp, counts)
-        {
-            let p_bsdf = cos_x.abs() * std::f32::consts::FRAC_1_PI;
-            let w = if ls.pdf_area > 0.0 {
-                power_heuristic(ls.pdf_area * d2 / cos_y, p_bsdf)
-            } else {
-                1.0
-            };
-            let g = cos_x.abs() * cos_y / d2;
-            let weight: [f32; 3] = ls.weight.0;
-            terms.push(SourceTerm {
-                rgb: scale(mul(mul(beta, f), weight), g * w),
-                opl: nee_opl,
-                emitter: ls.emitter[0],
-                scatters: i,
-            });
-        }
-        // BSDF sampling; emission found this way counts i scattering vertices
-        beta = mul(beta, alb);
-        let Some((y, dir, pdf)) = scatter(ctx, sampler, &x, side, t_far(budget, opl, eta64), counts) else {
-            break;
-        };
-        opl += eta64 * segment(ctx, x.p64, y.p64, y.t);
-        let ey = ctx.tri_emitter[y.prim as usize];
-        let cos_y = y.n.dot(dir);
-        if ey != u32::MAX && cos_y < 0.0 {
-            let p_l = ctx.emitters.area_pdf(ey) * y.t * y.t / cos_y.abs();
-            terms.push(SourceTerm {
-                rgb: scale(mul(beta, ctx.emitters.radiance(ey)), power_heuristic(pdf, p_l)),
-                opl,
-                emitter: ey,
-                scatters: i,
-            });
-        }
-        x = y;
-        side = -dir;
-    }
-}
-
 /// One term of the sensor estimate: importance `rgb` (f_s·|cos|/r²·W_e without the pixel
 /// filter) reaching film point (fx, fy), optical length `opl` from x_S to the camera,
-/// `scatters` scattering vertices (x_S included). `direct`: x_S itself connects to the
-/// camera, so it is the ray-form first vertex of Algorithm 1.
+/// `scatters` scattering vertices (x_S included; 1: x_S itself is joined to the camera, the
+/// ray-form first vertex of Algorithm 1).
 #[derive(Clone, Copy, Debug)]
 pub struct SensorTerm {
     pub rgb: [f32; 3],
@@ -255,65 +56,141 @@ pub struct SensorTerm {
     pub fx: f32,
     pub fy: f32,
     pub scatters: u32,
-    pub direct: bool,
 }
 
-/// Importance arriving at x_S from direction `-incoming` (light travels along `incoming`):
-/// a connection to the pinhole from x_S and from each of up to `max_scatters − 1` further
-/// cosine-sampled bounces. Terms whose OPL would exceed `budget` are neither traced nor kept
-/// (as in [`source_subpath`]).
-#[allow(clippy::too_many_arguments)]
-pub fn sensor_subpath(
-    ctx: &RenderContext,
-    x_s: &SurfaceHit,
-    incoming: Vec3,
-    max_scatters: u32,
-    budget: f64,
-    sampler: &mut PathSampler,
-    counts: &mut RayCounts,
-    terms: &mut Vec<SensorTerm>,
-) {
-    let eta = ctx.scene.eta;
-    let eta64 = eta as f64;
-    let cam = ctx.camera.position;
-    let mut x = *x_s;
-    let mut side = -incoming;
-    let mut beta = [1.0f32; 3];
-    let mut opl = 0.0f64;
-    for j in 1..=max_scatters {
-        let alb = albedo(ctx, x.prim);
-        if alb.iter().all(|&v| v == 0.0) {
-            break;
-        }
-        let to_cam = cam - x.p;
-        if let Some(pr) = ctx.camera.project(x.p) {
-            let cos_x = x.n.dot(to_cam) / pr.dist2.sqrt();
-            let cam_seg = if ctx.scene.film.unwarp {
-                0.0
-            } else {
-                eta64 * segment(ctx, x.p64, cam.as_dvec3(), pr.dist2.sqrt())
-            };
-            if cos_x * x.n.dot(side) > 0.0 && opl + cam_seg <= budget && visible(ctx, x.p, x.n, cam, counts) {
-                let w = std::f32::consts::FRAC_1_PI * cos_x.abs() / pr.dist2 * pr.importance;
-                terms.push(SensorTerm {
-                    rgb: scale(mul(beta, alb), w),
-                    opl: opl + cam_seg,
-                    fx: pr.fx,
-                    fy: pr.fy,
-                    scatters: j,
-                    direct: j == 1,
-                });
-            }
-        }
-        if j == max_scatters {
-            break;
-        }
-        beta = mul(beta, alb);
-        let Some((y, dir, _)) = scatter(ctx, sampler, &x, side, t_far(budget, opl, eta64), counts) else {
-            break;
-        };
-        opl += eta64 * segment(ctx, x.p64, y.p64, y.t);
-        x = y;
-        side = -dir;
+/// A boundary sample whose segment x_L → x_S has been found: what its subpaths start from.
+#[derive(Clone, Copy, Debug)]
+pub struct SegmentSample {
+    /// Path id of the sample in its strategy's stream.
+    pub id: u64,
+    pub x_l: SurfaceHit,
+    pub x_s: SurfaceHit,
+    /// Direction of the segment, x_L → x_S.
+    pub omega: Vec3,
+    /// OPL of the segment, η·|x_S − x_L|.
+    pub d_b: f64,
+    /// x_L's emission when it is a light sample (strategy B): its only source term. None: x_L
+    /// reflects, and the source subpath estimates its radiance.
+    pub emitted: Option<SourceTerm>,
+}
+
+/// Per-lane term lists, kept between packets to reuse their memory.
+#[derive(Default)]
+pub struct Terms {
+    pub source: [Vec<SourceTerm>; 8],
+    pub sensor: [Vec<SensorTerm>; 8],
+}
+
+/// Collects the source kernel's contributions per lane (film x = lane).
+struct SourceSink<'a>(&'a mut [Vec<SourceTerm>; 8]);
+
+impl<const C: usize> Sink<C> for SourceSink<'_> {
+    fn add(&mut self, _: &RenderContext, (s, t): (usize, usize), x: usize, _: usize, lc: &LaneContribution<C>, _: f32) {
+        let mut rgb = [0.0f32; 3];
+        rgb[..C].copy_from_slice(&lc.f);
+        self.0[x].push(SourceTerm {
+            rgb,
+            opl: lc.d,
+            emitter: lc.emitter,
+            scatters: (t + s - 2) as u32,
+        });
     }
+}
+
+/// The source and sensor terms of `group` (at most 8 samples, all of one strategy and
+/// stream `seed`) into `terms`, lane i for `group[i]`. The sensor side of each lane walks at
+/// most max_bounces − (fewest scatters of its source terms) vertices, from the OPL of its
+/// shortest source term (the window cut). Film channels C.
+pub fn subpaths<const C: usize>(
+    ctx: &RenderContext,
+    seed: u64,
+    group: &[SegmentSample],
+    counts: &mut PathCounts,
+    terms: &mut Terms,
+) {
+    let n = group.len();
+    debug_assert!(n <= 8);
+    let max_bounces = ctx.scene.integrator.max_bounces;
+    for i in 0..8 {
+        terms.source[i].clear();
+        terms.sensor[i].clear();
+    }
+    let mut ids = [0u64; 8];
+    for (o, s) in ids.iter_mut().zip(group) {
+        *o = s.id;
+    }
+    if group.iter().all(|s| s.emitted.is_some()) {
+        for (i, s) in group.iter().enumerate() {
+            terms.source[i].extend(s.emitted);
+        }
+    } else {
+        debug_assert!(group.iter().all(|s| s.emitted.is_none()));
+        let starts = starts(
+            group,
+            |s| (s.x_l, s.omega, s.d_b),
+            max_bounces.saturating_sub(1),
+            SOURCE_DIM,
+        );
+        let lanes = PacketLanes {
+            px: std::array::from_fn(|i| i as u32),
+            py: [0; 8],
+            ids,
+            count: n,
+        };
+        let mut sink = SourceSink(&mut terms.source);
+        trace_packet_from::<f32x8, C, _>(ctx, seed, &lanes, PathStart::Surface(&starts), &mut sink, counts);
+    }
+    let mut limit = [0u32; 8];
+    let mut from = [0.0f64; 8];
+    for i in 0..n {
+        let src = &terms.source[i];
+        if let Some(fewest) = src.iter().map(|t| t.scatters).min() {
+            limit[i] = max_bounces.saturating_sub(fewest);
+            from[i] = src.iter().map(|t| t.opl).fold(f64::INFINITY, f64::min);
+        }
+    }
+    let mut starts = starts(group, |s| (s.x_s, -s.omega, 0.0), 0, SENSOR_DIM);
+    starts.opl = from;
+    let sensor = &mut terms.sensor;
+    trace_importance_packet::<f32x8, C>(ctx, seed, &ids[..n], &starts, &limit, counts, |i, t| {
+        let mut rgb = [0.0f32; 3];
+        rgb[..C].copy_from_slice(&t.value);
+        sensor[i].push(SensorTerm {
+            rgb,
+            opl: t.opl,
+            fx: t.fx,
+            fy: t.fy,
+            scatters: t.scatters,
+        });
+    });
+}
+
+/// Start points of `group` from `pick(sample) = (point, direction light leaves it in, OPL so
+/// far)`.
+fn starts(
+    group: &[SegmentSample],
+    pick: impl Fn(&SegmentSample) -> (SurfaceHit, Vec3, f64),
+    max_scatters: u32,
+    dim: u64,
+) -> SurfaceStarts {
+    let mut st = SurfaceStarts {
+        prim: [0; 8],
+        p: [Vec3::ZERO; 8],
+        p64: [glam::DVec3::ZERO; 8],
+        n: [Vec3::Z; 8],
+        out: [Vec3::Z; 8],
+        opl: [0.0; 8],
+        max_scatters,
+        dim,
+    };
+    for (i, s) in group.iter().enumerate() {
+        let (h, out, opl) = pick(s);
+        st.prim[i] = h.prim;
+        st.p[i] = h.p;
+        st.p64[i] = h.p64;
+        st.n[i] = h.n;
+        st.out[i] = out;
+        st.opl[i] = opl;
+    }
+    st
 }

@@ -3,11 +3,11 @@
 
 use super::camera::CameraSampler;
 use super::emitter_table::EmitterTable;
-use super::motion::Motion;
 use super::opl_precision::OplPrecision;
 use crate::accel::{Accel, BuildQuality, Device};
 use crate::error::Error;
 use crate::film::{SteadyMode, TileFilm};
+use crate::params::lanes::Motion;
 use crate::scene::Scene;
 use crate::temporal::Correlation;
 

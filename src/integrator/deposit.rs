@@ -8,10 +8,10 @@
 //! samples, film time).
 
 use super::context::RenderContext;
-use super::motion::MAX_PARAMS;
 use super::trace::RayCounts;
 use crate::film::Accumulate;
 use crate::kernel::{Real, Spectrum};
+use crate::params::MAX_PARAMS;
 
 /// A finite contribution of one lane: f (per channel), ḟ, d and ḋ.
 #[derive(Clone, Copy, Debug)]

@@ -146,6 +146,14 @@ impl EmitterTable {
         }
     }
 
+    /// The spot laser `e` lights (None: not a laser, or its beam hits nothing).
+    pub fn laser_spot(&self, e: usize) -> Option<&LaserSpot> {
+        match self.entries.get(e) {
+            Some(Entry::Laser { spot }) => spot.as_ref(),
+            _ => None,
+        }
+    }
+
     /// Radiance of area emitter `e` (0 for others).
     #[inline]
     pub fn radiance(&self, e: u32) -> [f32; 3] {

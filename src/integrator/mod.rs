@@ -18,7 +18,7 @@ pub mod emitter_table;
 pub mod emitters;
 #[cfg(test)]
 mod emitters_tests;
-pub mod motion;
+pub mod importance;
 pub mod opl;
 pub mod opl_precision;
 pub mod path;

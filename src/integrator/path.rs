@@ -20,7 +20,7 @@ use super::opl::points64;
 use super::power_heuristic;
 use super::sink::Sink;
 use super::surface::surface_at;
-use super::trace::{SegmentEnd, intersect, shadow_segment, spawn_point, unoccluded};
+use super::trace::{SegmentEnd, next_hits, shadow_segment, spawn_point, unoccluded};
 use super::transport::{emitter_hits, scatter, scatter_lobes};
 use super::window;
 use crate::kernel::{Mask, PathSampler, Real, Spectrum, V3};
@@ -65,6 +65,42 @@ pub struct PrimaryRays {
     pub dirs: [glam::Vec3; 8],
 }
 
+/// First vertices chosen by the caller instead of a camera ray: the source subpaths of the
+/// boundary stage (Algorithm 2, EstimateSourceSubpath) start at x_L and estimate the radiance
+/// it sends towards x_S, with the kernel's own next-event estimation, MIS and BSDF sampling.
+/// Each lane hands its terms to the sink at (x, y) = (lane, 0). Plain numbers only (the
+/// boundary stage differentiates the visibility, not the subpaths).
+#[derive(Clone, Copy, Debug)]
+pub struct SurfaceStarts {
+    /// Triangle of each start point (its material and emitter).
+    pub prim: [u32; 8],
+    pub p: [glam::Vec3; 8],
+    /// `p` in f64 (used when the render carries f64 OPLs, `super::opl`).
+    pub p64: [glam::DVec3; 8],
+    /// Unit geometric normal.
+    pub n: [glam::Vec3; 8],
+    /// Direction the light leaves each start point in (x_L → x_S): the side it reflects to.
+    pub out: [glam::Vec3; 8],
+    /// OPL already travelled by the rest of the path (d_B), which counts against the window
+    /// cut; every term's d includes it.
+    pub opl: [f64; 8],
+    /// Scattering vertices at most, the start included.
+    pub max_scatters: u32,
+    /// First random dimension of the walk (past what the caller drew for the start).
+    pub dim: u64,
+}
+
+/// Where the paths of a packet start.
+#[derive(Clone, Copy, Debug)]
+pub enum PathStart<'a> {
+    /// A filter sample through each lane's pixel.
+    Camera,
+    /// The caller's camera rays (the filter sample is still drawn, so later dimensions match).
+    Rays(&'a PrimaryRays),
+    /// Given surface points (no emission of their own is counted).
+    Surface(&'a SurfaceStarts),
+}
+
 /// Traces `R::LANES` paths and hands their contributions to `sink` (at each lane's pixel).
 #[inline]
 pub fn trace_packet<R: Real, const C: usize, S: Sink<C>>(
@@ -74,22 +110,26 @@ pub fn trace_packet<R: Real, const C: usize, S: Sink<C>>(
     sink: &mut S,
     counts: &mut PathCounts,
 ) {
-    trace_packet_from::<R, C, S>(ctx, seed, lanes, None, sink, counts)
+    trace_packet_from::<R, C, S>(ctx, seed, lanes, PathStart::Camera, sink, counts)
 }
 
-/// [`trace_packet`] with the camera rays given by `primary` (when `Some`); the filter sample
-/// is still drawn, so the random numbers of every later dimension are the same either way.
+/// [`trace_packet`] with the paths starting as `start` says.
 pub fn trace_packet_from<R: Real, const C: usize, S: Sink<C>>(
     ctx: &RenderContext,
     seed: u64,
     lanes: &PacketLanes,
-    primary: Option<&PrimaryRays>,
+    start: PathStart,
     sink: &mut S,
     counts: &mut PathCounts,
 ) {
     type V<R> = <R as Real>::Value;
     let scene = ctx.scene;
-    let max_bounces = scene.integrator.max_bounces;
+    let surface = match start {
+        PathStart::Surface(s) => Some(s),
+        _ => None,
+    };
+    debug_assert!(surface.is_none() || R::DERIVS == 0);
+    let max_bounces = surface.map_or(scene.integrator.max_bounces, |s| s.max_scatters);
     let eta = ctx.motion.eta::<R>(scene.eta);
     let mut sampler = PathSampler::new(seed, &lanes.ids[..lanes.count.max(1)]);
     let mut in_use = [false; 8];
@@ -97,10 +137,15 @@ pub fn trace_packet_from<R: Real, const C: usize, S: Sink<C>>(
     let mut active = R::Mask::from_bools(&in_use[..R::LANES]);
 
     let (f1, f2) = sampler.next2::<V<R>>();
-    let mut ray_d: V3<V<R>> = match primary {
-        Some(p) => V3::from_lane_vecs(&p.dirs[..R::LANES]),
-        None => ctx.camera.sample(&lanes.px, &lanes.py, f1, f2),
+    let mut ray_d: V3<V<R>> = match start {
+        PathStart::Rays(p) => V3::from_lane_vecs(&p.dirs[..R::LANES]),
+        PathStart::Camera => ctx.camera.sample(&lanes.px, &lanes.py, f1, f2),
+        // the direction light arrives from, as if a ray had come to x_L against `out`
+        PathStart::Surface(s) => -V3::from_lane_vecs(&s.out[..R::LANES]),
     };
+    if let Some(s) = surface {
+        sampler.set_dim(s.dim);
+    }
     let mut ray_o: V3<V<R>> = V3::splat(ctx.camera.position);
     let mut prev_p: V3<R> = V3::splat(ctx.camera.position);
     let mut prev_n: V3<R> = V3::zero();
@@ -122,99 +167,106 @@ pub fn trace_packet_from<R: Real, const C: usize, S: Sink<C>>(
     let mut opl64 = [0.0f64; 8];
     let mut prev64 = [ctx.camera.position.as_dvec3(); 8];
     let mut x64 = prev64;
+    if let Some(s) = surface {
+        opl = R::from_lanes(&s.opl.map(|d| d as f32)[..R::LANES]);
+        opl64 = s.opl;
+    }
 
     for depth in 1..=max_bounces + 1 {
-        // the window cut: no hit farther than the OPL left can reach a bin (`super::window`)
-        let counted = !(depth == 1 && scene.film.unwarp);
-        let t_far = match counted {
-            true => window::t_far(ctx.opl_budget, opl.value(), eta_med.value()),
-            false => V::<R>::splat(f32::INFINITY),
-        };
-        active = active & t_far.gt(V::<R>::zero());
-        let hit = intersect(
-            &ctx.accel,
-            &ray_o,
-            &ray_d,
-            V::<R>::zero(),
-            t_far,
-            active,
-            depth == 1,
-            &mut counts.rays,
-        );
-        let mut hit_lanes = [false; 8];
-        for (i, h) in hit_lanes.iter_mut().enumerate().take(R::LANES) {
-            *h = hit.prim[i] != u32::MAX;
-        }
-        active = active & R::Mask::from_bools(&hit_lanes[..R::LANES]);
-        if active.none() {
-            break;
-        }
-        let mut x = surface_at::<R>(ctx, &hit.prim, hit.u, hit.v);
-        if R::DERIVS > 0 && depth == 1 {
-            // The camera ray is fixed in the image plane: the first vertex moves along it
-            // (x₁ = o + t(θ)·ω), so the pixel filter is never differentiated.
-            x.p = ray_plane_point(&prev_p, &V3::from_value(ray_d), &x.p, &x.n);
-        }
-        let seg = x.p - prev_p;
-        let r2 = seg.length_squared();
-        let r = r2.sqrt();
-        let w_in = seg * R::safe_div(R::one(), r);
-        let cos_i = x.n.dot(w_in).abs();
-        if R::DERIVS > 0 && depth > 1 {
-            // G·J (dual) over its value: the derivative of the geometry of this segment.
-            let cos_prev = if depth == 1 { R::one() } else { prev_n.dot(w_in).abs() };
-            let g = cos_prev * cos_i / r2;
-            let ratio = R::safe_div(g, R::from_value(g.value())) * x.jacobian;
-            beta = beta.scale(ratio);
-            if let Some((lobes, wo)) = &prev_lobes {
-                // the previous vertex's f, now with both of its directions moving: ḟ/f
-                let f = lobes.eval(&prev_n, wo, &w_in, true);
-                let glossy = lobes.glossy();
-                beta = Spectrum(std::array::from_fn(|c| {
-                    let r = R::safe_div(f.0[c], R::from_value(f.0[c].value()));
-                    R::select(glossy, beta.0[c] * r, beta.0[c])
-                }));
+        let (x, w_in) = match surface.filter(|_| depth == 1) {
+            Some(s) => {
+                x64 = s.p64;
+                // light arrives at the start point against `out` (`ray_d`)
+                (start_point::<R>(s), V3::from_value(ray_d))
             }
-        }
-        if exact {
-            let u: [f32; 8] = std::array::from_fn(|i| if i < R::LANES { hit.u.lane(i) } else { 0.0 });
-            let v: [f32; 8] = std::array::from_fn(|i| if i < R::LANES { hit.v.lane(i) } else { 0.0 });
-            x64 = points64(ctx, R::LANES, &hit.prim, &u, &v);
-        }
-        if counted {
-            opl += eta_med * r;
-            if exact {
-                for i in 0..R::LANES {
-                    opl64[i] += eta_med.value().lane(i) as f64 * (x64[i] - prev64[i]).length();
+            None => {
+                // the window cut: no hit farther than the OPL left can reach a bin (`super::window`)
+                let counted = !(depth == 1 && scene.film.unwarp);
+                let (hit, found) = next_hits(
+                    &ctx.accel,
+                    ctx.opl_budget,
+                    &ray_o,
+                    &ray_d,
+                    opl.value(),
+                    eta_med.value(),
+                    counted,
+                    active,
+                    depth == 1,
+                    &mut counts.rays,
+                );
+                active = found;
+                if active.none() {
+                    break;
                 }
-            }
-        }
+                let mut x = surface_at::<R>(ctx, &hit.prim, hit.u, hit.v);
+                if R::DERIVS > 0 && depth == 1 {
+                    // The camera ray is fixed in the image plane: the first vertex moves along it
+                    // (x₁ = o + t(θ)·ω), so the pixel filter is never differentiated.
+                    x.p = ray_plane_point(&prev_p, &V3::from_value(ray_d), &x.p, &x.n);
+                }
+                let seg = x.p - prev_p;
+                let r2 = seg.length_squared();
+                let r = r2.sqrt();
+                let w_in = seg * R::safe_div(R::one(), r);
+                let cos_i = x.n.dot(w_in).abs();
+                if R::DERIVS > 0 && depth > 1 {
+                    // G·J (dual) over its value: the derivative of the geometry of this segment.
+                    let cos_prev = if depth == 1 { R::one() } else { prev_n.dot(w_in).abs() };
+                    let g = cos_prev * cos_i / r2;
+                    let ratio = R::safe_div(g, R::from_value(g.value())) * x.jacobian;
+                    beta = beta.scale(ratio);
+                    if let Some((lobes, wo)) = &prev_lobes {
+                        // the previous vertex's f, now with both of its directions moving: ḟ/f
+                        let f = lobes.eval(&prev_n, wo, &w_in, true);
+                        let glossy = lobes.glossy();
+                        beta = Spectrum(std::array::from_fn(|c| {
+                            let r = R::safe_div(f.0[c], R::from_value(f.0[c].value()));
+                            R::select(glossy, beta.0[c] * r, beta.0[c])
+                        }));
+                    }
+                }
+                if exact {
+                    let u: [f32; 8] = std::array::from_fn(|i| if i < R::LANES { hit.u.lane(i) } else { 0.0 });
+                    let v: [f32; 8] = std::array::from_fn(|i| if i < R::LANES { hit.v.lane(i) } else { 0.0 });
+                    x64 = points64(ctx, R::LANES, &hit.prim, &u, &v);
+                }
+                if counted {
+                    opl += eta_med * r;
+                    if exact {
+                        for i in 0..R::LANES {
+                            opl64[i] += eta_med.value().lane(i) as f64 * (x64[i] - prev64[i]).length();
+                        }
+                    }
+                }
 
-        // Emission found by this ray (Veach 1997, Eq. 9.13 weights against light sampling).
-        let front = x.n.value().dot(ray_d).lt(V::<R>::zero());
-        let hits = emitter_hits::<R, C>(ctx, &hit.prim, active & front);
-        let (emitter, emits) = (hits.emitter, hits.mask);
-        if emits.any() {
-            let w = if depth == 1 {
-                V::<R>::one()
-            } else {
-                let p_l = hits.area_pdf * r2.value() / cos_i.value();
-                V::<R>::select(no_mis, V::<R>::one(), power_heuristic(prev_pdf, p_l))
-            };
-            let contrib = (beta * hits.radiance).scale(R::from_value(w));
-            splat(
-                ctx,
-                sink,
-                (0, depth as usize + 1),
-                lanes,
-                &emitter,
-                opl,
-                exact.then_some(&opl64),
-                &contrib,
-                emits,
-                counts,
-            );
-        }
+                // Emission found by this ray (Veach 1997, Eq. 9.13 weights against light sampling).
+                let front = x.n.value().dot(ray_d).lt(V::<R>::zero());
+                let hits = emitter_hits::<R, C>(ctx, &hit.prim, active & front);
+                let (emitter, emits) = (hits.emitter, hits.mask);
+                if emits.any() {
+                    let w = if depth == 1 {
+                        V::<R>::one()
+                    } else {
+                        let p_l = hits.area_pdf * r2.value() / cos_i.value();
+                        V::<R>::select(no_mis, V::<R>::one(), power_heuristic(prev_pdf, p_l))
+                    };
+                    let contrib = (beta * hits.radiance).scale(R::from_value(w));
+                    splat(
+                        ctx,
+                        sink,
+                        (0, depth as usize + 1),
+                        lanes,
+                        &emitter,
+                        opl,
+                        exact.then_some(&opl64),
+                        &contrib,
+                        emits,
+                        counts,
+                    );
+                }
+                (x, w_in)
+            }
+        };
         if depth > max_bounces {
             break;
         }
@@ -335,6 +387,16 @@ pub fn trace_packet_from<R: Real, const C: usize, S: Sink<C>>(
         prev64 = x64;
         prev_n = x.n;
         prev_pdf = pdf;
+    }
+}
+
+/// The given start points as kernel vertices (plain numbers: no motion, J = 1).
+fn start_point<R: Real>(s: &SurfaceStarts) -> super::surface::SurfacePoint<R> {
+    super::surface::SurfacePoint {
+        p: V3::from_value(V3::from_lane_vecs(&s.p[..R::LANES])),
+        n: V3::from_value(V3::from_lane_vecs(&s.n[..R::LANES])),
+        jacobian: R::one(),
+        prim: s.prim,
     }
 }
 

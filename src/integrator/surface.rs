@@ -99,9 +99,9 @@ mod tests {
     use super::surface_at;
     use crate::accel::Device;
     use crate::integrator::RenderContext;
-    use crate::integrator::motion::Motion;
     use crate::integrator::testutil::{POSED, POSED_PARAMS, load, param_names, positions_either_side, step};
     use crate::kernel::{Dual8, Real, V3, f32x8};
+    use crate::params::lanes::Motion;
     use crate::scene::{ParamKind, Scene};
     use glam::{DVec3, Vec3};
 

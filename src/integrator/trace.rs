@@ -157,3 +157,31 @@ pub fn shadow_segment<V: Real>(from: &SegmentEnd<V>, to: &SegmentEnd<V>) -> (V3<
     let len = to_t.length();
     (o, to_t * V::safe_div(V::one(), len), len)
 }
+
+/// The next vertices of the lanes of `active`: the closest hits along (o, d) no farther than
+/// the OPL left after `opl` allows (the window cut, `super::window`; through a medium of index
+/// `eta`; no bound when `cut` is false, e.g. for the uncounted camera leg of an unwarped
+/// film). Returns the hits and the lanes that found one within the bound.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+pub fn next_hits<V: Real>(
+    accel: &Accel,
+    budget: Option<f32>,
+    o: &V3<V>,
+    d: &V3<V>,
+    opl: V,
+    eta: V,
+    cut: bool,
+    active: V::Mask,
+    coherent: bool,
+    counts: &mut RayCounts,
+) -> (HitLanes<V>, V::Mask) {
+    let t_far = match cut {
+        true => super::window::t_far(budget, opl, eta),
+        false => V::splat(f32::INFINITY),
+    };
+    let active = active & t_far.gt(V::zero());
+    let hit = intersect(accel, o, d, V::zero(), t_far, active, coherent, counts);
+    let found: [bool; 8] = std::array::from_fn(|i| hit.prim[i] != u32::MAX);
+    (hit, active & V::Mask::from_bools(&found[..V::LANES]))
+}

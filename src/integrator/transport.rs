@@ -1,8 +1,9 @@
 //! Steps of path transport that every estimator takes the same way, written once: what a
 //! ray found on an area emitter, and the scattering step at a vertex (BSDF sample, throughput
-//! update, Russian roulette). The path tracer (`path.rs`) and BDPT's subpaths
-//! (`bdpt/walk.rs`, `bdpt/connect.rs`) call them, so a new BSDF or emitter is added here for
-//! all of them.
+//! update, Russian roulette). The path tracer (`path.rs`, which also runs the boundary
+//! stage's source subpaths), the importance walk (`importance.rs`, the boundary stage's sensor
+//! subpaths) and BDPT's subpaths (`bdpt/walk.rs`, `bdpt/connect.rs`) call them, so a new BSDF
+//! or emitter is added here for all of them.
 
 use super::bsdf::{Lobes, Sampled, sample_cosine};
 use super::context::RenderContext;

@@ -1,7 +1,7 @@
 //! What `dtr info` shows: [`Scene::summary`] (JSON) and `Display` (readable lines).
 
-use super::params::{axis_name, channel_name};
 use super::{EmitterKind, Material, ParamKind, PixelFilter, Scene, Transform};
+use crate::params::resolve::{axis_name, channel_name};
 use crate::temporal::{Gate, Pulse};
 use serde_json::{Value, json};
 use std::fmt;

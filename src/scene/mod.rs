@@ -8,23 +8,23 @@
 mod camera;
 pub use camera::{Camera, PixelFilter};
 mod camera_film;
-mod context;
-mod desc;
+pub(crate) mod context;
+pub(crate) mod desc;
 mod emitters;
-mod error;
+pub(crate) mod error;
 mod flush;
 pub mod fuzzing;
 mod info;
 mod load;
 mod materials;
 mod origin;
-mod params;
 mod read;
 pub(crate) use read::read_regular_file;
 mod resolve;
 pub mod shapes;
 #[cfg(test)]
 pub(crate) mod testutil;
+pub use crate::params::{Axis, Param, ParamKind};
 pub use error::SceneError;
 pub use load::Format;
 
@@ -226,46 +226,6 @@ pub struct IntegratorSpec {
     pub seed: u64,
     /// Russian roulette starts after this many bounces (None = off).
     pub rr_depth: Option<u32>,
-}
-
-/// Which axis a pose parameter acts along.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Axis {
-    X = 0,
-    Y = 1,
-    Z = 2,
-}
-
-/// What a `[[param]]` entry controls.
-#[derive(Clone, Debug, PartialEq)]
-pub enum ParamKind {
-    /// `translate[axis]` of a shape, metres.
-    Translate { shape: u32, axis: Axis },
-    /// `rotate_deg[axis]` of a shape, degrees.
-    Rotate { shape: u32, axis: Axis },
-    /// `scale[axis]` of a shape (unitless factor).
-    Scale { shape: u32, axis: Axis },
-    /// Albedo of a material; `channel` None sets all channels.
-    Albedo { material: u32, channel: Option<usize> },
-    /// Radiance (area), intensity (point) or power (laser) of an emitter; `channel` None = all.
-    Radiance { emitter: u32, channel: Option<usize> },
-    /// Refractive index η of the medium.
-    Eta,
-    /// Emission time offset of an emitter, OPL metres.
-    PulseOffset { emitter: u32 },
-    /// GGX roughness α of a rough conductor or dielectric.
-    Roughness { material: u32 },
-    /// Interior refractive index of a rough dielectric.
-    Ior { material: u32 },
-}
-
-#[derive(Clone, Debug)]
-pub struct Param {
-    pub name: String,
-    pub kind: ParamKind,
-    /// The value as written (or set), in the file's coordinates: a translate param holds a
-    /// world coordinate, not one relative to [`Scene::render_origin`].
-    pub value: f64,
 }
 
 /// A loaded scene. Everything the renderer needs, with parameters already applied.

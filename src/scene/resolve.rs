@@ -5,7 +5,7 @@
 //! settings and the medium. Each kind of entry is resolved in a file of its own:
 //! `camera_film.rs` (camera, pixel filter, film, gate, channels), `materials.rs`,
 //! `emitters.rs` (emitters and their pulses), `shapes.rs` (meshes and world geometry) and
-//! `params.rs` (parameters and `--set` overrides); `context.rs` holds what they share.
+//! `crate::params::resolve` (parameters and `--set` overrides); `context.rs` holds what they share.
 
 use super::context::{Ctx, Names, count, index_names};
 use super::desc::SceneDesc;
@@ -30,7 +30,7 @@ pub(crate) fn resolve(mut desc: SceneDesc, path: &Path, overrides: &[(String, f6
     };
     // The scene as the file describes it (params at their file values), for the origin.
     let mut as_written = desc.clone();
-    let written_ok = super::params::apply_params(
+    let written_ok = crate::params::resolve::apply_params(
         &mut as_written,
         &names,
         &mut Ctx {
@@ -40,8 +40,8 @@ pub(crate) fn resolve(mut desc: SceneDesc, path: &Path, overrides: &[(String, f6
         &[],
     )
     .is_ok();
-    let overridden = super::params::apply_overrides(&mut desc, overrides, &names, path)?;
-    let params = super::params::apply_params(&mut desc, &names, &mut ctx, &overridden)?;
+    let overridden = crate::params::resolve::apply_overrides(&mut desc, overrides, &names, path)?;
+    let params = crate::params::resolve::apply_params(&mut desc, &names, &mut ctx, &overridden)?;
     let meshes = super::shapes::local_meshes(&desc, &ctx)?;
     let origin = super::origin::choose(super::shapes::world_bounds(
         if written_ok { &as_written } else { &desc },

@@ -11,9 +11,8 @@ use crate::integrator::bsdf::{Lobes, albedo, diffuse_eval, sample_cosine};
 use crate::integrator::context::RenderContext;
 use crate::integrator::path::{PacketLanes, ray_plane_point};
 use crate::integrator::surface::{offset_origin, surface_at};
-use crate::integrator::trace::{RayCounts, intersect, spawn_point};
+use crate::integrator::trace::{RayCounts, next_hits, spawn_point};
 use crate::integrator::transport::{scatter, scatter_lobes};
-use crate::integrator::window;
 use crate::kernel::{Mask, PathSampler, Real, Spectrum, V3};
 use glam::Vec3;
 
@@ -55,23 +54,20 @@ fn random_walk<R: Real, const C: usize>(
         let prev = *path.last().expect("a walk starts from a vertex");
         // the window cut (`crate::integrator::window`): any full path through a vertex
         // farther than the OPL left would land past the window
-        let t_far = match ray_form && ctx.scene.film.unwarp {
-            false => window::t_far(ctx.opl_budget, prev.opl.value(), eta.value()),
-            true => V::<R>::splat(f32::INFINITY),
-        };
-        active = active & t_far.gt(V::<R>::zero());
-        let hit = intersect(
+        let cut = !(ray_form && ctx.scene.film.unwarp);
+        let (hit, found) = next_hits(
             &ctx.accel,
+            ctx.opl_budget,
             &ray_o,
             &ray_d,
-            V::<R>::zero(),
-            t_far,
+            prev.opl.value(),
+            eta.value(),
+            cut,
             active,
             ray_form,
             counts,
         );
-        let hits: [bool; 8] = std::array::from_fn(|i| hit.prim[i] != u32::MAX);
-        active = active & R::Mask::from_bools(&hits[..R::LANES]);
+        active = found;
         if active.none() {
             break;
         }

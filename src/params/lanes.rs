@@ -5,11 +5,6 @@
 use crate::kernel::{Real, Spectrum};
 use glam::{Mat3, Vec3};
 
-/// The most parameters one render differentiates at once: the derivative lanes of the widest
-/// dual number the renderer dispatches (`Dual8<16>`, tied to this by a const assert in
-/// `render.rs`) and the size of every per-parameter buffer (lane deposits, boundary weights).
-pub const MAX_PARAMS: usize = 16;
-
 /// Affine velocity field `v(x) = A·x + b` of one shape under one parameter.
 #[derive(Clone, Copy, Debug)]
 pub struct Velocity {
@@ -191,6 +186,41 @@ impl Motion {
             }
         }
         Ok(m)
+    }
+
+    /// Refuses parameters that shift paths in time when S_e is discontinuous in time (delta
+    /// pulse, box gate): Ṡ_e is then a Dirac distribution (supplemental Lemma 2.5).
+    pub fn check_time_derivatives(
+        &self,
+        scene: &crate::scene::Scene,
+        params: &[String],
+    ) -> Result<(), crate::error::Error> {
+        for (k, name) in params.iter().enumerate() {
+            if !self.shifts_time(k) {
+                continue;
+            }
+            for (e, emitter) in scene.emitters.iter().enumerate() {
+                let corr = crate::temporal::Correlation::new(
+                    scene.film.axis,
+                    emitter.pulse,
+                    emitter.offset_opl,
+                    scene.film.gate,
+                )?;
+                if corr.derivative_is_distribution()
+                    && (self.pulse_offset[k].is_none() || self.pulse_offset[k] == Some(e))
+                {
+                    return Err(crate::error::Error::Invalid(format!(
+                        "{}: parameter {name:?} shifts paths in time, but emitter {:?} has a delta pulse and the film a box gate: \
+                         S_e is then discontinuous in time and its derivative is a Dirac distribution, which needs a temporal \
+                         boundary term we do not have yet. Use a Gaussian pulse (pulse = {{ type = \"gaussian\", sigma_opl = ... }}) \
+                         or a Gaussian gate (film.gate = {{ type = \"gaussian\", sigma_opl = ... }}).",
+                        scene.source.display(),
+                        emitter.name
+                    )));
+                }
+            }
+        }
+        Ok(())
     }
 
     /// Number of derivative lanes.

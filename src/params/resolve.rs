@@ -2,10 +2,11 @@
 //! value, and each param's value then replaces the quantity it controls in the description
 //! (before any range check, so a bad value is reported like a bad value in the file).
 
-use super::context::{Ctx, Names, no_such};
-use super::desc::{AxisDesc, ChannelDesc, ParamKindDesc, SceneDesc, Triple};
-use super::error::{item_field, table_field};
-use super::{Axis, Param, ParamKind, SceneError};
+use super::{Axis, Param, ParamKind};
+use crate::scene::SceneError;
+use crate::scene::context::{Ctx, Names, no_such};
+use crate::scene::desc::{AxisDesc, ChannelDesc, ParamKindDesc, SceneDesc, Triple};
+use crate::scene::error::{item_field, table_field};
 use std::path::Path;
 
 /// Applies `--set` overrides to the params' values; returns which params were overridden.
@@ -210,7 +211,7 @@ pub(crate) fn apply_params(
             }
             ParamKindDesc::Albedo => {
                 let m = target(&names.materials, "material", "materials", &p.material)?;
-                use super::desc::MaterialType;
+                use crate::scene::desc::MaterialType;
                 // a diffuse albedo, or a rough conductor's specular reflectance
                 let field = match desc.material[m].ty {
                     MaterialType::Diffuse => "albedo",
@@ -285,7 +286,7 @@ pub(crate) fn apply_params(
                 )
             }
             ParamKindDesc::Roughness | ParamKindDesc::Ior => {
-                use super::desc::MaterialType;
+                use crate::scene::desc::MaterialType;
                 let m = target(&names.materials, "material", "materials", &p.material)?;
                 let mat = &mut desc.material[m];
                 let (field, fits, range_ok, expected) = match p.kind {
@@ -369,8 +370,8 @@ pub(crate) fn apply_params(
 
 #[cfg(test)]
 mod tests {
-    use super::super::testutil::*;
-    use super::super::{EmitterKind, Material, Scene};
+    use crate::scene::testutil::*;
+    use crate::scene::{EmitterKind, Material, Scene};
     use glam::Vec3;
 
     fn set(name: &str, v: f64) -> Vec<(String, f64)> {
@@ -440,7 +441,7 @@ mod tests {
         assert_eq!(m2.transform.rotate_deg.y, 75.0);
         assert_eq!(m2.transform.scale, Vec3::new(0.5, 1.2, 0.5));
         // apex (0, 1.5, 0) sits at height 1.5 * scale.y whatever the yaw
-        let top = |s: &Scene, m: &super::super::Shape| {
+        let top = |s: &Scene, m: &crate::scene::Shape| {
             (0..m.vertex_count as usize)
                 .map(|k| s.geometry.positions[m.first_vertex as usize + k].y)
                 .fold(f32::MIN, f32::max)

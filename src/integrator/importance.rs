@@ -1,0 +1,181 @@
+//! Importance transport from given surface points to the pinhole, 8 lanes at a time: the
+//! sensor subpaths of the boundary stage (Algorithm 2, EstimateSensorSubpath).
+//!
+//! From a start point x_S that light reaches along a given direction, the walk joins each
+//! vertex to the pinhole (the t = 1 connection of light tracing, Veach 1997 §10.2) and
+//! continues by BSDF sampling. A pinhole cannot be hit by a ray, so the connections are the
+//! only strategy and need no MIS weights. Each connection is a term: β · f_s · |cos θ_x| / r² ·
+//! W (W = 1/(a cos³θ), `CameraProjection`), without the pixel filter, which the caller applies
+//! at the term's film point. The steps are the kernel's own: the scattering step
+//! (`transport::scatter`), Embree's 8-wide queries with the window cut on t_far, surface
+//! points rebuilt from barycentrics, and shadow segments moved off both ends.
+
+use super::bsdf::{albedo, diffuse_eval};
+use super::context::RenderContext;
+use super::deposit::PathCounts;
+use super::opl::points64;
+use super::path::SurfaceStarts;
+use super::surface::{SurfacePoint, surface_at};
+use super::trace::{SegmentEnd, next_hits, shadow_segment, spawn_point, unoccluded};
+use super::transport::scatter;
+use super::window;
+use crate::kernel::{Mask, PathSampler, Real, Spectrum, V3};
+
+type V<R> = <R as Real>::Value;
+
+/// One connection of an importance walk to the pinhole.
+#[derive(Clone, Copy, Debug)]
+pub struct ImportanceTerm<const C: usize> {
+    /// β · f_s · |cos θ_x| / r² · W per channel (no pixel filter).
+    pub value: [f32; C],
+    /// OPL from the start point to the pinhole (the start's own `opl` not included); 0 for
+    /// the camera leg of an unwarped film.
+    pub opl: f64,
+    /// Film point (pixels).
+    pub fx: f32,
+    pub fy: f32,
+    /// Scattering vertices, the start included (1: the start point itself is joined).
+    pub scatters: u32,
+}
+
+/// Walks from each lane's start point (`starts.out`: the side light leaves it to, i.e. the
+/// reverse of its arrival direction; `starts.opl`: the OPL the path already has, for the
+/// window cut) over at most `max_scatters[lane]` scattering vertices, and calls
+/// `emit(lane, term)` for every finite connection to the pinhole. Lanes whose limit is 0 stay
+/// idle. Random numbers: path ids `ids`, from dimension `starts.dim` on.
+pub fn trace_importance_packet<R: Real, const C: usize>(
+    ctx: &RenderContext,
+    seed: u64,
+    ids: &[u64],
+    starts: &SurfaceStarts,
+    max_scatters: &[u32; 8],
+    counts: &mut PathCounts,
+    mut emit: impl FnMut(usize, &ImportanceTerm<C>),
+) {
+    debug_assert!(R::DERIVS == 0 && ids.len() <= R::LANES);
+    let zero = V::<R>::zero();
+    let scene = ctx.scene;
+    let eta = scene.eta;
+    let exact = ctx.opl.f64_paths;
+    let unwarp = scene.film.unwarp;
+    let cam = &ctx.camera;
+    let eye = V3::<V<R>>::splat(cam.position);
+    let eye64 = cam.position.as_dvec3();
+    let lanes = ids.len();
+    let mut sampler = PathSampler::new(seed, ids);
+    sampler.set_dim(starts.dim);
+    let limit = V::<R>::from_lanes(&max_scatters.map(|m| m as f32)[..R::LANES]);
+    let deepest = max_scatters[..lanes].iter().copied().max().unwrap_or(0);
+    let mut in_use = [false; 8];
+    in_use[..lanes].iter_mut().for_each(|b| *b = true);
+    let mut active = <R as Real>::Mask::from_bools(&in_use[..R::LANES]);
+
+    let mut x = SurfacePoint::<R> {
+        p: V3::from_lane_vecs(&starts.p[..R::LANES]),
+        n: V3::from_lane_vecs(&starts.n[..R::LANES]),
+        jacobian: R::one(),
+        prim: starts.prim,
+    };
+    // the direction the path arrived along (light travels x_L → x_S, then on to the pinhole)
+    let mut ray_d: V3<V<R>> = -V3::from_lane_vecs(&starts.out[..R::LANES]);
+    let mut beta = Spectrum::<R, C>::splat(R::one());
+    let mut opl = R::from_lanes(&starts.opl.map(|d| d as f32)[..R::LANES]);
+    let mut opl64 = starts.opl;
+    let mut x64 = starts.p64;
+
+    for j in 1..=deepest {
+        active = active & V::<R>::splat(j as f32).le(limit);
+        let f = diffuse_eval(albedo::<R, C>(ctx, &x.prim));
+        active = active & f.max_value().gt(zero);
+        if active.none() {
+            break;
+        }
+        let (p, n) = (x.p.value(), x.n.value());
+        let side = -ray_d;
+
+        // the connection to the pinhole
+        let proj = cam.project_lanes(&p);
+        let dist = proj.dist2.sqrt();
+        let cos_x = n.dot(eye - p) * V::<R>::safe_div(V::<R>::one(), dist);
+        let facing = (cos_x * n.dot(side)).gt(zero);
+        let leg = if unwarp { zero } else { dist.mul_f(eta) };
+        let d = opl.value() + leg;
+        let ok = active & proj.visible & facing & window::within(ctx.opl_budget, d);
+        if ok.any() {
+            let here = SegmentEnd { p, n, w_in: ray_d };
+            let pinhole = SegmentEnd {
+                p: eye,
+                n: V3::zero(),
+                w_in: V3::zero(),
+            };
+            let (o, dir, len) = shadow_segment(&here, &pinhole);
+            let ok = ok & unoccluded(&ctx.accel, &o, &dir, zero, len, ok, &mut counts.rays);
+            let factor = cos_x.abs() * V::<R>::safe_div(proj.importance, proj.dist2);
+            let value = (beta * f).scale(R::from_value(factor));
+            for i in 0..R::LANES {
+                if !ok.bit(i) {
+                    continue;
+                }
+                let opl_i = match (exact, unwarp) {
+                    (true, false) => opl64[i] + eta as f64 * (eye64 - x64[i]).length(),
+                    (true, true) => opl64[i],
+                    (false, _) => d.lane(i) as f64,
+                };
+                let term = ImportanceTerm {
+                    value: std::array::from_fn(|c| value.0[c].lane(i)),
+                    opl: opl_i - starts.opl[i],
+                    fx: proj.fx.lane(i),
+                    fy: proj.fy.lane(i),
+                    scatters: j,
+                };
+                if term.opl.is_finite() && term.value.iter().all(|v| v.is_finite()) {
+                    emit(i, &term);
+                } else {
+                    counts.non_finite += 1;
+                }
+            }
+        }
+        if j == deepest {
+            break;
+        }
+        active = active & V::<R>::splat(j as f32).lt(limit);
+        if active.none() {
+            break;
+        }
+
+        // on by sampling the BSDF
+        let (dir, _) = scatter(ctx, &mut sampler, &n, &side, &f, &mut beta, &mut active, j);
+        let o = spawn_point(&p, &n, &ray_d, &dir);
+        let (hit, found) = next_hits(
+            &ctx.accel,
+            ctx.opl_budget,
+            &o,
+            &dir,
+            opl.value(),
+            V::<R>::splat(eta),
+            true,
+            active,
+            false,
+            &mut counts.rays,
+        );
+        active = found;
+        if active.none() {
+            break;
+        }
+        let y = surface_at::<R>(ctx, &hit.prim, hit.u, hit.v);
+        opl += (y.p - x.p).length().mul_f(eta);
+        if exact {
+            let u: [f32; 8] = std::array::from_fn(|i| if i < R::LANES { hit.u.lane(i) } else { 0.0 });
+            let v: [f32; 8] = std::array::from_fn(|i| if i < R::LANES { hit.v.lane(i) } else { 0.0 });
+            let y64 = points64(ctx, R::LANES, &hit.prim, &u, &v);
+            for i in 0..R::LANES {
+                if active.bit(i) {
+                    opl64[i] += eta as f64 * (y64[i] - x64[i]).length();
+                }
+            }
+            x64 = y64;
+        }
+        x = y;
+        ray_d = dir;
+    }
+}
