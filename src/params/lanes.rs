@@ -375,7 +375,6 @@ mod tests {
     /// `exterior` names another material, a derivative leaking onto another material's lanes.
     #[test]
     fn nested_media_derivative_lanes() {
-        use crate::integrator::bsdf::Lobes;
         use crate::integrator::testutil::load;
         use crate::kernel::{Dual8, Real};
         let text =
@@ -399,18 +398,5 @@ mod tests {
             assert_eq!((int, ext), (want_int, want_ext), "lane {i} (material {m})");
             assert_eq!([alpha.deriv_lane(0, i), alpha.deriv_lane(1, i)], [0.0, 0.0]);
         }
-        // the same through the gather, with the values
-        let prims: [u32; 8] = std::array::from_fn(|i| {
-            let m = mats[i];
-            let shape = scene.shapes.iter().find(|s| s.material == m).unwrap();
-            shape.first_tri
-        });
-        let device = crate::accel::Device::new("").unwrap();
-        let mut ctx = crate::integrator::RenderContext::new(&scene, &device).unwrap();
-        ctx.motion = motion;
-        let l = Lobes::<Dual8<2>, 1>::gather(&ctx, &prims);
-        assert_eq!((l.eta_int.lane(0), l.eta_ext.lane(0)), (1.33, 1.5));
-        assert_eq!((l.eta_int.lane(1), l.eta_ext.lane(1)), (1.5, scene.eta));
-        assert_eq!(l.eta_ext.deriv_lane(1, 0), 1.0);
     }
 }

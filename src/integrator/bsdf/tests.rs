@@ -353,3 +353,37 @@ fn reciprocity() {
     }
     assert!(checked_t > 500, "only {checked_t} refraction pairs were checked");
 }
+
+/// The material gather of nested media (scenes/liquid_glass.toml): a liquid lane's interior
+/// and exterior indices are the liquid's and the glass's, with the glass's ior parameter on
+/// the exterior's derivative lane; a glass lane's exterior is the scene's medium
+/// (`params::lanes` tests the lanes themselves).
+#[test]
+fn gather_of_nested_media() {
+    use crate::integrator::testutil::load;
+    use crate::kernel::{Dual8, Real};
+    use crate::params::lanes::Motion;
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/liquid_glass.toml");
+    let scene = load(&std::fs::read_to_string(path).unwrap(), &[]);
+    let motion = Motion::build(&scene, &["liquid_ior".into(), "glass_ior".into()]).unwrap();
+    let idx = |n: &str| scene.materials.iter().position(|m| m.name == n).unwrap() as u32;
+    let mats = [idx("liquid"), idx("glass")];
+    let prims: [u32; 8] = std::array::from_fn(|i| {
+        let m = mats[i % 2];
+        scene.shapes.iter().find(|s| s.material == m).unwrap().first_tri
+    });
+    let device = crate::accel::Device::new("").unwrap();
+    let mut ctx = crate::integrator::RenderContext::new(&scene, &device).unwrap();
+    ctx.motion = motion;
+    let l = Lobes::<Dual8<2>, 1>::gather(&ctx, &prims);
+    assert_eq!((l.eta_int.lane(0), l.eta_ext.lane(0)), (1.33, 1.5));
+    assert_eq!((l.eta_int.lane(1), l.eta_ext.lane(1)), (1.5, scene.eta));
+    assert_eq!(
+        [
+            l.eta_int.deriv_lane(0, 0),
+            l.eta_ext.deriv_lane(1, 0),
+            l.eta_ext.deriv_lane(1, 1)
+        ],
+        [1.0, 1.0, 0.0]
+    );
+}
