@@ -42,6 +42,12 @@ pub enum Command {
         #[arg(long = "set", value_name = "NAME=VALUE")]
         set: Vec<String>,
     },
+    /// Print a shell completion script: `dtr completions bash > /etc/bash_completion.d/dtr`
+    /// (or zsh, fish, elvish, powershell).
+    Completions {
+        #[arg(value_enum)]
+        shell: clap_complete::Shell,
+    },
 }
 
 pub fn run(cli: Cli) -> anyhow::Result<()> {
@@ -50,6 +56,48 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Merge(args) => shard_set::run(args),
         Command::Optimize(args) => optimize_cmd::run(args),
         Command::Info { scene, json, set } => info::run(&scene, json, &set),
+        Command::Completions { shell } => {
+            use clap::CommandFactory;
+            use std::io::Write;
+            let mut script = Vec::new();
+            clap_complete::generate(shell, &mut Cli::command(), "dtr", &mut script);
+            match std::io::stdout().write_all(&script) {
+                // a reader that stops early (`| head`) is not an error
+                Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => Err(e.into()),
+                _ => Ok(()),
+            }
+        }
+    }
+}
+
+/// The exit status of a failed command:
+/// - 1: an internal failure (Embree failed, the renderer produced a value it must never
+///   produce; nothing was written);
+/// - 2: bad input (usage, the scene, an option, an output that would replace an input, a
+///   locked prefix, a checkpoint or shard that does not belong to the render);
+/// - 3: an output could not be written (the file system refused: permissions, a full disk, a
+///   missing folder that cannot be made);
+///
+/// and 128 + N when signal N interrupted a render (`output_set`'s signal handler).
+pub fn exit_code(e: &anyhow::Error) -> u8 {
+    for cause in e.chain() {
+        match cause.downcast_ref::<crate::output::OutputError>() {
+            Some(crate::output::OutputError::Io { .. }) => return 3,
+            Some(_) => return 1,
+            None => {}
+        }
+        match cause.downcast_ref::<crate::Error>() {
+            Some(crate::Error::Accel(_)) => return 1,
+            Some(crate::Error::Output(crate::output::OutputError::Io { .. })) => return 3,
+            Some(crate::Error::Output(_)) => return 1,
+            Some(_) => return 2,
+            None => {}
+        }
+    }
+    if e.to_string().starts_with("internal error") {
+        1
+    } else {
+        2
     }
 }
 

@@ -22,6 +22,7 @@
 //!   `-o x --diff a` render followed by `-o x` leaves no `x.d_a.npy` behind. Only plain names
 //!   of the old set's own prefix in the same folder are removed, never an input.
 
+use crate::output::OutputError;
 use anyhow::{Context, bail};
 use std::fs::File;
 use std::path::{Path, PathBuf};
@@ -140,13 +141,15 @@ impl OutputSet {
             Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
             _ => PathBuf::from("."),
         };
-        std::fs::create_dir_all(&dir).with_context(|| {
-            format!(
-                "-o {}: cannot create the output folder {}",
-                output.display(),
-                dir.display()
-            )
-        })?;
+        std::fs::create_dir_all(&dir)
+            .map_err(|e| OutputError::io(&dir, e))
+            .with_context(|| {
+                format!(
+                    "-o {}: cannot create the output folder {}",
+                    output.display(),
+                    dir.display()
+                )
+            })?;
         let inputs: Vec<(PathBuf, std::fs::Metadata)> = scene_inputs
             .iter()
             .filter_map(|p| std::fs::metadata(p).ok().map(|m| (p.clone(), m)))
@@ -246,6 +249,7 @@ impl OutputSet {
             let tmp = tempfile::Builder::new()
                 .prefix(&format!(".{name}.dtr-staging-"))
                 .tempdir_in(dir)
+                .map_err(|e| OutputError::io(dir, e))
                 .with_context(|| format!("cannot write to the output folder {}", dir.display()))?;
             watch(tmp.path());
             self.staging = Some(tmp);
@@ -279,10 +283,13 @@ impl OutputSet {
             if dest.extension().is_some_and(|e| e == "json") {
                 for old in &stale {
                     std::fs::remove_file(old)
+                        .map_err(|e| OutputError::io(old, e))
                         .with_context(|| format!("cannot remove {}, left by an earlier render", old.display()))?;
                 }
             }
-            std::fs::rename(staged, dest).with_context(|| format!("cannot move {} into place", dest.display()))?;
+            std::fs::rename(staged, dest)
+                .map_err(|e| OutputError::io(dest, e))
+                .with_context(|| format!("cannot move {} into place", dest.display()))?;
         }
         Ok(self.prefix.clone())
     }

@@ -28,19 +28,27 @@ pub struct RenderArgs {
     /// Worker threads (default: all cores).
     #[arg(long)]
     pub threads: Option<usize>,
-    /// Override a parameter value: --set NAME=VALUE (repeatable; see `dtr info`).
+    /// Override a parameter value: --set NAME=VALUE (repeatable; see `dtr info`), or any number
+    /// of the description by its dotted path: --set film.bins=100, --set camera.resolution.0=128.
     #[arg(long = "set", value_name = "NAME=VALUE")]
     pub set: Vec<String>,
     /// Also write PREFIX.exr: one layer per time bin.
     #[arg(long)]
     pub exr: bool,
-    /// Also write PREFIX.frames.png (contact sheet), PREFIX.steady.png and PREFIX.plot.png
-    /// (radiance over time for the whole image and one pixel).
+    /// Also write PREFIX.frames.png (contact sheet), PREFIX.steady.png, PREFIX.steady.npy (the
+    /// HDR time-integrated image, [H, W, C]), PREFIX.plot.png (radiance over time for the whole
+    /// image and one pixel), PREFIX.flight.gif (light in flight, one frame per bin, log scale),
+    /// PREFIX.streak.png (the --pixel row against time) and, with --diff, PREFIX.d_NAME.png
+    /// (each derivative integrated over time, blue negative, red positive).
     #[arg(long)]
     pub preview: bool,
-    /// Pixel for the preview plot, as X,Y (default: the image centre).
+    /// Pixel for the preview plot and the streak image's row, as X,Y (default: the image centre).
     #[arg(long, value_name = "X,Y")]
     pub pixel: Option<String>,
+    /// Display white of the light-in-flight animation: one for the whole film (`global`, frames
+    /// compare) or one per frame (`frame`, every frame shows its structure).
+    #[arg(long, value_name = "global|frame", default_value = "global", value_parser = ["global", "frame"])]
+    pub normalise: String,
     /// Also differentiate with respect to these parameters (comma-separated names from
     /// `dtr info`): writes PREFIX.d_NAME.npy, same shape as the transient.
     #[arg(long, value_delimiter = ',', value_name = "NAME[,NAME...]")]
@@ -188,9 +196,10 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
         planned.push("exr".into());
     }
     if a.preview {
-        planned.extend(["frames.png", "steady.png", "plot.png"].map(String::from));
+        planned.extend(PREVIEWS.map(String::from));
+        planned.extend(a.diff.iter().map(|n| format!("d_{n}.png")));
     }
-    if a.shard.is_some() {
+    if a.shard.is_some() || a.preview {
         planned.push("steady.npy".into());
     }
     let mut set = OutputSet::prepare(&a.output, &scene.inputs, &a.scene, &planned)?;
@@ -239,9 +248,16 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
         output::write_exr_layers(&set.stage("exr")?, view(&film))?;
     }
     if a.preview {
-        write_previews(&film, &mut set, pixel)?;
+        let normalise = match a.normalise.as_str() {
+            "frame" => output::Normalise::Frame,
+            _ => output::Normalise::Global,
+        };
+        write_previews(&film, &mut set, pixel, normalise)?;
+        for (name, d) in a.diff.iter().zip(&derivs) {
+            output::write_derivative_png(&set.stage(&format!("d_{name}.png"))?, view(d))?;
+        }
     }
-    if a.shard.is_some() {
+    if a.shard.is_some() || a.preview {
         let shape = [film.height, film.width, film.channels];
         output::write_npy(&set.stage("steady.npy")?, &shape, &film.steady)?;
     }
@@ -336,12 +352,17 @@ fn parse_pixel(s: &str, scene: &Scene) -> anyhow::Result<(usize, usize)> {
     Ok((x, y))
 }
 
+/// The files [`write_previews`] writes (suffixes of the prefix).
+pub(super) const PREVIEWS: [&str; 5] = ["frames.png", "steady.png", "plot.png", "flight.gif", "streak.png"];
+
 pub(super) fn write_previews(
     film: &Transient,
     set: &mut OutputSet,
     pixel: Option<(usize, usize)>,
+    normalise: output::Normalise,
 ) -> anyhow::Result<()> {
     output::write_contact_sheet(&set.stage("frames.png")?, view(film), None)?;
+    output::write_flight_gif(&set.stage("flight.gif")?, view(film), normalise)?;
     output::write_steady_png(
         &set.stage("steady.png")?,
         &film.steady,
@@ -350,6 +371,7 @@ pub(super) fn write_previews(
         film.channels,
     )?;
     let (px, py) = pixel.unwrap_or((film.width / 2, film.height / 2));
+    output::write_streak_png(&set.stage("streak.png")?, view(film), py)?;
     let series = vec![
         ("whole image".to_string(), film.bin_totals()),
         (format!("pixel ({px}, {py})"), film.pixel_series(px, py)),

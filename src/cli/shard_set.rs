@@ -246,7 +246,7 @@ pub fn run(a: MergeArgs) -> anyhow::Result<()> {
         planned.push("exr".into());
     }
     if a.preview {
-        planned.extend(["frames.png", "steady.png", "plot.png"].map(String::from));
+        planned.extend(super::render_cmd::PREVIEWS.map(String::from));
     }
     let mut set = OutputSet::prepare(&a.output, &inputs, &scene_path, &planned)?;
     let mut films = Vec::new();
@@ -269,7 +269,7 @@ pub fn run(a: MergeArgs) -> anyhow::Result<()> {
         crate::output::write_exr_layers(&set.stage("exr")?, super::render_cmd::view(&film))?;
     }
     if a.preview {
-        super::render_cmd::write_previews(&film, &mut set, None)?;
+        super::render_cmd::write_previews(&film, &mut set, None, crate::output::Normalise::Global)?;
     }
     let mut meta = merged_metadata(&shards, set.prefix(), &diff);
     meta["files"] = json!(set.names_with("json"));

@@ -13,6 +13,7 @@ mod atomic;
 pub(crate) use atomic::write_atomic;
 mod error;
 mod exr_layers;
+mod flight;
 mod font;
 mod json;
 mod npy;
@@ -24,6 +25,10 @@ mod xy_plot;
 
 pub use error::OutputError;
 pub use exr_layers::{write_exr_layers, write_exr_layers_with_axis};
+pub use flight::{
+    DECADES, MAX_GIF_FRAMES, Normalise, diverging, log_display, write_derivative_png, write_flight_gif,
+    write_streak_png,
+};
 pub use font::FONT_ENV;
 pub use json::write_json;
 pub use npy::write_npy;

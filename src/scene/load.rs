@@ -60,16 +60,27 @@ impl Scene {
         source: &Path,
         overrides: &[(String, f64)],
     ) -> Result<Scene, SceneError> {
-        let desc = parse(text, format, source)?;
-        super::resolve::resolve(desc, source, overrides)
+        // dotted names set fields of the description, the others `[[param]]` values
+        let (fields, params): (Vec<_>, Vec<_>) = overrides
+            .iter()
+            .cloned()
+            .partition(|(n, _)| super::field_set::is_field_path(n));
+        let desc = parse(text, format, source, &fields)?;
+        super::resolve::resolve(desc, source, &params)
     }
 }
 
 /// The largest scene description read (a scene is text; meshes go in OBJ files).
 pub(crate) const MAX_SCENE_BYTES: u64 = 64 << 20;
 
-/// Text → description: syntax, non-finite numbers, then types (with field paths).
-pub(crate) fn parse(text: &str, format: Format, source: &Path) -> Result<SceneDesc, SceneError> {
+/// Text → description: syntax, non-finite numbers, the `--set` overrides of fields
+/// (`field_set`), then types (with field paths; without line numbers when fields were set).
+pub(crate) fn parse(
+    text: &str,
+    format: Format,
+    source: &Path,
+    fields: &[(String, f64)],
+) -> Result<SceneDesc, SceneError> {
     let path = source.to_path_buf();
     let syntax = |line: usize, column: usize, message: String| SceneError::Syntax {
         path: path.clone(),
@@ -123,6 +134,12 @@ pub(crate) fn parse(text: &str, format: Format, source: &Path) -> Result<SceneDe
             message,
         }
     };
+    if !fields.is_empty() {
+        let mut tree = raw.clone();
+        super::field_set::apply(&mut tree, fields, source)?;
+        return serde_path_to_error::deserialize::<_, SceneDesc>(tree)
+            .map_err(|e| typed(segments(e.path()), strip_position(e.inner()).replace("`", "'"), None));
+    }
     match format {
         Format::Toml => {
             let de = toml::Deserializer::new(text);

@@ -12,6 +12,7 @@ pub(crate) mod context;
 pub(crate) mod desc;
 mod emitters;
 pub(crate) mod error;
+pub(crate) mod field_set;
 mod flush;
 pub mod fuzzing;
 mod info;

@@ -1,0 +1,151 @@
+"""difftransient: differentiable transient rendering (Yi et al., "Differentiable Transient
+Rendering", ACM TOG 40(6) 286, 2021) on Embree, from Python.
+
+A transient gives every pixel a histogram over optical path length (OPL, metres; time is
+OPL / c). Arrays are numpy, shaped [H, W, T, C] (height, width, time bins, channels), float32,
+handed over from the renderer without copying.
+
+    import difftransient as dt
+    scene = dt.Scene.load("scenes/cornell_box.toml")
+    r = dt.render(scene, spp=16)
+    r.transient.shape            # (H, W, T, C)
+    d = dt.render_diff(scene, ["tall_box_x"], spp=16)
+    d.derivatives["tall_box_x"]  # dI/dθ, same shape
+    g = dt.gradient(scene, ["tall_box_x"], dloss_dimage, spp=16)   # dL/dθ, one number each
+
+Renders release the GIL. Errors raise `SceneError` (the description or a parameter) or
+`RenderError` (what a render refuses), with the renderer's messages. `difftransient.torch`
+has a `torch.autograd.Function` whose backward is the adjoint gradient.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from dataclasses import dataclass, field
+from typing import Dict, Iterable, List, Mapping, Optional, Sequence
+
+import numpy as np
+
+from ._difftransient import RenderError, SceneError
+from ._difftransient import Scene as _NativeScene
+from ._difftransient import render as _render
+from ._difftransient import render_adjoint as _render_adjoint
+from ._difftransient import render_diff as _render_diff
+
+__all__ = [
+    "Scene",
+    "SceneError",
+    "RenderError",
+    "Render",
+    "DiffRender",
+    "render",
+    "render_diff",
+    "gradient",
+]
+
+
+class Scene:
+    """A loaded scene (immutable). Set parameter values with `with_params`, which reloads the
+    description with the new values (as `dtr render --set NAME=VALUE`)."""
+
+    def __init__(self, native: _NativeScene):
+        self._native = native
+
+    @staticmethod
+    def load(path: "os.PathLike[str] | str", params: Optional[Mapping[str, float]] = None) -> "Scene":
+        """Loads a scene file (.toml or .json), with `params` ({name: value}) set."""
+        return Scene(_NativeScene.load(os.fspath(path), _pairs(params)))
+
+    @staticmethod
+    def from_dict(
+        description: Mapping, base_dir: "os.PathLike[str] | str" = ".", params: Optional[Mapping[str, float]] = None
+    ) -> "Scene":
+        """A scene from a description dict (the schema of scenes/README.md, as JSON); relative
+        mesh paths are resolved in `base_dir`."""
+        return Scene(_NativeScene.from_json(json.dumps(description), os.fspath(base_dir), _pairs(params)))
+
+    def with_params(self, params: Mapping[str, float]) -> "Scene":
+        """The same scene with the values of `params` ({name: value}) replaced."""
+        return Scene(self._native.with_params(_pairs(params)))
+
+    @property
+    def params(self) -> Dict[str, float]:
+        """{name: value} of the scene's parameters, in file order."""
+        return dict(self._native.params)
+
+    @property
+    def shape(self):
+        """(H, W, T, C) of the film."""
+        return self._native.shape
+
+    @property
+    def bin_centres(self) -> np.ndarray:
+        """OPL (metres) at the centre of each time bin; divide by c for seconds."""
+        return self._native.bin_centres()
+
+    @property
+    def source(self) -> str:
+        return str(self._native.source)
+
+    def __repr__(self) -> str:
+        return repr(self._native)
+
+
+@dataclass
+class Render:
+    """A forward render: `transient` [H, W, T, C], `steady` [H, W, C] (the time-summed image),
+    `bin_centres` (OPL, metres) and the run statistics."""
+
+    transient: np.ndarray
+    steady: np.ndarray
+    bin_centres: np.ndarray
+    stats: dict = field(repr=False)
+
+
+@dataclass
+class DiffRender:
+    """A derivative render: the transient, and dI/dθ per parameter name (each [H, W, T, C])."""
+
+    transient: np.ndarray
+    derivatives: Dict[str, np.ndarray]
+    bin_centres: np.ndarray
+    stats: dict = field(repr=False)
+
+
+def render(scene: Scene, *, spp: Optional[int] = None, seed: Optional[int] = None,
+           threads: Optional[int] = None) -> Render:
+    """Renders the scene's transient (spp and seed default to the scene's)."""
+    t, steady, stats = _render(scene._native, spp, seed, threads)
+    return Render(t, steady, scene.bin_centres, json.loads(stats))
+
+
+def render_diff(scene: Scene, params: Sequence[str], *, spp: Optional[int] = None, seed: Optional[int] = None,
+                threads: Optional[int] = None, spp_boundary: Optional[int] = None,
+                estimators: str = "full") -> DiffRender:
+    """Renders the transient and dI/dθ for each name in `params`: the interior (Algorithm 1)
+    plus, when a parameter moves geometry, the boundary terms (Algorithm 2). `estimators`:
+    "full", "interior" or "boundary"."""
+    params = list(params)
+    t, d, stats = _render_diff(scene._native, params, spp, seed, threads, spp_boundary, estimators)
+    return DiffRender(t, dict(zip(params, d)), scene.bin_centres, json.loads(stats))
+
+
+def gradient(scene: Scene, params: Sequence[str], adjoint: np.ndarray, *, spp: Optional[int] = None,
+             seed: Optional[int] = None, threads: Optional[int] = None, spp_boundary: Optional[int] = None,
+             estimators: str = "full"):
+    """dL/dθ = Σ ⟨∂L/∂I, dI/dθ⟩ for each name in `params`, given `adjoint` = ∂L/∂I shaped like
+    the film [H, W, T, C], without holding one derivative volume per parameter (any number of
+    parameters). With the same options it uses the same samples as `render_diff`.
+    Returns (gradient as a float64 array, stats)."""
+    a = np.ascontiguousarray(adjoint, dtype=np.float32)
+    g, stats = _render_adjoint(scene._native, list(params), a, spp, seed, threads, spp_boundary, estimators)
+    return g, json.loads(stats)
+
+
+def _pairs(params: Optional[Mapping[str, float]]) -> List[tuple]:
+    if params is None:
+        return []
+    if not isinstance(params, Mapping):
+        raise TypeError("params must be a mapping {name: value}")
+    return [(str(k), float(v)) for k, v in params.items()]

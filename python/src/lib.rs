@@ -1,0 +1,284 @@
+//! Python bindings of difftransient: the native module `difftransient._difftransient`, which
+//! the pure-Python package `difftransient` (python/difftransient/) wraps.
+//!
+//! - Scenes are loaded from a file or from description text (the JSON schema of
+//!   scenes/README.md), and keep that text, so parameter values can be set by reloading it
+//!   with overrides (the same path as `dtr render --set`).
+//! - Renders release the GIL and run on the library's own thread pool; their films are moved
+//!   into numpy arrays without copying (the array's memory is the film's `Vec`).
+//! - Errors become `SceneError` (bad scene description or parameter) or `RenderError`
+//!   (anything a render refuses) with the library's messages.
+
+use difftransient::scene::Format;
+use difftransient::{BoundaryMode, RenderOptions, Scene, Transient};
+use numpy::ndarray::{Array1, Array4};
+use numpy::{IntoPyArray, PyArray1, PyArray3, PyArray4, PyReadonlyArray4};
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use std::path::PathBuf;
+
+pyo3::create_exception!(
+    _difftransient,
+    SceneError,
+    PyValueError,
+    "A scene description or parameter was refused."
+);
+pyo3::create_exception!(
+    _difftransient,
+    RenderError,
+    PyValueError,
+    "A render was refused or failed."
+);
+
+fn scene_err(e: impl std::fmt::Display) -> PyErr {
+    SceneError::new_err(e.to_string())
+}
+
+fn render_err(e: difftransient::Error) -> PyErr {
+    match e {
+        difftransient::Error::Scene(s) => scene_err(s),
+        other => RenderError::new_err(other.to_string()),
+    }
+}
+
+/// A loaded scene, with the description it came from (to set parameters by reloading it).
+#[pyclass(name = "Scene", module = "difftransient._difftransient", frozen)]
+struct PyScene {
+    scene: Scene,
+    text: String,
+    format: Format,
+    /// The file the description came from, or a stand-in in the folder relative mesh paths
+    /// are resolved against.
+    source: PathBuf,
+    overrides: Vec<(String, f64)>,
+}
+
+impl PyScene {
+    fn build(text: String, format: Format, source: PathBuf, overrides: Vec<(String, f64)>) -> PyResult<Self> {
+        let scene = Scene::from_str(&text, format, &source, &overrides).map_err(scene_err)?;
+        Ok(Self {
+            scene,
+            text,
+            format,
+            source,
+            overrides,
+        })
+    }
+}
+
+#[pymethods]
+impl PyScene {
+    /// Loads a scene file (.toml or .json), with parameter values `set` ({name: value}).
+    #[staticmethod]
+    #[pyo3(signature = (path, set = None))]
+    fn load(path: PathBuf, set: Option<Vec<(String, f64)>>) -> PyResult<Self> {
+        let format = Format::from_path(&path).map_err(scene_err)?;
+        let text = std::fs::read_to_string(&path)
+            .map_err(|e| SceneError::new_err(format!("{}: cannot read the scene file: {e}", path.display())))?;
+        Self::build(text, format, path, set.unwrap_or_default())
+    }
+
+    /// A scene from JSON description text; relative mesh paths are resolved in `base_dir`.
+    #[staticmethod]
+    #[pyo3(signature = (text, base_dir, set = None))]
+    fn from_json(text: String, base_dir: PathBuf, set: Option<Vec<(String, f64)>>) -> PyResult<Self> {
+        Self::build(
+            text,
+            Format::Json,
+            base_dir.join("<dict>.json"),
+            set.unwrap_or_default(),
+        )
+    }
+
+    /// The same description with parameter values replaced ({name: value}; the others keep
+    /// theirs).
+    fn with_params(&self, values: Vec<(String, f64)>) -> PyResult<Self> {
+        let mut overrides = self.overrides.clone();
+        for (name, v) in values {
+            overrides.retain(|(n, _)| *n != name);
+            overrides.push((name, v));
+        }
+        Self::build(self.text.clone(), self.format, self.source.clone(), overrides)
+    }
+
+    /// {name: value} of the scene's `[[param]]` entries, in file order.
+    #[getter]
+    fn params<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let d = PyDict::new(py);
+        for p in &self.scene.params {
+            d.set_item(&p.name, p.value)?;
+        }
+        Ok(d)
+    }
+
+    /// The file the scene came from.
+    #[getter]
+    fn source(&self) -> PathBuf {
+        self.scene.source.clone()
+    }
+
+    /// Film shape (height, width, bins, channels).
+    #[getter]
+    fn shape(&self) -> (usize, usize, usize, usize) {
+        let f = &self.scene.film;
+        (f.height as usize, f.width as usize, f.axis.bins, f.channels)
+    }
+
+    /// Optical path length (metres) at the centre of every time bin.
+    fn bin_centres<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        let a = &self.scene.film.axis;
+        Array1::from_iter((0..a.bins).map(|l| a.bin_centre(l))).into_pyarray(py)
+    }
+
+    fn __repr__(&self) -> String {
+        let (h, w, t, c) = self.shape();
+        format!(
+            "Scene({:?}, film {h}x{w}, {t} bins, {c} channel{}, params {:?})",
+            self.scene.source.display().to_string(),
+            if c == 1 { "" } else { "s" },
+            self.scene.params.iter().map(|p| p.name.as_str()).collect::<Vec<_>>()
+        )
+    }
+}
+
+fn options(
+    spp: Option<u32>,
+    seed: Option<u64>,
+    threads: Option<usize>,
+    spp_boundary: Option<u32>,
+    estimators: &str,
+) -> PyResult<RenderOptions> {
+    let boundary = match estimators {
+        "full" => BoundaryMode::Full,
+        "interior" => BoundaryMode::InteriorOnly,
+        "boundary" => BoundaryMode::BoundaryOnly,
+        other => {
+            return Err(RenderError::new_err(format!(
+                "estimators must be \"full\", \"interior\" or \"boundary\" (got {other:?})"
+            )));
+        }
+    };
+    Ok(RenderOptions {
+        spp,
+        seed,
+        threads,
+        spp_boundary,
+        boundary,
+        ..Default::default()
+    })
+}
+
+/// A film as a [H, W, T, C] float32 array, moved (not copied) into numpy.
+fn film_array(py: Python<'_>, t: Transient) -> PyResult<Bound<'_, PyArray4<f32>>> {
+    let [h, w, b, c] = t.shape();
+    let a = Array4::from_shape_vec((h, w, b, c), t.data).map_err(|e| RenderError::new_err(e.to_string()))?;
+    Ok(a.into_pyarray(py))
+}
+
+/// The time-summed image as [H, W, C], moved into numpy.
+fn steady_array(py: Python<'_>, h: usize, w: usize, c: usize, data: Vec<f32>) -> PyResult<Bound<'_, PyArray3<f32>>> {
+    let a = numpy::ndarray::Array3::from_shape_vec((h, w, c), data).map_err(|e| RenderError::new_err(e.to_string()))?;
+    Ok(a.into_pyarray(py))
+}
+
+fn stats_json(s: &impl serde::Serialize) -> PyResult<String> {
+    serde_json::to_string(s).map_err(|e| RenderError::new_err(e.to_string()))
+}
+
+type Film<'py> = Bound<'py, PyArray4<f32>>;
+
+/// Renders the transient: (transient [H, W, T, C], steady [H, W, C], stats as JSON text).
+#[pyfunction]
+#[pyo3(signature = (scene, spp = None, seed = None, threads = None))]
+fn render<'py>(
+    py: Python<'py>,
+    scene: &PyScene,
+    spp: Option<u32>,
+    seed: Option<u64>,
+    threads: Option<usize>,
+) -> PyResult<(Film<'py>, Bound<'py, PyArray3<f32>>, String)> {
+    let opts = options(spp, seed, threads, None, "full")?;
+    let (mut t, stats) = py
+        .detach(|| difftransient::render(&scene.scene, &opts))
+        .map_err(render_err)?;
+    let [h, w, _, c] = t.shape();
+    let steady = std::mem::take(&mut t.steady);
+    Ok((
+        film_array(py, t)?,
+        steady_array(py, h, w, c, steady)?,
+        stats_json(&stats)?,
+    ))
+}
+
+/// Renders the transient and its derivative with respect to each of `params`:
+/// (transient, [derivative per parameter], stats as JSON text).
+#[pyfunction]
+#[pyo3(signature = (scene, params, spp = None, seed = None, threads = None, spp_boundary = None, estimators = "full"))]
+#[allow(clippy::too_many_arguments)]
+fn render_diff<'py>(
+    py: Python<'py>,
+    scene: &PyScene,
+    params: Vec<String>,
+    spp: Option<u32>,
+    seed: Option<u64>,
+    threads: Option<usize>,
+    spp_boundary: Option<u32>,
+    estimators: &str,
+) -> PyResult<(Film<'py>, Vec<Film<'py>>, String)> {
+    let opts = options(spp, seed, threads, spp_boundary, estimators)?;
+    let (t, d, stats) = py
+        .detach(|| difftransient::render_diff(&scene.scene, &params, &opts))
+        .map_err(render_err)?;
+    let d = d.into_iter().map(|t| film_array(py, t)).collect::<PyResult<Vec<_>>>()?;
+    Ok((film_array(py, t)?, d, stats_json(&stats)?))
+}
+
+/// dL/dθ for each of `params`, given ∂L/∂I (`adjoint`, float32 [H, W, T, C] of the scene's
+/// film): (gradient as float64 array, stats as JSON text). Same samples as `render_diff`
+/// with the same options.
+#[pyfunction]
+#[pyo3(signature = (scene, params, adjoint, spp = None, seed = None, threads = None, spp_boundary = None, estimators = "full"))]
+#[allow(clippy::too_many_arguments)]
+fn render_adjoint<'py>(
+    py: Python<'py>,
+    scene: &PyScene,
+    params: Vec<String>,
+    adjoint: PyReadonlyArray4<'py, f32>,
+    spp: Option<u32>,
+    seed: Option<u64>,
+    threads: Option<usize>,
+    spp_boundary: Option<u32>,
+    estimators: &str,
+) -> PyResult<(Bound<'py, PyArray1<f64>>, String)> {
+    let opts = options(spp, seed, threads, spp_boundary, estimators)?;
+    let f = &scene.scene.film;
+    let want = [f.height as usize, f.width as usize, f.axis.bins, f.channels];
+    let view = adjoint.as_array();
+    let got = view.shape();
+    if got != want {
+        return Err(RenderError::new_err(format!(
+            "adjoint: shape {got:?} does not match the scene's film [H, W, T, C] = {want:?}"
+        )));
+    }
+    let mut a = Transient::zeros(want[1], want[0], f.axis, f.channels);
+    a.data = view.iter().copied().collect();
+    if a.data.iter().any(|v| !v.is_finite()) {
+        return Err(RenderError::new_err("adjoint: every value must be finite".to_string()));
+    }
+    let (g, stats) = py
+        .detach(|| difftransient::render_adjoint(&scene.scene, &params, &a, &opts))
+        .map_err(render_err)?;
+    Ok((g.into_pyarray(py), stats_json(&stats)?))
+}
+
+#[pymodule]
+fn _difftransient(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<PyScene>()?;
+    m.add_function(wrap_pyfunction!(render, m)?)?;
+    m.add_function(wrap_pyfunction!(render_diff, m)?)?;
+    m.add_function(wrap_pyfunction!(render_adjoint, m)?)?;
+    m.add("SceneError", m.py().get_type::<SceneError>())?;
+    m.add("RenderError", m.py().get_type::<RenderError>())?;
+    Ok(())
+}

@@ -1,0 +1,188 @@
+"""Tests of the Python package: the bindings hand over the renderer's own results (the same
+bytes as `dtr render`), without copying, derivatives agree with central finite differences,
+the adjoint gradient is the contraction of the derivative films, errors carry the
+renderer's messages, and renders release the GIL."""
+
+import os
+import subprocess
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import difftransient as dt
+
+ROOT = Path(__file__).resolve().parents[2]
+SCENES = ROOT / "scenes"
+
+
+def scene(name, **params):
+    return dt.Scene.load(SCENES / name, params or None)
+
+
+def test_render_is_the_cli_render(tmp_path):
+    """Same scene, spp and seed: the array is the .npy that `dtr render` writes, byte for byte."""
+    dtr = os.environ.get("DTR_BIN", str(ROOT / "target" / "release" / "dtr"))
+    if not Path(dtr).exists():
+        pytest.skip("no dtr binary (set DTR_BIN)")
+    out = tmp_path / "cb"
+    subprocess.run([dtr, "render", str(SCENES / "diff_room.toml"), "--spp", "4", "--seed", "3", "-o", str(out)],
+                   check=True, capture_output=True)
+    cli = np.load(str(out) + ".npy")
+    r = dt.render(scene("diff_room.toml"), spp=4, seed=3)
+    assert r.transient.shape == cli.shape == scene("diff_room.toml").shape
+    assert r.transient.dtype == np.float32
+    assert np.array_equal(r.transient, cli)
+    assert r.transient.sum() > 0
+    assert r.bin_centres.shape == (cli.shape[2],)
+    assert r.stats["spp"] == 4
+
+
+def _owned_by_renderer(a):
+    # numpy does not own the memory: its base is the renderer's buffer (not another array)
+    return (not a.flags["OWNDATA"]) and a.base is not None and not isinstance(a.base, np.ndarray)
+
+
+def test_results_are_handed_over_without_copying():
+    s = scene("diff_room.toml")
+    r = dt.render(s, spp=1)
+    assert _owned_by_renderer(r.transient) and _owned_by_renderer(r.steady)
+    assert r.transient.flags["C_CONTIGUOUS"] and r.transient.flags["WRITEABLE"]
+    d = dt.render_diff(s, ["albedo"], spp=1)
+    assert _owned_by_renderer(d.transient) and _owned_by_renderer(d.derivatives["albedo"])
+    # the steady image is the time sum of the transient (window mode)
+    np.testing.assert_allclose(r.steady, r.transient.sum(axis=2), rtol=1e-4, atol=1e-6)
+
+
+def _blocks(t):
+    """4x4 blocks of the time-summed image and groups of 10 bins of the image total."""
+    h, w, b, c = t.shape
+    img = t.sum(axis=(2, 3), dtype=np.float64)
+    blocks = img.reshape(4, h // 4, 4, w // 4).sum(axis=(1, 3)).ravel()
+    bins = t.sum(axis=(0, 1, 3), dtype=np.float64)
+    return np.concatenate([blocks, bins[: b - b % 10].reshape(-1, 10).sum(axis=1)])
+
+
+@pytest.mark.parametrize("param,value,h", [("albedo", 0.6, 0.01), ("eta", 1.0, 0.002)])
+def test_derivative_matches_central_differences(param, value, h):
+    """dI/dθ from render_diff against (I(θ+h) − I(θ−h)) / 2h with common random numbers, over
+    seeds: the mean difference per aggregate vanishes within its standard error (plus the
+    differences' truncation error, estimated from steps h and 2h)."""
+    s = scene("diff_room.toml")
+    d, f1, f2 = [], [], []
+    for seed in range(12):
+        ad = dt.render_diff(s, [param], spp=4, seed=seed).derivatives[param]
+        at = lambda v: _blocks(dt.render(s.with_params({param: v}), spp=4, seed=seed).transient)
+        fd1 = (at(value + h) - at(value - h)) / (2 * h)
+        fd2 = (at(value + 2 * h) - at(value - 2 * h)) / (4 * h)
+        d.append(_blocks(ad) - fd1)
+        f1.append(fd1)
+        f2.append(fd2)
+    d, f1, f2 = map(np.array, (d, f1, f2))
+    mean, se = d.mean(axis=0), d.std(axis=0, ddof=1) / np.sqrt(len(d))
+    trunc = np.abs((f2 - f1).mean(axis=0)) / 3
+    used = (se > 0) | (mean != 0)
+    z = mean[used] / (se[used] + trunc[used] + 1e-9 * np.abs(f1).max())
+    assert np.abs(z).max() < 6, (param, z)
+    assert (z**2).sum() < used.sum() + 6 * np.sqrt(2 * used.sum()) + 10, (param, z)
+    signal = np.abs(f1.mean(axis=0)) / (f1.std(axis=0, ddof=1) / np.sqrt(len(f1)) + 1e-30)
+    assert signal.max() > 10, "the derivative must be distinguishable from zero"
+
+
+def test_gradient_is_the_contraction_of_the_derivatives():
+    """gradient(scene, params, A) = Σ A·dI/dθ_k from render_diff on the same samples."""
+    s = scene("diff_room.toml")
+    params = ["albedo", "intensity", "eta"]
+    rng = np.random.default_rng(5)
+    a = rng.standard_normal(s.shape).astype(np.float32)
+    d = dt.render_diff(s, params, spp=2, seed=9)
+    g, stats = dt.gradient(s, params, a, spp=2, seed=9)
+    assert g.dtype == np.float64 and g.shape == (3,)
+    for k, p in enumerate(params):
+        want = float((a.astype(np.float64) * d.derivatives[p]).sum())
+        assert abs(g[k] - want) <= 1e-4 * (np.abs(a) * np.abs(d.derivatives[p])).sum() + 1e-9, (p, g[k], want)
+    assert stats["paths"] > 0
+
+
+def test_parameters_are_set_by_reloading():
+    s = scene("diff_room.toml")
+    assert s.params["albedo"] == pytest.approx(0.6)
+    t = s.with_params({"albedo": 0.3})
+    assert t.params["albedo"] == pytest.approx(0.3) and s.params["albedo"] == pytest.approx(0.6)
+    lo = dt.render(t, spp=2, seed=1).transient.sum()
+    hi = dt.render(s, spp=2, seed=1).transient.sum()
+    assert 0 < lo < hi
+
+
+def test_scene_from_a_dict():
+    import json
+    import tomllib
+
+    desc = tomllib.loads((SCENES / "diff_room.toml").read_text())
+    s = dt.Scene.from_dict(json.loads(json.dumps(desc)), base_dir=SCENES)
+    a = dt.render(s, spp=2, seed=4).transient
+    b = dt.render(scene("diff_room.toml"), spp=2, seed=4).transient
+    assert np.array_equal(a, b)
+
+
+def test_errors_carry_the_renderers_messages(tmp_path):
+    with pytest.raises(dt.SceneError, match="nope.toml"):
+        dt.Scene.load(tmp_path / "nope.toml")
+    bad = tmp_path / "bad.toml"
+    bad.write_text((SCENES / "diff_room.toml").read_text().replace("value = 0.6", "value = -3.0"))
+    with pytest.raises(dt.SceneError, match="bad.toml"):
+        dt.Scene.load(bad)
+    s = scene("diff_room.toml")
+    with pytest.raises(dt.SceneError, match="no parameter named \"nope\""):
+        s.with_params({"nope": 1.0})
+    with pytest.raises(dt.RenderError, match="shape"):
+        dt.gradient(s, ["albedo"], np.zeros((2, 2, 2, 1), np.float32))
+    with pytest.raises(dt.RenderError, match="estimators"):
+        dt.render_diff(s, ["albedo"], estimators="some")
+    with pytest.raises(dt.RenderError):
+        dt.render_diff(s, ["no_such_param"])
+
+
+def test_renders_release_the_gil():
+    """While a render runs in another thread, this thread keeps running Python: no gap between
+    its loop iterations comes near the render's duration."""
+    s = scene("cornell_box.toml")
+    done = {}
+
+    def work():
+        t0 = time.perf_counter()
+        dt.render(s, spp=48, threads=1)
+        done["seconds"] = time.perf_counter() - t0
+
+    th = threading.Thread(target=work)
+    last, gap = time.perf_counter(), 0.0
+    th.start()
+    while th.is_alive():
+        now = time.perf_counter()
+        gap, last = max(gap, now - last), now
+    th.join()
+    assert done["seconds"] > 0.1, "the render is too short to tell"
+    assert gap < done["seconds"] / 3, (gap, done["seconds"])
+
+
+def test_torch_adapter_backward_is_the_adjoint():
+    torch = pytest.importorskip("torch")
+    from difftransient.torch import render
+
+    s = scene("diff_room.toml")
+    names = ["albedo", "intensity"]
+    target = torch.from_numpy(dt.render(s.with_params({"albedo": 0.5, "intensity": 4.0}), spp=8, seed=2).transient)
+    theta = torch.tensor([0.6, 5.0], dtype=torch.float64, requires_grad=True)
+    image = render(s, names, theta, spp=4, seed=7)
+    assert image.shape == s.shape and image.dtype == torch.float32
+    loss = ((image - target) ** 2).sum()
+    loss.backward()
+    # the same adjoint by hand: ∂loss/∂I = 2 (I − target), on the backward pass's seed
+    adj = (2 * (image.detach() - target)).numpy()
+    g, _ = dt.gradient(s.with_params({"albedo": 0.6, "intensity": 5.0}), names, adj, spp=4, seed=8)
+    np.testing.assert_allclose(theta.grad.numpy(), g, rtol=1e-6)
+    assert theta.grad.dtype == torch.float64
+    # both too bright: the loss falls as albedo and intensity fall
+    assert (theta.grad.numpy() > 0).all()

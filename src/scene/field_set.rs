@@ -1,0 +1,185 @@
+//! `--set PATH=VALUE` for any number in a scene description, not only `[[param]]` values: the
+//! film window (`film.start_opl`, `film.bins`), the camera (`camera.fov`,
+//! `camera.resolution.0`), the integrator (`integrator.spp`, `integrator.max_bounces`) or a
+//! field of a named entry (`material.white.albedo.1`, `shape.box.translate.2`,
+//! `emitter.lamp.radiance`).
+//!
+//! A path is dotted: table keys, then for the arrays of entries (`material`, `shape`,
+//! `emitter`, `param`, ...) the entry's `name`, then for arrays of numbers an index. The value
+//! replaces the number there (an integer field takes integers only); a missing key of an
+//! existing table is added, so optional fields can be set too (`integrator.rr_depth`). The
+//! description is then checked as if the file said so: a bad value is reported like a bad value
+//! in the file. A name without a dot is a `[[param]]` (`params::resolve`).
+
+use super::SceneError;
+use serde_json::{Map, Value};
+use std::path::Path;
+
+/// Whether `name` addresses a field (a dotted path) rather than a `[[param]]`.
+pub(crate) fn is_field_path(name: &str) -> bool {
+    name.contains('.')
+}
+
+/// Sets each `(path, value)` of `sets` in the description tree `raw`.
+pub(crate) fn apply(raw: &mut Value, sets: &[(String, f64)], source: &Path) -> Result<(), SceneError> {
+    for (name, value) in sets {
+        let err = |message: String| SceneError::Override {
+            path: source.to_path_buf(),
+            name: name.clone(),
+            message,
+        };
+        if !value.is_finite() {
+            return Err(err(format!("value must be a finite number (got {value})")));
+        }
+        let segs: Vec<&str> = name.split('.').collect();
+        if segs.iter().any(|s| s.is_empty()) {
+            return Err(err(
+                "expected a dotted path such as film.bins or camera.resolution.0".into()
+            ));
+        }
+        let slot = find(raw, &segs).map_err(err)?;
+        *slot = number(slot, *value).map_err(err)?;
+    }
+    Ok(())
+}
+
+/// The value at `segs` (a missing last key of a table is created as null).
+fn find<'a>(root: &'a mut Value, segs: &[&str]) -> Result<&'a mut Value, String> {
+    let mut here = root;
+    let mut at = String::new();
+    let mut i = 0;
+    while i < segs.len() {
+        let seg = segs[i];
+        let last = i + 1 == segs.len();
+        let shown = if at.is_empty() {
+            "the scene".to_string()
+        } else {
+            at.clone()
+        };
+        // where to step, decided on a shared borrow; then one mutable step
+        let index = match &*here {
+            Value::Object(map) => {
+                if !map.contains_key(seg) && !last {
+                    return Err(format!("{shown} has no {seg:?} (it has {})", keys(map)));
+                }
+                None
+            }
+            Value::Array(items) if items.iter().all(Value::is_object) => {
+                let names: Vec<&str> = items.iter().filter_map(|e| e.get("name")?.as_str()).collect();
+                match names.iter().position(|n| *n == seg) {
+                    Some(k) => Some(k),
+                    None => {
+                        return Err(format!(
+                            "{shown} has no entry named {seg:?} (names: {})",
+                            names.join(", ")
+                        ));
+                    }
+                }
+            }
+            Value::Array(items) => {
+                let n = items.len();
+                match seg.parse::<usize>() {
+                    Ok(k) if k < n => Some(k),
+                    _ => {
+                        return Err(format!(
+                            "{shown} is a list of {n}: address an element by index 0 to {}",
+                            n.max(1) - 1
+                        ));
+                    }
+                }
+            }
+            _ => return Err(format!("{shown} is a single value: it has no {seg:?}")),
+        };
+        here = match (here, index) {
+            (Value::Object(map), None) => map.entry(seg.to_string()).or_insert(Value::Null),
+            (Value::Array(items), Some(k)) => &mut items[k],
+            _ => unreachable!("decided above"),
+        };
+        at = if at.is_empty() {
+            seg.to_string()
+        } else {
+            format!("{at}.{seg}")
+        };
+        i += 1;
+    }
+    Ok(here)
+}
+
+fn keys(map: &Map<String, Value>) -> String {
+    map.keys().map(String::as_str).collect::<Vec<_>>().join(", ")
+}
+
+/// `value` in the type of the number it replaces (integers stay integers; new keys take
+/// integers when `value` is one).
+fn number(old: &Value, value: f64) -> Result<Value, String> {
+    let integral = value.fract() == 0.0 && value.abs() < 2f64.powi(53);
+    match old {
+        Value::Number(n) if n.is_f64() => Ok(Value::from(value)),
+        Value::Number(_) | Value::Null if integral => Ok(if value < 0.0 {
+            Value::from(value as i64)
+        } else {
+            Value::from(value as u64)
+        }),
+        Value::Number(_) => Err(format!("expected a whole number, got {value}")),
+        Value::Null => Ok(Value::from(value)),
+        Value::Array(a) => Err(format!(
+            "is a list of {}: set one element (append .0 to .{})",
+            a.len(),
+            a.len() - 1
+        )),
+        other => Err(format!("is not a number (it is {other}): only numbers can be set")),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use serde_json::json;
+
+    fn set(v: &mut Value, name: &str, x: f64) -> Result<(), String> {
+        apply(v, &[(name.to_string(), x)], Path::new("s.toml")).map_err(|e| e.to_string())
+    }
+
+    #[test]
+    fn paths_reach_tables_named_entries_and_list_elements() {
+        let mut v = json!({
+            "film": {"bins": 200, "start_opl": 3.6},
+            "camera": {"resolution": [64, 64], "fov": 39.3},
+            "material": [{"name": "white", "albedo": [0.7, 0.7, 0.7]}, {"name": "red", "albedo": 0.5}],
+            "integrator": {"spp": 16}
+        });
+        set(&mut v, "film.bins", 50.0).unwrap();
+        set(&mut v, "film.start_opl", 4.0).unwrap();
+        set(&mut v, "camera.resolution.1", 32.0).unwrap();
+        set(&mut v, "material.white.albedo.2", 0.25).unwrap();
+        set(&mut v, "material.red.albedo", 0.125).unwrap();
+        set(&mut v, "integrator.rr_depth", 3.0).unwrap();
+        assert_eq!(v["film"]["bins"], json!(50));
+        assert_eq!(v["film"]["start_opl"], json!(4.0));
+        assert_eq!(v["camera"]["resolution"], json!([64, 32]));
+        assert_eq!(v["material"][0]["albedo"], json!([0.7, 0.7, 0.25]));
+        assert_eq!(v["material"][1]["albedo"], json!(0.125));
+        assert_eq!(v["integrator"]["rr_depth"], json!(3));
+    }
+
+    #[test]
+    fn bad_paths_say_what_is_there() {
+        let mut v = json!({"film": {"bins": 200}, "camera": {"resolution": [64, 64]},
+                           "material": [{"name": "white", "albedo": 0.7}]});
+        let e = set(&mut v, "flim.bins", 1.0).unwrap_err();
+        assert!(e.contains("has no \"flim\"") && e.contains("film"), "{e}");
+        let e = set(&mut v, "material.black.albedo", 1.0).unwrap_err();
+        assert!(e.contains("no entry named \"black\"") && e.contains("white"), "{e}");
+        let e = set(&mut v, "camera.resolution", 32.0).unwrap_err();
+        assert!(e.contains("list of 2"), "{e}");
+        let e = set(&mut v, "camera.resolution.2", 32.0).unwrap_err();
+        assert!(e.contains("index 0 to 1"), "{e}");
+        let e = set(&mut v, "film.bins", 2.5).unwrap_err();
+        assert!(e.contains("whole number"), "{e}");
+        let e = set(&mut v, "film.bins", f64::NAN).unwrap_err();
+        assert!(e.contains("finite"), "{e}");
+        let e = set(&mut v, "film..bins", 1.0).unwrap_err();
+        assert!(e.contains("dotted path"), "{e}");
+        assert!(e.contains("s.toml") && e.contains("film..bins"), "{e}");
+    }
+}

@@ -1,0 +1,64 @@
+//! `dtr`'s exit status tells bad input (2) from an output that could not be written (3) and
+//! from success (0); an interrupted render exits with 128 + the signal (tests/cli_output_safety.rs,
+//! tests/cli_checkpoint.rs).
+
+mod common;
+use std::path::Path;
+
+fn code(args: &[&str], cwd: &Path) -> (Option<i32>, String) {
+    let o = common::dtr(args, cwd);
+    (o.status.code(), String::from_utf8_lossy(&o.stderr).into_owned())
+}
+
+#[test]
+fn exit_status_names_what_failed() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let scene = common::scene_path("diff_room.toml");
+    let s = scene.to_str().unwrap();
+
+    assert_eq!(code(&["render", s, "--spp", "1", "-o", "ok"], d).0, Some(0));
+
+    // bad input: usage, a missing or invalid scene, an unknown parameter, an option out of range
+    for args in [
+        vec!["render", s, "--no-such-flag"],
+        vec!["render", "missing.toml", "-o", "x"],
+        vec!["render", s, "--set", "nope=1", "-o", "x"],
+        vec!["render", s, "--threads", "0", "-o", "x"],
+        vec!["render", s, "--diff", "nope", "-o", "x"],
+    ] {
+        let (c, err) = code(&args, d);
+        assert_eq!(c, Some(2), "{args:?}: {err}");
+    }
+    let bad = d.join("bad.toml");
+    std::fs::write(
+        &bad,
+        std::fs::read_to_string(&scene)
+            .unwrap()
+            .replace("value = 0.6", "value = -3.0"),
+    )
+    .unwrap();
+    let (c, err) = code(&["render", bad.to_str().unwrap(), "-o", "x"], d);
+    assert_eq!(c, Some(2), "{err}");
+
+    // an output the file system refuses: its folder would have to be made inside a file
+    std::fs::write(d.join("file"), b"not a folder").unwrap();
+    let (c, err) = code(&["render", s, "--spp", "1", "-o", "file/sub/x"], d);
+    assert_eq!(c, Some(3), "{err}");
+    assert!(err.contains("cannot create the output folder"), "{err}");
+}
+
+/// `dtr completions SHELL` prints a script that completes the subcommands and their options.
+#[test]
+fn completions_cover_the_subcommands_and_options() {
+    let dir = tempfile::tempdir().unwrap();
+    for shell in ["bash", "zsh", "fish"] {
+        let o = common::dtr(&["completions", shell], dir.path());
+        assert!(o.status.success());
+        let script = String::from_utf8_lossy(&o.stdout);
+        for word in ["render", "merge", "optimize", "spp", "preview", "normalise"] {
+            assert!(script.contains(word), "{shell} completions lack {word}");
+        }
+    }
+    assert_eq!(common::dtr(&["completions", "nosh"], dir.path()).status.code(), Some(2));
+}

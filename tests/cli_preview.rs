@@ -1,0 +1,157 @@
+//! `dtr render --preview` pictures of light in flight (issue 15): the animation has a frame
+//! per bin in the film's display mapping, the streak image is the chosen row against time,
+//! derivative previews carry the derivative's sign, and the HDR steady image is the time sum.
+
+mod common;
+use image::AnimationDecoder;
+use image::codecs::gif::GifDecoder;
+use std::path::Path;
+
+const SCENE: &str = "shadow_hidden_occluder.toml";
+
+fn npy(path: &Path) -> (Vec<u64>, Vec<f32>) {
+    let bytes = std::fs::read(path).unwrap();
+    let f = npyz::NpyFile::new(&bytes[..]).unwrap();
+    let shape = f.shape().to_vec();
+    (shape, f.into_vec().unwrap())
+}
+
+fn frames(path: &Path) -> Vec<image::RgbaImage> {
+    let dec = GifDecoder::new(std::io::BufReader::new(std::fs::File::open(path).unwrap())).unwrap();
+    dec.into_frames()
+        .collect_frames()
+        .unwrap()
+        .into_iter()
+        .map(|f| f.into_buffer())
+        .collect()
+}
+
+fn render(dir: &Path, extra: &[&str]) -> std::path::PathBuf {
+    let scene = common::scene_path(SCENE);
+    let prefix = dir.join("p");
+    let mut args = vec![
+        "render",
+        scene.to_str().unwrap(),
+        "--spp",
+        "16",
+        "--preview",
+        "-o",
+        prefix.to_str().unwrap(),
+    ];
+    args.extend_from_slice(extra);
+    let out = common::dtr(&args, dir);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    prefix
+}
+
+fn with(prefix: &Path, suffix: &str) -> std::path::PathBuf {
+    prefix.with_file_name(format!("p.{suffix}"))
+}
+
+#[test]
+fn previews_show_the_film_in_time_and_the_derivatives_sign() {
+    let dir = tempfile::tempdir().unwrap();
+    let prefix = render(dir.path(), &["--diff", "occluder_x", "--pixel", "16,20"]);
+    let (shape, film) = npy(&with(&prefix, "npy"));
+    let [h, w, bins, ch] = [shape[0], shape[1], shape[2], shape[3]].map(|v| v as usize);
+    let at = |y: usize, x: usize, t: usize, c: usize| film[((y * w + x) * bins + t) * ch + c];
+
+    // the animation: one frame per bin, the film enlarged; an empty bin is a black frame, and
+    // the brightest value of the film reaches display white
+    let gif = frames(&with(&prefix, "flight.gif"));
+    assert_eq!(gif.len(), bins);
+    let up = gif[0].width() as usize / w;
+    assert!(up >= 1 && gif[0].height() as usize == h * up);
+    let (mut peak_bin, mut peak) = (0, 0.0f32);
+    for t in 0..bins {
+        let max = (0..h * w).map(|p| at(p / w, p % w, t, 0)).fold(0.0f32, f32::max);
+        let lit = gif[t].pixels().any(|p| p.0[0] > 0);
+        if max == 0.0 {
+            assert!(!lit, "bin {t} is empty but its frame is not black");
+        }
+        if max > peak {
+            (peak_bin, peak) = (t, max);
+        }
+    }
+    assert!(peak > 0.0);
+    assert!(
+        gif[peak_bin].pixels().any(|p| p.0[0] == 255),
+        "the brightest bin does not reach white"
+    );
+
+    // the streak image: row 20, x across, one image row per bin; black where the film is 0
+    let streak = image::open(with(&prefix, "streak.png")).unwrap().to_rgb8();
+    assert_eq!((streak.width() as usize, streak.height() as usize), (w * up, bins));
+    for t in 0..bins {
+        for x in 0..w {
+            let v = streak.get_pixel((x * up) as u32, t as u32).0[0];
+            if at(20, x, t, 0) == 0.0 {
+                assert_eq!(v, 0, "streak ({x}, {t}) is lit where the film is 0");
+            }
+        }
+    }
+    assert!(streak.pixels().any(|p| p.0[0] > 0));
+
+    // the derivative preview: red where dI/dθ integrates positive, blue where negative
+    let (_, d) = npy(&with(&prefix, "d_occluder_x.npy"));
+    let sum = |p: usize| (0..bins).map(|t| d[p * bins + t] as f64).sum::<f64>();
+    let (pmax, pmin) = (0..h * w).fold((0, 0), |(a, b), p| {
+        (if sum(p) > sum(a) { p } else { a }, if sum(p) < sum(b) { p } else { b })
+    });
+    assert!(
+        sum(pmax) > 0.0 && sum(pmin) < 0.0,
+        "the shadow edge moves: both signs expected"
+    );
+    let dp = image::open(with(&prefix, "d_occluder_x.png")).unwrap().to_rgb8();
+    let px = |p: usize| dp.get_pixel(((p % w) * up) as u32, ((p / w) * up) as u32).0;
+    let (pos, neg) = (px(pmax), px(pmin));
+    assert!(pos[0] == 255 && pos[2] < 255, "positive derivative not red: {pos:?}");
+    assert!(neg[2] == 255 && neg[0] < 255, "negative derivative not blue: {neg:?}");
+
+    // the HDR steady image is the time sum of the transient (window mode)
+    let (sshape, steady) = npy(&with(&prefix, "steady.npy"));
+    assert_eq!(sshape, vec![h as u64, w as u64, ch as u64]);
+    for p in 0..h * w {
+        let s: f64 = (0..bins).map(|t| at(p / w, p % w, t, 0) as f64).sum();
+        assert!(
+            (steady[p] as f64 - s).abs() <= 1e-5 * s.abs().max(1e-6),
+            "pixel {p}: {} vs {s}",
+            steady[p]
+        );
+    }
+}
+
+#[test]
+fn per_frame_normalisation_brings_every_lit_frame_to_white() {
+    let dir = tempfile::tempdir().unwrap();
+    let prefix = render(dir.path(), &["--normalise", "frame"]);
+    let (shape, film) = npy(&with(&prefix, "npy"));
+    let [h, w, bins] = [shape[0], shape[1], shape[2]].map(|v| v as usize);
+    let gif = frames(&with(&prefix, "flight.gif"));
+    let mut lit_frames = 0;
+    for t in 0..bins {
+        let lit = (0..h * w).any(|p| film[p * bins + t] > 0.0);
+        if lit {
+            lit_frames += 1;
+            assert!(
+                gif[t].pixels().any(|p| p.0[0] == 255),
+                "lit bin {t} does not reach white"
+            );
+        }
+    }
+    assert!(lit_frames >= 2);
+    let bad = common::dtr(
+        &[
+            "render",
+            common::scene_path(SCENE).to_str().unwrap(),
+            "--preview",
+            "--normalise",
+            "some",
+            "-o",
+            "x",
+        ],
+        dir.path(),
+    );
+    assert!(!bad.status.success());
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("normalise"));
+}
