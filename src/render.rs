@@ -396,6 +396,47 @@ fn available_memory() -> Option<u128> {
     Some(kib * 1024)
 }
 
+/// Refuses what the materials beyond Lambertian do not support yet, naming the material:
+/// BDPT with a Dirac lobe (smooth conductor or dielectric: its vertices would need delta
+/// flags in the MIS densities); derivatives through a Dirac lobe (smooth conductor or dielectric:
+/// the material-form vertices of Algorithm 1 cannot move along a specular chain, and the
+/// boundary theory assumes no Dirac BSDFs, supplemental assumption A.4); and the boundary stage
+/// (a parameter that moves geometry) with any of them, whose scalar subpaths are Lambertian
+/// (`--estimators interior` runs the interior alone).
+fn check_materials(scene: &Scene, motion: &Motion, kind: IntegratorKind, boundary: BoundaryMode) -> Result<(), Error> {
+    let Some(m) = scene.materials.iter().find(|m| !m.material.is_diffuse()) else {
+        return Ok(());
+    };
+    let what = format!("material {:?} (type {})", m.name, m.material.type_name());
+    let refuse = |why: String| Err(Error::Invalid(format!("{}: {why}", scene.source.display())));
+    if kind == IntegratorKind::Bdpt
+        && let Some(d) = scene.first_delta_material()
+    {
+        return refuse(format!(
+            "material {:?} (type {}) is smooth (a Dirac lobe), which BDPT does not support yet; render with [integrator] kind = \"path\" or use type rough{}",
+            d.name,
+            d.material.type_name(),
+            d.material.type_name()
+        ));
+    }
+    if !motion.is_empty() {
+        if let Some(d) = scene.first_delta_material() {
+            return refuse(format!(
+                "material {:?} (type {}) is smooth (a Dirac lobe): derivatives through it are not supported; use type rough{} with a roughness > 0",
+                d.name,
+                d.material.type_name(),
+                d.material.type_name()
+            ));
+        }
+        if motion.moves_geometry() && boundary != BoundaryMode::InteriorOnly {
+            return refuse(format!(
+                "{what}: the boundary stage (needed by a parameter that moves geometry) supports diffuse materials only so far; differentiate another parameter or pass --estimators interior"
+            ));
+        }
+    }
+    Ok(())
+}
+
 /// Refuses a render whose films cannot fit in the memory available, before anything is
 /// allocated (such films used to abort the process with SIGABRT), naming the size and the
 /// fields that cause it.
@@ -616,6 +657,7 @@ impl<'s> Run<'s> {
         if scene.nlos.is_some() {
             check_nlos(scene, &motion, kind, opts)?;
         }
+        check_materials(scene, &motion, kind, opts.boundary)?;
         check_memory(
             scene,
             if derivative_films { derivs } else { 0 },

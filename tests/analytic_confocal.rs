@@ -42,7 +42,9 @@ struct Setup {
 fn setup() -> Setup {
     let mut scene = common::load("confocal_plane.toml");
     scene.film.filter = PixelFilter::Box;
-    let Material::Diffuse { albedo } = scene.materials[0].material;
+    let Material::Diffuse { albedo } = scene.materials[0].material else {
+        panic!("the confocal plane is diffuse")
+    };
     let EmitterKind::Point { position, intensity } = scene.emitters[0].kind else {
         panic!("expected a point light")
     };

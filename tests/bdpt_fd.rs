@@ -23,6 +23,7 @@ fn bdpt(edit: fn(&mut difftransient::Scene)) -> FdCheck {
         integrator: Some(IntegratorKind::Bdpt),
         edit,
         require_signal: true,
+        boundary: difftransient::render::BoundaryMode::Full,
     }
 }
 
@@ -92,6 +93,7 @@ fn splat_plane_with(require_signal: bool, edit: fn(&mut difftransient::Scene)) -
         integrator: Some(IntegratorKind::Bdpt),
         edit,
         require_signal,
+        boundary: difftransient::render::BoundaryMode::Full,
     }
 }
 
@@ -128,6 +130,7 @@ fn laser(integrator: IntegratorKind, edit: fn(&mut difftransient::Scene)) -> FdC
         integrator: Some(integrator),
         edit,
         require_signal: true,
+        boundary: difftransient::render::BoundaryMode::Full,
     }
 }
 

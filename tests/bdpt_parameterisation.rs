@@ -42,6 +42,7 @@ fn with_filter(scene: &'static str, spp: u32, filter: usize) -> FdCheck {
         integrator: Some(IntegratorKind::Bdpt),
         edit,
         require_signal: false,
+        boundary: difftransient::render::BoundaryMode::Full,
     }
 }
 

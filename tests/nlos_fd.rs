@@ -18,6 +18,7 @@ fn check(name: &str, value: f32, h: f32, edit: fn(&mut difftransient::Scene)) {
         integrator: None,
         edit,
         require_signal: true,
+        boundary: difftransient::render::BoundaryMode::Full,
     }
     .check(name, value, h);
 }

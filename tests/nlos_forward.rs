@@ -15,8 +15,12 @@ use difftransient::{RenderOptions, Scene, Transient, render};
 /// The closed-form transient of sensor point (sx, sy) (on the wall z = 0) for the patch
 /// [-a, a]² at height z, per bin of `axis`.
 fn closed_form(scene: &Scene, s: (f64, f64), z: f64, a: f64) -> Vec<f64> {
-    let Material::Diffuse { albedo: rw } = scene.materials[0].material;
-    let Material::Diffuse { albedo: rh } = scene.materials[1].material;
+    let Material::Diffuse { albedo: rw } = scene.materials[0].material else {
+        panic!("the NLOS test scene\'s materials are diffuse")
+    };
+    let Material::Diffuse { albedo: rh } = scene.materials[1].material else {
+        panic!("the NLOS test scene\'s materials are diffuse")
+    };
     let EmitterKind::Laser { power, .. } = scene.emitters[0].kind else {
         panic!("a laser")
     };
@@ -210,7 +214,9 @@ fn sensor_projection_reproduces_the_closed_form() {
     let device = difftransient::accel::Device::new("").unwrap();
     let ctx = difftransient::integrator::RenderContext::new(&scene, &device).unwrap();
     let sensor = ctx.nlos.as_ref().unwrap();
-    let Material::Diffuse { albedo: rh } = scene.materials[1].material;
+    let Material::Diffuse { albedo: rh } = scene.materials[1].material else {
+        panic!("the NLOS test scene\'s materials are diffuse")
+    };
     let (z, a, n) = (0.5f64, 0.1f64, 400);
     for (i, s) in scene.nlos.as_ref().unwrap().sensors.points.iter().enumerate() {
         let spot = sensor.spots[i].as_ref().expect("the laser meets the wall");
@@ -243,8 +249,12 @@ fn sensor_projection_reproduces_the_closed_form() {
 
 /// The closed form summed over all time (no time axis).
 fn closed_form_unbinned(scene: &Scene, s: (f64, f64), z: f64, a: f64) -> f64 {
-    let Material::Diffuse { albedo: rw } = scene.materials[0].material;
-    let Material::Diffuse { albedo: rh } = scene.materials[1].material;
+    let Material::Diffuse { albedo: rw } = scene.materials[0].material else {
+        panic!("the NLOS test scene\'s materials are diffuse")
+    };
+    let Material::Diffuse { albedo: rh } = scene.materials[1].material else {
+        panic!("the NLOS test scene\'s materials are diffuse")
+    };
     let EmitterKind::Laser { power, .. } = scene.emitters[0].kind else {
         panic!("a laser")
     };

@@ -5,26 +5,15 @@
 //! of OPL earlier or later) recovers both from the same start.
 
 mod common;
-use difftransient::RenderOptions;
-use difftransient::optimize::{Problem, loss::Loss};
+use difftransient::optimize::loss::Loss;
 
 fn run(loss: Loss) -> Vec<f64> {
-    let scene = common::scene_path("diff_room.toml");
-    let target = common::converged_target(&scene);
-    let p = Problem {
-        scene,
-        fixed: vec![],
-        params: vec!["room_z".into(), "albedo".into()],
-        target,
+    let p = common::small_problem(
+        "diff_room.toml",
+        &["room_z", "albedo"],
         loss,
-        opts: RenderOptions {
-            spp: Some(4),
-            seed: Some(1),
-            threads: Some(2),
-            ..Default::default()
-        },
-        bounds: vec![(-1.0, 1.0), (0.01, 1.0)],
-    };
+        vec![(-1.0, 1.0), (0.01, 1.0)],
+    );
     let steps = p.optimize(&[0.3, 0.5], 150, &[0.02, 0.02], 0.1, |_| true).unwrap();
     let last = steps.last().unwrap();
     eprintln!("{loss:?}: {:?} → {:?}", steps[0].values, last.values);

@@ -1,7 +1,9 @@
 #!/usr/bin/env python3
 """Peer comparison against mitransient (Mitsuba 3, LLVM backend, CPU). Optional, not in CI.
 
-Setup and run with benches/peer/run.sh. It renders scenes/cornell_box.toml with `dtr` and the
+Setup and run with benches/peer/run.sh. It renders scenes/cornell_box.toml (or PEER_SCENE, a file
+in scenes/ made of rectangles and cubes: e.g. cornell_gold.toml, whose rough conductor maps to
+Mitsuba's `roughconductor` with the GGX distribution) with `dtr` and the
 same scene, rebuilt from the TOML, with mitransient's transient_path integrator at equal
 settings (resolution, bins, bin width, start, max depth = max_bounces + 1, Russian roulette
 off, box pixel filter, camera segment counted). It checks first that the two transients agree
@@ -24,7 +26,7 @@ mi.set_variant("llvm_ad_rgb")
 import mitransient as mitr  # noqa: E402,F401
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-SCENE = os.path.join(ROOT, "scenes", "cornell_box.toml")
+SCENE = os.path.join(ROOT, "scenes", os.environ.get("PEER_SCENE", "cornell_box.toml"))
 DTR = os.path.join(ROOT, "target", "release", "dtr")
 SPP = int(os.environ.get("PEER_SPP", "64"))
 # independent seeds per renderer for the agreement test (standard errors from their spread)
@@ -53,6 +55,25 @@ def to_world(s):
             @ T().rotate([1, 0, 0], r[0]) @ T().scale(sc))
 
 
+def bsdf(m):
+    """Mitsuba's BSDF for one [[material]] (diffuse and conductors: the peer's lobes are
+    one-sided, ours two-sided, which closed shapes seen from outside do not tell apart)."""
+    t = m["type"]
+    if t == "diffuse":
+        return {"type": "diffuse", "reflectance": {"type": "rgb", "value": rgb(m["albedo"])}}
+    if t in ("roughconductor", "conductor"):
+        b = {"type": t, "specular_reflectance": {"type": "rgb", "value": rgb(m.get("specular_reflectance", 1.0))}}
+        if t == "roughconductor":
+            b.update(distribution="ggx", alpha=float(m["roughness"]))
+        if "eta" in m:
+            b["eta"] = {"type": "rgb", "value": rgb(m["eta"])}
+            b["k"] = {"type": "rgb", "value": rgb(m["k"])}
+        else:
+            b["material"] = "none"
+        return b
+    sys.exit(f"material type {t} is not mapped to Mitsuba here")
+
+
 def mitsuba_scene(d, max_depth):
     cam, film = d["camera"], d["film"]
     w, h = cam.get("resolution", [64, 64])
@@ -73,7 +94,7 @@ def mitsuba_scene(d, max_depth):
                      "bin_width_opl": float(film["bin_width_opl"])},
         },
     }
-    mats = {m["name"]: {"type": "diffuse", "reflectance": {"type": "rgb", "value": rgb(m["albedo"])}} for m in d["material"]}
+    mats = {m["name"]: bsdf(m) for m in d["material"]}
     emit = {e["shape"]: e for e in d.get("emitter", []) if e["type"] == "area"}
     for s in d["shape"]:
         kind = {"rectangle": "rectangle", "cube": "cube"}[s["type"]]

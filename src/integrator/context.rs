@@ -35,6 +35,9 @@ pub struct RenderContext<'a> {
     pub opl_budget: Option<f32>,
     /// The relay-wall sensor and laser spots of an NLOS capture (`super::nlos`).
     pub nlos: Option<super::nlos::NlosSensor>,
+    /// Whether every material is Lambertian (`Scene::diffuse_only`): the kernels then keep
+    /// their diffuse-only path.
+    pub diffuse_only: bool,
 }
 
 impl<'a> RenderContext<'a> {
@@ -63,11 +66,12 @@ impl<'a> RenderContext<'a> {
             .iter()
             .map(|&s| scene.shapes[s as usize].emitter.unwrap_or(u32::MAX))
             .collect();
-        let emitters = EmitterTable::new(scene, &accel);
+        let emitters = EmitterTable::new(scene, &accel)?;
         let nlos = scene
             .nlos
             .as_ref()
-            .map(|n| super::nlos::NlosSensor::new(scene, n, &accel));
+            .map(|n| super::nlos::NlosSensor::new(scene, n, &accel))
+            .transpose()?;
         let correlations = scene
             .emitters
             .iter()
@@ -88,6 +92,7 @@ impl<'a> RenderContext<'a> {
             steady: SteadyMode::Full,
             opl_budget: None,
             nlos,
+            diffuse_only: scene.diffuse_only(),
         })
     }
 

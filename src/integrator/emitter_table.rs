@@ -33,31 +33,43 @@ pub struct LaserSpot {
 
 /// The spot a laser at `position` aimed along `direction` lights: the first surface its beam
 /// meets (`None` if it meets nothing), radiating Φ·albedo/π·cos θ.
-pub fn laser_spot(scene: &Scene, accel: &Accel, position: Vec3, direction: Vec3, power: [f32; 3]) -> Option<LaserSpot> {
+pub fn laser_spot(
+    scene: &Scene,
+    accel: &Accel,
+    position: Vec3,
+    direction: Vec3,
+    power: [f32; 3],
+) -> Result<Option<LaserSpot>, String> {
     let geo = &scene.geometry;
-    accel
-        .intersect1(position.to_array(), direction.to_array(), 0.0, f32::INFINITY)
-        .map(|h| {
-            let mat = scene.shapes[geo.tri_shape[h.prim as usize] as usize].material;
-            let Material::Diffuse { albedo } = scene.materials[mat as usize].material;
-            let [a, b, c] = geo.indices[h.prim as usize].map(|i| geo.positions[i as usize]);
-            let side = if (b - a).cross(c - a).dot(direction) < 0.0 {
-                1.0
-            } else {
-                -1.0
-            };
-            LaserSpot {
-                side,
-                origin: position,
-                direction: direction.normalize(),
-                prim: h.prim,
-                u: h.u,
-                v: h.v,
-                distance: h.t * direction.length(),
-                intensity: std::array::from_fn(|c| power[c] * albedo[c] * std::f32::consts::FRAC_1_PI),
-                intensity_per_power: albedo.map(|a| a * std::f32::consts::FRAC_1_PI),
-            }
-        })
+    let Some(h) = accel.intersect1(position.to_array(), direction.to_array(), 0.0, f32::INFINITY) else {
+        return Ok(None);
+    };
+    let mat = scene.shapes[geo.tri_shape[h.prim as usize] as usize].material;
+    let material = &scene.materials[mat as usize];
+    let Material::Diffuse { albedo } = material.material else {
+        return Err(format!(
+            "its spot lands on material {:?} of type {}; a laser's spot must be on a diffuse surface",
+            material.name,
+            material.material.type_name()
+        ));
+    };
+    let [a, b, c] = geo.indices[h.prim as usize].map(|i| geo.positions[i as usize]);
+    let side = if (b - a).cross(c - a).dot(direction) < 0.0 {
+        1.0
+    } else {
+        -1.0
+    };
+    Ok(Some(LaserSpot {
+        side,
+        origin: position,
+        direction: direction.normalize(),
+        prim: h.prim,
+        u: h.u,
+        v: h.v,
+        distance: h.t * direction.length(),
+        intensity: std::array::from_fn(|c| power[c] * albedo[c] * std::f32::consts::FRAC_1_PI),
+        intensity_per_power: albedo.map(|a| a * std::f32::consts::FRAC_1_PI),
+    }))
 }
 
 /// One emitter as the sampler sees it (`emitters.rs` reads the variants).
@@ -86,7 +98,9 @@ pub struct EmitterTable {
 }
 
 impl EmitterTable {
-    pub fn new(scene: &Scene, accel: &Accel) -> Self {
+    /// The tables of `scene`'s emitters; a laser whose spot lands on a material that is not
+    /// diffuse is refused (its spot is a Lambertian secondary source).
+    pub fn new(scene: &Scene, accel: &Accel) -> Result<Self, crate::error::Error> {
         let geo = &scene.geometry;
         let entries = scene
             .emitters
@@ -104,28 +118,34 @@ impl EmitterTable {
                     }
                     let area = acc as f32;
                     cdf.iter_mut().for_each(|c| *c /= area.max(1e-30));
-                    Entry::Area {
+                    Ok(Entry::Area {
                         tris,
                         cdf,
                         area,
                         radiance: *radiance,
-                    }
+                    })
                 }
-                EmitterKind::Point { position, intensity } => Entry::Point {
+                EmitterKind::Point { position, intensity } => Ok(Entry::Point {
                     position: *position,
                     intensity: *intensity,
-                },
+                }),
                 EmitterKind::Laser {
                     position,
                     direction,
                     power,
                 } => {
-                    let spot = laser_spot(scene, accel, *position, *direction, *power);
-                    Entry::Laser { spot }
+                    let spot = laser_spot(scene, accel, *position, *direction, *power).map_err(|why| {
+                        crate::error::Error::Invalid(format!(
+                            "{}: emitter {:?} (laser): {why}",
+                            scene.source.display(),
+                            e.name
+                        ))
+                    })?;
+                    Ok(Entry::Laser { spot })
                 }
             })
-            .collect();
-        Self { entries }
+            .collect::<Result<Vec<_>, crate::error::Error>>()?;
+        Ok(Self { entries })
     }
 
     pub fn count(&self) -> usize {

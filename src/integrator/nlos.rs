@@ -59,7 +59,7 @@ pub struct NlosSensor {
 }
 
 impl NlosSensor {
-    pub fn new(scene: &Scene, spec: &NlosSpec, accel: &Accel) -> Self {
+    pub fn new(scene: &Scene, spec: &NlosSpec, accel: &Accel) -> Result<Self, crate::error::Error> {
         let spad = scene.camera.position;
         let EmitterKind::Laser { position, power, .. } = scene.emitters[spec.laser as usize].kind else {
             unreachable!("scene::nlos checks that the scan's emitter is a laser")
@@ -70,8 +70,11 @@ impl NlosSensor {
             .iter()
             .map(|s| {
                 let shape = scene.geometry.tri_shape[s.prim as usize] as usize;
-                let Material::Diffuse { albedo } = scene.materials[scene.shapes[shape].material as usize].material;
-                albedo
+                match scene.materials[scene.shapes[shape].material as usize].material {
+                    Material::Diffuse { albedo } => albedo,
+                    // the scene refuses relay walls that are not diffuse (scene/nlos.rs)
+                    _ => [0.0; 3],
+                }
             })
             .collect();
         // from the SPAD (on no surface) to just short of the wall point
@@ -98,8 +101,9 @@ impl NlosSensor {
             .points
             .iter()
             .map(|l| laser_spot(scene, accel, position, (l.p - position).normalize(), power))
-            .collect();
-        Self {
+            .collect::<Result<Vec<_>, _>>()
+            .map_err(|why| crate::error::Error::Invalid(format!("{}: [nlos] laser: {why}", scene.source.display())))?;
+        Ok(Self {
             laser: spec.laser,
             exhaustive: spec.exhaustive(),
             nx: spec.sensors.nx,
@@ -109,7 +113,7 @@ impl NlosSensor {
             spad_leg,
             spots,
             laser_leg: included,
-        }
+        })
     }
 
     /// The sensor point of film pixel (x, y): the grid cell (confocal) or column x (exhaustive).

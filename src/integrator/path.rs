@@ -13,7 +13,7 @@
 //! carries the derivative of the geometry term G and the area Jacobian J; with plain
 //! numbers that ratio is 1 and is skipped at compile time.
 
-use super::bsdf::{albedo, diffuse_eval};
+use super::bsdf::{Lobes, albedo, diffuse_eval};
 use super::context::RenderContext;
 use super::deposit::{PathCounts, for_each_lane};
 use super::opl::points64;
@@ -21,7 +21,7 @@ use super::power_heuristic;
 use super::sink::Sink;
 use super::surface::surface_at;
 use super::trace::{SegmentEnd, next_hits, shadow_segment, spawn_point, unoccluded};
-use super::transport::{emitter_hits, scatter};
+use super::transport::{emitter_hits, scatter, scatter_lobes};
 use super::window;
 use crate::kernel::{Mask, PathSampler, Real, Spectrum, V3};
 
@@ -152,6 +152,16 @@ pub fn trace_packet_from<R: Real, const C: usize, S: Sink<C>>(
     let mut prev_pdf: V<R> = V::<R>::zero();
     let mut beta = Spectrum::<R, C>::splat(R::one());
     let mut opl = R::zero();
+    // Materials beyond Lambertian (`super::bsdf::Lobes`): the index of the medium each lane
+    // is in (the scene's until a lane refracts), lanes whose last scattering was a delta lobe
+    // or a refraction (emission they find takes no MIS weight: light sampling cannot make
+    // those paths), and the previous vertex's material and direction towards its own
+    // predecessor, for the derivative of its f once this vertex is known. A diffuse-only
+    // scene never touches them past the medium, which stays η.
+    let general = !ctx.diffuse_only;
+    let mut eta_med = eta;
+    let mut no_mis = R::Mask::splat(false);
+    let mut prev_lobes: Option<(Lobes<R, C>, V3<R>)> = None;
     // each lane's OPL in f64 from f64 hit points, when the film needs it (`super::opl`)
     let exact = ctx.opl.f64_paths;
     let mut opl64 = [0.0f64; 8];
@@ -178,10 +188,11 @@ pub fn trace_packet_from<R: Real, const C: usize, S: Sink<C>>(
     }
 
     for depth in 1..=max_bounces + 1 {
-        let x = match surface.filter(|_| depth == 1) {
+        let (x, w_in) = match surface.filter(|_| depth == 1) {
             Some(s) => {
                 x64 = s.p64;
-                start_point::<R>(s)
+                // light arrives at the start point against `out` (`ray_d`)
+                (start_point::<R>(s), V3::from_value(ray_d))
             }
             None => {
                 // the window cut: no hit farther than the OPL left can reach a bin (`super::window`)
@@ -192,7 +203,7 @@ pub fn trace_packet_from<R: Real, const C: usize, S: Sink<C>>(
                     &ray_o,
                     &ray_d,
                     opl.value(),
-                    eta.value(),
+                    eta_med.value(),
                     counted,
                     active,
                     depth == 1,
@@ -220,6 +231,15 @@ pub fn trace_packet_from<R: Real, const C: usize, S: Sink<C>>(
                     let g = cos_prev * cos_i / r2;
                     let ratio = R::safe_div(g, R::from_value(g.value())) * x.jacobian;
                     beta = beta.scale(ratio);
+                    if let Some((lobes, wo)) = &prev_lobes {
+                        // the previous vertex's f, now with both of its directions moving: ḟ/f
+                        let f = lobes.eval(&prev_n, wo, &w_in, true);
+                        let glossy = lobes.glossy();
+                        beta = Spectrum(std::array::from_fn(|c| {
+                            let r = R::safe_div(f.0[c], R::from_value(f.0[c].value()));
+                            R::select(glossy, beta.0[c] * r, beta.0[c])
+                        }));
+                    }
                 }
                 if exact {
                     let u: [f32; 8] = std::array::from_fn(|i| if i < R::LANES { hit.u.lane(i) } else { 0.0 });
@@ -227,10 +247,10 @@ pub fn trace_packet_from<R: Real, const C: usize, S: Sink<C>>(
                     x64 = points64(ctx, R::LANES, &hit.prim, &u, &v);
                 }
                 if counted {
-                    opl += eta * r;
+                    opl += eta_med * r;
                     if exact {
                         for i in 0..R::LANES {
-                            opl64[i] += eta.value().lane(i) as f64 * (x64[i] - prev64[i]).length();
+                            opl64[i] += eta_med.value().lane(i) as f64 * (x64[i] - prev64[i]).length();
                         }
                     }
                 }
@@ -244,7 +264,7 @@ pub fn trace_packet_from<R: Real, const C: usize, S: Sink<C>>(
                         V::<R>::one()
                     } else {
                         let p_l = hits.area_pdf * r2.value() / cos_i.value();
-                        power_heuristic(prev_pdf, p_l)
+                        V::<R>::select(no_mis, V::<R>::one(), power_heuristic(prev_pdf, p_l))
                     };
                     let contrib = (beta * hits.radiance).scale(R::from_value(w));
                     splat(
@@ -260,7 +280,7 @@ pub fn trace_packet_from<R: Real, const C: usize, S: Sink<C>>(
                         counts,
                     );
                 }
-                x
+                (x, w_in)
             }
         };
         if depth > max_bounces {
@@ -269,8 +289,12 @@ pub fn trace_packet_from<R: Real, const C: usize, S: Sink<C>>(
 
         // Next-event estimation: one sampled emitter point, or the laser points of an NLOS
         // scan (the lane's own, or every one in turn: `super::nlos`).
-        let alb = albedo::<R, C>(ctx, &x.prim);
-        let f = diffuse_eval(alb);
+        let lobes = general.then(|| Lobes::<R, C>::gather(ctx, &x.prim));
+        let f = match &lobes {
+            None => diffuse_eval(albedo::<R, C>(ctx, &x.prim)),
+            Some(_) => Spectrum::zero(),
+        };
+        let not_delta = lobes.as_ref().map_or(R::Mask::splat(true), |l| !l.delta);
         let (u0, u1) = sampler.next2::<V<R>>();
         let u2 = sampler.next::<V<R>>();
         for target in 0..nlos.map_or(1, |n| n.laser_points()) {
@@ -296,14 +320,24 @@ pub fn trace_packet_from<R: Real, const C: usize, S: Sink<C>>(
             let incoming_side = x.n.value().dot(-ray_d);
             let same_side = (cos_x_signed.value() * incoming_side).gt(V::<R>::zero());
             let cos_y = R::select(ls.has_cos, -ls.n.dot(wl), R::one());
-            let mut d = opl + eta * (dist + ls.pre_length);
+            // the connection runs in the medium the path is in; the laser's beam and the
+            // sensor point's leg to the SPAD in the scene's
+            let mut d = opl + eta_med * dist + eta * ls.pre_length;
             if let Some(leg) = &spad_leg {
                 d += eta * R::from_lanes(&leg.map(|l| l as f32));
             }
-            let lit = active & ls.valid & same_side & cos_y.value().gt(V::<R>::zero()) & d2.value().gt(V::<R>::zero());
+            let lit = active
+                & ls.valid
+                & same_side
+                & not_delta
+                & cos_y.value().gt(V::<R>::zero())
+                & d2.value().gt(V::<R>::zero());
             let lit = lit & window::within(ctx.opl_budget, d.value());
             if lit.any() {
-                let p_bsdf = cos_x_signed.value().abs() * V::<R>::splat(std::f32::consts::FRAC_1_PI);
+                let p_bsdf = match &lobes {
+                    None => cos_x_signed.value().abs() * V::<R>::splat(std::f32::consts::FRAC_1_PI),
+                    Some(l) => l.value().pdf(&x.n.value(), &-ray_d, &wl.value()),
+                };
                 let p_l = R::Value::safe_div(ls.pdf_area * d2.value(), cos_y.value());
                 let w = V::<R>::select(
                     ls.pdf_area.gt(V::<R>::zero()),
@@ -325,13 +359,19 @@ pub fn trace_packet_from<R: Real, const C: usize, S: Sink<C>>(
                 let lit = lit & visible;
                 if lit.any() {
                     let g = cos_x_signed.abs() * cos_y / d2;
+                    let f = match &lobes {
+                        None => f,
+                        Some(l) => l.eval(&x.n, &-w_in, &wl, true),
+                    };
                     let contrib = (beta * f * ls.weight).scale(g * R::from_value(w));
                     let mut d64 = [0.0f64; 8];
                     if exact {
                         for i in 0..R::LANES {
                             let leg = spad_leg.map_or(0.0, |l| l[i]);
-                            let seg = (ls.p64[i] - x64[i]).length() + ls.pre64[i] + leg;
-                            d64[i] = opl64[i] + eta.value().lane(i) as f64 * seg;
+                            let free = ls.pre64[i] + leg;
+                            d64[i] = opl64[i]
+                                + eta_med.value().lane(i) as f64 * (ls.p64[i] - x64[i]).length()
+                                + eta.value().lane(i) as f64 * free;
                         }
                     }
                     splat(
@@ -352,8 +392,36 @@ pub fn trace_packet_from<R: Real, const C: usize, S: Sink<C>>(
 
         // Continue by sampling the BSDF.
         let n_v = x.n.value();
-        let (dir, pdf) = scatter(ctx, &mut sampler, &n_v, &-ray_d, &f, &mut beta, &mut active, depth);
-        ray_o = spawn_point(&x.p.value(), &n_v, &ray_d, &dir);
+        let (dir, pdf) = match lobes {
+            None => {
+                let (dir, pdf) = scatter(ctx, &mut sampler, &n_v, &-ray_d, &f, &mut beta, &mut active, depth);
+                ray_o = spawn_point(&x.p.value(), &n_v, &ray_d, &dir);
+                (dir, pdf)
+            }
+            Some(l) => {
+                let s = scatter_lobes(
+                    ctx,
+                    &mut sampler,
+                    &l,
+                    &n_v,
+                    &-ray_d,
+                    true,
+                    &mut beta,
+                    &mut active,
+                    depth,
+                );
+                // a refracted ray starts off the far side, not stepped back along its arrival
+                let back = V3::select(s.transmitted, V3::zero(), ray_d);
+                ray_o = spawn_point(&x.p.value(), &n_v, &back, &s.wi);
+                let inside = n_v.dot(s.wi).lt(V::<R>::zero());
+                eta_med = R::select(s.transmitted, R::select(inside, l.eta_int, l.eta_ext), eta_med);
+                no_mis = s.delta | s.transmitted;
+                if R::DERIVS > 0 {
+                    prev_lobes = Some((l, -w_in));
+                }
+                (s.wi, s.pdf)
+            }
+        };
         ray_d = dir;
         prev_p = x.p;
         prev64 = x64;

@@ -5,7 +5,7 @@
 //! subpaths) and BDPT's subpaths (`bdpt/walk.rs`, `bdpt/connect.rs`) call them, so a new BSDF
 //! or emitter is added here for all of them.
 
-use super::bsdf::sample_cosine;
+use super::bsdf::{Lobes, Sampled, sample_cosine};
 use super::context::RenderContext;
 use crate::kernel::{Mask, PathSampler, Real, Spectrum, V3};
 
@@ -84,6 +84,51 @@ pub fn scatter<R: Real, const C: usize>(
     let cos_o = n.dot(dir).abs();
     *beta = (*beta * *f).scale(R::from_value(V::<R>::safe_div(cos_o, pdf)));
     *active = *active & pdf.gt(V::<R>::zero());
+    roulette(ctx, sampler, beta, active, depth);
+    (dir, pdf)
+}
+
+/// The scattering step through any material (`lobes`, gathered at the vertex with normal
+/// `n`, reached from direction `wo`): a direction from [`Lobes::sample`] (three random
+/// dimensions) for radiance (`radiance`: camera paths) or importance transport, β ← β·f·
+/// |cos|/pdf (on Lambertian lanes β·albedo with the albedo's derivative lanes; on the others
+/// the value, their f's derivatives are the caller's to apply once the next vertex is
+/// known), lanes with a zero pdf ended, then Russian roulette as in [`scatter`].
+#[inline]
+#[allow(clippy::too_many_arguments)]
+pub fn scatter_lobes<R: Real, const C: usize>(
+    ctx: &RenderContext,
+    sampler: &mut PathSampler,
+    lobes: &Lobes<R, C>,
+    n: &V3<V<R>>,
+    wo: &V3<V<R>>,
+    radiance: bool,
+    beta: &mut Spectrum<R, C>,
+    active: &mut R::Mask,
+    depth: u32,
+) -> Sampled<V<R>, C> {
+    let (b1, b2) = sampler.next2::<V<R>>();
+    let uc = sampler.next::<V<R>>();
+    let s = lobes.value().sample(n, wo, b1, b2, uc, radiance);
+    let weight = Spectrum(std::array::from_fn(|c| {
+        R::select(lobes.diffuse, lobes.tint.0[c], R::from_value(s.weight.0[c]))
+    }));
+    *beta = *beta * weight;
+    *active = *active & s.pdf.gt(V::<R>::zero());
+    roulette(ctx, sampler, beta, active, depth);
+    s
+}
+
+/// Russian roulette from the scene's `rr_depth` on (one random dimension, drawn whenever
+/// `rr_depth` is set) at path depth `depth`: lanes survive with probability min(1, max β).
+#[inline]
+fn roulette<R: Real, const C: usize>(
+    ctx: &RenderContext,
+    sampler: &mut PathSampler,
+    beta: &mut Spectrum<R, C>,
+    active: &mut R::Mask,
+    depth: u32,
+) {
     if let Some(rr) = ctx.scene.integrator.rr_depth {
         let u = sampler.next::<V<R>>();
         if depth >= rr {
@@ -92,5 +137,4 @@ pub fn scatter<R: Real, const C: usize>(
             *beta = beta.scale(R::from_value(V::<R>::safe_div(V::<R>::one(), q)));
         }
     }
-    (dir, pdf)
 }

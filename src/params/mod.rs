@@ -48,6 +48,10 @@ pub enum ParamKind {
     Eta,
     /// Emission time offset of an emitter, OPL metres.
     PulseOffset { emitter: u32 },
+    /// GGX roughness α of a rough conductor or dielectric.
+    Roughness { material: u32 },
+    /// Interior refractive index of a rough dielectric.
+    Ior { material: u32 },
 }
 
 #[derive(Clone, Debug)]

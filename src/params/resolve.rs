@@ -116,6 +116,7 @@ pub(crate) fn apply_params(
             ParamKindDesc::Albedo => (&["material", "channel"], Some("material")),
             ParamKindDesc::Radiance => (&["emitter", "channel"], Some("emitter")),
             ParamKindDesc::Eta => (&[], None),
+            ParamKindDesc::Roughness | ParamKindDesc::Ior => (&["material"], Some("material")),
             ParamKindDesc::PulseOffset => (&["emitter"], Some("emitter")),
         };
         let given = [
@@ -210,22 +211,42 @@ pub(crate) fn apply_params(
             }
             ParamKindDesc::Albedo => {
                 let m = target(&names.materials, "material", "materials", &p.material)?;
+                use crate::scene::desc::MaterialType;
+                // a diffuse albedo, or a rough conductor's specular reflectance
+                let field = match desc.material[m].ty {
+                    MaterialType::Diffuse => "albedo",
+                    MaterialType::Roughconductor => "specular_reflectance",
+                    ty => {
+                        return Err(ctx.invalid(
+                            at("material"),
+                            format!(
+                                "material {:?} is of type {}; kind albedo applies to diffuse materials (albedo) and roughconductor (specular_reflectance)",
+                                desc.material[m].name,
+                                ty.as_str()
+                            ),
+                        ));
+                    }
+                };
                 if !(0.0..=1.0).contains(&v) {
                     return Err(bad_value(format!("an albedo must be in [0, 1] (got {v})")));
                 }
                 let c = p.channel.map(channel);
                 let mat = &mut desc.material[m];
-                if c.is_none() || mat.albedo.is_some() {
-                    mat.albedo = Some(set_component(mat.albedo, 0.0, c, v as f32));
+                let (slot, default) = match field {
+                    "albedo" => (&mut mat.albedo, 0.0),
+                    _ => (&mut mat.specular_reflectance, 1.0),
+                };
+                if c.is_none() || slot.is_some() || default == 1.0 {
+                    *slot = Some(set_component(*slot, default, c, v as f32));
                 }
-                let loc = item_field("material", m, &mat.name, "albedo");
+                let loc = item_field("material", m, &mat.name, field);
                 (
                     ParamKind::Albedo {
                         material: m as u32,
                         channel: c,
                     },
                     loc,
-                    format!("material {:?} albedo", mat.name),
+                    format!("material {:?} {field}", mat.name),
                     c.map_or(vec![0, 1, 2], |c| vec![c]),
                 )
             }
@@ -263,6 +284,54 @@ pub(crate) fn apply_params(
                     "medium eta".to_string(),
                     vec![0],
                 )
+            }
+            ParamKindDesc::Roughness | ParamKindDesc::Ior => {
+                use crate::scene::desc::MaterialType;
+                let m = target(&names.materials, "material", "materials", &p.material)?;
+                let mat = &mut desc.material[m];
+                let (field, fits, range_ok, expected) = match p.kind {
+                    ParamKindDesc::Roughness => (
+                        "roughness",
+                        matches!(mat.ty, MaterialType::Roughconductor | MaterialType::Roughdielectric),
+                        v > 0.0 && v <= 1.0,
+                        "a roughness (GGX α) must be in (0, 1]",
+                    ),
+                    _ => (
+                        "int_ior",
+                        mat.ty == MaterialType::Roughdielectric,
+                        v > 0.0,
+                        "an index of refraction must be > 0",
+                    ),
+                };
+                if !fits {
+                    let types = match p.kind {
+                        ParamKindDesc::Roughness => "roughconductor or roughdielectric",
+                        _ => "roughdielectric (derivatives through smooth, Dirac lobes are not supported)",
+                    };
+                    return Err(ctx.invalid(
+                        at("material"),
+                        format!(
+                            "material {:?} is of type {}; kind {kind_name} applies to {types}",
+                            mat.name,
+                            mat.ty.as_str()
+                        ),
+                    ));
+                }
+                if !range_ok {
+                    return Err(bad_value(format!("{expected} (got {v})")));
+                }
+                let kind = match p.kind {
+                    ParamKindDesc::Roughness => {
+                        mat.roughness = Some(v as f32);
+                        ParamKind::Roughness { material: m as u32 }
+                    }
+                    _ => {
+                        mat.int_ior = Some(v as f32);
+                        ParamKind::Ior { material: m as u32 }
+                    }
+                };
+                let loc = item_field("material", m, &mat.name, field);
+                (kind, loc, format!("material {:?} {field}", mat.name), vec![0])
             }
             ParamKindDesc::PulseOffset => {
                 let e = target(&names.emitters, "emitter", "emitters", &p.emitter)?;

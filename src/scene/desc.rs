@@ -163,6 +163,37 @@ pub struct GateTable {
 #[serde(rename_all = "lowercase")]
 pub enum MaterialType {
     Diffuse,
+    Roughconductor,
+    Conductor,
+    Roughdielectric,
+    Dielectric,
+}
+
+impl MaterialType {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            MaterialType::Diffuse => "diffuse",
+            MaterialType::Roughconductor => "roughconductor",
+            MaterialType::Conductor => "conductor",
+            MaterialType::Roughdielectric => "roughdielectric",
+            MaterialType::Dielectric => "dielectric",
+        }
+    }
+
+    /// The fields a material of this type takes besides `name` and `type`.
+    pub fn fields(self) -> &'static [&'static str] {
+        match self {
+            MaterialType::Diffuse => &["albedo"],
+            MaterialType::Roughconductor => &["roughness", "specular_reflectance", "eta", "k"],
+            MaterialType::Conductor => &["specular_reflectance", "eta", "k"],
+            MaterialType::Roughdielectric => &["roughness", "int_ior", "exterior"],
+            MaterialType::Dielectric => &["int_ior", "exterior"],
+        }
+    }
+
+    pub fn is_dielectric(self) -> bool {
+        matches!(self, MaterialType::Roughdielectric | MaterialType::Dielectric)
+    }
 }
 
 #[derive(Clone, Debug, Deserialize)]
@@ -171,7 +202,20 @@ pub struct MaterialDesc {
     pub name: String,
     #[serde(rename = "type")]
     pub ty: MaterialType,
+    /// diffuse: albedo in [0, 1]
     pub albedo: Option<Triple>,
+    /// rough types: GGX α in (0, 1]
+    pub roughness: Option<f32>,
+    /// conductors: reflectance multiplier in [0, 1] (default 1)
+    pub specular_reflectance: Option<Triple>,
+    /// conductors: complex index η + iκ per channel (both or neither; without them F = 1)
+    pub eta: Option<Triple>,
+    pub k: Option<Triple>,
+    /// dielectrics: refractive index inside (on the side the normals point away from)
+    pub int_ior: Option<f32>,
+    /// dielectrics: the dielectric material whose interior lies outside this one (default:
+    /// the scene's medium)
+    pub exterior: Option<String>,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize)]
@@ -311,6 +355,8 @@ pub enum ParamKindDesc {
     Radiance,
     Eta,
     PulseOffset,
+    Roughness,
+    Ior,
 }
 
 impl ParamKindDesc {
@@ -323,6 +369,8 @@ impl ParamKindDesc {
             ParamKindDesc::Radiance => "radiance",
             ParamKindDesc::Eta => "eta",
             ParamKindDesc::PulseOffset => "pulse_offset",
+            ParamKindDesc::Roughness => "roughness",
+            ParamKindDesc::Ior => "ior",
         }
     }
 }

@@ -50,6 +50,8 @@ impl ParamKind {
             ParamKind::Radiance { .. } => "radiance",
             ParamKind::Eta => "eta",
             ParamKind::PulseOffset { .. } => "pulse_offset",
+            ParamKind::Roughness { .. } => "roughness",
+            ParamKind::Ior { .. } => "ior",
         }
     }
 }
@@ -90,6 +92,36 @@ impl Scene {
             ParamKind::PulseOffset { emitter: e } => {
                 format!("emitter {:?} offset_opl", emitter(*e))
             }
+            ParamKind::Roughness { material } => format!("material {:?} roughness", self.material_name(*material)),
+            ParamKind::Ior { material } => format!("material {:?} int_ior", self.material_name(*material)),
+        }
+    }
+
+    fn material_name(&self, m: u32) -> &str {
+        self.materials.get(m as usize).map_or("?", |m| m.name.as_str())
+    }
+
+    /// A material as JSON (for [`Self::summary`]).
+    fn material_json(&self, m: &super::NamedMaterial) -> Value {
+        let ty = m.material.type_name();
+        match &m.material {
+            Material::Diffuse { albedo } => json!({ "name": m.name, "type": ty, "albedo": albedo }),
+            Material::Conductor {
+                roughness,
+                specular,
+                ior,
+            } => json!({
+                "name": m.name, "type": ty, "roughness": roughness, "specular_reflectance": specular,
+                "eta": ior.map(|i| i.0), "k": ior.map(|i| i.1),
+            }),
+            Material::Dielectric {
+                roughness,
+                int_ior,
+                exterior,
+            } => json!({
+                "name": m.name, "type": ty, "roughness": roughness, "int_ior": int_ior,
+                "exterior": exterior.map(|e| self.material_name(e).to_string()),
+            }),
         }
     }
 
@@ -109,15 +141,7 @@ impl Scene {
                 })
             })
             .collect();
-        let materials: Vec<Value> = self
-            .materials
-            .iter()
-            .map(|m| match &m.material {
-                Material::Diffuse { albedo } => {
-                    json!({ "name": m.name, "type": "diffuse", "albedo": albedo })
-                }
-            })
-            .collect();
+        let materials: Vec<Value> = self.materials.iter().map(|m| self.material_json(m)).collect();
         let emitters: Vec<Value> = self
             .emitters
             .iter()
@@ -285,6 +309,26 @@ impl fmt::Display for Scene {
         for m in &self.materials {
             match &m.material {
                 Material::Diffuse { albedo } => writeln!(out, "    {:?}: diffuse, albedo {}", m.name, rgb(albedo))?,
+                Material::Conductor {
+                    roughness, specular, ..
+                } => writeln!(
+                    out,
+                    "    {:?}: {}, roughness {roughness}, specular reflectance {}",
+                    m.name,
+                    m.material.type_name(),
+                    rgb(specular)
+                )?,
+                Material::Dielectric {
+                    roughness,
+                    int_ior,
+                    exterior,
+                } => writeln!(
+                    out,
+                    "    {:?}: {}, roughness {roughness}, int_ior {int_ior}, exterior {}",
+                    m.name,
+                    m.material.type_name(),
+                    exterior.map_or("the medium".to_string(), |e| format!("{:?}", self.material_name(e)))
+                )?,
             }
         }
         writeln!(out, "  emitters:")?;

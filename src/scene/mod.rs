@@ -102,12 +102,62 @@ pub struct Geometry {
     pub dropped_degenerate: usize,
 }
 
-/// Surface reflectance. Shaped for more lobes later (a rough GGX conductor): each variant is
-/// evaluated, sampled and given a pdf in the local shading frame (see `integrator::bsdf`).
+/// Surface reflectance, evaluated, sampled and given a pdf by `integrator::bsdf`.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Material {
     /// Lambertian: f = albedo / π. Mono albedos are stored as three equal channels.
     Diffuse { albedo: [f32; 3] },
+    /// GGX microfacet conductor of roughness α (0: a smooth mirror, a Dirac lobe), reflecting
+    /// `specular` times the Fresnel term of the complex index `ior` = (η, κ) per channel, or
+    /// times 1 without one.
+    Conductor {
+        roughness: f32,
+        specular: [f32; 3],
+        ior: Option<([f32; 3], [f32; 3])>,
+    },
+    /// GGX microfacet dielectric of roughness α (0: smooth, Dirac lobes) with index `int_ior`
+    /// on the side the shape's normals point away from; on the other side is the interior of
+    /// material `exterior` (a dielectric), or the scene's medium (`[medium] eta`) when `None`.
+    Dielectric {
+        roughness: f32,
+        int_ior: f32,
+        exterior: Option<u32>,
+    },
+}
+
+impl Material {
+    /// The albedo of a diffuse material, a conductor's specular reflectance, 1 for a dielectric.
+    pub fn tint(&self) -> [f32; 3] {
+        match *self {
+            Material::Diffuse { albedo } => albedo,
+            Material::Conductor { specular, .. } => specular,
+            Material::Dielectric { .. } => [1.0; 3],
+        }
+    }
+
+    /// Whether this is a Lambertian material.
+    pub fn is_diffuse(&self) -> bool {
+        matches!(self, Material::Diffuse { .. })
+    }
+
+    /// Whether its lobe is a Dirac delta (a smooth conductor or dielectric).
+    pub fn is_delta(&self) -> bool {
+        match *self {
+            Material::Diffuse { .. } => false,
+            Material::Conductor { roughness, .. } | Material::Dielectric { roughness, .. } => roughness == 0.0,
+        }
+    }
+
+    /// A short name for messages: "diffuse", "roughconductor", "dielectric", ...
+    pub fn type_name(&self) -> &'static str {
+        match (self, self.is_delta()) {
+            (Material::Diffuse { .. }, _) => "diffuse",
+            (Material::Conductor { .. }, false) => "roughconductor",
+            (Material::Conductor { .. }, true) => "conductor",
+            (Material::Dielectric { .. }, false) => "roughdielectric",
+            (Material::Dielectric { .. }, true) => "dielectric",
+        }
+    }
 }
 
 #[derive(Clone, Debug)]
@@ -211,4 +261,28 @@ pub struct Scene {
     /// A relay-wall capture (`[nlos]`, `nlos.rs`): the film is then the capture's grid and the
     /// camera position is the SPAD's.
     pub nlos: Option<NlosSpec>,
+}
+
+impl Scene {
+    /// Refractive index outside dielectric material `m`: the interior of its `exterior`
+    /// material, or the scene's medium (also for a material that is not a dielectric).
+    pub fn exterior_eta(&self, m: u32) -> f32 {
+        match self.materials[m as usize].material {
+            Material::Dielectric { exterior: Some(e), .. } => match self.materials[e as usize].material {
+                Material::Dielectric { int_ior, .. } => int_ior,
+                _ => self.eta,
+            },
+            _ => self.eta,
+        }
+    }
+
+    /// Whether every material is Lambertian (the kernels then keep their diffuse-only path).
+    pub fn diffuse_only(&self) -> bool {
+        self.materials.iter().all(|m| m.material.is_diffuse())
+    }
+
+    /// The first material whose lobe is a Dirac delta, if any.
+    pub fn first_delta_material(&self) -> Option<&NamedMaterial> {
+        self.materials.iter().find(|m| m.material.is_delta())
+    }
 }

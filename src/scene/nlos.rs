@@ -130,7 +130,18 @@ pub(super) fn resolve(
             "does not apply to an NLOS capture: choose the time of flight with nlos.relay_legs",
         ));
     }
-    let Material::Diffuse { .. } = materials[shapes[wall].material as usize].material;
+    let wall_material = &materials[shapes[wall].material as usize];
+    if !matches!(wall_material.material, Material::Diffuse { .. }) {
+        return Err(ctx.invalid(
+            at("wall"),
+            format!(
+                "the relay wall must be diffuse: shape {:?} has material {:?} of type {}",
+                d.wall,
+                wall_material.name,
+                wall_material.material.type_name()
+            ),
+        ));
+    }
     let tris = wall_triangles(&shapes[wall], geometry);
     let frame = wall_frame(&tris, spad).ok_or_else(|| {
         ctx.invalid(

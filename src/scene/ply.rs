@@ -3,7 +3,6 @@
 //! `vertex_index`) lists; polygons are split into triangle fans, every other element and
 //! property is ignored.
 
-use super::shapes::LocalMesh;
 use glam::DVec3;
 use ply_rs_bw::parser::Parser;
 use ply_rs_bw::ply::{DefaultElement, Property};
@@ -12,20 +11,27 @@ use std::path::Path;
 /// The largest PLY file read (as for OBJ).
 const MAX_PLY_BYTES: u64 = 2 << 30;
 
+/// A mesh as read: vertex positions and triangles (indices into them).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct PlyMesh {
+    pub positions: Vec<DVec3>,
+    pub tris: Vec<[u32; 3]>,
+}
+
 /// Reads a PLY file; errors say what is wrong with it (the caller names the scene and field).
-pub fn load_ply(path: &Path) -> Result<LocalMesh, String> {
+pub fn load_ply(path: &Path) -> Result<PlyMesh, String> {
     let bytes = super::read::read_regular_bytes(path, MAX_PLY_BYTES).map_err(|e| format!("cannot read it: {e}"))?;
     parse_ply(&bytes)
 }
 
 /// [`load_ply`] for bytes already read.
-pub fn parse_ply(bytes: &[u8]) -> Result<LocalMesh, String> {
+pub fn parse_ply(bytes: &[u8]) -> Result<PlyMesh, String> {
     let parsed =
         std::panic::catch_unwind(|| Parser::<DefaultElement>::new().read_ply(&mut std::io::Cursor::new(bytes)))
             .map_err(|_| "the PLY parser failed on this file".to_string())?;
     let ply = parsed.map_err(|e| format!("cannot parse it: {e}"))?;
     let vertices = ply.payload.get("vertex").ok_or("no vertex element")?;
-    let mut mesh = LocalMesh::default();
+    let mut mesh = PlyMesh::default();
     for (i, v) in vertices.iter().enumerate() {
         let coord = |k: &str| -> Result<f64, String> {
             let c = match v.get(k) {

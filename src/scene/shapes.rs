@@ -390,7 +390,10 @@ fn local_mesh(ctx: &Ctx, i: usize, d: &ShapeDesc) -> Result<LocalMesh, SceneErro
             let mesh_path = obj_path(ctx.path, file);
             let loaded = match d.ty {
                 ShapeType::Obj => load_obj(&mesh_path),
-                _ => super::ply::load_ply(&mesh_path),
+                _ => super::ply::load_ply(&mesh_path).map(|m| LocalMesh {
+                    positions: m.positions,
+                    tris: m.tris,
+                }),
             };
             loaded.map_err(|message| SceneError::Obj {
                 path: ctx.path.to_path_buf(),
@@ -440,6 +443,15 @@ pub(crate) fn build(
                 ));
             }
         };
+        if d.ty == ShapeType::Rectangle && desc.material[material].ty.is_dielectric() {
+            return Err(ctx.invalid(
+                at("material"),
+                format!(
+                    "material {:?} is a dielectric, which needs a closed shape (cube, sphere or a closed obj) to have an inside; a rectangle has none",
+                    desc.material[material].name
+                ),
+            ));
+        }
         let (mut transform, translate) = transform(ctx, i, d)?;
         transform.translate = (translate - origin).as_vec3();
         let world: Vec<Vec3> = world_f64(&transform, translate - origin, &mesh)

@@ -9,6 +9,7 @@
 //! own error: its truncation error, estimated by Richardson from steps h and 2h
 //! ((FD_2h − FD_h) / 3), and f32 rounding of the film (2⁻²³ · |I| / h).
 
+use difftransient::render::BoundaryMode;
 use difftransient::scene::IntegratorKind;
 use difftransient::{RenderOptions, Scene, Transient, render, render_diff};
 
@@ -23,6 +24,9 @@ pub struct FdCheck {
     /// Require the derivative to stand out from its noise (off for parameters whose true
     /// derivative is 0, where the test is that every term cancels).
     pub require_signal: bool,
+    /// Which estimators the derivative renders run (`Full` unless a scene's derivative is the
+    /// interior alone and the boundary stage cannot run on it).
+    pub boundary: BoundaryMode,
 }
 
 impl FdCheck {
@@ -32,6 +36,7 @@ impl FdCheck {
             seed: Some(seed),
             threads: Some(2),
             integrator: self.integrator,
+            boundary: self.boundary,
             ..Default::default()
         }
     }

@@ -128,3 +128,30 @@ pub fn adjoint_like(t: &Transient) -> Transient {
     }
     a
 }
+
+/// An inverse-rendering problem on a shipped scene: its 1024-spp transient as the target
+/// ([`converged_target`]), `params` free within `bounds`, 4 spp per iteration, seed 1,
+/// two threads.
+pub fn small_problem(
+    scene: &str,
+    params: &[&str],
+    loss: difftransient::optimize::loss::Loss,
+    bounds: Vec<(f64, f64)>,
+) -> difftransient::optimize::Problem {
+    let scene = scene_path(scene);
+    let target = converged_target(&scene);
+    difftransient::optimize::Problem {
+        scene,
+        fixed: vec![],
+        params: params.iter().map(|p| p.to_string()).collect(),
+        target,
+        loss,
+        opts: RenderOptions {
+            spp: Some(4),
+            seed: Some(1),
+            threads: Some(2),
+            ..Default::default()
+        },
+        bounds,
+    }
+}

@@ -8,7 +8,7 @@
 //! form), so G and d are differentiated here; J is already inside each β.
 
 use super::Packet;
-use super::mis::{allowed, path_pdfs, ratio_sums, weight};
+use super::mis::{allowed_through, path_pdfs, ratio_sums, weight};
 use super::vertex::segment_end;
 use crate::integrator::sink::Sink;
 use crate::integrator::trace::{shadow_segment, unoccluded};
@@ -28,8 +28,20 @@ pub fn emission<R: Real, const C: usize, S: Sink<C>>(pk: &mut Packet<'_, '_, R, 
     if emits.none() {
         return;
     }
-    path_pdfs(&[], &pk.camera[..t], hits.area_pdf, V::<R>::zero(), pk.pl, pk.pe);
-    let (lower, higher) = ratio_sums(pk.pl, pk.pe, 0, |sp| allowed(t, sp, R::Mask::splat(false)));
+    path_pdfs(
+        Some(ctx),
+        &[],
+        &pk.camera[..t],
+        hits.area_pdf,
+        V::<R>::zero(),
+        pk.pl,
+        pk.pe,
+        pk.refracts,
+    );
+    let refracts = &*pk.refracts;
+    let (lower, higher) = ratio_sums(pk.pl, pk.pe, 0, |sp| {
+        allowed_through(t, sp, R::Mask::splat(false), refracts)
+    });
     let contrib = (pt.beta * radiance).scale(R::from_value(weight(lower, higher)));
     let exact = ctx.opl.f64_paths.then_some(&pt.opl64);
     pk.deposit_own_pixels((0, t), &emitter, pt.opl, exact, &contrib, emits);
@@ -45,7 +57,8 @@ pub fn connect<R: Real, const C: usize, S: Sink<C>>(pk: &mut Packet<'_, '_, R, C
     let cos_q = R::select(qs.on_surface, qs.n.dot(dir), R::one());
     let cos_p = -pt.n.dot(dir);
     let zero = V::<R>::zero();
-    let d = qs.opl + pt.opl + pk.eta * dist;
+    // the connection crosses the medium the camera subpath arrived in
+    let d = qs.opl + pt.opl + pt.eta_in * dist;
     let ok = qs.alive & pt.alive & cos_q.value().gt(zero) & cos_p.value().gt(zero) & d2.value().gt(zero);
     // the window cut (`integrator::window`): connections that land past it cast no shadow ray
     let ok = ok & window::within(ctx.opl_budget, d.value());
@@ -57,16 +70,32 @@ pub fn connect<R: Real, const C: usize, S: Sink<C>>(pk: &mut Packet<'_, '_, R, C
     if ok.none() {
         return;
     }
-    path_pdfs(&pk.light[..s], &pk.camera[..t], zero, zero, pk.pl, pk.pe);
+    path_pdfs(
+        Some(ctx),
+        &pk.light[..s],
+        &pk.camera[..t],
+        zero,
+        zero,
+        pk.pl,
+        pk.pe,
+        pk.refracts,
+    );
     let (delta, n) = (pk.origin.delta, s + t);
-    let (lower, higher) = ratio_sums(pk.pl, pk.pe, s, |sp| allowed(n, sp, delta));
+    let refracts = &*pk.refracts;
+    let (lower, higher) = ratio_sums(pk.pl, pk.pe, s, |sp| allowed_through(n, sp, delta, refracts));
     let g = cos_q * cos_p / d2;
-    let contrib = (qs.beta * qs.f * pt.f * pt.beta).scale(g * R::from_value(weight(lower, higher)));
+    // f at both ends, with the connection's direction (light origins keep f = 1)
+    let f_q = match s {
+        1 => qs.f,
+        _ => qs.f_between(ctx, &(pk.light[s - 2].p - qs.p).normalize(), &dir, false),
+    };
+    let f_p = pt.f_between(ctx, &(pk.camera[t - 2].p - pt.p).normalize(), &-dir, true);
+    let contrib = (qs.beta * f_q * f_p * pt.beta).scale(g * R::from_value(weight(lower, higher)));
     // f64 lengths only when the render carries them (this runs for every (s, t) pair)
     let d64 = ctx.opl.f64_paths.then(|| {
         std::array::from_fn::<f64, 8, _>(|i| {
             let e = if i < R::LANES {
-                pk.eta.value().lane(i) as f64
+                pt.eta_in.value().lane(i) as f64
             } else {
                 0.0
             };

@@ -13,7 +13,8 @@
 //!
 //! Weights are computed on values only: they are constants for the derivative (Algorithm 1).
 
-use super::vertex::{Vertex, area_pdf};
+use super::vertex::{Vertex, area_pdf, scatter_area_pdf};
+use crate::integrator::context::RenderContext;
 use crate::kernel::{Mask, Real};
 
 /// pbrt's `remap0`: a zero density in a ratio stands for a delta and is replaced by 1.
@@ -66,32 +67,64 @@ pub fn allowed<M: Mask>(n: usize, sp: usize, delta_light: M) -> M {
     }
 }
 
+/// [`allowed`], and no connection at a vertex where the path refracts (`refracts[k]` for
+/// path vertex x_k, from [`path_pdfs`]): strategy s' joins x_{s'−1} and x_{s'}, and
+/// connections leave on the arrival side only.
+#[inline(always)]
+pub fn allowed_through<M: Mask>(n: usize, sp: usize, delta_light: M, refracts: &[M]) -> M {
+    let mut m = allowed(n, sp, delta_light);
+    if sp >= 1 {
+        m = m.and_not(refracts[sp - 1]);
+    }
+    if sp < n {
+        m = m.and_not(refracts[sp]);
+    }
+    m
+}
+
 /// Connection densities that the subpaths do not store: with `light = x_0..x_{s−1}` and
-/// `camera = x_{n−1}..x_s` (camera order), fills `pl`, `pe` for the whole path. `origin_pdf`
-/// is the emitter's area density at the camera's last vertex (s = 0 only); `camera_pdf` the
-/// camera's area density at the light's last vertex (t = 1 only).
+/// `camera = x_{n−1}..x_s` (camera order), fills `pl`, `pe` for the whole path, and
+/// `refracts` (the lanes where x_k refracts, see [`allowed_through`]). `origin_pdf` is the
+/// emitter's area density at the camera's last vertex (s = 0 only); `camera_pdf` the
+/// camera's area density at the light's last vertex (t = 1 only). The densities at the two
+/// ends of a connection are their BSDFs' given the connection as the arriving direction
+/// ([`scatter_area_pdf`]).
 #[allow(clippy::too_many_arguments)]
 pub fn path_pdfs<R: Real, const C: usize>(
+    ctx: Option<&RenderContext>,
     light: &[Vertex<R, C>],
     camera: &[Vertex<R, C>],
     origin_pdf: R::Value,
     camera_pdf: R::Value,
     pl: &mut Vec<R::Value>,
     pe: &mut Vec<R::Value>,
+    refracts: &mut Vec<R::Mask>,
 ) {
     let (s, t) = (light.len(), camera.len());
     let n = s + t;
     pl.clear();
     pe.clear();
+    refracts.clear();
     pl.resize(n, R::Value::zero());
     pe.resize(n, R::Value::zero());
+    refracts.resize(n, R::Mask::splat(false));
     for (k, v) in light.iter().enumerate() {
         pl[k] = v.pdf_fwd;
         pe[k] = v.pdf_rev;
+        refracts[k] = v.transmitted;
     }
     for (j, v) in camera.iter().enumerate() {
         pe[n - 1 - j] = v.pdf_fwd;
         pl[n - 1 - j] = v.pdf_rev;
+        refracts[n - 1 - j] = v.transmitted;
+    }
+    // the connection's ends do not refract (connections stay on the arrival side); an end
+    // that refracted in its own subpath continued past where this path turns
+    if s >= 1 {
+        refracts[s - 1] = R::Mask::splat(false);
+    }
+    if t >= 1 {
+        refracts[s] = R::Mask::splat(false);
     }
     if s == 0 {
         // the camera subpath's last vertex is on an emitter
@@ -102,18 +135,22 @@ pub fn path_pdfs<R: Real, const C: usize>(
         return;
     }
     let qs = &light[s - 1];
+    // the vertex on the camera side of the connection (the pinhole when t = 1)
+    let pt = &camera[t - 1];
     if t == 1 {
         pe[s - 1] = camera_pdf;
     } else {
-        let pt = &camera[t - 1];
-        pl[s] = area_pdf(qs, pt);
+        pl[s] = match s {
+            1 => area_pdf(qs, pt),
+            _ => scatter_area_pdf(ctx, qs, &light[s - 2].p.value(), pt),
+        };
         if t >= 3 {
-            pl[s + 1] = area_pdf(pt, &camera[t - 2]);
+            pl[s + 1] = scatter_area_pdf(ctx, pt, &qs.p.value(), &camera[t - 2]);
         }
-        pe[s - 1] = area_pdf(pt, qs);
+        pe[s - 1] = scatter_area_pdf(ctx, pt, &camera[t - 2].p.value(), qs);
     }
     if s >= 2 {
-        pe[s - 2] = area_pdf(qs, &light[s - 2]);
+        pe[s - 2] = scatter_area_pdf(ctx, qs, &pt.p.value(), &light[s - 2]);
     }
 }
 

@@ -78,7 +78,17 @@ fn weights(xs: &[Vx], delta: bool, h: f32) -> Vec<(usize, f32)> {
         } else {
             0.0
         };
-        path_pdfs(&light, &camera, origin_pdf, camera_pdf, &mut pl, &mut pe);
+        let mut refracts = Vec::new();
+        path_pdfs(
+            None,
+            &light,
+            &camera,
+            origin_pdf,
+            camera_pdf,
+            &mut pl,
+            &mut pe,
+            &mut refracts,
+        );
         let (mut lower, higher) = ratio_sums(&pl, &pe, s, |sp| allowed::<bool>(n, sp, delta));
         if t == 1 {
             // the kernel computes the t = 1 sums with h = 1 and scales them per pixel by h²

@@ -47,6 +47,7 @@ pub struct Scratch<R: Real, const C: usize> {
     light: Vec<Vertex<R, C>>,
     pl: Vec<R::Value>,
     pe: Vec<R::Value>,
+    refracts: Vec<R::Mask>,
 }
 
 impl<R: Real, const C: usize> Default for Scratch<R, C> {
@@ -56,6 +57,7 @@ impl<R: Real, const C: usize> Default for Scratch<R, C> {
             light: Vec::new(),
             pl: Vec::new(),
             pe: Vec::new(),
+            refracts: Vec::new(),
         }
     }
 }
@@ -67,9 +69,10 @@ pub struct Packet<'p, 'c, R: Real, const C: usize, S: Sink<C>> {
     pub camera: &'p [Vertex<R, C>],
     pub light: &'p [Vertex<R, C>],
     pub origin: LightOrigin<R>,
-    pub eta: R,
     pub pl: &'p mut Vec<R::Value>,
     pub pe: &'p mut Vec<R::Value>,
+    /// Per path vertex, the lanes where the path refracts (`mis::allowed_through`).
+    pub refracts: &'p mut Vec<R::Mask>,
     pub sink: &'p mut S,
     pub counts: &'p mut PathCounts,
 }
@@ -107,7 +110,13 @@ pub fn trace_packet<R: Real, const C: usize, S: Sink<C>>(
     let ids = &lanes.ids[..lanes.count.max(1)];
     let mut cam_sampler = PathSampler::new(seed, ids);
     let mut light_sampler = PathSampler::new(seed ^ LIGHT_STREAM, ids);
-    let Scratch { camera, light, pl, pe } = scratch;
+    let Scratch {
+        camera,
+        light,
+        pl,
+        pe,
+        refracts,
+    } = scratch;
     walk::camera_subpath(ctx, &mut cam_sampler, lanes, camera, max_bounces + 1, &mut counts.rays);
     let origin = walk::light_subpath(ctx, &mut light_sampler, lanes, light, max_bounces, &mut counts.rays);
     let mut pk = Packet {
@@ -116,9 +125,9 @@ pub fn trace_packet<R: Real, const C: usize, S: Sink<C>>(
         camera,
         light,
         origin,
-        eta: ctx.motion.eta::<R>(ctx.scene.eta),
         pl,
         pe,
+        refracts,
         sink,
         counts,
     };

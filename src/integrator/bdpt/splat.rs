@@ -23,7 +23,7 @@
 
 use super::Packet;
 use super::connect::towards;
-use super::mis::{allowed, path_pdfs, ratio_sums};
+use super::mis::{allowed_through, path_pdfs, ratio_sums};
 use super::vertex::segment_end;
 use super::vertex::{camera_dir_pdf, to_area};
 use super::walk::geometry_carrier;
@@ -48,7 +48,7 @@ pub fn splat_to_camera<R: Real, const C: usize, S: Sink<C>>(pk: &mut Packet<'_, 
     let cos_q = qs.n.value().dot(dir);
     let zero = V::<R>::zero();
     // the window cut (`integrator::window`): light paths that reach the pinhole past it
-    let d_value = qs.opl.value() + camera_leg(ctx, pk.eta.value(), &q, &eye);
+    let d_value = qs.opl.value() + camera_leg(ctx, qs.eta_in.value(), &q, &eye);
     let ok = qs.alive & proj.visible & cos_q.gt(zero) & window::within(ctx.opl_budget, d_value);
     if ok.none() {
         return;
@@ -67,28 +67,42 @@ pub fn splat_to_camera<R: Real, const C: usize, S: Sink<C>>(pk: &mut Packet<'_, 
     // camera density at q_s with h = 1; the light-side ratio sums all carry pe[s−1]², so the
     // weight for pixel j is 1 / (1 + h_j² · lower)
     let camera_pdf = to_area(&eye, &qs, camera_dir_pdf(V::<R>::one(), proj.importance, pixels));
-    path_pdfs(&pk.light[..s], &pk.camera[..1], zero, camera_pdf, pk.pl, pk.pe);
+    path_pdfs(
+        Some(ctx),
+        &pk.light[..s],
+        &pk.camera[..1],
+        zero,
+        camera_pdf,
+        pk.pl,
+        pk.pe,
+        pk.refracts,
+    );
     let (delta, n) = (pk.origin.delta, s + 1);
-    let (lower, _) = ratio_sums(pk.pl, pk.pe, s, |sp| allowed(n, sp, delta));
+    let refracts = &*pk.refracts;
+    let (lower, _) = ratio_sums(pk.pl, pk.pe, s, |sp| allowed_through(n, sp, delta, refracts));
     let camera_factor = (cos_q * proj.importance / proj.dist2).mul_f(1.0 / pixels);
-    let (beta, d) = if R::DERIVS > 0 {
+    let prev = &pk.light[s - 2];
+    let (beta, d, y) = if R::DERIVS > 0 {
         // q slides along its camera ray (module docs): y(θ), with q's own motion divided out
-        let prev = &pk.light[s - 2];
         let y = ray_plane_point(&V3::from_value(eye), &V3::from_value(-dir), &qs.p, &qs.n);
         let carrier = geometry_carrier(prev, &y, &qs.n);
         let beta = qs.beta.scale(R::safe_div(carrier, qs.geo));
         (
             beta,
-            prev.opl + pk.eta * (y - prev.p).length() + camera_leg(ctx, pk.eta, &y, &eye),
+            prev.opl + qs.eta_in * (y - prev.p).length() + camera_leg(ctx, qs.eta_in, &y, &eye),
+            y,
         )
     } else {
-        (qs.beta, qs.opl + camera_leg(ctx, pk.eta, &qs.p, &eye))
+        (qs.beta, qs.opl + camera_leg(ctx, qs.eta_in, &qs.p, &eye), qs.p)
     };
-    let contrib = (beta * qs.f).scale(R::from_value(camera_factor));
+    // f at q (importance transport) between its predecessor and the pinhole
+    let to_eye = (V3::from_value(eye) - y).normalize();
+    let f = qs.f_between(ctx, &(prev.p - y).normalize(), &to_eye, false);
+    let contrib = (beta * f).scale(R::from_value(camera_factor));
     let cam64 = cam.position.as_dvec3();
     let d64 = ctx.opl.f64_paths.then(|| {
         std::array::from_fn::<f64, 8, _>(|i| match i < R::LANES && !ctx.scene.film.unwarp {
-            true => qs.opl64[i] + pk.eta.value().lane(i) as f64 * (qs.p64[i] - cam64).length(),
+            true => qs.opl64[i] + qs.eta_in.value().lane(i) as f64 * (qs.p64[i] - cam64).length(),
             false => qs.opl64[i],
         })
     });

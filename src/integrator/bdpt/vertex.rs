@@ -2,11 +2,18 @@
 //! `pdfFwd` / `pdfRev` bookkeeping of pbrt-v4's BDPT, `src/pbrt/cpu/integrators.h`).
 //!
 //! Delta flags: pbrt-v4 marks vertices scattered by a specular lobe (`delta`) and lights that
-//! are deltas in position (`IsDeltaLight`). Our only BSDF is diffuse, so no surface vertex is
-//! a delta and none carries the flag; the light origin's flag is
-//! [`super::walk::LightOrigin::delta`] (point lights, laser spots), and zero (delta) densities
-//! are remapped to 1 in the MIS ratios as pbrt's `MISWeight` does. A specular lobe would add a
-//! per-vertex mask here and to [`super::mis::allowed`].
+//! are deltas in position (`IsDeltaLight`). BDPT refuses scenes with Dirac lobes (smooth
+//! conductors and dielectrics, `render::check_materials`), so no surface vertex is a delta;
+//! the light origin's flag is [`super::walk::LightOrigin::delta`] (point lights, laser
+//! spots), and zero (delta) densities are remapped to 1 in the MIS ratios as pbrt's
+//! `MISWeight` does. A vertex where the subpath refracted cannot be a connection's end
+//! (connections leave on the arrival side), which `transmitted` records for
+//! [`super::mis::allowed`].
+//!
+//! Materials beyond Lambertian: a vertex's f and direction density depend on both of its
+//! neighbours, so they are evaluated where both are known, from the vertex's material
+//! (`Lobes::gather` on its triangle) and the true normal (`n` turned back by `front`):
+//! [`scatter_area_pdf`] here, `f` at connections in `connect.rs` and `splat.rs`.
 //!
 //! Each vertex holds eight lanes (one subpath per lane). `pdf_fwd` is the area density with
 //! which the subpath's own walk generated the vertex, `pdf_rev` the density with which the
@@ -47,6 +54,11 @@ pub struct Vertex<R: Real, const C: usize> {
     pub geo: R,
     /// Optical path length from the subpath's start to this vertex.
     pub opl: R,
+    /// Index of the medium crossed by the segment that reached this vertex (the scene's η at
+    /// a subpath's start); a connection leaves on the arrival side, so it crosses it too.
+    pub eta_in: R,
+    /// Lanes whose subpath refracted here (see the module docs).
+    pub transmitted: R::Mask,
     /// The point and `opl` per lane in f64 (see `integrator::opl`); kept only when the render
     /// carries f64 OPLs (`ctx.opl.f64_paths`), else zero.
     pub p64: [glam::DVec3; 8],
@@ -85,6 +97,56 @@ pub fn to_area<R: Real, const C: usize>(from: &V3<V<R>>, to: &Vertex<R, C>, pdf_
 #[inline(always)]
 pub fn area_pdf<R: Real, const C: usize>(from: &Vertex<R, C>, to: &Vertex<R, C>) -> V<R> {
     to_area(&from.p.value(), to, dir_pdf(from, &to.p.value()))
+}
+
+/// Area density at `to` of the direction that surface vertex `v`, reached from `from`, samples
+/// towards `to` (its BSDF's density; the diffuse one when every material is). Light origins
+/// and the pinhole keep [`area_pdf`], and so does every vertex without a render context (the
+/// MIS unit tests).
+#[inline]
+pub fn scatter_area_pdf<R: Real, const C: usize>(
+    ctx: Option<&crate::integrator::context::RenderContext>,
+    v: &Vertex<R, C>,
+    from: &V3<V<R>>,
+    to: &Vertex<R, C>,
+) -> V<R> {
+    let Some(ctx) = ctx.filter(|c| !c.diffuse_only) else {
+        return area_pdf(v, to);
+    };
+    let lobes = crate::integrator::bsdf::Lobes::<V<R>, C>::gather(ctx, &v.prim);
+    let p = v.p.value();
+    let wo = (*from - p).normalize();
+    let wi = (to.p.value() - p).normalize();
+    to_area(&p, to, lobes.pdf(&v.true_normal(), &wo, &wi))
+}
+
+impl<R: Real, const C: usize> Vertex<R, C> {
+    /// The surface's own normal (as built from its winding), which the material's inside and
+    /// outside refer to: `n` turned back where the subpath arrived from behind.
+    #[inline(always)]
+    pub fn true_normal(&self) -> V3<V<R>> {
+        let n = self.n.value();
+        V3::select(self.front, n, -n)
+    }
+
+    /// f at this surface vertex for light between directions towards `a` (unit, dual) and
+    /// `b`: f(a, b) in radiance transport (`radiance`: `a` towards the camera) or importance
+    /// transport. The stored diffuse `f` when every material is diffuse.
+    #[inline]
+    pub fn f_between(
+        &self,
+        ctx: &crate::integrator::context::RenderContext,
+        a: &V3<R>,
+        b: &V3<R>,
+        radiance: bool,
+    ) -> Spectrum<R, C> {
+        if ctx.diffuse_only {
+            return self.f;
+        }
+        let lobes = crate::integrator::bsdf::Lobes::<R, C>::gather(ctx, &self.prim);
+        let n = V3::select(self.front, self.n, -self.n);
+        lobes.eval(&n, a, b, radiance)
+    }
 }
 
 /// The pinhole's direction density towards film point u for pixel j, relative to the light
@@ -134,6 +196,8 @@ impl<R: Real, const C: usize> Vertex<R, C> {
             pdf_rev: V::<R>::zero(),
             geo: R::one(),
             opl: R::zero(),
+            eta_in: R::one(),
+            transmitted: no,
             prim: [u32::MAX; 8],
             alive,
         }

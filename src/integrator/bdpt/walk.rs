@@ -7,12 +7,12 @@
 //! ratio `[G·J]_dual / [G]_value` as in [`crate::integrator::path`].
 
 use super::vertex::{Vertex, camera_dir_pdf, link};
-use crate::integrator::bsdf::{albedo, diffuse_eval, sample_cosine};
+use crate::integrator::bsdf::{Lobes, albedo, diffuse_eval, sample_cosine};
 use crate::integrator::context::RenderContext;
 use crate::integrator::path::{PacketLanes, ray_plane_point};
 use crate::integrator::surface::{offset_origin, surface_at};
 use crate::integrator::trace::{RayCounts, next_hits, spawn_point};
-use crate::integrator::transport::scatter;
+use crate::integrator::transport::{scatter, scatter_lobes};
 use crate::kernel::{Mask, PathSampler, Real, Spectrum, V3};
 use glam::Vec3;
 
@@ -45,7 +45,8 @@ fn random_walk<R: Real, const C: usize>(
     camera: bool,
     counts: &mut RayCounts,
 ) {
-    let eta = ctx.motion.eta::<R>(ctx.scene.eta);
+    // the index of the medium each lane's ray crosses (changes where it refracts)
+    let mut eta = path.last().expect("a walk starts from a vertex").eta_in;
     let all = R::Mask::from_bools(&[true; 8][..R::LANES]);
     let none = R::Mask::from_bools(&[false; 8][..R::LANES]);
     for depth in 1..=new_vertices {
@@ -81,6 +82,20 @@ fn random_walk<R: Real, const C: usize>(
         if R::DERIVS > 0 && !ray_form {
             geo = geometry_carrier(&prev, &x.p, &x.n) * x.jacobian;
             beta = beta.scale(geo);
+            if !ctx.diffuse_only && path.len() >= 2 {
+                // the previous vertex's f, now with both of its directions moving: ḟ/f on
+                // its glossy lanes (its sampled value is already in β)
+                let before = &path[path.len() - 2];
+                let lobes = Lobes::<R, C>::gather(ctx, &prev.prim);
+                let wo = (before.p - prev.p).normalize();
+                let wi = (x.p - prev.p).normalize();
+                let f = lobes.eval(&V3::select(prev.front, prev.n, -prev.n), &wo, &wi, camera);
+                let glossy = lobes.glossy();
+                beta = Spectrum(std::array::from_fn(|c| {
+                    let r = R::safe_div(f.0[c], R::from_value(f.0[c].value()));
+                    R::select(glossy, beta.0[c] * r, beta.0[c])
+                }));
+            }
         }
         let opl = if ray_form && ctx.scene.film.unwarp {
             prev.opl
@@ -106,6 +121,8 @@ fn random_walk<R: Real, const C: usize>(
             pdf_rev: V::<R>::zero(),
             geo,
             opl,
+            eta_in: eta,
+            transmitted: none,
             p64,
             opl64,
             prim: hit.prim,
@@ -117,10 +134,37 @@ fn random_walk<R: Real, const C: usize>(
             break;
         }
         let n_v = x.n.value();
-        let (dir, pdf) = scatter(ctx, sampler, &n_v, &-ray_d, &f, &mut beta, &mut active, depth as u32);
-        ray_o = spawn_point(&x.p.value(), &n_v, &ray_d, &dir);
-        ray_d = dir;
-        pdf_dir = pdf;
+        if ctx.diffuse_only {
+            let (dir, pdf) = scatter(ctx, sampler, &n_v, &-ray_d, &f, &mut beta, &mut active, depth as u32);
+            ray_o = spawn_point(&x.p.value(), &n_v, &ray_d, &dir);
+            ray_d = dir;
+            pdf_dir = pdf;
+            continue;
+        }
+        // any material: radiance transport on the camera subpath, importance on the light's
+        let lobes = Lobes::<R, C>::gather(ctx, &x.prim);
+        let s = scatter_lobes(
+            ctx,
+            sampler,
+            &lobes,
+            &n_v,
+            &-ray_d,
+            camera,
+            &mut beta,
+            &mut active,
+            depth as u32,
+        );
+        let back = V3::select(s.transmitted, V3::zero(), ray_d);
+        ray_o = spawn_point(&x.p.value(), &n_v, &back, &s.wi);
+        let inside = n_v.dot(s.wi).lt(V::<R>::zero());
+        eta = R::select(s.transmitted, R::select(inside, lobes.eta_int, lobes.eta_ext), eta);
+        let k = path.len() - 1;
+        path[k].transmitted = s.transmitted;
+        // the density of this vertex sampling its predecessor, arriving along the new ray
+        let back_pdf = lobes.value().pdf(&n_v, &s.wi, &-ray_d);
+        path[k - 1].pdf_rev = super::vertex::to_area(&x.p.value(), &path[k - 1], back_pdf);
+        ray_d = s.wi;
+        pdf_dir = s.pdf;
     }
 }
 
@@ -163,11 +207,9 @@ pub fn camera_subpath<R: Real, const C: usize>(
     let in_use: [bool; 8] = std::array::from_fn(|i| i < lanes.count);
     let active = R::Mask::from_bools(&in_use[..R::LANES]);
     path.clear();
-    path.push(Vertex::point(
-        V3::splat(cam.position),
-        Spectrum::splat(R::one()),
-        active,
-    ));
+    let mut v0 = Vertex::point(V3::splat(cam.position), Spectrum::splat(R::one()), active);
+    v0.eta_in = ctx.motion.eta::<R>(ctx.scene.eta);
+    path.push(v0);
     random_walk(
         ctx,
         sampler,
@@ -217,6 +259,7 @@ pub fn light_subpath<R: Real, const C: usize>(
     v0.uniform_sphere = !ls.has_cos;
     v0.pdf_fwd = ls.pdf_area;
     v0.opl = eta * ls.pre_length;
+    v0.eta_in = eta;
     if ctx.opl.f64_paths {
         v0.p64 = ls.p64;
         v0.opl64 = std::array::from_fn(|i| {

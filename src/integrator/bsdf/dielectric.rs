@@ -1,0 +1,89 @@
+//! Rough dielectric: GGX microfacet reflection and refraction (Walter et al. 2007, Eqs. 20–21,
+//! with the generalized half vector of Eq. 16), sampled by choosing a visible normal (Heitz
+//! 2018) and then reflection with probability F, refraction otherwise; the pdf sums both lobes
+//! (Walter et al. 2007, Eqs. 38–41 with D_o in place of D·|m·n|).
+//!
+//! Conventions: `n` points to the exterior; `eta` = η_interior / η_exterior; `wo` is the
+//! direction towards the previous vertex of the path and `wi` the next. Radiance transport
+//! (camera paths) divides the refraction lobe by η'² = (η_i/η_o)², importance transport (light
+//! paths) does not (Veach 1997, §5.2: the BSDF of refraction is not symmetric).
+
+use super::fresnel;
+use super::ggx;
+use crate::kernel::{Real, V3};
+
+/// The generalized half vector and the cosines both lobes need.
+pub struct Half<R: Real> {
+    /// cos θ_o, cos θ_i against `n` (signed).
+    pub co: R,
+    pub ci: R,
+    /// cos θ_m of the half vector oriented to the exterior, o·m, i·m.
+    pub cm: R,
+    pub om: R,
+    pub im: R,
+    /// η_i / η_o: 1 for reflection, η or 1/η for refraction.
+    pub etap: R,
+    pub reflect: R::Mask,
+    /// Lanes with a usable half vector that neither direction sees from behind.
+    pub valid: R::Mask,
+}
+
+/// The half vector m ∝ η'·i + o (Walter et al. 2007, Eq. 16) oriented to the exterior.
+#[inline(always)]
+pub fn half<R: Real>(n: &V3<R>, wo: &V3<R>, wi: &V3<R>, eta: R) -> Half<R> {
+    let co = n.dot(*wo);
+    let ci = n.dot(*wi);
+    let reflect = (co * ci).gt(R::zero());
+    let etap = R::select(reflect, R::one(), R::select(co.gt(R::zero()), eta, eta.recip()));
+    let raw = *wi * etap + *wo;
+    let len2 = raw.length_squared();
+    let m = raw.normalize();
+    let m = V3::select(n.dot(m).lt(R::zero()), -m, m);
+    let (cm, om, im) = (n.dot(m), wo.dot(m), wi.dot(m));
+    let nonzero = co.abs().gt(R::zero()) & ci.abs().gt(R::zero()) & len2.gt(R::zero());
+    let front = (om * co).gt(R::zero()) & (im * ci).gt(R::zero());
+    Half {
+        co,
+        ci,
+        cm,
+        om,
+        im,
+        etap,
+        reflect,
+        valid: nonzero & front,
+    }
+}
+
+/// f of the rough dielectric (both lobes; zero outside `h.valid`).
+#[inline(always)]
+pub fn eval<R: Real>(alpha: R, eta: R, h: &Half<R>, radiance: bool) -> R {
+    let f = fresnel::dielectric(h.om, eta);
+    let dg = ggx::d(alpha, h.cm) * ggx::g1(alpha, h.co, h.om) * ggx::g1(alpha, h.ci, h.im);
+    let fr = R::safe_div(dg * f, (h.ci * h.co).abs().mul_f(4.0));
+    let s = h.im + R::safe_div(h.om, h.etap);
+    let ft = R::safe_div(dg * (R::one() - f) * (h.im * h.om).abs(), (s * s * h.ci * h.co).abs());
+    let ft = if radiance { R::safe_div(ft, h.etap * h.etap) } else { ft };
+    R::select(h.reflect, fr, ft).masked(h.valid)
+}
+
+/// Solid-angle pdf of [`super::Lobes::sample`] on a rough dielectric lane: D_o(m) times the
+/// Jacobian of the lobe's map from m to i, times the lobe's probability F or 1 − F.
+#[inline(always)]
+pub fn pdf<R: Real>(alpha: R, eta: R, h: &Half<R>) -> R {
+    let f = fresnel::dielectric(h.om, eta);
+    let dv = ggx::visible_pdf(alpha, h.co, h.om, h.cm);
+    let pr = R::safe_div(dv * f, h.om.abs().mul_f(4.0));
+    let s = h.im + R::safe_div(h.om, h.etap);
+    let pt = R::safe_div(dv * (R::one() - f) * h.im.abs(), s * s);
+    R::select(h.reflect, pr, pt).masked(h.valid)
+}
+
+/// `w` refracted through unit `m` (w·m = `c` > 0) into relative index `eta_l` (η on the far
+/// side over η on w's side): −w/η' + (c/η' − cos θ_t)·m; callers use it only off total
+/// internal reflection (where F = 1 and refraction is never chosen).
+#[inline(always)]
+pub fn refract<R: Real>(w: &V3<R>, m: &V3<R>, c: R, eta_l: R) -> V3<R> {
+    let inv = eta_l.recip();
+    let ct = (R::one() - (R::one() - c * c) * inv * inv).sqrt();
+    *m * (c * inv - ct) - *w * inv
+}

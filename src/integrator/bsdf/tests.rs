@@ -1,0 +1,389 @@
+//! Tests of every lobe (as Mitsuba 3 and pbrt-v4 test theirs): χ² goodness of fit of each
+//! sampling routine against its own pdf integrated over cells of the sphere, the pdf a sample
+//! reports against [`Lobes::pdf`] and its weight against f·|cos|/pdf, white furnaces, and
+//! reciprocity (with the η² factor of refraction between radiance and importance transport).
+
+use super::{Lobes, Material};
+use crate::integrator::testutil::assert_chi2;
+use crate::kernel::{PathSampler, Spectrum, V3};
+use glam::Vec3;
+use std::f64::consts::PI;
+
+type L = Lobes<f32, 3>;
+
+fn v(d: Vec3) -> V3<f32> {
+    V3::splat(d)
+}
+
+fn conductor(roughness: f32, complex: bool) -> Material {
+    Material::Conductor {
+        roughness,
+        specular: [1.0, 0.8, 0.6],
+        // gold-like complex index
+        ior: complex.then_some(([0.2, 0.45, 1.4], [3.6, 2.4, 1.8])),
+    }
+}
+
+fn dielectric(roughness: f32, int_ior: f32) -> Material {
+    Material::Dielectric {
+        roughness,
+        int_ior,
+        exterior: None,
+    }
+}
+
+const N: Vec3 = Vec3::Z;
+
+fn dir(theta: f64, phi: f64) -> Vec3 {
+    Vec3::new(
+        (theta.sin() * phi.cos()) as f32,
+        (theta.sin() * phi.sin()) as f32,
+        theta.cos() as f32,
+    )
+}
+
+/// Samples `count` directions for `wo` and tests them by χ² against the pdf integrated over
+/// 24 × 48 cells of (θ, φ) on the whole sphere (each integrated by a 64 × 16 midpoint rule: refraction's pdf rises steeply to the edge of its support), plus
+/// one cell of failed samples with the probability the pdf leaves over. Cells expected to
+/// hold fewer than 5 samples are pooled. Also checks every sample's pdf and weight.
+fn chi2_case(what: &str, l: &L, wo: Vec3, radiance: bool, seed: u64) {
+    let (nt, np) = (24usize, 48usize);
+    let count = 400_000u64;
+    let mut observed = vec![0u64; nt * np + 1];
+    let mut s = PathSampler::new(seed, &[0]);
+    let (n, wo_v) = (v(N), v(wo));
+    for _ in 0..count {
+        let (u1, u2) = s.next2::<f32>();
+        let uc = s.next::<f32>();
+        let smp = l.sample(&n, &wo_v, u1, u2, uc, radiance);
+        if !(smp.pdf > 0.0) {
+            observed[nt * np] += 1;
+            continue;
+        }
+        let wi = smp.wi.lane(0);
+        assert!((wi.length() - 1.0).abs() < 1e-4, "{what}: |wi| = {}", wi.length());
+        let p = l.pdf(&n, &wo_v, &smp.wi);
+        assert!(
+            (p - smp.pdf).abs() <= 1e-3 * p.max(1.0),
+            "{what}: sampled pdf {} vs pdf() {p} at {wi}",
+            smp.pdf
+        );
+        let f = l.eval(&n, &wo_v, &smp.wi, radiance);
+        for c in 0..3 {
+            let w = f.0[c] * wi.z.abs() / p;
+            assert!(
+                (w - smp.weight.0[c]).abs() <= 1e-3 * w.max(1.0),
+                "{what}: weight {} vs f·cos/pdf {w}",
+                smp.weight.0[c]
+            );
+        }
+        let theta = (wi.z as f64).clamp(-1.0, 1.0).acos();
+        let phi = (wi.y as f64).atan2(wi.x as f64).rem_euclid(2.0 * PI);
+        let (i, j) = (
+            ((theta / PI * nt as f64) as usize).min(nt - 1),
+            ((phi / (2.0 * PI) * np as f64) as usize).min(np - 1),
+        );
+        observed[i * np + j] += 1;
+    }
+    let mut prob = vec![0.0f64; nt * np + 1];
+    let (dt, dp) = (PI / nt as f64, 2.0 * PI / np as f64);
+    for i in 0..nt {
+        // refraction's pdf rises steeply to the edge where o·m changes sign: fine in θ
+        let (sub_t, sub_p) = (64, 16);
+        for j in 0..np {
+            let mut acc = 0.0;
+            for a in 0..sub_t {
+                for b in 0..sub_p {
+                    let t = (i as f64 + (a as f64 + 0.5) / sub_t as f64) * dt;
+                    let ph = (j as f64 + (b as f64 + 0.5) / sub_p as f64) * dp;
+                    acc += l.pdf(&n, &wo_v, &v(dir(t, ph))) as f64 * t.sin();
+                }
+            }
+            prob[i * np + j] = acc * dt * dp / (sub_t * sub_p) as f64;
+        }
+    }
+    let mass: f64 = prob.iter().sum();
+    assert!(mass < 1.0 + 2e-3, "{what}: the pdf integrates to {mass} > 1");
+    prob[nt * np] = (1.0 - mass).max(0.0);
+    // pool sparse cells
+    let (mut obs, mut pr) = (Vec::new(), Vec::new());
+    let (mut rest_o, mut rest_p) = (0u64, 0.0f64);
+    for (o, p) in observed.iter().zip(&prob) {
+        if p * count as f64 >= 5.0 {
+            obs.push(*o);
+            pr.push(*p);
+        } else {
+            rest_o += o;
+            rest_p += p;
+        }
+    }
+    obs.push(rest_o);
+    pr.push(rest_p);
+    if std::env::var("BSDF_DEBUG").is_ok() {
+        for (k, (o, p)) in observed.iter().zip(&prob).enumerate() {
+            let e = p * count as f64;
+            if (*o as f64 - e).abs() > 4.0 * e.max(1.0).sqrt() {
+                eprintln!("cell {} ({}, {}): observed {o} expected {e:.1}", k, k / np, k % np);
+            }
+        }
+    }
+    let total: f64 = pr.iter().sum();
+    pr.iter_mut().for_each(|p| *p /= total);
+    assert_chi2(what, &obs, &pr, 1e-9);
+}
+
+/// Every rough lobe's sampler follows its pdf: conductors (with and without a complex index)
+/// and dielectrics (entering η = 1.5 and leaving it, so total internal reflection too), at
+/// near-normal, oblique and grazing incidence, in radiance and importance transport.
+///
+/// Bugs caught: a visible-normal sampler that is not Heitz's (stretch or the hemisphere
+/// warp), a pdf missing the Jacobian of reflection (1/4 o·h) or of refraction, lobe
+/// probabilities not F and 1 − F, a mismatch between `sample`'s weight and eval·cos/pdf.
+#[test]
+fn rough_lobes_sample_their_pdf() {
+    let cases: Vec<(&str, Material)> = vec![
+        ("conductor α 0.3", conductor(0.3, false)),
+        ("conductor α 0.7 complex", conductor(0.7, true)),
+        ("dielectric α 0.3 η 1.5", dielectric(0.3, 1.5)),
+        ("dielectric α 0.6 η 1.33", dielectric(0.6, 1.33)),
+    ];
+    let mut seed = 11;
+    for (name, m) in &cases {
+        let l = L::uniform(m, 1.0);
+        for (theta, radiance) in [(0.2f64, true), (1.0, false), (1.45, true)] {
+            for side in [1.0f32, -1.0] {
+                if side < 0.0 && !matches!(m, Material::Dielectric { .. }) {
+                    continue;
+                }
+                let wo = dir(theta, 0.7) * Vec3::new(1.0, 1.0, side);
+                seed += 1;
+                chi2_case(
+                    &format!("{name}, θo {theta}, side {side}, radiance {radiance}"),
+                    &l,
+                    wo,
+                    radiance,
+                    seed,
+                );
+            }
+        }
+    }
+}
+
+/// Mean of the sample weights (the directional albedo) and its standard error.
+fn albedo(l: &L, wo: Vec3, radiance: bool, count: usize) -> ([f64; 3], [f64; 3]) {
+    let mut s = PathSampler::new(5, &[1]);
+    let (mut sum, mut sq) = ([0.0f64; 3], [0.0f64; 3]);
+    for _ in 0..count {
+        let (u1, u2) = s.next2::<f32>();
+        let uc = s.next::<f32>();
+        let smp = l.sample(&v(N), &v(wo), u1, u2, uc, radiance);
+        for c in 0..3 {
+            let w = if smp.pdf > 0.0 { smp.weight.0[c] as f64 } else { 0.0 };
+            sum[c] += w;
+            sq[c] += w * w;
+        }
+    }
+    let n = count as f64;
+    let mean = sum.map(|s| s / n);
+    let se = std::array::from_fn(|c| ((sq[c] / n - mean[c] * mean[c]).max(0.0) / n).sqrt());
+    (mean, se)
+}
+
+/// White furnaces: no lobe reflects more than it receives, a nearly smooth conductor with
+/// F = 1 and white tint reflects almost all of it, a smooth dielectric's R + T is exactly 1 in
+/// importance transport (and R + T/η² in radiance transport), a rough dielectric's R + T is
+/// within the few percent that single-scattering microfacets lose.
+///
+/// Bugs caught: a missing 1/4 or cosine in f, a Fresnel term above 1, a lost refraction lobe,
+/// an η² factor on the wrong transport.
+#[test]
+fn white_furnace() {
+    let white = Material::Conductor {
+        roughness: 0.05,
+        specular: [1.0; 3],
+        ior: None,
+    };
+    for theta in [0.1f64, 0.8, 1.3] {
+        let wo = dir(theta, 0.3);
+        let (m, se) = albedo(&L::uniform(&white, 1.0), wo, true, 100_000);
+        assert!(
+            m[0] <= 1.0 + 4.0 * se[0] && m[0] > 0.97,
+            "smooth-ish white conductor θ {theta}: albedo {m:?} ± {se:?}"
+        );
+        for mat in [
+            conductor(0.5, true),
+            conductor(0.9, false),
+            dielectric(0.8, 1.5),
+            dielectric(0.3, 1.33),
+        ] {
+            for side in [1.0f32, -1.0] {
+                let wo = wo * Vec3::new(1.0, 1.0, side);
+                let (m, se) = albedo(&L::uniform(&mat, 1.0), wo, false, 100_000);
+                for c in 0..3 {
+                    assert!(
+                        m[c] <= 1.0 + 4.0 * se[c],
+                        "{mat:?} θ {theta} side {side}: albedo {m:?} ± {se:?}"
+                    );
+                }
+            }
+        }
+        // a smooth dielectric: every weight is exactly 1 (importance) and the mean 1
+        for side in [1.0f32, -1.0] {
+            let wo = wo * Vec3::new(1.0, 1.0, side);
+            let l = L::uniform(&dielectric(0.0, 1.5), 1.0);
+            let (m, _) = albedo(&l, wo, false, 20_000);
+            assert!((m[0] - 1.0).abs() < 1e-5, "smooth dielectric R + T = {}", m[0]);
+            let rough = L::uniform(&dielectric(0.05, 1.5), 1.0);
+            let (m, se) = albedo(&rough, wo, false, 100_000);
+            assert!(
+                m[0] > 0.97 && m[0] <= 1.0 + 4.0 * se[0],
+                "α 0.05 dielectric R + T = {} ± {}",
+                m[0],
+                se[0]
+            );
+        }
+    }
+}
+
+/// A smooth dielectric reflects with probability F (the Fresnel reflectance at that angle,
+/// against its closed form at normal incidence ((η−1)/(η+1))²), refracts by Snell's law, and
+/// scales radiance by 1/η'² when it refracts; a smooth conductor mirrors with weight F·tint.
+#[test]
+fn smooth_lobes() {
+    let eta = 1.5f32;
+    let l = L::uniform(&dielectric(0.0, eta), 1.0);
+    let wo = dir(0.0, 0.0);
+    let mut s = PathSampler::new(9, &[2]);
+    let count = 200_000;
+    let mut reflected = 0;
+    for _ in 0..count {
+        let (u1, u2) = s.next2::<f32>();
+        let uc = s.next::<f32>();
+        let smp = l.sample(&v(N), &v(wo), u1, u2, uc, true);
+        assert!(smp.delta);
+        if smp.transmitted {
+            assert!((smp.wi.lane(0) - (-Vec3::Z)).length() < 1e-5);
+            assert!((smp.weight.0[0] - 1.0 / (eta * eta)).abs() < 1e-6);
+        } else {
+            reflected += 1;
+            assert!((smp.wi.lane(0) - Vec3::Z).length() < 1e-5);
+            assert_eq!(smp.weight.0[0], 1.0);
+        }
+    }
+    let f0 = ((eta - 1.0) / (eta + 1.0)).powi(2) as f64;
+    let frac = reflected as f64 / count as f64;
+    let se = (f0 * (1.0 - f0) / count as f64).sqrt();
+    assert!((frac - f0).abs() < 4.0 * se, "reflected fraction {frac} vs F0 {f0}");
+    // Snell at 60° from outside
+    let wo = dir(60f64.to_radians(), 1.0);
+    let mut s = PathSampler::new(10, &[3]);
+    for _ in 0..1000 {
+        let (u1, u2) = s.next2::<f32>();
+        let smp = l.sample(&v(N), &v(wo), u1, u2, s.next::<f32>(), false);
+        if smp.transmitted {
+            let wi = smp.wi.lane(0);
+            let (sin_o, sin_i) = ((1.0 - wo.z * wo.z).sqrt(), (1.0 - wi.z * wi.z).sqrt());
+            assert!((sin_o - eta * sin_i).abs() < 1e-5, "Snell: {sin_o} vs {eta}·{sin_i}");
+            assert!(
+                wi.z < 0.0 && (wi.x * wo.y - wi.y * wo.x).abs() < 1e-6,
+                "refraction leaves the plane of incidence"
+            );
+        }
+    }
+    let m = conductor(0.0, true);
+    let l = L::uniform(&m, 1.0);
+    let wo = dir(0.5, 2.0);
+    let smp = l.sample(&v(N), &v(wo), 0.3, 0.6, 0.1, true);
+    let f = super::fresnel::conductor(wo.z, &Spectrum([0.2f32, 0.45, 1.4]), &Spectrum([3.6f32, 2.4, 1.8]));
+    assert!((smp.wi.lane(0) - Vec3::new(-wo.x, -wo.y, wo.z)).length() < 1e-5);
+    for c in 0..3 {
+        assert!((smp.weight.0[c] - f.0[c] * [1.0, 0.8, 0.6][c]).abs() < 1e-5);
+    }
+    assert_eq!(
+        l.eval(&v(N), &v(wo), &smp.wi, true).0[0],
+        0.0,
+        "a delta lobe evaluates to 0"
+    );
+}
+
+/// Reciprocity: f(o, i) = f(i, o) for reflection (conductor and dielectric); for refraction,
+/// f in importance transport with the directions swapped equals f in radiance transport
+/// (f_imp(i, o) = f_rad(o, i)), and f_rad(o, i)/η_o² = f_rad(i, o)/η_i² (Veach 1997, §5.2; f(o, i) is light arriving along i and leaving along o).
+#[test]
+fn reciprocity() {
+    let mut s = PathSampler::new(21, &[4]);
+    let sphere = |s: &mut PathSampler| {
+        let (a, b) = s.next2::<f32>();
+        let z = 1.0 - 2.0 * a;
+        let r = (1.0 - z * z).max(0.0).sqrt();
+        let p = 2.0 * std::f32::consts::PI * b;
+        Vec3::new(r * p.cos(), r * p.sin(), z)
+    };
+    let eta = 1.5f32;
+    let mats = [conductor(0.4, true), dielectric(0.4, eta), dielectric(0.2, 1.0 / 1.2)];
+    let mut checked_t = 0;
+    for m in &mats {
+        let l = L::uniform(m, 1.0);
+        let int = match m {
+            Material::Dielectric { int_ior, .. } => *int_ior,
+            _ => 1.0,
+        };
+        for _ in 0..4000 {
+            let (o, i) = (sphere(&mut s), sphere(&mut s));
+            let f_oi = l.eval(&v(N), &v(o), &v(i), true).0[0];
+            let f_io = l.eval(&v(N), &v(i), &v(o), true).0[0];
+            let imp_io = l.eval(&v(N), &v(i), &v(o), false).0[0];
+            let tol = |x: f32| 1e-3 * x.abs().max(1e-3);
+            if o.z * i.z > 0.0 {
+                assert!(
+                    (f_oi - f_io).abs() <= tol(f_oi),
+                    "{m:?}: f(o,i) {f_oi} vs f(i,o) {f_io}"
+                );
+            } else if f_oi > 0.0 {
+                checked_t += 1;
+                assert!(
+                    (imp_io - f_oi).abs() <= tol(f_oi),
+                    "{m:?}: f_imp(i,o) {imp_io} vs f_rad(o,i) {f_oi}"
+                );
+                let (eta_o, eta_i) = if o.z > 0.0 { (1.0, int) } else { (int, 1.0) };
+                let (a, b) = (f_oi / (eta_o * eta_o), f_io / (eta_i * eta_i));
+                assert!((a - b).abs() <= tol(a), "{m:?}: f(o,i)/η_o² {a} vs f(i,o)/η_i² {b}");
+            }
+        }
+    }
+    assert!(checked_t > 500, "only {checked_t} refraction pairs were checked");
+}
+
+/// The material gather of nested media (scenes/liquid_glass.toml): a liquid lane's interior
+/// and exterior indices are the liquid's and the glass's, with the glass's ior parameter on
+/// the exterior's derivative lane; a glass lane's exterior is the scene's medium
+/// (`params::lanes` tests the lanes themselves).
+#[test]
+fn gather_of_nested_media() {
+    use crate::integrator::testutil::load;
+    use crate::kernel::{Dual8, Real};
+    use crate::params::lanes::Motion;
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/liquid_glass.toml");
+    let scene = load(&std::fs::read_to_string(path).unwrap(), &[]);
+    let motion = Motion::build(&scene, &["liquid_ior".into(), "glass_ior".into()]).unwrap();
+    let idx = |n: &str| scene.materials.iter().position(|m| m.name == n).unwrap() as u32;
+    let mats = [idx("liquid"), idx("glass")];
+    let prims: [u32; 8] = std::array::from_fn(|i| {
+        let m = mats[i % 2];
+        scene.shapes.iter().find(|s| s.material == m).unwrap().first_tri
+    });
+    let device = crate::accel::Device::new("").unwrap();
+    let mut ctx = crate::integrator::RenderContext::new(&scene, &device).unwrap();
+    ctx.motion = motion;
+    let l = Lobes::<Dual8<2>, 1>::gather(&ctx, &prims);
+    assert_eq!((l.eta_int.lane(0), l.eta_ext.lane(0)), (1.33, 1.5));
+    assert_eq!((l.eta_int.lane(1), l.eta_ext.lane(1)), (1.5, scene.eta));
+    assert_eq!(
+        [
+            l.eta_int.deriv_lane(0, 0),
+            l.eta_ext.deriv_lane(1, 0),
+            l.eta_ext.deriv_lane(1, 1)
+        ],
+        [1.0, 1.0, 0.0]
+    );
+}
