@@ -404,10 +404,9 @@ fn available_memory() -> Option<u128> {
 /// (a parameter that moves geometry) with any of them, whose scalar subpaths are Lambertian
 /// (`--estimators interior` runs the interior alone).
 fn check_materials(scene: &Scene, motion: &Motion, kind: IntegratorKind, boundary: BoundaryMode) -> Result<(), Error> {
-    let Some(m) = scene.materials.iter().find(|m| !m.material.is_diffuse()) else {
+    if scene.materials.iter().all(|m| m.material.is_diffuse()) {
         return Ok(());
-    };
-    let what = format!("material {:?} (type {})", m.name, m.material.type_name());
+    }
     let refuse = |why: String| Err(Error::Invalid(format!("{}: {why}", scene.source.display())));
     if kind == IntegratorKind::Bdpt
         && let Some(d) = scene.first_delta_material()
@@ -428,9 +427,19 @@ fn check_materials(scene: &Scene, motion: &Motion, kind: IntegratorKind, boundar
                 d.material.type_name()
             ));
         }
-        if motion.moves_geometry() && boundary != BoundaryMode::InteriorOnly {
+        // the boundary stage's subpaths run on the kernel's BSDF lobes (boundary/subpaths.rs);
+        // it takes the blocked side of a visibility edge as dark, which a dielectric is not
+        if motion.moves_geometry()
+            && boundary != BoundaryMode::InteriorOnly
+            && let Some(g) = scene
+                .materials
+                .iter()
+                .find(|m| matches!(m.material, crate::scene::Material::Dielectric { .. }))
+        {
             return refuse(format!(
-                "{what}: the boundary stage (needed by a parameter that moves geometry) supports diffuse materials only so far; differentiate another parameter or pass --estimators interior"
+                "material {:?} (type {}): the boundary stage (needed by a parameter that moves geometry) takes the far side of a visibility edge as dark, which a dielectric is not (light passes through it); differentiate another parameter or pass --estimators interior",
+                g.name,
+                g.material.type_name()
             ));
         }
     }

@@ -255,6 +255,30 @@ fn occluder_shadow_with_four_bounces_matches_finite_differences() {
     );
 }
 
+/// A glossy receiver: the floor and the occluder a rough conductor (GGX α 0.3). The boundary
+/// paths' sensor subpaths evaluate the conductor's lobe from x_S towards the pinhole
+/// (importance walk) and the source subpaths start on it (path kernel); four bounces.
+#[test]
+fn shadow_on_a_rough_conductor_matches_finite_differences() {
+    check_with(
+        "shadow_hidden_occluder.toml",
+        Some("occluder"),
+        "occluder_x",
+        0.1,
+        0.02,
+        |s| {
+            s.integrator.max_bounces = 4;
+            let white = s.materials.iter().position(|m| m.name == "white").unwrap();
+            s.materials[white].material = difftransient::scene::Material::Conductor {
+                roughness: 0.3,
+                specular: [0.7; 3],
+                ior: None,
+            };
+        },
+        &[],
+    );
+}
+
 /// A laser spot on the ceiling lights the floor past the occluder (light-directed rays from
 /// the spot, a point source with a cosine).
 #[test]
@@ -438,4 +462,27 @@ fn pyramid_turning_on_the_floor_matches_finite_differences() {
 #[test]
 fn pyramid_sliding_towards_a_wall_matches_finite_differences() {
     check_seeds(48, "contact_wall.toml", None, "pyramid_z", 0.3, 0.02, |_| {}, &[]);
+}
+
+/// A dielectric lets light through the far side of a visibility edge, which the boundary
+/// stage takes as dark: a derivative that needs it is refused, naming the material, and the
+/// interior alone is still available.
+#[test]
+fn the_boundary_stage_refuses_dielectrics() {
+    let mut scene = load("shadow_hidden_occluder.toml", "occluder_x", None);
+    let white = scene.materials.iter().position(|m| m.name == "white").unwrap();
+    scene.materials[white].material = difftransient::scene::Material::Dielectric {
+        roughness: 0.3,
+        int_ior: 1.5,
+        exterior: None,
+    };
+    let p = ["occluder_x".to_string()];
+    let err = render_diff(&scene, &p, &opts(0, 1, BoundaryMode::Full))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("\"white\"") && err.contains("dielectric") && err.contains("--estimators interior"),
+        "{err}"
+    );
+    assert!(render_diff(&scene, &p, &opts(0, 1, BoundaryMode::InteriorOnly)).is_ok());
 }

@@ -10,14 +10,14 @@
 //! (`transport::scatter`), Embree's 8-wide queries with the window cut on t_far, surface
 //! points rebuilt from barycentrics, and shadow segments moved off both ends.
 
-use super::bsdf::{albedo, diffuse_eval};
+use super::bsdf::{Lobes, albedo, diffuse_eval};
 use super::context::RenderContext;
 use super::deposit::PathCounts;
 use super::opl::points64;
 use super::path::SurfaceStarts;
 use super::surface::{SurfacePoint, surface_at};
 use super::trace::{SegmentEnd, next_hits, shadow_segment, spawn_point, unoccluded};
-use super::transport::scatter;
+use super::transport::{scatter, scatter_lobes};
 use super::window;
 use crate::kernel::{Mask, PathSampler, Real, Spectrum, V3};
 
@@ -85,8 +85,16 @@ pub fn trace_importance_packet<R: Real, const C: usize>(
 
     for j in 1..=deepest {
         active = active & V::<R>::splat(j as f32).le(limit);
-        let f = diffuse_eval(albedo::<R, C>(ctx, &x.prim));
-        active = active & f.max_value().gt(zero);
+        // Lambertian scenes keep their path; any other material goes through its lobes
+        // (opaque ones only: the boundary stage refuses dielectrics, `render::check_materials`)
+        let lobes = (!ctx.diffuse_only).then(|| Lobes::<R, C>::gather(ctx, &x.prim));
+        let f = match &lobes {
+            None => diffuse_eval(albedo::<R, C>(ctx, &x.prim)),
+            Some(_) => Spectrum::zero(),
+        };
+        if lobes.is_none() {
+            active = active & f.max_value().gt(zero);
+        }
         if active.none() {
             break;
         }
@@ -111,6 +119,14 @@ pub fn trace_importance_packet<R: Real, const C: usize>(
             let (o, dir, len) = shadow_segment(&here, &pinhole);
             let ok = ok & unoccluded(&ctx.accel, &o, &dir, zero, len, ok, &mut counts.rays);
             let factor = cos_x.abs() * V::<R>::safe_div(proj.importance, proj.dist2);
+            let f = match &lobes {
+                None => f,
+                Some(l) => {
+                    // light arrives from `side`, leaves towards the pinhole (zero on Dirac lobes)
+                    let to_eye = (eye - p) * V::<R>::safe_div(V::<R>::one(), dist);
+                    l.eval(&V3::from_value(n), &V3::from_value(to_eye), &V3::from_value(side), true)
+                }
+            };
             let value = (beta * f).scale(R::from_value(factor));
             for i in 0..R::LANES {
                 if !ok.bit(i) {
@@ -144,7 +160,11 @@ pub fn trace_importance_packet<R: Real, const C: usize>(
         }
 
         // on by sampling the BSDF
-        let (dir, _) = scatter(ctx, &mut sampler, &n, &side, &f, &mut beta, &mut active, j);
+        let dir = match &lobes {
+            None => scatter(ctx, &mut sampler, &n, &side, &f, &mut beta, &mut active, j).0,
+            // importance transport: the direction the light leaves in, given where it came from
+            Some(l) => scatter_lobes(ctx, &mut sampler, l, &n, &side, false, &mut beta, &mut active, j).wi,
+        };
         let o = spawn_point(&p, &n, &ray_d, &dir);
         let (hit, found) = next_hits(
             &ctx.accel,
