@@ -292,13 +292,19 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
         eprintln!("warning: {}: {w}", a.scene.display());
     }
     if !a.quiet {
+        // the whole run: the interior pass, the boundary stage and the window-energy pilot
+        let boundary = match &stats.boundary {
+            Some(_) => format!("; boundary stage {:.2} s", stats.boundary_seconds),
+            None => String::new(),
+        };
         eprintln!(
-            "{}: {}x{}x{}x{} in {:.2} s ({:.3e} paths/CPU-s, {:.3e} rays/s)",
+            "{}: {}x{}x{}x{} in {:.2} s (interior {:.2} s: {:.3e} paths/CPU-s, {:.3e} rays/s{boundary})",
             prefix("npy").display(),
             film.height,
             film.width,
             film.axis.bins,
             film.channels,
+            stats.total_wall_seconds,
             stats.wall_seconds,
             stats.paths_per_cpu_second,
             stats.rays_per_second
