@@ -73,9 +73,7 @@ impl PyScene {
     #[staticmethod]
     #[pyo3(signature = (path, set = None))]
     fn load(path: PathBuf, set: Option<Vec<(String, f64)>>) -> PyResult<Self> {
-        let format = Format::from_path(&path).map_err(scene_err)?;
-        let text = std::fs::read_to_string(&path)
-            .map_err(|e| SceneError::new_err(format!("{}: cannot read the scene file: {e}", path.display())))?;
+        let (text, format) = Scene::read_description(&path).map_err(scene_err)?;
         Self::build(text, format, path, set.unwrap_or_default())
     }
 

@@ -130,6 +130,11 @@ def test_scene_from_a_dict():
 def test_errors_carry_the_renderers_messages(tmp_path):
     with pytest.raises(dt.SceneError, match="nope.toml"):
         dt.Scene.load(tmp_path / "nope.toml")
+    # read as the CLI reads it: a FIFO is refused, not waited on
+    fifo = tmp_path / "fifo.toml"
+    os.mkfifo(fifo)
+    with pytest.raises(dt.SceneError, match="not a regular file"):
+        dt.Scene.load(fifo)
     bad = tmp_path / "bad.toml"
     bad.write_text((SCENES / "diff_room.toml").read_text().replace("value = 0.6", "value = -3.0"))
     with pytest.raises(dt.SceneError, match="bad.toml"):

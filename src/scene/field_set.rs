@@ -47,9 +47,7 @@ pub(crate) fn apply(raw: &mut Value, sets: &[(String, f64)], source: &Path) -> R
 fn find<'a>(root: &'a mut Value, segs: &[&str]) -> Result<&'a mut Value, String> {
     let mut here = root;
     let mut at = String::new();
-    let mut i = 0;
-    while i < segs.len() {
-        let seg = segs[i];
+    for (i, &seg) in segs.iter().enumerate() {
         let last = i + 1 == segs.len();
         let shown = if at.is_empty() {
             "the scene".to_string()
@@ -100,7 +98,6 @@ fn find<'a>(root: &'a mut Value, segs: &[&str]) -> Result<&'a mut Value, String>
         } else {
             format!("{at}.{seg}")
         };
-        i += 1;
     }
     Ok(here)
 }

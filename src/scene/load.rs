@@ -44,12 +44,19 @@ impl Scene {
     /// overrides `(param name, value)` and resolves it. OBJ files are looked up relative to
     /// the scene file's folder.
     pub fn load(path: &Path, overrides: &[(String, f64)]) -> Result<Scene, SceneError> {
+        let (text, format) = Scene::read_description(path)?;
+        Scene::from_str(&text, format, path, overrides)
+    }
+
+    /// The description text of `path` and its format, read as [`Scene::load`] reads it (a
+    /// regular file of bounded size; FIFOs and devices refused before they are opened).
+    pub fn read_description(path: &Path) -> Result<(String, Format), SceneError> {
         let format = Format::from_path(path)?;
         let text = read_regular_file(path, MAX_SCENE_BYTES).map_err(|err| SceneError::Io {
             path: path.to_path_buf(),
             err,
         })?;
-        Scene::from_str(&text, format, path, overrides)
+        Ok((text, format))
     }
 
     /// Parses and resolves a description given as text. `source` names the file in messages
