@@ -605,7 +605,7 @@ fn lock<T>(m: &std::sync::Mutex<T>) -> std::sync::MutexGuard<'_, T> {
 /// A checkpoint that cannot be written does not stop the render: it is reported once.
 fn report(ck: &Checkpointing, r: Result<(), Error>) {
     if let Err(e) = r {
-        eprintln!("warning: checkpoint {} not written: {e}", ck.path.display());
+        log::warn!("checkpoint {} not written: {e}", ck.path.display());
     }
 }
 
@@ -917,6 +917,15 @@ impl<'s> Run<'s> {
         let wall = t0.elapsed().as_secs_f64();
         let cpu = (cpu_seconds() - cpu0).max(1e-9);
         bar.finish_and_clear();
+        if ran {
+            log::debug!(
+                "interior pass ({:?}, {} spp, {} derivative lane(s), {} threads): {wall:.3} s wall, {cpu:.3} CPU-s",
+                self.kind,
+                spp,
+                derivs,
+                self.pool.current_num_threads()
+            );
+        }
         out.iter_mut()
             .chain(strategy_out.iter_mut())
             .for_each(|t| t.scale(1.0 / spp as f32));
@@ -953,6 +962,22 @@ impl<'s> Run<'s> {
             let mut parts = crate::boundary::render_boundary(&self.ctx, &settings, &self.pool);
             parts.stats.wall_seconds = t_b.elapsed().as_secs_f64();
             parts.stats.cpu_seconds = cpu_seconds() - cpu_b;
+            let st = &parts.stats;
+            log::debug!(
+                "boundary stage ({} edges, spp_boundary {}): primary {:.3} s; secondary {} samples after a pilot of {} \
+                 ({} edge-directed, {} light-directed, {} rays) {:.3} s; total {:.3} s wall, {:.3} CPU-s",
+                st.edges,
+                st.spp_boundary,
+                st.primary_seconds,
+                st.secondary.samples,
+                st.secondary.pilot_samples,
+                st.secondary.edge_directed,
+                st.secondary.light_directed,
+                st.secondary.rays,
+                st.secondary.seconds,
+                st.wall_seconds,
+                st.cpu_seconds
+            );
             if let Some(ck) = self.checkpointing() {
                 let mut kept = lock(&self.saved);
                 let saved = kept.get_or_insert_with(Saved::default);

@@ -55,7 +55,7 @@ pub fn prepare(
                 identity.get(&key).unwrap_or(&identity)
             );
         }
-        eprintln!(
+        log::info!(
             "{}: resuming with {} of {} units of the interior pass done{}",
             path.display(),
             saved.done_units(),
@@ -69,8 +69,8 @@ pub fn prepare(
         Some(saved)
     } else {
         if path.exists() {
-            eprintln!(
-                "warning: {} holds an earlier render's checkpoint; this render replaces it (--resume continues it instead)",
+            log::warn!(
+                "{} holds an earlier render's checkpoint; this render replaces it (--resume continues it instead)",
                 path.display()
             );
         }

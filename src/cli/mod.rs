@@ -2,6 +2,7 @@
 
 mod checkpoint_cmd;
 mod info;
+pub mod logging;
 mod nlos_out;
 mod npy_in;
 mod optimize_cmd;
@@ -21,6 +22,13 @@ use std::path::PathBuf;
 pub struct Cli {
     #[command(subcommand)]
     pub command: Command,
+    /// Warnings only: no progress bars and no summary lines (`DTR_LOG` overrides).
+    #[arg(long, short, global = true, conflicts_with = "verbose")]
+    pub quiet: bool,
+    /// More detail on stderr: -v each stage's settings and timings, -vv everything
+    /// (`DTR_LOG` overrides, e.g. `DTR_LOG=debug`).
+    #[arg(long, short, global = true, action = clap::ArgAction::Count)]
+    pub verbose: u8,
 }
 
 #[derive(Subcommand, Debug)]
@@ -52,6 +60,7 @@ pub enum Command {
 }
 
 pub fn run(cli: Cli) -> anyhow::Result<()> {
+    logging::init(cli.quiet, cli.verbose);
     match cli.command {
         Command::Render(args) => render_cmd::run(args),
         Command::Merge(args) => shard_set::run(args),

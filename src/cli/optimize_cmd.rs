@@ -67,9 +67,6 @@ pub struct OptimizeArgs {
     /// Output folder (created; must be empty if it exists).
     #[arg(short = 'o', long = "output", value_name = "DIR")]
     pub output: PathBuf,
-    /// No progress line.
-    #[arg(long, short)]
-    pub quiet: bool,
 }
 
 fn parse_loss(s: &str) -> Result<Loss, String> {
@@ -230,7 +227,7 @@ pub fn run(a: OptimizeArgs) -> anyhow::Result<()> {
     writeln!(log, "iteration,loss,{names},{},seconds", grads.join(","))?;
     log.flush()?;
     let bar = crate::render::progress_bar(
-        !a.quiet,
+        super::logging::chatty(),
         a.iters as u64,
         "{elapsed_precise} [{bar:30}] {pos}/{len} {msg}",
     );
@@ -269,16 +266,14 @@ pub fn run(a: OptimizeArgs) -> anyhow::Result<()> {
     let values: Vec<(String, f64)> = a.params.iter().cloned().zip(last.values.iter().copied()).collect();
     write_text(&recovered, &scene_with(&a.scene, &values)?)?;
     write_plots(&dir, &a.params, &steps)?;
-    if !a.quiet {
-        eprintln!(
-            "{}: {} iterations, loss {:.3e} → {:.3e}; {}",
-            dir.display(),
-            steps.len(),
-            steps[0].loss,
-            last.loss,
-            pairs(&a.params, &last.values)
-        );
-    }
+    log::info!(
+        "{}: {} iterations, loss {:.3e} → {:.3e}; {}",
+        dir.display(),
+        steps.len(),
+        steps[0].loss,
+        last.loss,
+        pairs(&a.params, &last.values)
+    );
     Ok(())
 }
 

@@ -98,9 +98,6 @@ pub struct RenderArgs {
     /// Trace one path at a time instead of 8-wide packets (reference/debug).
     #[arg(long)]
     pub scalar: bool,
-    /// No progress bar.
-    #[arg(long, short)]
-    pub quiet: bool,
 }
 
 #[derive(clap::ValueEnum, Clone, Copy, Debug)]
@@ -141,11 +138,27 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
         bail!("--spp-boundary sets the boundary samples of a derivative render; it needs --diff");
     }
     let scene = Scene::load(&a.scene, &overrides)?;
+    log::debug!(
+        "{}: {} shapes, {} triangles, {} emitters, {} materials, {} parameters; film {}x{}x{} channel(s), {} bins of {} m from {} m; max_bounces {}",
+        a.scene.display(),
+        scene.shapes.len(),
+        scene.geometry.indices.len(),
+        scene.emitters.len(),
+        scene.materials.len(),
+        scene.params.len(),
+        scene.film.width,
+        scene.film.height,
+        scene.film.channels,
+        scene.film.axis.bins,
+        scene.film.axis.bin_width_opl,
+        scene.film.axis.start_opl,
+        scene.integrator.max_bounces
+    );
     let bounces = scene.integrator.max_bounces;
     if a.integrator.unwrap_or(scene.integrator.kind) == IntegratorKind::Bdpt && bounces > BDPT_WARN_BOUNCES {
         // every (s, t) split of every path length is joined: about (B + 2)(B + 3)/2 strategies
-        eprintln!(
-            "warning: {}: BDPT with max_bounces = {bounces} joins about {} strategies per path (cost grows as \
+        log::warn!(
+            "{}: BDPT with max_bounces = {bounces} joins about {} strategies per path (cost grows as \
              max_bounces³; 1 s per path at 1024); the path tracer (--integrator path) grows linearly",
             a.scene.display(),
             (bounces as u64 + 2) * (bounces as u64 + 3) / 2
@@ -159,7 +172,7 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
         spp,
         seed: a.seed,
         threads: a.threads,
-        progress: !a.quiet,
+        progress: super::logging::chatty(),
         lanes: if a.scalar { Lanes::Scalar } else { Lanes::Simd8 },
         integrator: a.integrator,
         spp_boundary,
@@ -289,27 +302,25 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
     // (a shard holds part of the energy; `dtr merge` checks the whole)
     let primal_rendered = (a.diff.is_empty() || !matches!(a.estimators, Estimators::Boundary)) && a.shard.is_none();
     if let Some(w) = stats.energy.warning(&film.axis).filter(|_| primal_rendered) {
-        eprintln!("warning: {}: {w}", a.scene.display());
+        log::warn!("{}: {w}", a.scene.display());
     }
-    if !a.quiet {
-        // the whole run: the interior pass, the boundary stage and the window-energy pilot
-        let boundary = match &stats.boundary {
-            Some(_) => format!("; boundary stage {:.2} s", stats.boundary_seconds),
-            None => String::new(),
-        };
-        eprintln!(
-            "{}: {}x{}x{}x{} in {:.2} s (interior {:.2} s: {:.3e} paths/CPU-s, {:.3e} rays/s{boundary})",
-            prefix("npy").display(),
-            film.height,
-            film.width,
-            film.axis.bins,
-            film.channels,
-            stats.total_wall_seconds,
-            stats.wall_seconds,
-            stats.paths_per_cpu_second,
-            stats.rays_per_second
-        );
-    }
+    // the whole run: the interior pass, the boundary stage and the window-energy pilot
+    let boundary = match &stats.boundary {
+        Some(_) => format!("; boundary stage {:.2} s", stats.boundary_seconds),
+        None => String::new(),
+    };
+    log::info!(
+        "{}: {}x{}x{}x{} in {:.2} s (interior {:.2} s: {:.3e} paths/CPU-s, {:.3e} rays/s{boundary})",
+        prefix("npy").display(),
+        film.height,
+        film.width,
+        film.axis.bins,
+        film.channels,
+        stats.total_wall_seconds,
+        stats.wall_seconds,
+        stats.paths_per_cpu_second,
+        stats.rays_per_second
+    );
     Ok(())
 }
 

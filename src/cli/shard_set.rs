@@ -72,9 +72,6 @@ pub struct MergeArgs {
     /// Also write the previews (contact sheet, steady image, plot), as `dtr render --preview`.
     #[arg(long)]
     pub preview: bool,
-    /// No summary line.
-    #[arg(long, short)]
-    pub quiet: bool,
 }
 
 /// One shard's output set, read back.
@@ -278,19 +275,17 @@ pub fn run(a: MergeArgs) -> anyhow::Result<()> {
     crate::output::write_json(&set.stage("json")?, &meta)?;
     let prefix = set.commit()?;
     if let Some(w) = warning {
-        eprintln!("warning: {}: {w}", scene_path.display());
+        log::warn!("{}: {w}", scene_path.display());
     }
-    if !a.quiet {
-        eprintln!(
-            "{}: {} shards merged ({}x{}x{}x{})",
-            with_suffix(&prefix, "npy").display(),
-            shards.len(),
-            film.height,
-            film.width,
-            film.axis.bins,
-            film.channels
-        );
-    }
+    log::info!(
+        "{}: {} shards merged ({}x{}x{}x{})",
+        with_suffix(&prefix, "npy").display(),
+        shards.len(),
+        film.height,
+        film.width,
+        film.axis.bins,
+        film.channels
+    );
     Ok(())
 }
 
