@@ -16,13 +16,28 @@ fn npy(path: &Path) -> (Vec<u64>, Vec<f32>) {
     (shape, f.into_vec().unwrap())
 }
 
-fn frames(path: &Path) -> Vec<image::RgbaImage> {
+/// Height of the time-label strip above each animation frame (`output/label.rs`).
+const LABEL_STRIP: u32 = 18;
+
+/// The animation's frames, whole (label strip and picture).
+fn whole_frames(path: &Path) -> Vec<image::RgbaImage> {
     let dec = GifDecoder::new(std::io::BufReader::new(std::fs::File::open(path).unwrap())).unwrap();
     dec.into_frames()
         .collect_frames()
         .unwrap()
         .into_iter()
         .map(|f| f.into_buffer())
+        .collect()
+}
+
+/// The animation's pictures, below their label strips.
+fn frames(path: &Path) -> Vec<image::RgbaImage> {
+    whole_frames(path)
+        .into_iter()
+        .map(|f| {
+            let (w, h) = f.dimensions();
+            image::imageops::crop_imm(&f, 0, LABEL_STRIP, w, h - LABEL_STRIP).to_image()
+        })
         .collect()
 }
 
@@ -62,6 +77,19 @@ fn previews_show_the_film_in_time_and_the_derivatives_sign() {
     assert_eq!(gif.len(), bins);
     let up = gif[0].width() as usize / w;
     assert!(up >= 1 && gif[0].height() as usize == h * up);
+    // each frame's strip carries its time label: white text on black, different per bin
+    let strips: Vec<Vec<u8>> = whole_frames(&with(&prefix, "flight.gif"))
+        .iter()
+        .map(|f| {
+            image::imageops::crop_imm(f, 0, 0, f.width(), LABEL_STRIP)
+                .to_image()
+                .into_raw()
+        })
+        .collect();
+    for (t, strip) in strips.iter().enumerate() {
+        assert!(strip.chunks(4).filter(|p| p[0] > 200).count() > 30, "bin {t}: no label");
+    }
+    assert!(strips.windows(2).all(|p| p[0] != p[1]), "two bins share a label");
     let (mut peak_bin, mut peak) = (0, 0.0f32);
     for t in 0..bins {
         let max = (0..h * w).map(|p| at(p / w, p % w, t, 0)).fold(0.0f32, f32::max);

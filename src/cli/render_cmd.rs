@@ -35,7 +35,7 @@ pub struct RenderArgs {
     /// Also write PREFIX.exr: one layer per time bin.
     #[arg(long)]
     pub exr: bool,
-    /// Also write PREFIX.frames.png (contact sheet), PREFIX.steady.png, PREFIX.steady.npy (the
+    /// Also write PREFIX.frames.png (contact sheet, frames labelled with their time, log scale), PREFIX.steady.png, PREFIX.steady.npy (the
     /// HDR time-integrated image, [H, W, C]), PREFIX.plot.png (radiance over time for the whole
     /// image and one pixel), PREFIX.flight.gif (light in flight, one frame per bin, log scale),
     /// PREFIX.streak.png (the --pixel row against time) and, with --diff, PREFIX.d_NAME.png
@@ -45,8 +45,8 @@ pub struct RenderArgs {
     /// Pixel for the preview plot and the streak image's row, as X,Y (default: the image centre).
     #[arg(long, value_name = "X,Y")]
     pub pixel: Option<String>,
-    /// Display white of the light-in-flight animation: one for the whole film (`global`, frames
-    /// compare) or one per frame (`frame`, every frame shows its structure).
+    /// Display white of the light-in-flight animation and the contact sheet: one for the whole
+    /// film (`global`, frames compare) or one per frame (`frame`, every frame shows its structure).
     #[arg(long, value_name = "global|frame", default_value = "global", value_parser = ["global", "frame"])]
     pub normalise: String,
     /// Also differentiate with respect to these parameters (comma-separated names from
@@ -384,8 +384,13 @@ pub(super) fn write_previews(
     pixel: Option<(usize, usize)>,
     normalise: output::Normalise,
 ) -> anyhow::Result<()> {
-    output::write_contact_sheet(&set.stage("frames.png")?, view(film), None)?;
-    output::write_flight_gif(&set.stage("flight.gif")?, view(film), normalise)?;
+    let style = output::SheetStyle {
+        axis: Some(film.axis),
+        normalise,
+        exposure: None,
+    };
+    output::write_contact_sheet(&set.stage("frames.png")?, view(film), &style)?;
+    output::write_flight_gif(&set.stage("flight.gif")?, view(film), normalise, Some(&film.axis))?;
     output::write_steady_png(
         &set.stage("steady.png")?,
         &film.steady,

@@ -8,11 +8,14 @@
 //! each frame with [`Normalise::Frame`].
 
 use super::atomic::write_atomic;
+use super::label::{LABEL_H, bin_label, draw_labels, labels_available};
 use super::png::write_png;
 use super::tonemap::robust_white;
 use super::{FilmView, OutputError};
+use crate::temporal::TimeAxis;
 use image::codecs::gif::{GifEncoder, Repeat};
-use image::{Delay, Frame, RgbaImage};
+use image::imageops::{self, FilterType};
+use image::{Delay, DynamicImage, Frame, ImageBuffer, Rgb, RgbImage};
 use std::path::Path;
 
 /// Decades of radiance below display white that the logarithmic curve shows.
@@ -67,22 +70,35 @@ fn rgb(film: &FilmView, p: usize, t: usize, scale: f64) -> [u8; 3] {
     std::array::from_fn(|c| (log_display(at(c) * scale) * 255.0 + 0.5) as u8)
 }
 
-fn white_scale(w: Option<f32>) -> f64 {
+pub(crate) fn white_scale(w: Option<f32>) -> f64 {
     w.map(|w| 1.0 / w as f64).filter(|s| s.is_finite()).unwrap_or(1.0)
 }
 
-/// Writes the animation: one frame per time bin (at most [`MAX_GIF_FRAMES`]), looping.
-pub fn write_flight_gif(path: &Path, film: FilmView, normalise: Normalise) -> Result<(), OutputError> {
+/// Enlarges `img` `up` times in each direction (nearest neighbour: film pixels stay sharp).
+fn enlarge(img: RgbImage, up: usize) -> RgbImage {
+    if up == 1 {
+        return img;
+    }
+    let (w, h) = img.dimensions();
+    imageops::resize(&img, w * up as u32, h * up as u32, FilterType::Nearest)
+}
+
+/// Writes the animation: one frame per time bin (at most [`MAX_GIF_FRAMES`]), looping. With
+/// the film's time axis each frame carries its time label in a strip above the picture.
+pub fn write_flight_gif(
+    path: &Path,
+    film: FilmView,
+    normalise: Normalise,
+    axis: Option<&TimeAxis>,
+) -> Result<(), OutputError> {
     film.validate(path)?;
     let (h, w, bins, ch) = (film.height, film.width, film.bins, film.channels);
     let up = upscale(h, w);
     let (gw, gh) = (w * up, h * up);
-    let too_large = || OutputError::invalid(path, format!("a {gw}x{gh} GIF is too large"));
-    let (gw32, gh32) = (
-        u32::try_from(gw).map_err(|_| too_large())?,
-        u32::try_from(gh).map_err(|_| too_large())?,
-    );
-    if gw > u16::MAX as usize || gh > u16::MAX as usize {
+    let labelled = axis.filter(|a| a.bins == bins && bin_label(a, 0, gw).is_some() && labels_available());
+    let strip = if labelled.is_some() { LABEL_H } else { 0 };
+    let too_large = || OutputError::invalid(path, format!("a {gw}x{} GIF is too large", gh + strip));
+    if gw > u16::MAX as usize || gh + strip > u16::MAX as usize {
         return Err(too_large());
     }
     let frames = chosen(bins, MAX_GIF_FRAMES);
@@ -101,14 +117,18 @@ pub fn write_flight_gif(path: &Path, film: FilmView, normalise: Normalise) -> Re
                     (0..h * w).flat_map(move |p| (0..ch).map(move |c| film.data[(p * bins + t) * ch + c]))
                 })),
             };
-            let mut img = RgbaImage::new(gw32, gh32);
-            for (x, y, px) in img.enumerate_pixels_mut() {
-                let p = (y as usize / up) * w + x as usize / up;
-                let [r, g, b] = rgb(&film, p, t, scale);
-                *px = image::Rgba([r, g, b, 255]);
+            let small = ImageBuffer::from_fn(w as u32, h as u32, |x, y| {
+                Rgb(rgb(&film, y as usize * w + x as usize, t, scale))
+            });
+            let mut img = RgbImage::new(gw as u32, (gh + strip) as u32);
+            imageops::replace(&mut img, &enlarge(small, up), 0, strip as i64);
+            if let Some(text) = labelled.and_then(|a| bin_label(a, t, gw)) {
+                draw_labels(&mut img, gw, gh + strip, gw, &[((0, 0), text)]);
             }
             let delay = Delay::from_numer_denom_ms(FRAME_MS, 1);
-            enc.encode_frame(Frame::from_parts(img, 0, 0, delay)).map_err(gif_err)?;
+            let rgba = DynamicImage::ImageRgb8(img).into_rgba8();
+            enc.encode_frame(Frame::from_parts(rgba, 0, 0, delay))
+                .map_err(gif_err)?;
         }
         Ok(())
     })
@@ -126,20 +146,16 @@ pub fn write_streak_png(path: &Path, film: FilmView, row: usize) -> Result<(), O
         ));
     }
     let up = upscale(h, w);
-    let (sw, sh) = (w * up, bins);
     let scale = white_scale(robust_white(|| {
         (0..w).flat_map(move |x| {
             (0..bins * film.channels).map(move |k| film.data[(row * w + x) * bins * film.channels + k])
         })
     }));
-    let mut px = vec![0u8; sw * sh * 3];
-    for t in 0..bins {
-        for x in 0..sw {
-            let v = rgb(&film, row * w + x / up, t, scale);
-            px[(t * sw + x) * 3..][..3].copy_from_slice(&v);
-        }
-    }
-    write_png(path, &px, sw, sh, 3)
+    let streak: RgbImage = ImageBuffer::from_fn(w as u32, bins as u32, |x, t| {
+        Rgb(rgb(&film, row * w + x as usize, t as usize, scale))
+    });
+    let wide = imageops::resize(&streak, (w * up) as u32, bins as u32, FilterType::Nearest);
+    write_png(path, wide.as_raw(), w * up, bins, 3)
 }
 
 /// Writes a derivative's time-integrated image (channels averaged) in a diverging colour map:
@@ -159,14 +175,10 @@ pub fn write_derivative_png(path: &Path, film: FilmView) -> Result<(), OutputErr
         .collect();
     let scale = white_scale(robust_white(|| img.iter().map(|v| v.abs() as f32)));
     let up = upscale(h, w);
-    let (iw, ih) = (w * up, h * up);
-    let mut px = vec![0u8; iw * ih * 3];
-    for y in 0..ih {
-        for x in 0..iw {
-            px[(y * iw + x) * 3..][..3].copy_from_slice(&diverging(img[(y / up) * w + x / up] * scale));
-        }
-    }
-    write_png(path, &px, iw, ih, 3)
+    let small: RgbImage = ImageBuffer::from_fn(w as u32, h as u32, |x, y| {
+        Rgb(diverging(img[y as usize * w + x as usize] * scale))
+    });
+    write_png(path, enlarge(small, up).as_raw(), w * up, h * up, 3)
 }
 
 /// A value in [−1, 1] (clamped) → blue, white at 0, red; sRGB-encoded.

@@ -16,6 +16,7 @@ mod exr_layers;
 mod flight;
 mod font;
 mod json;
+mod label;
 #[cfg(feature = "hdf5")]
 mod nlos_h5;
 mod npy;
@@ -37,7 +38,7 @@ pub use json::write_json;
 pub use nlos_h5::{h_array, write_nlos_h5};
 pub use npy::write_npy;
 pub use plot::write_time_plot;
-pub use preview::{MAX_SHEET_FRAMES, write_contact_sheet, write_steady_png};
+pub use preview::{MAX_SHEET_FRAMES, SheetStyle, write_contact_sheet, write_steady_png};
 pub use xy_plot::{write_line_plot, write_loglog_plot};
 
 use std::path::Path;

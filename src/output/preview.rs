@@ -1,13 +1,18 @@
-//! PNG previews: a contact sheet of tone-mapped time bins and the time-integrated image.
+//! PNG previews: a contact sheet of time bins and the time-integrated image.
 
+use super::flight::{Normalise, log_display, white_scale};
+use super::label::{LABEL_H, bin_label, draw_labels, labels_available};
 use super::png::write_png;
 use super::tonemap::{exposure_scale, robust_white, to_srgb8};
 use super::{FilmView, OutputError, check_channels, check_data};
+use crate::temporal::TimeAxis;
+use image::imageops::{self, FilterType};
+use image::{ImageBuffer, Rgb, Rgb32FImage, RgbImage};
 use std::path::Path;
 
 /// At most this many time bins appear on a contact sheet; more are subsampled evenly.
 pub const MAX_SHEET_FRAMES: usize = 64;
-/// Frames are shrunk (box filter) so the sheet's longer side stays within this many pixels.
+/// Frames are shrunk (area average) so the sheet's longer side stays within this many pixels.
 const MAX_SHEET_SIDE: usize = 4096;
 /// Small frames are enlarged (nearest neighbour, at most 8×) towards this many pixels.
 const MIN_SHEET_SIDE: usize = 1024;
@@ -15,28 +20,41 @@ const MAX_UPSCALE: usize = 8;
 /// Border between and around frames, and its grey level.
 const GAP: usize = 2;
 const GAP_GREY: u8 = 64;
+/// Background of the label strips.
+const LABEL_GREY: u8 = 24;
 
-/// Writes a PNG grid of tone-mapped time bins, in time order left to right, top to bottom.
+/// How a contact sheet is drawn.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct SheetStyle {
+    /// The film's time axis: each frame is then labelled with its bin's centre (OPL in metres
+    /// and time of flight in nanoseconds) in a strip above it.
+    pub axis: Option<TimeAxis>,
+    /// Display white for the whole sheet (frames compare) or per frame.
+    pub normalise: Normalise,
+    /// A fixed linear exposure (display white = 1 / exposure; finite and positive) instead of
+    /// the automatic white; it applies to every frame.
+    pub exposure: Option<f32>,
+}
+
+/// Writes a PNG grid of time bins, in time order left to right, top to bottom.
 ///
 /// All bins are shown, or [`MAX_SHEET_FRAMES`] evenly spaced ones (first and last included)
-/// when there are more. One exposure is used for every frame so they compare: display white
-/// is `1 / exposure` when `exposure` is given (a linear factor, finite and positive), else
-/// the 99.5th percentile of the positive values of the frames shown. sRGB curve; mono films
-/// give a grey PNG, RGB films an RGB PNG; negative values show black. Frames are enlarged
-/// (small films) or box-filtered down (large ones) to keep the sheet a sensible size.
-pub fn write_contact_sheet(path: &Path, film: FilmView, exposure: Option<f32>) -> Result<(), OutputError> {
+/// when there are more. Values go through the logarithmic display curve of the animation
+/// (`flight.rs`: [`super::DECADES`] decades below display white), so the indirect bounces stay
+/// visible beside the direct flash. Display white is `1 / exposure` when given, else the
+/// 99.5th percentile of the positive values of the frames shown (or of each frame, with
+/// [`Normalise::Frame`]). Mono films give a grey PNG, RGB films an RGB PNG; negative values
+/// show black. Frames are enlarged (nearest neighbour) or shrunk (area average) with
+/// `image::imageops` to keep the sheet a sensible size; with an axis each frame carries its
+/// time label (left out, with a warning, when no font is installed).
+pub fn write_contact_sheet(path: &Path, film: FilmView, style: &SheetStyle) -> Result<(), OutputError> {
     film.validate(path)?;
     let (h, w, bins, ch) = (film.height, film.width, film.bins, film.channels);
     let frames = chosen_bins(bins);
-    let white = robust_white(|| {
-        let frames = &frames;
-        (0..h * w).flat_map(move |p| {
-            frames
-                .iter()
-                .flat_map(move |&t| (0..ch).map(move |c| film.data[(p * bins + t) * ch + c]))
-        })
-    });
-    let scale = exposure_scale(path, exposure, white)?;
+    let frame_values =
+        move |t: usize| (0..h * w).flat_map(move |p| (0..ch).map(move |c| film.data[(p * bins + t) * ch + c]));
+    let sheet_white = robust_white(|| frames.iter().flat_map(|&t| frame_values(t)));
+    let sheet_scale = exposure_scale(path, style.exposure, sheet_white)?;
 
     let n = frames.len();
     let (cols, rows) = grid(n, h, w);
@@ -48,35 +66,71 @@ pub fn write_contact_sheet(path: &Path, film: FilmView, exposure: Option<f32>) -
         1
     };
     let (cell_w, cell_h) = (w.div_ceil(down) * up, h.div_ceil(down) * up);
+    let labelled = style
+        .axis
+        .filter(|a| a.bins == bins && bin_label(a, 0, cell_w).is_some() && labels_available());
+    let strip = if labelled.is_some() { LABEL_H } else { 0 };
     let sheet_w = cols * (cell_w + GAP) + GAP;
-    let sheet_h = rows * (cell_h + GAP) + GAP;
+    let sheet_h = rows * (cell_h + strip + GAP) + GAP;
+    let too_large = || OutputError::invalid(path, format!("a {sheet_w}x{sheet_h} sheet is too large"));
+    let mut sheet = RgbImage::from_pixel(
+        u32::try_from(sheet_w).map_err(|_| too_large())?,
+        u32::try_from(sheet_h).map_err(|_| too_large())?,
+        Rgb([GAP_GREY; 3]),
+    );
 
-    let mut sheet = vec![GAP_GREY; sheet_w * sheet_h * ch];
-    let mut acc = vec![0.0f64; ch];
+    let mut labels = Vec::new();
     for (k, &t) in frames.iter().enumerate() {
-        let (x0, y0) = (GAP + (k % cols) * (cell_w + GAP), GAP + (k / cols) * (cell_h + GAP));
-        for oy in 0..cell_h {
-            for ox in 0..cell_w {
-                // Source block: one pixel when enlarging, a down×down box when shrinking.
-                let (sy0, sx0) = ((oy / up) * down, (ox / up) * down);
-                let (sy1, sx1) = ((sy0 + down).min(h), (sx0 + down).min(w));
-                acc.iter_mut().for_each(|a| *a = 0.0);
-                for sy in sy0..sy1 {
-                    for sx in sx0..sx1 {
-                        for (c, a) in acc.iter_mut().enumerate() {
-                            *a += film.data[film.index(sy, sx, t, c)] as f64;
-                        }
-                    }
-                }
-                let count = ((sy1 - sy0) * (sx1 - sx0)) as f64;
-                let o = ((y0 + oy) * sheet_w + x0 + ox) * ch;
-                for (c, a) in acc.iter().enumerate() {
-                    sheet[o + c] = to_srgb8(a / count * scale);
+        let (x0, y0) = (
+            GAP + (k % cols) * (cell_w + GAP),
+            GAP + (k / cols) * (cell_h + strip + GAP),
+        );
+        let scale = match (style.normalise, style.exposure) {
+            (Normalise::Frame, None) => white_scale(robust_white(|| frame_values(t))),
+            _ => sheet_scale,
+        };
+        // relative to display white before resizing: imageops clamps f32 pixels to [0, 1]
+        // (the display range, so nothing shown is lost)
+        let frame: Rgb32FImage = ImageBuffer::from_fn(w as u32, h as u32, |x, y| {
+            Rgb(std::array::from_fn(|c| {
+                (film.data[film.index(y as usize, x as usize, t, c.min(ch - 1))] as f64 * scale) as f32
+            }))
+        });
+        let (cw, chh) = (cell_w as u32, cell_h as u32);
+        let sized = if down > 1 {
+            imageops::thumbnail(&frame, cw, chh)
+        } else if up > 1 {
+            imageops::resize(&frame, cw, chh, FilterType::Nearest)
+        } else {
+            frame
+        };
+        let shown: RgbImage =
+            ImageBuffer::from_fn(cw, chh, |x, y| Rgb(sized.get_pixel(x, y).0.map(|v| display8(v as f64))));
+        imageops::replace(&mut sheet, &shown, x0 as i64, (y0 + strip) as i64);
+        if let Some(axis) = &labelled {
+            for y in y0..y0 + strip {
+                for x in x0..x0 + cell_w {
+                    sheet.put_pixel(x as u32, y as u32, Rgb([LABEL_GREY; 3]));
                 }
             }
+            labels.extend(bin_label(axis, t, cell_w).map(|text| ((x0, y0), text)));
         }
     }
-    write_png(path, &sheet, sheet_w, sheet_h, ch)
+    if !labels.is_empty() {
+        draw_labels(&mut sheet, sheet_w, sheet_h, cell_w, &labels);
+    }
+    let pixels = sheet.into_raw();
+    if ch == 1 {
+        // grey frames, white text on grey strips: every pixel has three equal channels
+        let grey: Vec<u8> = pixels.chunks_exact(3).map(|p| p[0]).collect();
+        return write_png(path, &grey, sheet_w, sheet_h, 1);
+    }
+    write_png(path, &pixels, sheet_w, sheet_h, 3)
+}
+
+/// Scaled linear value → 8 bits on the logarithmic display curve.
+fn display8(v: f64) -> u8 {
+    (log_display(v) * 255.0 + 0.5) as u8
 }
 
 /// Writes the time-integrated image `data` (`[h, w, c]` row-major, c = 1 or 3) as a PNG with
@@ -183,7 +237,7 @@ mod tests {
                 bins: 10,
                 channels: 3,
             },
-            None,
+            &SheetStyle::default(),
         )
         .unwrap();
         let img = image::open(&p).unwrap();
@@ -211,12 +265,140 @@ mod tests {
                 bins: 200,
                 channels: 1,
             },
-            Some(0.5),
+            &SheetStyle {
+                exposure: Some(0.5),
+                ..Default::default()
+            },
         )
         .unwrap();
         let img = image::open(&pm).unwrap();
         assert_eq!(img.color(), image::ColorType::L8);
         assert_eq!(entries(dir.path()), vec!["frames.png", "mono.png"]);
+    }
+
+    /// Two frames 1000× apart in brightness, each a flat square on black.
+    fn two_exposures() -> (Vec<f32>, FilmView<'static>) {
+        let (h, w) = (8, 8);
+        let mut v = vec![0.0f32; h * w * 2];
+        for y in 2..6 {
+            for x in 2..6 {
+                v[(y * w + x) * 2] = 1.0;
+                v[(y * w + x) * 2 + 1] = 1e-3;
+            }
+        }
+        let view = FilmView {
+            data: &[],
+            height: h,
+            width: w,
+            bins: 2,
+            channels: 1,
+        };
+        (v, view)
+    }
+
+    /// The brightest grey of each frame cell of a two-frame, unlabelled mono sheet.
+    fn cell_peaks(p: &Path) -> Vec<u8> {
+        let img = image::open(p).unwrap().to_luma8();
+        let (cols, _) = grid(2, 8, 8);
+        assert_eq!(cols, 2);
+        let cell = (img.width() as usize - GAP) / 2;
+        (0..2)
+            .map(|k| {
+                img.enumerate_pixels()
+                    .filter(|(x, y, _)| {
+                        let (x, y) = (*x as usize, *y as usize);
+                        x >= GAP + k * cell && x < (k + 1) * cell && y >= GAP && y + GAP < img.height() as usize
+                    })
+                    .map(|(_, _, p)| p.0[0])
+                    .max()
+                    .unwrap()
+            })
+            .collect()
+    }
+
+    #[test]
+    fn log_exposure_keeps_dim_frames_visible_and_frame_normalisation_lifts_them() {
+        let dir = tempfile::tempdir().unwrap();
+        let (data, view) = two_exposures();
+        let film = FilmView { data: &data, ..view };
+        let pg = dir.path().join("global.png");
+        write_contact_sheet(&pg, film, &SheetStyle::default()).unwrap();
+        // one white: the bright frame is white, the dim one (3 decades down) at the curve's foot
+        assert_eq!(cell_peaks(&pg), vec![255, 0]);
+        let pf = dir.path().join("frame.png");
+        let per_frame = SheetStyle {
+            normalise: Normalise::Frame,
+            ..Default::default()
+        };
+        write_contact_sheet(&pf, film, &per_frame).unwrap();
+        assert_eq!(cell_peaks(&pf), vec![255, 255]);
+        // a frame 10× below white shows at 2/3 of the display range, where a linear sRGB
+        // curve at that exposure would show 89/255
+        assert_eq!(display8(0.1), (255.0 * 2.0 / 3.0 + 0.5) as u8);
+        // a fixed exposure holds for every frame, whatever the normalisation
+        let fixed = SheetStyle {
+            normalise: Normalise::Frame,
+            exposure: Some(1.0),
+            axis: None,
+        };
+        write_contact_sheet(&pf, film, &fixed).unwrap();
+        assert_eq!(cell_peaks(&pf), vec![255, 0]);
+    }
+
+    #[test]
+    fn frames_carry_their_time_labels() {
+        let dir = tempfile::tempdir().unwrap();
+        let (h, w, bins) = (24, 32, 10);
+        let rgb = moving_square(h, w, bins, 3);
+        let film = FilmView {
+            data: &rgb,
+            height: h,
+            width: w,
+            bins,
+            channels: 3,
+        };
+        let axis = TimeAxis {
+            start_opl: 3.0,
+            bin_width_opl: 0.3,
+            bins,
+        };
+        let p = dir.path().join("labelled.png");
+        let style = SheetStyle {
+            axis: Some(axis),
+            ..Default::default()
+        };
+        write_contact_sheet(&p, film, &style).unwrap();
+        let img = image::open(&p).unwrap().to_rgb8();
+        // 4 × 3 cells of 256 × 192 pixels, each under an 18-pixel label strip
+        let (cell_w, cell_h) = (32 * 8, 24 * 8);
+        assert_eq!(
+            img.dimensions(),
+            (
+                (4 * (cell_w + GAP) + GAP) as u32,
+                (3 * (cell_h + LABEL_H + GAP) + GAP) as u32
+            )
+        );
+        // every strip holds white text on its dark grey, and nothing else
+        for k in 0..bins {
+            let (x0, y0) = (GAP + (k % 4) * (cell_w + GAP), GAP + (k / 4) * (cell_h + LABEL_H + GAP));
+            let strip: Vec<[u8; 3]> = (y0..y0 + LABEL_H)
+                .flat_map(|y| (x0..x0 + cell_w).map(move |x| (x, y)))
+                .map(|(x, y)| img.get_pixel(x as u32, y as u32).0)
+                .collect();
+            let text = strip.iter().filter(|p| p[0] > 200).count();
+            assert!(text > 30, "frame {k}: {text} text pixels");
+            assert!(
+                strip.iter().all(|p| p[0] == p[1] && p[1] == p[2]),
+                "frame {k}: coloured strip"
+            );
+        }
+        // an axis of another length labels nothing (it is not this film's)
+        let other = SheetStyle {
+            axis: Some(TimeAxis { bins: 11, ..axis }),
+            ..Default::default()
+        };
+        write_contact_sheet(&p, film, &other).unwrap();
+        assert_eq!(image::open(&p).unwrap().height() as usize, 3 * (cell_h + GAP) + GAP);
     }
 
     #[test]
@@ -234,7 +416,7 @@ mod tests {
                 bins,
                 channels: 1,
             },
-            None,
+            &SheetStyle::default(),
         )
         .unwrap();
         let img = image::open(&p).unwrap();
@@ -286,7 +468,7 @@ mod tests {
             bins: 3,
             channels: 1,
         };
-        let e = write_contact_sheet(&p, film, None).unwrap_err();
+        let e = write_contact_sheet(&p, film, &SheetStyle::default()).unwrap_err();
         assert!(e.to_string().contains("1 of 12 values are not finite"), "{e}");
         let e = write_contact_sheet(
             &p,
@@ -297,12 +479,16 @@ mod tests {
                 bins: 0,
                 channels: 1,
             },
-            None,
+            &SheetStyle::default(),
         )
         .unwrap_err();
         assert!(matches!(e, OutputError::Empty { .. }), "{e}");
         let ok = vec![0.5f32; 12];
-        let e = write_contact_sheet(&p, FilmView { data: &ok, ..film }, Some(-1.0)).unwrap_err();
+        let bad = SheetStyle {
+            exposure: Some(-1.0),
+            ..Default::default()
+        };
+        let e = write_contact_sheet(&p, FilmView { data: &ok, ..film }, &bad).unwrap_err();
         assert!(e.to_string().contains("exposure"), "{e}");
         let e = write_steady_png(&p, &[f32::NAN; 4], 2, 2, 1).unwrap_err();
         assert!(matches!(e, OutputError::NonFinite { count: 4, .. }), "{e}");
