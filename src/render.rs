@@ -171,13 +171,12 @@ pub struct PhaseSeconds {
     pub film: f64,
 }
 
-/// CPU time (user + system) of this process, seconds.
+/// CPU time (user + system, all threads) of this process, seconds (the `cpu-time` crate:
+/// `clock_gettime(CLOCK_PROCESS_CPUTIME_ID)` on Unix, `GetProcessTimes` on Windows).
 pub fn cpu_seconds() -> f64 {
-    // SAFETY: getrusage writes into the struct we pass; RUSAGE_SELF is always valid.
-    let mut u: libc::rusage = unsafe { std::mem::zeroed() };
-    unsafe { libc::getrusage(libc::RUSAGE_SELF, &mut u) };
-    let tv = |t: libc::timeval| t.tv_sec as f64 + t.tv_usec as f64 * 1e-6;
-    tv(u.ru_utime) + tv(u.ru_stime)
+    cpu_time::ProcessTime::try_now()
+        .map(|t| t.as_duration().as_secs_f64())
+        .unwrap_or(0.0)
 }
 
 /// The most worker threads a render starts (far above any machine's core count; a typo like
