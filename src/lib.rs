@@ -13,23 +13,32 @@
 //! the interior (Algorithm 1, dual numbers in the same kernel) plus, when a parameter moves
 //! geometry, the [`boundary`] integral (Algorithm 2: primary and secondary edges).
 
+#[doc(hidden)]
 pub mod accel;
 pub mod adjoint;
+#[doc(hidden)]
 pub mod boundary;
+#[doc(hidden)]
 pub mod checkpoint;
+#[doc(hidden)]
 pub mod cli;
 pub mod error;
 pub mod film;
+#[doc(hidden)]
 pub mod integrator;
+#[doc(hidden)]
 pub mod kernel;
 pub mod optimize;
 pub mod output;
+#[doc(hidden)]
 pub mod params;
 pub mod render;
 pub mod scene;
 pub mod sensor_noise;
 pub mod shard;
+pub mod simd;
 pub mod temporal;
+#[doc(hidden)]
 pub mod timing;
 
 pub use adjoint::render_adjoint;

@@ -641,6 +641,7 @@ impl<'s> Run<'s> {
         per_strategy: bool,
         derivative_films: bool,
     ) -> Result<Self, Error> {
+        crate::simd::warn_if_slower_than_the_cpu();
         let spp = opts.spp.unwrap_or(scene.integrator.spp);
         if spp == 0 {
             return Err(Error::Invalid(format!(

@@ -481,6 +481,8 @@ fn metadata(scene: &Scene, film: &Transient, stats: &RenderStats, a: &RenderArgs
     // the whole render: interior + boundary stage + the window-energy pilot
     meta["total_wall_seconds"] = json!(stats.total_wall_seconds);
     meta["total_cpu_seconds"] = json!(stats.total_cpu_seconds);
+    // the instruction set of this build (src/simd.rs)
+    meta["simd"] = json!(crate::simd::compiled_for());
     meta["steady"] = json!({
         "about": "what the steady image integrates: window = the time window (paths were traced only as far as their OPL could still reach a bin, opl_cut metres; the transient is the same as without the cut), full = all time (--steady full: every path traced to its last bounce)",
         "mode": stats.steady,
