@@ -16,6 +16,7 @@
 #[doc(hidden)]
 pub mod accel;
 pub mod adjoint;
+pub mod auto_window;
 #[doc(hidden)]
 pub mod boundary;
 #[doc(hidden)]

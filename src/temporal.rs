@@ -173,6 +173,11 @@ impl Correlation {
     /// `last_opl()` (the window's end plus the reach of pulse and gate, less the emitter's
     /// offset; a box gate's last bin is reached up to this bound, a Gaussian gate's up to half
     /// a bin before it). The window cut (`integrator::window`) traces no path beyond it.
+    /// Half-width of the support of S_e(l, ·) beyond a bin (pulse ⋆ gate), metres of OPL.
+    pub fn reach(&self) -> f64 {
+        self.reach
+    }
+
     pub fn last_opl(&self) -> f64 {
         self.axis.end_opl() + self.reach - self.offset
     }

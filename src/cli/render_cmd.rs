@@ -5,7 +5,7 @@ use crate::film::{SteadyMode, Transient};
 use crate::output::{self, FilmView};
 use crate::render::{BoundaryMode, Lanes, RenderOptions, RenderStats, render, render_diff, render_strategies};
 use crate::scene::{IntegratorKind, Scene};
-use crate::temporal::SPEED_OF_LIGHT_M_PER_S;
+use crate::temporal::{SPEED_OF_LIGHT_M_PER_S, TimeAxis};
 use anyhow::{Context, bail};
 use serde_json::json;
 use std::path::{Path, PathBuf};
@@ -49,6 +49,10 @@ pub struct RenderArgs {
     /// film (`global`, frames compare) or one per frame (`frame`, every frame shows its structure).
     #[arg(long, value_name = "global|frame", default_value = "global", value_parser = ["global", "frame"])]
     pub normalise: String,
+    /// Choose the time window (film.start_opl, film.bin_width_opl; the scene's bins kept) from a
+    /// short pilot render that finds where the light arrives and decays (src/auto_window.rs).
+    #[arg(long)]
+    pub auto_window: bool,
     /// Also differentiate with respect to these parameters (comma-separated names from
     /// `dtr info`): writes PREFIX.d_NAME.npy, same shape as the transient.
     #[arg(long, value_delimiter = ',', value_name = "NAME[,NAME...]")]
@@ -114,7 +118,7 @@ pub enum Estimators {
 }
 
 pub fn run(a: RenderArgs) -> anyhow::Result<()> {
-    let overrides = super::parse_sets(&a.set)?;
+    let mut overrides = super::parse_sets(&a.set)?;
     let spp = match a.spp {
         Some(n) if n <= 0 => bail!("--spp must be a positive integer (got {n})"),
         Some(n) => Some(u32::try_from(n).context("--spp is too large")?),
@@ -137,6 +141,39 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
     if a.spp_boundary.is_some() && a.diff.is_empty() {
         bail!("--spp-boundary sets the boundary samples of a derivative render; it needs --diff");
     }
+    let auto_window = if a.auto_window {
+        if let Some((n, _)) = overrides
+            .iter()
+            .find(|(n, _)| n == "film.start_opl" || n == "film.bin_width_opl")
+        {
+            bail!("--auto-window chooses {n}; drop --set {n}=… or --auto-window");
+        }
+        let pilot = RenderOptions {
+            seed: a.seed,
+            threads: a.threads,
+            fast_traversal: a.fast_traversal,
+            ..Default::default()
+        };
+        let w = crate::auto_window::choose_window(&a.scene, &overrides, &pilot)?;
+        log::info!(
+            "{}: auto window [{:.4}, {:.4}] m of OPL ({:.3} to {:.3} ns), {} bins of {:.5} m (pilot {}x{}, {} spp, {:.2} s)",
+            a.scene.display(),
+            w.start_opl,
+            w.start_opl + w.bin_width_opl * w.bins as f64,
+            TimeAxis::time_ns_of_opl(w.start_opl),
+            TimeAxis::time_ns_of_opl(w.start_opl + w.bin_width_opl * w.bins as f64),
+            w.bins,
+            w.bin_width_opl,
+            w.pilot_resolution[0],
+            w.pilot_resolution[1],
+            w.pilot_spp,
+            w.pilot_seconds
+        );
+        overrides.extend(w.overrides());
+        Some(w)
+    } else {
+        None
+    };
     let scene = Scene::load(&a.scene, &overrides)?;
     log::debug!(
         "{}: {} shapes, {} triangles, {} emitters, {} materials, {} parameters; film {}x{}x{} channel(s), {} bins of {} m from {} m; max_bounces {}",
@@ -290,6 +327,9 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
         "about": "this render traced shard index of count of every estimator's samples (interior: samples [a, b) of spp per pixel), normalised by the whole render's sample counts: the shards' films add up to the whole render (dtr merge)",
     });
     // the set that belongs together; a later render to this prefix removes what it left out
+    if let Some(w) = &auto_window {
+        meta["auto_window"] = serde_json::to_value(w)?;
+    }
     meta["files"] = serde_json::json!(set.names_with("json"));
     output::write_json(&set.stage("json")?, &meta)?;
     let prefix_path = set.commit()?;
