@@ -282,7 +282,11 @@ fn liquid(integrator: Option<IntegratorKind>) -> Setup {
 /// term's segments run inside the glass. Besides the checks of [`check`], the secondary term
 /// moved two bin groups earlier (0.4 of OPL: what taking the scene's index 1 for the glass's
 /// 1.5 does to a 0.8 m segment) must fail: the test sees the time of flight of the boundary
-/// paths, not just their sum.
+/// paths, not just their sum. Measured on the code itself (seeds 0..16): the secondary term
+/// with its segments in the scene's index instead of the glass's fails (Σz² = 110 against a
+/// bound of 81), and so does the importance walk without its connection to the pinhole
+/// through x_S's surface (the secondary term then vanishes: Σz² = 225, as the interior
+/// alone).
 #[test]
 fn liquid_in_glass_pose_path_tracer() {
     let s = liquid(None);

@@ -69,3 +69,44 @@ pub fn medium_around(ctx: &RenderContext, p: Vec3, dir: Vec3, counts: &mut RayCo
     }
     ctx.scene.eta
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::accel::Device;
+    use crate::scene::Scene;
+
+    /// scenes/liquid_pose.toml: a liquid (1.33) inside a glass block (1.5) in air (1), seen
+    /// from points in each medium along several directions (some pass the liquid, the wall or
+    /// the light first).
+    #[test]
+    fn the_medium_around_a_point_follows_the_nesting() {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/liquid_pose.toml");
+        let scene = Scene::load(&path, &[]).unwrap();
+        let device = Device::new("").unwrap();
+        let ctx = RenderContext::new(&scene, &device).unwrap();
+        let o = glam::DVec3::from_array(scene.render_origin);
+        let at = |x: f64, y: f64, z: f64| (glam::DVec3::new(x, y, z) - o).as_vec3();
+        let dirs = [
+            Vec3::X,
+            -Vec3::X,
+            Vec3::Y,
+            -Vec3::Z,
+            Vec3::Z,
+            Vec3::new(1.0, 0.3, -0.5).normalize(),
+        ];
+        let mut counts = RayCounts::default();
+        for (p, eta) in [
+            (at(0.05, 0.0, 0.0), 1.33), // the liquid's centre (it is moved 0.05 along x)
+            (at(0.0, 0.3, 0.0), 1.5),   // glass above the liquid
+            (at(0.35, -0.1, 0.1), 1.5), // glass beside it
+            (at(0.0, 0.0, 1.0), 1.0),   // air between the block and the camera
+            (at(0.0, 0.0, -0.8), 1.0),  // air between the block and the wall
+            (at(-1.0, 0.5, -0.5), 1.0), // air beside the block
+        ] {
+            for d in dirs {
+                assert_eq!(medium_around(&ctx, p, d, &mut counts), eta, "from {p} along {d}");
+            }
+        }
+    }
+}
