@@ -399,9 +399,11 @@ fn available_memory() -> Option<u128> {
 /// BDPT with a Dirac lobe (smooth conductor or dielectric: its vertices would need delta
 /// flags in the MIS densities); derivatives through a Dirac lobe (smooth conductor or dielectric:
 /// the material-form vertices of Algorithm 1 cannot move along a specular chain, and the
-/// boundary theory assumes no Dirac BSDFs, supplemental assumption A.4); and the boundary stage
-/// (a parameter that moves geometry) with any of them, whose scalar subpaths are Lambertian
-/// (`--estimators interior` runs the interior alone).
+/// boundary theory assumes no Dirac BSDFs, supplemental assumption A.4, so the boundary stage
+/// is refused with them too). The boundary stage runs with rough conductors and rough
+/// dielectrics: a path through glass has vertices on its surfaces, so a segment grazing an
+/// edge still jumps from V = 1 to 0, and the subpaths start in the segment's medium
+/// (`boundary/secondary.rs`).
 fn check_materials(scene: &Scene, motion: &Motion, kind: IntegratorKind, boundary: BoundaryMode) -> Result<(), Error> {
     if scene.materials.iter().all(|m| m.material.is_diffuse()) {
         return Ok(());
@@ -417,30 +419,26 @@ fn check_materials(scene: &Scene, motion: &Motion, kind: IntegratorKind, boundar
             d.material.type_name()
         ));
     }
-    if !motion.is_empty() {
-        if let Some(d) = scene.first_delta_material() {
-            return refuse(format!(
-                "material {:?} (type {}) is smooth (a Dirac lobe): derivatives through it are not supported; use type rough{} with a roughness > 0",
-                d.name,
-                d.material.type_name(),
-                d.material.type_name()
-            ));
-        }
-        // the boundary stage's subpaths run on the kernel's BSDF lobes (boundary/subpaths.rs);
-        // it takes the blocked side of a visibility edge as dark, which a dielectric is not
-        if motion.moves_geometry()
-            && boundary != BoundaryMode::InteriorOnly
-            && let Some(g) = scene
-                .materials
-                .iter()
-                .find(|m| matches!(m.material, crate::scene::Material::Dielectric { .. }))
-        {
-            return refuse(format!(
-                "material {:?} (type {}): the boundary stage (needed by a parameter that moves geometry) takes the far side of a visibility edge as dark, which a dielectric is not (light passes through it); differentiate another parameter or pass --estimators interior",
-                g.name,
-                g.material.type_name()
-            ));
-        }
+    if motion.moves_geometry()
+        && boundary != BoundaryMode::InteriorOnly
+        && let Some(d) = scene.first_delta_material()
+    {
+        return refuse(format!(
+            "material {:?} (type {}) is smooth (a Dirac lobe): the boundary stage (needed by a parameter that moves geometry) assumes no Dirac BSDFs (supplemental assumption A.4); use type rough{} with a roughness > 0, or pass --estimators interior",
+            d.name,
+            d.material.type_name(),
+            d.material.type_name()
+        ));
+    }
+    if !motion.is_empty()
+        && let Some(d) = scene.first_delta_material()
+    {
+        return refuse(format!(
+            "material {:?} (type {}) is smooth (a Dirac lobe): derivatives through it are not supported; use type rough{} with a roughness > 0",
+            d.name,
+            d.material.type_name(),
+            d.material.type_name()
+        ));
     }
     Ok(())
 }

@@ -23,7 +23,7 @@
 //!   f_L · f_S · (−s_o · dh̃/dθ) / ((t_L + t_S) · p_e · p_ω · p_guide)
 //!
 //! per parameter, binned through S_e (supplemental Eq. 24) at d = d_L + η|x_S − x_L| + d_S into
-//! the pixel the sensor subpath reaches. d is f64; when the render carries f64 OPLs
+//! the pixel the sensor subpath reaches, η being the index of the medium the segment crosses. d is f64; when the render carries f64 OPLs
 //! (`integrator::opl`) every length in it is measured between f64 points (hits rebuilt from
 //! Embree's barycentrics, light samples from `EmitterTable::sample`'s `p64`), else it is the
 //! sum of the f32 lengths the rays returned. dh̃/dθ uses the velocity of each point's own parameterisation, as
@@ -45,6 +45,24 @@
 //!   light (and never for a point light or a laser spot). A laser spot moves along its beam
 //!   (ray form, as in the interior). Not covered: an edge crossing the laser beam itself.
 //!
+//! **Rough dielectrics.** Glass is not dark behind a visibility edge, yet the jump is still
+//! ΔV = 1: the integral runs over path space, where a path that passes through glass has
+//! vertices on its surfaces (the refractions), so the straight segment x_L → x_S through the
+//! glass has V = 0 like any other blocked segment, and the paths through the glass are other
+//! paths, whose own segments' discontinuities are sampled at their own edges (as in Zhang et
+//! al. 2020 and psdr-cpu's rough dielectric). What glass changes is where the segment lies:
+//! inside a dielectric (between two of its surfaces, or beside a liquid inside a glass) its
+//! OPL is that medium's η times its length, and both subpaths start in that medium
+//! (`Secondary::segment_eta`: the side of x_S or x_L the segment meets when either is a
+//! dielectric's surface, else the medium around the segment, `integrator::medium`). The
+//! subpaths then refract on the kernel's own lobes: the source side is the path tracer
+//! (radiance transport), the sensor side the importance walk (importance transport, Veach
+//! 1997 §5.2; it joins a rough dielectric vertex to the pinhole through its surface too).
+//! Smooth (Dirac) dielectrics are refused (`render::check_materials`, supplemental assumption
+//! A.4). Contact edges of a glass object resting on a surface are handled as an opaque
+//! object's (the covered side's departing segment meets the glass's bottom face at zero
+//! distance); no test covers that case yet.
+//!
 //! Each strategy draws its inputs through a guiding grid (`guiding.rs`; uniform unless
 //! guiding is on). `pass.rs` runs the strategies (budget split by a pilot) and bins their
 //! paths.
@@ -57,8 +75,10 @@ use super::subpaths::{SegmentSample, SourceTerm, Terms, subpaths};
 use super::velocity::{Crossing, ray_form_velocity};
 use crate::integrator::context::RenderContext;
 use crate::integrator::deposit::PathCounts;
+use crate::integrator::medium::{has_dielectric, medium_around, side_eta};
 use crate::integrator::opl::{on_plane64, segment};
 use crate::integrator::surface::self_intersection_eps;
+use crate::integrator::trace::RayCounts;
 use crate::kernel::{PathSampler, V3};
 use crate::params::MAX_PARAMS;
 use crate::scene::EmitterKind;
@@ -143,6 +163,8 @@ pub struct Secondary<'a> {
     pub(super) params: usize,
     /// Per emitter: how its laser spot moves (None: not a laser, or the beam hits nothing).
     laser_spots: Vec<Option<SourceMotion>>,
+    /// Whether the scene has dielectrics (else every segment is in the scene's medium).
+    dielectrics: bool,
 }
 
 impl<'a> Secondary<'a> {
@@ -165,6 +187,7 @@ impl<'a> Secondary<'a> {
                     })
                 })
                 .collect(),
+            dielectrics: has_dielectric(ctx),
         }
     }
 
@@ -330,6 +353,7 @@ impl<'a> Secondary<'a> {
         if rates.is_zero(self.params) || !(seg > 0.0) || !common.is_finite() {
             return None;
         }
+        let eta = self.segment_eta(Some(&x_l), &x_s, br.x_b, br.omega, &mut scratch.counts.rays);
         let omega64 = br.omega.as_dvec3();
         if contact {
             // x_L is x_B itself (contact.rs puts its f32 point a hair off the edge)
@@ -345,7 +369,8 @@ impl<'a> Secondary<'a> {
                 x_l,
                 x_s,
                 omega: br.omega,
-                d_b: ctx.scene.eta as f64 * segment(ctx, x_l.p64, x_s.p64, seg),
+                eta,
+                d_b: eta as f64 * segment(ctx, x_l.p64, x_s.p64, seg),
                 emitted: None,
             },
             rates,
@@ -420,8 +445,8 @@ impl<'a> Secondary<'a> {
         }
         let y64 = ls.p64[0];
         self.on_boundary_line(rec, br.x_b, |x_b64| (x_b64 - y64).normalize(), None, &mut x_s);
-        let eta = ctx.scene.eta as f64;
-        let d_b = eta * segment(ctx, y64, x_s.p64, seg);
+        let eta = self.segment_eta(None, &x_s, br.x_b, omega, &mut scratch.counts.rays);
+        let d_b = eta as f64 * segment(ctx, y64, x_s.p64, seg);
         let x_l = SurfaceHit {
             p: y,
             p64: y64,
@@ -436,10 +461,12 @@ impl<'a> Secondary<'a> {
                 x_l,
                 x_s,
                 omega,
+                eta,
                 d_b,
                 emitted: Some(SourceTerm {
                     rgb: ls.weight.0,
-                    opl: eta * pre_length(ctx, &ls) + d_b,
+                    // the laser's beam runs in the scene's medium, as in the interior
+                    opl: ctx.scene.eta as f64 * pre_length(ctx, &ls) + d_b,
                     emitter: e as u32,
                     scatters: 0,
                 }),
@@ -477,6 +504,27 @@ impl<'a> Secondary<'a> {
             x_l.p64 = on_plane64(ctx, x_l.prim, x_b64, -w);
         }
         Some(x_b64)
+    }
+
+    /// The index of the medium the segment x_L → x_S (direction ω, through x_B) crosses: the
+    /// side of x_S (or else of x_L, when a surface point) that the segment meets, when that
+    /// is a dielectric's surface; else the medium around the segment's free part
+    /// (`integrator::medium`). With no dielectric in the scene, the scene's medium.
+    fn segment_eta(
+        &self,
+        x_l: Option<&SurfaceHit>,
+        x_s: &SurfaceHit,
+        x_b: Vec3,
+        omega: Vec3,
+        rays: &mut RayCounts,
+    ) -> f32 {
+        let ctx = self.ctx;
+        if !self.dielectrics {
+            return ctx.scene.eta;
+        }
+        side_eta(ctx, x_s.prim, x_s.n, -omega)
+            .or_else(|| x_l.and_then(|h| side_eta(ctx, h.prim, h.n, omega)))
+            .unwrap_or_else(|| medium_around(ctx, x_b + omega * (0.5 * x_s.t), omega, rays))
     }
 
     pub fn edge_count(&self) -> usize {

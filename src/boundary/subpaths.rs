@@ -67,6 +67,9 @@ pub struct SegmentSample {
     pub x_s: SurfaceHit,
     /// Direction of the segment, x_L → x_S.
     pub omega: Vec3,
+    /// Index of the medium the segment crosses (`integrator::medium`), where both subpaths
+    /// start.
+    pub eta: f32,
     /// OPL of the segment, η·|x_S − x_L|.
     pub d_b: f64,
     /// x_L's emission when it is a light sample (strategy B): its only source term. None: x_L
@@ -179,6 +182,7 @@ fn starts(
         p64: [glam::DVec3::ZERO; 8],
         n: [Vec3::Z; 8],
         out: [Vec3::Z; 8],
+        eta: [1.0; 8],
         opl: [0.0; 8],
         max_scatters,
         dim,
@@ -190,6 +194,7 @@ fn starts(
         st.p64[i] = h.p64;
         st.n[i] = h.n;
         st.out[i] = out;
+        st.eta[i] = s.eta;
         st.opl[i] = opl;
     }
     st

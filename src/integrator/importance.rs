@@ -55,7 +55,6 @@ pub fn trace_importance_packet<R: Real, const C: usize>(
     debug_assert!(R::DERIVS == 0 && ids.len() <= R::LANES);
     let zero = V::<R>::zero();
     let scene = ctx.scene;
-    let eta = scene.eta;
     let exact = ctx.opl.f64_paths;
     let unwarp = scene.film.unwarp;
     let cam = &ctx.camera;
@@ -82,11 +81,12 @@ pub fn trace_importance_packet<R: Real, const C: usize>(
     let mut opl = R::from_lanes(&starts.opl.map(|d| d as f32)[..R::LANES]);
     let mut opl64 = starts.opl;
     let mut x64 = starts.p64;
+    // the index of the medium each lane is in (`starts.eta`, then changed by each refraction)
+    let mut eta_med = V::<R>::from_lanes(&starts.eta[..R::LANES]);
 
     for j in 1..=deepest {
         active = active & V::<R>::splat(j as f32).le(limit);
         // Lambertian scenes keep their path; any other material goes through its lobes
-        // (opaque ones only: the boundary stage refuses dielectrics, `render::check_materials`)
         let lobes = (!ctx.diffuse_only).then(|| Lobes::<R, C>::gather(ctx, &x.prim));
         let f = match &lobes {
             None => diffuse_eval(albedo::<R, C>(ctx, &x.prim)),
@@ -105,12 +105,28 @@ pub fn trace_importance_packet<R: Real, const C: usize>(
         let proj = cam.project_lanes(&p);
         let dist = proj.dist2.sqrt();
         let cos_x = n.dot(eye - p) * V::<R>::safe_div(V::<R>::one(), dist);
-        let facing = (cos_x * n.dot(side)).gt(zero);
-        let leg = if unwarp { zero } else { dist.mul_f(eta) };
+        // a rough dielectric also sends light on through itself to a pinhole on its far
+        // side (the only strategy that reaches a pinhole, so it must), in that side's medium
+        let (through, leg_eta) = match &lobes {
+            Some(l) if l.dielectric.any() => {
+                let d = l.dielectric.and_not(l.delta);
+                let far = V::<R>::select(cos_x.gt(zero), l.eta_ext.value(), l.eta_int.value());
+                (d, V::<R>::select(d, far, eta_med))
+            }
+            _ => (<R as Real>::Mask::splat(false), eta_med),
+        };
+        let transmits = through & (cos_x * n.dot(side)).lt(zero);
+        let facing = (cos_x * n.dot(side)).gt(zero) | transmits;
+        let leg = if unwarp { zero } else { dist * leg_eta };
         let d = opl.value() + leg;
         let ok = active & proj.visible & facing & window::within(ctx.opl_budget, d);
         if ok.any() {
-            let here = SegmentEnd { p, n, w_in: ray_d };
+            // leaving through the surface, the origin is not stepped back along the arrival
+            let here = SegmentEnd {
+                p,
+                n,
+                w_in: V3::select(transmits, V3::zero(), ray_d),
+            };
             let pinhole = SegmentEnd {
                 p: eye,
                 n: V3::zero(),
@@ -133,7 +149,7 @@ pub fn trace_importance_packet<R: Real, const C: usize>(
                     continue;
                 }
                 let opl_i = match (exact, unwarp) {
-                    (true, false) => opl64[i] + eta as f64 * (eye64 - x64[i]).length(),
+                    (true, false) => opl64[i] + leg_eta.lane(i) as f64 * (eye64 - x64[i]).length(),
                     (true, true) => opl64[i],
                     (false, _) => d.lane(i) as f64,
                 };
@@ -160,19 +176,29 @@ pub fn trace_importance_packet<R: Real, const C: usize>(
         }
 
         // on by sampling the BSDF
-        let dir = match &lobes {
-            None => scatter(ctx, &mut sampler, &n, &side, &f, &mut beta, &mut active, j).0,
+        let (dir, back) = match &lobes {
+            None => (
+                scatter(ctx, &mut sampler, &n, &side, &f, &mut beta, &mut active, j).0,
+                ray_d,
+            ),
             // importance transport: the direction the light leaves in, given where it came from
-            Some(l) => scatter_lobes(ctx, &mut sampler, l, &n, &side, false, &mut beta, &mut active, j).wi,
+            Some(l) => {
+                let s = scatter_lobes(ctx, &mut sampler, l, &n, &side, false, &mut beta, &mut active, j);
+                // a refracted ray starts off the far side, in the medium there
+                let inside = n.dot(s.wi).lt(zero);
+                let lv = l.value();
+                eta_med = V::<R>::select(s.transmitted, V::<R>::select(inside, lv.eta_int, lv.eta_ext), eta_med);
+                (s.wi, V3::select(s.transmitted, V3::zero(), ray_d))
+            }
         };
-        let o = spawn_point(&p, &n, &ray_d, &dir);
+        let o = spawn_point(&p, &n, &back, &dir);
         let (hit, found) = next_hits(
             &ctx.accel,
             ctx.opl_budget,
             &o,
             &dir,
             opl.value(),
-            V::<R>::splat(eta),
+            eta_med,
             true,
             active,
             false,
@@ -183,14 +209,14 @@ pub fn trace_importance_packet<R: Real, const C: usize>(
             break;
         }
         let y = surface_at::<R>(ctx, &hit.prim, hit.u, hit.v);
-        opl += (y.p - x.p).length().mul_f(eta);
+        opl += (y.p - x.p).length() * R::from_value(eta_med);
         if exact {
             let u: [f32; 8] = std::array::from_fn(|i| if i < R::LANES { hit.u.lane(i) } else { 0.0 });
             let v: [f32; 8] = std::array::from_fn(|i| if i < R::LANES { hit.v.lane(i) } else { 0.0 });
             let y64 = points64(ctx, R::LANES, &hit.prim, &u, &v);
             for i in 0..R::LANES {
                 if active.bit(i) {
-                    opl64[i] += eta as f64 * (y64[i] - x64[i]).length();
+                    opl64[i] += eta_med.lane(i) as f64 * (y64[i] - x64[i]).length();
                 }
             }
             x64 = y64;

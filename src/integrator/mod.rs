@@ -19,6 +19,7 @@ pub mod emitters;
 #[cfg(test)]
 mod emitters_tests;
 pub mod importance;
+pub mod medium;
 pub mod nlos;
 pub mod nlos_start;
 pub mod opl;

@@ -81,6 +81,9 @@ pub struct SurfaceStarts {
     pub n: [glam::Vec3; 8],
     /// Direction the light leaves each start point in (x_L → x_S): the side it reflects to.
     pub out: [glam::Vec3; 8],
+    /// Index of the medium on the side `out` points into (`super::medium`): where the walk
+    /// starts, before any refraction.
+    pub eta: [f32; 8],
     /// OPL already travelled by the rest of the path (d_B), which counts against the window
     /// cut; every term's d includes it.
     pub opl: [f64; 8],
@@ -185,6 +188,7 @@ pub fn trace_packet_from<R: Real, const C: usize, S: Sink<C>>(
     if let Some(s) = surface {
         opl = R::from_lanes(&s.opl.map(|d| d as f32)[..R::LANES]);
         opl64 = s.opl;
+        eta_med = R::from_lanes(&s.eta[..R::LANES]);
     }
 
     for depth in 1..=max_bounces + 1 {

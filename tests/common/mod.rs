@@ -28,6 +28,22 @@ pub fn render_with(scene: &Scene, spp: u32, seed: u64, threads: usize) -> Transi
     render(scene, &opts).expect("render").0
 }
 
+/// 4×4 blocks of the time-summed image (channel 0), then groups of `group` bins of the image
+/// total: the aggregates of the boundary-term tests (tests/secondary_fd.rs,
+/// tests/dielectric_pose_fd.rs).
+pub fn blocks_and_bin_groups(t: &Transient, group: usize) -> Vec<f64> {
+    let (bw, bh) = (t.width / 4, t.height / 4);
+    let mut out = vec![0.0f64; 16];
+    for y in 0..t.height {
+        for x in 0..t.width {
+            out[(y / bh).min(3) * 4 + (x / bw).min(3)] += t.time_sum(x, y, 0) as f64;
+        }
+    }
+    let bins = t.bin_totals();
+    out.extend(bins.chunks(group).map(|c| c.iter().map(|&v| v as f64).sum::<f64>()));
+    out
+}
+
 /// Mean and standard error over independent estimates.
 pub fn mean_se(xs: &[f64]) -> (f64, f64) {
     let n = xs.len() as f64;
