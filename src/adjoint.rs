@@ -253,6 +253,8 @@ fn render_adjoint_group(
             seed,
             guiding: opts.guiding,
             shard: opts.shard,
+            // the optimizer shows its own progress per iteration
+            progress: indicatif::ProgressBar::hidden(),
         };
         let (g, b) = crate::boundary::boundary_adjoint(ctx, &settings, &run.pool, adjoint);
         grad.iter_mut().zip(g).for_each(|(a, b)| *a += b);

@@ -955,9 +955,15 @@ impl<'s> Run<'s> {
                 seed: self.seed,
                 shard: opts.shard,
                 guiding: opts.guiding,
+                progress: progress_bar(
+                    opts.progress,
+                    0,
+                    "{elapsed_precise} [{bar:40}] {pos}/{len} boundary chunks ({eta})",
+                ),
             };
             let (t_b, cpu_b) = (Instant::now(), cpu_seconds());
             let mut parts = crate::boundary::render_boundary(&self.ctx, &settings, &self.pool);
+            settings.progress.finish_and_clear();
             parts.stats.wall_seconds = t_b.elapsed().as_secs_f64();
             parts.stats.cpu_seconds = cpu_seconds() - cpu_b;
             let st = &parts.stats;

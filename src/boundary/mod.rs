@@ -42,7 +42,7 @@ pub const PRIMARY_SEED: u64 = 0x9E1A_0001_B0DA_0001;
 pub const SECONDARY_SEED: u64 = 0x5EC0_0002_B0DA_0002;
 
 /// How the boundary stage samples.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Debug)]
 pub struct BoundarySettings {
     /// Boundary samples per pixel: the secondary pass draws `spp_boundary · W · H` boundary
     /// rays; the primary pass gets the same per-pixel count.
@@ -59,6 +59,9 @@ pub struct BoundarySettings {
     /// The shard whose part of each estimator's samples to trace ([`crate::shard`]); the
     /// films stay normalised by the whole sample counts.
     pub shard: crate::shard::Shard,
+    /// Progress of the secondary pass, in chunks of boundary samples: its length is set when
+    /// the pass starts and it advances per batch (`indicatif::ProgressBar::hidden()` for none).
+    pub progress: indicatif::ProgressBar,
 }
 
 /// The boundary parts of the gradient, one transient per parameter each.

@@ -309,6 +309,8 @@ impl Secondary<'_> {
         let mine = shard.range(ids);
         let chunks = ids.div_ceil(CHUNK);
         let mut batch0 = mine.start / CHUNK;
+        let my_chunks = (mine.end.div_ceil(CHUNK).min(chunks)).saturating_sub(batch0);
+        settings.progress.set_length(my_chunks);
         while batch0 < chunks && batch0 * CHUNK < mine.end {
             let batch: Vec<u64> = (batch0..(batch0 + BATCH).min(chunks)).collect();
             let parts: Vec<(Vec<BoundaryPath>, Scratch)> = pool.install(|| {
@@ -342,6 +344,9 @@ impl Secondary<'_> {
                 stats.rays += s.rays();
                 stats.valid_segments += s.valid;
             }
+            settings
+                .progress
+                .inc(batch.iter().filter(|&&c| c * CHUNK < mine.end).count() as u64);
             batch0 += BATCH;
         }
         stats.seconds = t0.elapsed().as_secs_f64();
