@@ -88,7 +88,12 @@ fn resume_equals_uninterrupted(scene: &str, extra: &[&str], files: &[&str], sign
     let (done, units) = progress(&ck).expect("a checkpoint survives the interruption");
     assert!(done < units);
     assert!(!dir.join("r.npy").exists(), "no output of an interrupted render");
-    let o = dtr(&with(&["-o", "r", "--threads", "1", "--resume"]), dir);
+    // without -q: the resume notice is an info line (-q keeps warnings only)
+    let resume: Vec<&str> = with(&["-o", "r", "--threads", "1", "--resume"])
+        .into_iter()
+        .filter(|&a| a != "-q")
+        .collect();
+    let o = dtr(&resume, dir);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     assert!(String::from_utf8_lossy(&o.stderr).contains(&format!("resuming with {done} of {units}")));
     for f in files {
