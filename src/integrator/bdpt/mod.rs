@@ -47,7 +47,7 @@ pub struct Scratch<R: Real, const C: usize> {
     light: Vec<Vertex<R, C>>,
     pl: Vec<R::Value>,
     pe: Vec<R::Value>,
-    refracts: Vec<R::Mask>,
+    no_connect: Vec<R::Mask>,
 }
 
 impl<R: Real, const C: usize> Default for Scratch<R, C> {
@@ -57,7 +57,7 @@ impl<R: Real, const C: usize> Default for Scratch<R, C> {
             light: Vec::new(),
             pl: Vec::new(),
             pe: Vec::new(),
-            refracts: Vec::new(),
+            no_connect: Vec::new(),
         }
     }
 }
@@ -71,8 +71,8 @@ pub struct Packet<'p, 'c, R: Real, const C: usize, S: Sink<C>> {
     pub origin: LightOrigin<R>,
     pub pl: &'p mut Vec<R::Value>,
     pub pe: &'p mut Vec<R::Value>,
-    /// Per path vertex, the lanes where the path refracts (`mis::allowed_through`).
-    pub refracts: &'p mut Vec<R::Mask>,
+    /// Per path vertex, the lanes where no connection can end (`mis::allowed_through`).
+    pub no_connect: &'p mut Vec<R::Mask>,
     pub sink: &'p mut S,
     pub counts: &'p mut PathCounts,
 }
@@ -115,7 +115,7 @@ pub fn trace_packet<R: Real, const C: usize, S: Sink<C>>(
         light,
         pl,
         pe,
-        refracts,
+        no_connect,
     } = scratch;
     walk::camera_subpath(ctx, &mut cam_sampler, lanes, camera, max_bounces + 1, &mut counts.rays);
     let origin = walk::light_subpath(ctx, &mut light_sampler, lanes, light, max_bounces, &mut counts.rays);
@@ -127,7 +127,7 @@ pub fn trace_packet<R: Real, const C: usize, S: Sink<C>>(
         origin,
         pl,
         pe,
-        refracts,
+        no_connect,
         sink,
         counts,
     };

@@ -123,6 +123,7 @@ fn random_walk<R: Real, const C: usize>(
             opl,
             eta_in: eta,
             transmitted: none,
+            delta: none,
             p64,
             opl64,
             prim: hit.prim,
@@ -160,11 +161,13 @@ fn random_walk<R: Real, const C: usize>(
         eta = R::select(s.transmitted, R::select(inside, lobes.eta_int, lobes.eta_ext), eta);
         let k = path.len() - 1;
         path[k].transmitted = s.transmitted;
-        // the density of this vertex sampling its predecessor, arriving along the new ray
+        path[k].delta = lobes.delta;
+        // the density of this vertex sampling its predecessor, arriving along the new ray (0
+        // on delta lanes, as the one of the vertex it reaches: `vertex` module docs)
         let back_pdf = lobes.value().pdf(&n_v, &s.wi, &-ray_d);
         path[k - 1].pdf_rev = super::vertex::to_area(&x.p.value(), &path[k - 1], back_pdf);
         ray_d = s.wi;
-        pdf_dir = s.pdf;
+        pdf_dir = s.pdf.masked(!s.delta);
     }
 }
 
