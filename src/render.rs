@@ -398,9 +398,11 @@ fn available_memory() -> Option<u128> {
 
 /// Refuses what the materials beyond Lambertian do not support yet, naming the material.
 /// Derivatives through a Dirac lobe (smooth conductor or dielectric) run in the path tracer,
-/// whose vertex after a Dirac lobe is in ray form (`integrator::bsdf::delta`); refused are:
-/// BDPT's derivatives through one (its strategies move a specular chain in different ways,
-/// so constant MIS weights would not give the derivative); with one in the scene, a parameter
+/// whose vertex after a Dirac lobe is in ray form (`integrator::bsdf::delta`), and in BDPT for
+/// parameters that move no vertex; refused are: BDPT's derivatives through one for a
+/// parameter that moves a vertex (geometry, or an index that turns a Dirac refraction: its
+/// strategies would move a specular chain in different ways, so constant MIS weights would
+/// not give the derivative); with one in the scene, a parameter
 /// that moves geometry (the boundary theory assumes no Dirac BSDFs, supplemental assumption
 /// A.4) or changes the index at a smooth dielectric (edges seen through it then move on the
 /// film: a boundary term no estimator computes) unless `--estimators interior` asks for the
@@ -420,9 +422,11 @@ fn check_materials(scene: &Scene, motion: &Motion, kind: IntegratorKind, boundar
                     d.material.type_name(),
                 ))
             };
-            if kind == IntegratorKind::Bdpt {
+            if kind == IntegratorKind::Bdpt
+                && (motion.moves_geometry() || bends_smooth_dielectric(scene, motion).is_some())
+            {
                 return smooth(
-                    "BDPT's derivatives through it are not supported (its strategies move a specular chain in different ways); render the derivative with [integrator] kind = \"path\"",
+                    "BDPT differentiates through it only parameters that move no path vertex (albedo, reflectance, radiance, pulse offset, an index no smooth dielectric bends with), since its strategies would move a specular chain in different ways; render this derivative with [integrator] kind = \"path\"",
                 );
             }
             if boundary != BoundaryMode::InteriorOnly {

@@ -16,7 +16,10 @@
 //!
 //! **One parameterisation.** Every strategy moves the vertex next to the pinhole along its
 //! fixed camera ray and every other vertex with its surface (t = 1 included, see [`splat`]),
-//! so constant MIS weights give the derivative of the image, for any pixel filter.
+//! so constant MIS weights give the derivative of the image, for any pixel filter. A Dirac
+//! lobe breaks that (the camera side would move the vertex after it in ray form, the light
+//! side the one before it), so through one only parameters that move no vertex are
+//! differentiated (`render::check_materials`), with the lobe's weight in dual numbers.
 //!
 //! (1, 1), an emitter seen straight through the pinhole by light tracing, is left out: s = 0
 //! covers area emitters (as in the path tracer), and points (point lights, laser spots) are

@@ -155,6 +155,16 @@ fn random_walk<R: Real, const C: usize>(
             &mut active,
             depth as u32,
         );
+        if R::DERIVS > 0 && (s.delta & active).any() {
+            // a Dirac lobe's weight with its derivatives (its value is in β). Only parameters
+            // that move no vertex reach BDPT through a Dirac lobe (`render::check_materials`),
+            // so the next vertex needs no ray form: all that moves here is the tint.
+            let wo = (path[path.len() - 2].p - x.p).normalize();
+            let (_, ratio) = lobes.delta_dual(&x.n, &wo, s.transmitted, camera);
+            beta = Spectrum(std::array::from_fn(|c| {
+                R::select(s.delta, beta.0[c] * ratio.0[c], beta.0[c])
+            }));
+        }
         let back = V3::select(s.transmitted, V3::zero(), ray_d);
         ray_o = spawn_point(&x.p.value(), &n_v, &back, &s.wi);
         let inside = n_v.dot(s.wi).lt(V::<R>::zero());
