@@ -395,52 +395,77 @@ fn available_memory() -> Option<u128> {
     Some(kib * 1024)
 }
 
-/// Refuses what the materials beyond Lambertian do not support yet, naming the material:
-/// BDPT with a Dirac lobe (smooth conductor or dielectric: its vertices would need delta
-/// flags in the MIS densities); derivatives through a Dirac lobe (smooth conductor or dielectric:
-/// the material-form vertices of Algorithm 1 cannot move along a specular chain, and the
-/// boundary theory assumes no Dirac BSDFs, supplemental assumption A.4, so the boundary stage
-/// is refused with them too). The boundary stage runs with rough conductors and rough
-/// dielectrics: a path through glass has vertices on its surfaces, so a segment grazing an
-/// edge still jumps from V = 1 to 0, and the subpaths start in the segment's medium
-/// (`boundary/secondary.rs`).
+/// Refuses what the materials beyond Lambertian do not support yet, naming the material.
+/// Derivatives through a Dirac lobe (smooth conductor or dielectric) run in the path tracer,
+/// whose vertex after a Dirac lobe is in ray form (`integrator::bsdf::delta`), and in BDPT for
+/// parameters that move no vertex; refused are: BDPT's derivatives through one for a
+/// parameter that moves a vertex (geometry, or an index that turns a Dirac refraction: its
+/// strategies would move a specular chain in different ways, so constant MIS weights would
+/// not give the derivative); with one in the scene, a parameter
+/// that moves geometry (the boundary theory assumes no Dirac BSDFs, supplemental assumption
+/// A.4) or changes the index at a smooth dielectric (edges seen through it then move on the
+/// film: a boundary term no estimator computes) unless `--estimators interior` asks for the
+/// interior alone. The boundary stage runs with rough conductors and rough dielectrics: a
+/// path through glass has vertices on its surfaces, so a segment grazing an edge still jumps
+/// from V = 1 to 0, and the subpaths start in the segment's medium (`boundary/secondary.rs`).
 fn check_materials(scene: &Scene, motion: &Motion, kind: IntegratorKind, boundary: BoundaryMode) -> Result<(), Error> {
     if scene.materials.iter().all(|m| m.material.is_diffuse()) {
         return Ok(());
     }
     let refuse = |why: String| Err(Error::Invalid(format!("{}: {why}", scene.source.display())));
-    if kind == IntegratorKind::Bdpt
-        && let Some(d) = scene.first_delta_material()
-    {
-        return refuse(format!(
-            "material {:?} (type {}) is smooth (a Dirac lobe), which BDPT does not support yet; render with [integrator] kind = \"path\" or use type rough{}",
-            d.name,
-            d.material.type_name(),
-            d.material.type_name()
-        ));
-    }
-    if motion.moves_geometry()
-        && boundary != BoundaryMode::InteriorOnly
-        && let Some(d) = scene.first_delta_material()
-    {
-        return refuse(format!(
-            "material {:?} (type {}) is smooth (a Dirac lobe): the boundary stage (needed by a parameter that moves geometry) assumes no Dirac BSDFs (supplemental assumption A.4); use type rough{} with a roughness > 0, or pass --estimators interior",
-            d.name,
-            d.material.type_name(),
-            d.material.type_name()
-        ));
-    }
-    if !motion.is_empty()
-        && let Some(d) = scene.first_delta_material()
-    {
-        return refuse(format!(
-            "material {:?} (type {}) is smooth (a Dirac lobe): derivatives through it are not supported; use type rough{} with a roughness > 0",
-            d.name,
-            d.material.type_name(),
-            d.material.type_name()
-        ));
+    if !motion.is_empty() {
+        if let Some(d) = scene.first_delta_material() {
+            let smooth = |why: &str| {
+                refuse(format!(
+                    "material {:?} (type {}) is smooth (a Dirac lobe): {why}",
+                    d.name,
+                    d.material.type_name(),
+                ))
+            };
+            if kind == IntegratorKind::Bdpt
+                && (motion.moves_geometry() || bends_smooth_dielectric(scene, motion).is_some())
+            {
+                return smooth(
+                    "BDPT differentiates through it only parameters that move no path vertex (albedo, reflectance, radiance, pulse offset, an index no smooth dielectric bends with), since its strategies would move a specular chain in different ways; render this derivative with [integrator] kind = \"path\"",
+                );
+            }
+            if boundary != BoundaryMode::InteriorOnly {
+                if motion.moves_geometry() {
+                    return smooth(
+                        "a parameter that moves geometry needs the boundary stage, which assumes no Dirac lobes (supplemental assumption A.4); differentiate another parameter or pass --estimators interior for the interior term alone",
+                    );
+                }
+                if let Some(g) = bends_smooth_dielectric(scene, motion) {
+                    return refuse(format!(
+                        "material {:?} (type {}) is a smooth dielectric whose index a requested parameter changes: edges seen through it move on the film, a boundary term that is not computed; pass --estimators interior for the interior term alone",
+                        g.name,
+                        g.material.type_name(),
+                    ));
+                }
+            }
+        }
     }
     Ok(())
+}
+
+/// The first smooth dielectric whose relative index a parameter of `motion` changes: its own
+/// `ior`, the `ior` of the material it names as exterior, or the medium's η when it has none.
+fn bends_smooth_dielectric<'s>(scene: &'s Scene, motion: &Motion) -> Option<&'s crate::scene::NamedMaterial> {
+    scene.materials.iter().enumerate().find_map(|(i, m)| match m.material {
+        crate::scene::Material::Dielectric {
+            roughness: 0.0,
+            exterior,
+            ..
+        } => {
+            let bends = (0..motion.len()).any(|k| {
+                motion.ior[k] == Some(i as u32)
+                    || (exterior.is_some() && motion.ior[k] == exterior)
+                    || (exterior.is_none() && motion.eta[k])
+            });
+            bends.then_some(m)
+        }
+        _ => None,
+    })
 }
 
 /// Refuses a render whose films cannot fit in the memory available, before anything is

@@ -3,7 +3,8 @@
 
 Setup and run with benches/peer/run.sh. It renders scenes/cornell_box.toml (or PEER_SCENE, a file
 in scenes/ made of rectangles and cubes: e.g. cornell_gold.toml, whose rough conductor maps to
-Mitsuba's `roughconductor` with the GGX distribution) with `dtr` and the
+Mitsuba's `roughconductor` with the GGX distribution, or cornell_glass.toml, whose rough glass
+block maps to `roughdielectric`) with `dtr` (PEER_DTR, default target/release/dtr) and the
 same scene, rebuilt from the TOML, with mitransient's transient_path integrator at equal
 settings (resolution, bins, bin width, start, max depth = max_bounces + 1, Russian roulette
 off, box pixel filter, camera segment counted). It checks first that the two transients agree
@@ -27,7 +28,7 @@ import mitransient as mitr  # noqa: E402,F401
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 SCENE = os.path.join(ROOT, "scenes", os.environ.get("PEER_SCENE", "cornell_box.toml"))
-DTR = os.path.join(ROOT, "target", "release", "dtr")
+DTR = os.environ.get("PEER_DTR", os.path.join(ROOT, "target", "release", "dtr"))
 SPP = int(os.environ.get("PEER_SPP", "64"))
 # independent seeds per renderer for the agreement test (standard errors from their spread)
 SEEDS = int(os.environ.get("PEER_SEEDS", "6"))
@@ -55,10 +56,21 @@ def to_world(s):
             @ T().rotate([1, 0, 0], r[0]) @ T().scale(sc))
 
 
-def bsdf(m):
+def bsdf(m, by_name, medium_eta):
     """Mitsuba's BSDF for one [[material]] (diffuse and conductors: the peer's lobes are
-    one-sided, ours two-sided, which closed shapes seen from outside do not tell apart)."""
+    one-sided, ours two-sided, which closed shapes seen from outside do not tell apart).
+    Dielectrics: Mitsuba's `int_ior` / `ext_ior` are absolute indices inside and outside, ours
+    `int_ior` and the exterior's (the named `exterior` material's `int_ior`, else the scene's
+    medium η); both scale transmitted radiance by 1/η'² and count η × length in the path
+    length (mitransient multiplies each segment by the product of the sampled relative
+    indices, which starts at 1: so the medium's η must be 1 here)."""
     t = m["type"]
+    if t in ("roughdielectric", "dielectric"):
+        ext = by_name[m["exterior"]]["int_ior"] if "exterior" in m else medium_eta
+        b = {"type": t, "int_ior": float(m["int_ior"]), "ext_ior": float(ext)}
+        if t == "roughdielectric":
+            b.update(distribution="ggx", alpha=float(m["roughness"]))
+        return b
     if t == "diffuse":
         return {"type": "diffuse", "reflectance": {"type": "rgb", "value": rgb(m["albedo"])}}
     if t in ("roughconductor", "conductor"):
@@ -94,7 +106,11 @@ def mitsuba_scene(d, max_depth):
                      "bin_width_opl": float(film["bin_width_opl"])},
         },
     }
-    mats = {m["name"]: bsdf(m) for m in d["material"]}
+    medium_eta = float(d.get("medium", {}).get("eta", 1.0))
+    if medium_eta != 1.0:
+        sys.exit("mitransient's path length starts at index 1: set [medium] eta = 1 for the comparison")
+    by_name = {m["name"]: m for m in d["material"]}
+    mats = {m["name"]: bsdf(m, by_name, medium_eta) for m in d["material"]}
     emit = {e["shape"]: e for e in d.get("emitter", []) if e["type"] == "area"}
     for s in d["shape"]:
         kind = {"rectangle": "rectangle", "cube": "cube"}[s["type"]]

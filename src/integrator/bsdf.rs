@@ -12,6 +12,7 @@
 //! gather [`albedo`] and cosine sampling.
 
 mod conductor;
+mod delta;
 mod dielectric;
 mod fresnel;
 mod ggx;

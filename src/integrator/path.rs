@@ -11,7 +11,11 @@
 //! Throughput is kept in the area-measure form of Algorithm 1: with dual numbers, vertices
 //! move with their surfaces and the ratio `[cos_{i-1} cos_i / r² · J]_dual / [...]_value`
 //! carries the derivative of the geometry term G and the area Jacobian J; with plain
-//! numbers that ratio is 1 and is skipped at compile time.
+//! numbers that ratio is 1 and is skipped at compile time. Two vertices are in ray form
+//! instead, and take no such ratio: the first camera vertex (it slides along its fixed camera
+//! ray) and every vertex reached through a Dirac lobe (the hit of the ray the mirror or Snell
+//! direction sends from the moving previous vertex, with the lobe's weight differentiated:
+//! `super::bsdf::delta`).
 
 use super::bsdf::{Lobes, albedo, diffuse_eval};
 use super::context::RenderContext;
@@ -165,6 +169,10 @@ pub fn trace_packet_from<R: Real, const C: usize, S: Sink<C>>(
     let mut eta_med = eta;
     let mut no_mis = R::Mask::splat(false);
     let mut prev_lobes: Option<(Lobes<R, C>, V3<R>)> = None;
+    // with derivative lanes, the lanes whose last scattering was a Dirac lobe and the
+    // direction it sent them in with its derivatives: their next vertex is in ray form
+    // (`super::bsdf::delta`)
+    let mut attached: Option<(R::Mask, V3<R>)> = None;
     // each lane's OPL in f64 from f64 hit points, when the film needs it (`super::opl`)
     let exact = ctx.opl.f64_paths;
     let mut opl64 = [0.0f64; 8];
@@ -224,6 +232,14 @@ pub fn trace_packet_from<R: Real, const C: usize, S: Sink<C>>(
                     // (x₁ = o + t(θ)·ω), so the pixel filter is never differentiated.
                     x.p = ray_plane_point(&prev_p, &V3::from_value(ray_d), &x.p, &x.n);
                 }
+                // after a Dirac lobe, the vertex is the hit of the ray the lobe turned
+                let after_delta = match &attached {
+                    Some((m, w)) => {
+                        x.p = V3::select(*m, ray_plane_point(&prev_p, w, &x.p, &x.n), x.p);
+                        *m
+                    }
+                    None => R::Mask::splat(false),
+                };
                 let seg = x.p - prev_p;
                 let r2 = seg.length_squared();
                 let r = r2.sqrt();
@@ -234,7 +250,8 @@ pub fn trace_packet_from<R: Real, const C: usize, S: Sink<C>>(
                     let cos_prev = prev_n.dot(w_in).abs();
                     let g = cos_prev * cos_i / r2;
                     let ratio = R::safe_div(g, R::from_value(g.value())) * x.jacobian;
-                    beta = beta.scale(ratio);
+                    // no G·J after a Dirac lobe: the delta took the segment's measure
+                    beta = beta.scale(R::select(after_delta, R::one(), ratio));
                     if let Some((lobes, wo)) = &prev_lobes {
                         // the previous vertex's f, now with both of its directions moving: ḟ/f
                         let f = lobes.eval(&prev_n, wo, &w_in, true);
@@ -422,6 +439,16 @@ pub fn trace_packet_from<R: Real, const C: usize, S: Sink<C>>(
                 no_mis = s.delta | s.transmitted;
                 if R::DERIVS > 0 {
                     prev_lobes = Some((l, -w_in));
+                    attached = None;
+                    if (s.delta & active).any() {
+                        // the lobe's weight with its derivatives (its value is in β) and the
+                        // turned direction, for the next vertex
+                        let (w, ratio) = l.delta_dual(&x.n, &-w_in, s.transmitted, true);
+                        beta = Spectrum(std::array::from_fn(|c| {
+                            R::select(s.delta, beta.0[c] * ratio.0[c], beta.0[c])
+                        }));
+                        attached = Some((s.delta, w));
+                    }
                 }
                 (s.wi, s.pdf)
             }

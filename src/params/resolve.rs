@@ -212,15 +212,15 @@ pub(crate) fn apply_params(
             ParamKindDesc::Albedo => {
                 let m = target(&names.materials, "material", "materials", &p.material)?;
                 use crate::scene::desc::MaterialType;
-                // a diffuse albedo, or a rough conductor's specular reflectance
+                // a diffuse albedo, or a (rough or smooth) conductor's specular reflectance
                 let field = match desc.material[m].ty {
                     MaterialType::Diffuse => "albedo",
-                    MaterialType::Roughconductor => "specular_reflectance",
+                    MaterialType::Roughconductor | MaterialType::Conductor => "specular_reflectance",
                     ty => {
                         return Err(ctx.invalid(
                             at("material"),
                             format!(
-                                "material {:?} is of type {}; kind albedo applies to diffuse materials (albedo) and roughconductor (specular_reflectance)",
+                                "material {:?} is of type {}; kind albedo applies to diffuse materials (albedo) and conductors (specular_reflectance)",
                                 desc.material[m].name,
                                 ty.as_str()
                             ),
@@ -298,7 +298,7 @@ pub(crate) fn apply_params(
                     ),
                     _ => (
                         "int_ior",
-                        mat.ty == MaterialType::Roughdielectric,
+                        matches!(mat.ty, MaterialType::Dielectric | MaterialType::Roughdielectric),
                         v > 0.0,
                         "an index of refraction must be > 0",
                     ),
@@ -306,7 +306,7 @@ pub(crate) fn apply_params(
                 if !fits {
                     let types = match p.kind {
                         ParamKindDesc::Roughness => "roughconductor or roughdielectric",
-                        _ => "roughdielectric (derivatives through smooth, Dirac lobes are not supported)",
+                        _ => "dielectric or roughdielectric",
                     };
                     return Err(ctx.invalid(
                         at("material"),

@@ -326,11 +326,31 @@ mod tests {
             "{}[[param]]\nname = \"n\"\nkind = \"ior\"\nmaterial = \"glass\"\nvalue = 1.4\n",
             with(GLASS, "glass")
         );
+        // a smooth dielectric's index is a parameter too (derivatives through Dirac lobes,
+        // `render::check_materials` says when)
+        let s = load_text("smooth_ior.toml", &smooth, &[], &[("n".to_string(), 1.45)]).unwrap();
+        let m = &s.materials.iter().find(|m| m.name == "glass").unwrap().material;
+        assert!(matches!(
+            *m,
+            Material::Dielectric {
+                roughness: 0.0,
+                int_ior: 1.45,
+                ..
+            }
+        ));
+        let diffuse = format!(
+            "{}[[param]]\nname = \"n\"\nkind = \"ior\"\nmaterial = \"white\"\nvalue = 1.4\n",
+            with(GLASS, "glass")
+        );
         expect_err(
-            "smooth_ior.toml",
-            &smooth,
+            "diffuse_ior.toml",
+            &diffuse,
             &[],
-            &["param[0] \"n\": field 'material'", "type dielectric", "roughdielectric"],
+            &[
+                "param[0] \"n\": field 'material'",
+                "type diffuse",
+                "dielectric or roughdielectric",
+            ],
         );
         let albedo = format!(
             "{}[[param]]\nname = \"g\"\nkind = \"albedo\"\nmaterial = \"glass\"\nvalue = 0.4\n",
@@ -342,7 +362,7 @@ mod tests {
             &[],
             &[
                 "param[0] \"g\": field 'material'",
-                "applies to diffuse materials (albedo) and roughconductor",
+                "applies to diffuse materials (albedo) and conductors",
             ],
         );
         let bad = format!("{}{params}", with(rough, "frost")).replace("value = 0.25", "value = 1.5");

@@ -14,6 +14,16 @@ pub fn load(name: &str) -> Scene {
     Scene::load(&scene_path(name), &[]).unwrap_or_else(|e| panic!("loading {name}: {e}"))
 }
 
+/// Every conductor and dielectric of `scene` made smooth (roughness 0: Dirac lobes).
+pub fn make_smooth(scene: &mut Scene) {
+    use difftransient::scene::Material;
+    for m in &mut scene.materials {
+        if let Material::Conductor { roughness, .. } | Material::Dielectric { roughness, .. } = &mut m.material {
+            *roughness = 0.0;
+        }
+    }
+}
+
 /// A forward render whose steady image integrates all time (`SteadyMode::Full`, no window
 /// cut): the tests that use it compare steady images with all-time references (energy
 /// conservation, umbrae, closed forms); tests/window_cut.rs checks the cut itself.

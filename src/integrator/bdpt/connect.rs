@@ -36,11 +36,11 @@ pub fn emission<R: Real, const C: usize, S: Sink<C>>(pk: &mut Packet<'_, '_, R, 
         V::<R>::zero(),
         pk.pl,
         pk.pe,
-        pk.refracts,
+        pk.no_connect,
     );
-    let refracts = &*pk.refracts;
+    let no_connect = &*pk.no_connect;
     let (lower, higher) = ratio_sums(pk.pl, pk.pe, 0, |sp| {
-        allowed_through(t, sp, R::Mask::splat(false), refracts)
+        allowed_through(t, sp, R::Mask::splat(false), no_connect)
     });
     let contrib = (pt.beta * radiance).scale(R::from_value(weight(lower, higher)));
     let exact = ctx.opl.f64_paths.then_some(&pt.opl64);
@@ -59,7 +59,9 @@ pub fn connect<R: Real, const C: usize, S: Sink<C>>(pk: &mut Packet<'_, '_, R, C
     let zero = V::<R>::zero();
     // the connection crosses the medium the camera subpath arrived in
     let d = qs.opl + pt.opl + pt.eta_in * dist;
-    let ok = qs.alive & pt.alive & cos_q.value().gt(zero) & cos_p.value().gt(zero) & d2.value().gt(zero);
+    // no connection ends at a Dirac lobe (`vertex` module docs)
+    let ok = (qs.alive & pt.alive).and_not(qs.delta | pt.delta);
+    let ok = ok & cos_q.value().gt(zero) & cos_p.value().gt(zero) & d2.value().gt(zero);
     // the window cut (`integrator::window`): connections that land past it cast no shadow ray
     let ok = ok & window::within(ctx.opl_budget, d.value());
     if ok.none() {
@@ -78,11 +80,11 @@ pub fn connect<R: Real, const C: usize, S: Sink<C>>(pk: &mut Packet<'_, '_, R, C
         zero,
         pk.pl,
         pk.pe,
-        pk.refracts,
+        pk.no_connect,
     );
     let (delta, n) = (pk.origin.delta, s + t);
-    let refracts = &*pk.refracts;
-    let (lower, higher) = ratio_sums(pk.pl, pk.pe, s, |sp| allowed_through(n, sp, delta, refracts));
+    let no_connect = &*pk.no_connect;
+    let (lower, higher) = ratio_sums(pk.pl, pk.pe, s, |sp| allowed_through(n, sp, delta, no_connect));
     let g = cos_q * cos_p / d2;
     // f at both ends, with the connection's direction (light origins keep f = 1)
     let f_q = match s {

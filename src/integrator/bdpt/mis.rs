@@ -31,14 +31,14 @@ pub fn ratio_sums<V: Real>(pl: &[V], pe: &[V], s: usize, allowed: impl Fn(usize)
     let mut lower = V::zero();
     let mut r = V::one();
     for sp in (0..s).rev() {
-        let q = pe[sp] / remap0(pl[sp]);
+        let q = remap0(pe[sp]) / remap0(pl[sp]);
         r = r * q * q;
         lower += r.masked(allowed(sp));
     }
     let mut higher = V::zero();
     let mut r = V::one();
     for sp in s + 1..n {
-        let q = pl[sp - 1] / remap0(pe[sp - 1]);
+        let q = remap0(pl[sp - 1]) / remap0(pe[sp - 1]);
         r = r * q * q;
         higher += r.masked(allowed(sp));
     }
@@ -67,24 +67,26 @@ pub fn allowed<M: Mask>(n: usize, sp: usize, delta_light: M) -> M {
     }
 }
 
-/// [`allowed`], and no connection at a vertex where the path refracts (`refracts[k]` for
-/// path vertex x_k, from [`path_pdfs`]): strategy s' joins x_{s'−1} and x_{s'}, and
-/// connections leave on the arrival side only.
+/// [`allowed`], and no connection at a vertex that cannot be a connection's end
+/// (`no_connect[k]` for path vertex x_k, from [`path_pdfs`]): one where the path refracts
+/// (connections leave on the arrival side only) or whose lobe is a Dirac (smooth conductor or
+/// dielectric: f is zero in every direction but one; pbrt-v4's `delta` vertices). Strategy s'
+/// joins x_{s'−1} and x_{s'}.
 #[inline(always)]
-pub fn allowed_through<M: Mask>(n: usize, sp: usize, delta_light: M, refracts: &[M]) -> M {
+pub fn allowed_through<M: Mask>(n: usize, sp: usize, delta_light: M, no_connect: &[M]) -> M {
     let mut m = allowed(n, sp, delta_light);
     if sp >= 1 {
-        m = m.and_not(refracts[sp - 1]);
+        m = m.and_not(no_connect[sp - 1]);
     }
     if sp < n {
-        m = m.and_not(refracts[sp]);
+        m = m.and_not(no_connect[sp]);
     }
     m
 }
 
 /// Connection densities that the subpaths do not store: with `light = x_0..x_{s−1}` and
 /// `camera = x_{n−1}..x_s` (camera order), fills `pl`, `pe` for the whole path, and
-/// `refracts` (the lanes where x_k refracts, see [`allowed_through`]). `origin_pdf` is the
+/// `no_connect` (the lanes where x_k cannot be a connection's end, see [`allowed_through`]). `origin_pdf` is the
 /// emitter's area density at the camera's last vertex (s = 0 only); `camera_pdf` the
 /// camera's area density at the light's last vertex (t = 1 only). The densities at the two
 /// ends of a connection are their BSDFs' given the connection as the arriving direction
@@ -98,33 +100,34 @@ pub fn path_pdfs<R: Real, const C: usize>(
     camera_pdf: R::Value,
     pl: &mut Vec<R::Value>,
     pe: &mut Vec<R::Value>,
-    refracts: &mut Vec<R::Mask>,
+    no_connect: &mut Vec<R::Mask>,
 ) {
     let (s, t) = (light.len(), camera.len());
     let n = s + t;
     pl.clear();
     pe.clear();
-    refracts.clear();
+    no_connect.clear();
     pl.resize(n, R::Value::zero());
     pe.resize(n, R::Value::zero());
-    refracts.resize(n, R::Mask::splat(false));
+    no_connect.resize(n, R::Mask::splat(false));
     for (k, v) in light.iter().enumerate() {
         pl[k] = v.pdf_fwd;
         pe[k] = v.pdf_rev;
-        refracts[k] = v.transmitted;
+        no_connect[k] = v.transmitted | v.delta;
     }
     for (j, v) in camera.iter().enumerate() {
         pe[n - 1 - j] = v.pdf_fwd;
         pl[n - 1 - j] = v.pdf_rev;
-        refracts[n - 1 - j] = v.transmitted;
+        no_connect[n - 1 - j] = v.transmitted | v.delta;
     }
     // the connection's ends do not refract (connections stay on the arrival side); an end
-    // that refracted in its own subpath continued past where this path turns
+    // that refracted in its own subpath continued past where this path turns (a Dirac end
+    // makes no path: the strategies skip it before asking for densities)
     if s >= 1 {
-        refracts[s - 1] = R::Mask::splat(false);
+        no_connect[s - 1] = R::Mask::splat(false);
     }
     if t >= 1 {
-        refracts[s] = R::Mask::splat(false);
+        no_connect[s] = R::Mask::splat(false);
     }
     if s == 0 {
         // the camera subpath's last vertex is on an emitter

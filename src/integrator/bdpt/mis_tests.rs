@@ -78,7 +78,7 @@ fn weights(xs: &[Vx], delta: bool, h: f32) -> Vec<(usize, f32)> {
         } else {
             0.0
         };
-        let mut refracts = Vec::new();
+        let mut no_connect = Vec::new();
         path_pdfs(
             None,
             &light,
@@ -87,7 +87,7 @@ fn weights(xs: &[Vx], delta: bool, h: f32) -> Vec<(usize, f32)> {
             camera_pdf,
             &mut pl,
             &mut pe,
-            &mut refracts,
+            &mut no_connect,
         );
         let (mut lower, higher) = ratio_sums(&pl, &pe, s, |sp| allowed::<bool>(n, sp, delta));
         if t == 1 {

@@ -16,7 +16,10 @@
 //!
 //! **One parameterisation.** Every strategy moves the vertex next to the pinhole along its
 //! fixed camera ray and every other vertex with its surface (t = 1 included, see [`splat`]),
-//! so constant MIS weights give the derivative of the image, for any pixel filter.
+//! so constant MIS weights give the derivative of the image, for any pixel filter. A Dirac
+//! lobe breaks that (the camera side would move the vertex after it in ray form, the light
+//! side the one before it), so through one only parameters that move no vertex are
+//! differentiated (`render::check_materials`), with the lobe's weight in dual numbers.
 //!
 //! (1, 1), an emitter seen straight through the pinhole by light tracing, is left out: s = 0
 //! covers area emitters (as in the path tracer), and points (point lights, laser spots) are
@@ -47,7 +50,7 @@ pub struct Scratch<R: Real, const C: usize> {
     light: Vec<Vertex<R, C>>,
     pl: Vec<R::Value>,
     pe: Vec<R::Value>,
-    refracts: Vec<R::Mask>,
+    no_connect: Vec<R::Mask>,
 }
 
 impl<R: Real, const C: usize> Default for Scratch<R, C> {
@@ -57,7 +60,7 @@ impl<R: Real, const C: usize> Default for Scratch<R, C> {
             light: Vec::new(),
             pl: Vec::new(),
             pe: Vec::new(),
-            refracts: Vec::new(),
+            no_connect: Vec::new(),
         }
     }
 }
@@ -71,8 +74,8 @@ pub struct Packet<'p, 'c, R: Real, const C: usize, S: Sink<C>> {
     pub origin: LightOrigin<R>,
     pub pl: &'p mut Vec<R::Value>,
     pub pe: &'p mut Vec<R::Value>,
-    /// Per path vertex, the lanes where the path refracts (`mis::allowed_through`).
-    pub refracts: &'p mut Vec<R::Mask>,
+    /// Per path vertex, the lanes where no connection can end (`mis::allowed_through`).
+    pub no_connect: &'p mut Vec<R::Mask>,
     pub sink: &'p mut S,
     pub counts: &'p mut PathCounts,
 }
@@ -115,7 +118,7 @@ pub fn trace_packet<R: Real, const C: usize, S: Sink<C>>(
         light,
         pl,
         pe,
-        refracts,
+        no_connect,
     } = scratch;
     walk::camera_subpath(ctx, &mut cam_sampler, lanes, camera, max_bounces + 1, &mut counts.rays);
     let origin = walk::light_subpath(ctx, &mut light_sampler, lanes, light, max_bounces, &mut counts.rays);
@@ -127,7 +130,7 @@ pub fn trace_packet<R: Real, const C: usize, S: Sink<C>>(
         origin,
         pl,
         pe,
-        refracts,
+        no_connect,
         sink,
         counts,
     };

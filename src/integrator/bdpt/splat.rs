@@ -49,7 +49,9 @@ pub fn splat_to_camera<R: Real, const C: usize, S: Sink<C>>(pk: &mut Packet<'_, 
     let zero = V::<R>::zero();
     // the window cut (`integrator::window`): light paths that reach the pinhole past it
     let d_value = qs.opl.value() + camera_leg(ctx, qs.eta_in.value(), &q, &eye);
-    let ok = qs.alive & proj.visible & cos_q.gt(zero) & window::within(ctx.opl_budget, d_value);
+    // a Dirac lobe at q sends nothing towards the pinhole
+    let ok = qs.alive.and_not(qs.delta) & proj.visible & cos_q.gt(zero);
+    let ok = ok & window::within(ctx.opl_budget, d_value);
     if ok.none() {
         return;
     }
@@ -75,11 +77,11 @@ pub fn splat_to_camera<R: Real, const C: usize, S: Sink<C>>(pk: &mut Packet<'_, 
         camera_pdf,
         pk.pl,
         pk.pe,
-        pk.refracts,
+        pk.no_connect,
     );
     let (delta, n) = (pk.origin.delta, s + 1);
-    let refracts = &*pk.refracts;
-    let (lower, _) = ratio_sums(pk.pl, pk.pe, s, |sp| allowed_through(n, sp, delta, refracts));
+    let no_connect = &*pk.no_connect;
+    let (lower, _) = ratio_sums(pk.pl, pk.pe, s, |sp| allowed_through(n, sp, delta, no_connect));
     let camera_factor = (cos_q * proj.importance / proj.dist2).mul_f(1.0 / pixels);
     let prev = &pk.light[s - 2];
     let (beta, d, y) = if R::DERIVS > 0 {

@@ -2,13 +2,15 @@
 //! `pdfFwd` / `pdfRev` bookkeeping of pbrt-v4's BDPT, `src/pbrt/cpu/integrators.h`).
 //!
 //! Delta flags: pbrt-v4 marks vertices scattered by a specular lobe (`delta`) and lights that
-//! are deltas in position (`IsDeltaLight`). BDPT refuses scenes with Dirac lobes (smooth
-//! conductors and dielectrics, `render::check_materials`), so no surface vertex is a delta;
-//! the light origin's flag is [`super::walk::LightOrigin::delta`] (point lights, laser
-//! spots), and zero (delta) densities are remapped to 1 in the MIS ratios as pbrt's
-//! `MISWeight` does. A vertex where the subpath refracted cannot be a connection's end
-//! (connections leave on the arrival side), which `transmitted` records for
-//! [`super::mis::allowed`].
+//! are deltas in position (`IsDeltaLight`). Here [`Vertex::delta`] marks the lanes whose
+//! material is a Dirac lobe (smooth conductor or dielectric): the walk continues through them
+//! by sampling the lobe, stores 0 as the area density of the vertex it reaches (`pdf_fwd`)
+//! and of the one it came from (`pdf_rev`, from `Lobes::pdf`, zero on delta lanes), and no
+//! connection ends there (f is zero towards any other point). The light origin's flag is
+//! [`super::walk::LightOrigin::delta`] (point lights, laser spots). Zero (delta) densities are
+//! remapped to 1 in the MIS ratios as pbrt's `MISWeight` does ([`super::mis`]). A vertex
+//! where the subpath refracted cannot be a connection's end either (connections leave on the
+//! arrival side), which `transmitted` records; both feed [`super::mis::allowed_through`].
 //!
 //! Materials beyond Lambertian: a vertex's f and direction density depend on both of its
 //! neighbours, so they are evaluated where both are known, from the vertex's material
@@ -59,6 +61,8 @@ pub struct Vertex<R: Real, const C: usize> {
     pub eta_in: R,
     /// Lanes whose subpath refracted here (see the module docs).
     pub transmitted: R::Mask,
+    /// Lanes whose material here is a Dirac lobe (see the module docs).
+    pub delta: R::Mask,
     /// The point and `opl` per lane in f64 (see `integrator::opl`); kept only when the render
     /// carries f64 OPLs (`ctx.opl.f64_paths`), else zero.
     pub p64: [glam::DVec3; 8],
@@ -198,6 +202,7 @@ impl<R: Real, const C: usize> Vertex<R, C> {
             opl: R::zero(),
             eta_in: R::one(),
             transmitted: no,
+            delta: no,
             prim: [u32::MAX; 8],
             alive,
         }

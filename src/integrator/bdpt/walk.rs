@@ -123,6 +123,7 @@ fn random_walk<R: Real, const C: usize>(
             opl,
             eta_in: eta,
             transmitted: none,
+            delta: none,
             p64,
             opl64,
             prim: hit.prim,
@@ -154,17 +155,29 @@ fn random_walk<R: Real, const C: usize>(
             &mut active,
             depth as u32,
         );
+        if R::DERIVS > 0 && (s.delta & active).any() {
+            // a Dirac lobe's weight with its derivatives (its value is in β). Only parameters
+            // that move no vertex reach BDPT through a Dirac lobe (`render::check_materials`),
+            // so the next vertex needs no ray form: all that moves here is the tint.
+            let wo = (path[path.len() - 2].p - x.p).normalize();
+            let (_, ratio) = lobes.delta_dual(&x.n, &wo, s.transmitted, camera);
+            beta = Spectrum(std::array::from_fn(|c| {
+                R::select(s.delta, beta.0[c] * ratio.0[c], beta.0[c])
+            }));
+        }
         let back = V3::select(s.transmitted, V3::zero(), ray_d);
         ray_o = spawn_point(&x.p.value(), &n_v, &back, &s.wi);
         let inside = n_v.dot(s.wi).lt(V::<R>::zero());
         eta = R::select(s.transmitted, R::select(inside, lobes.eta_int, lobes.eta_ext), eta);
         let k = path.len() - 1;
         path[k].transmitted = s.transmitted;
-        // the density of this vertex sampling its predecessor, arriving along the new ray
+        path[k].delta = lobes.delta;
+        // the density of this vertex sampling its predecessor, arriving along the new ray (0
+        // on delta lanes, as the one of the vertex it reaches: `vertex` module docs)
         let back_pdf = lobes.value().pdf(&n_v, &s.wi, &-ray_d);
         path[k - 1].pdf_rev = super::vertex::to_area(&x.p.value(), &path[k - 1], back_pdf);
         ray_d = s.wi;
-        pdf_dir = s.pdf;
+        pdf_dir = s.pdf.masked(!s.delta);
     }
 }
 
