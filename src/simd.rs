@@ -66,7 +66,10 @@ mod tests {
         assert_eq!(advice("avx2+fma", true), None);
         assert_eq!(advice("sse2", false), None);
         let a = advice("sse2", true).unwrap();
-        assert!(a.contains("compiled for sse2") && a.contains("target-cpu=x86-64-v3"), "{a}");
+        assert!(
+            a.contains("compiled for sse2") && a.contains("target-cpu=x86-64-v3"),
+            "{a}"
+        );
         assert!(advice("avx", true).is_some());
     }
 
