@@ -20,8 +20,8 @@ pub enum Error {
     /// An output file could not be written or its data is not writable as asked.
     #[error(transparent)]
     Output(#[from] OutputError),
-    /// A request that does not fit the scene or the options (e.g. an unknown parameter, a
-    /// zero sample count); the message says what was expected.
+    /// A request that does not fit the scene or the options (e.g. an unknown parameter, an
+    /// adjoint of the wrong shape, a malformed shard); the message says what was expected.
     #[error("{0}")]
     Invalid(String),
 }

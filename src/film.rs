@@ -12,7 +12,6 @@ use crate::temporal::{Correlation, TimeAxis};
 /// same paths: the integral over the window ([`SteadyMode::Window`], the default) or over
 /// all time, counting every path whether or not it falls inside the time axis
 /// ([`SteadyMode::Full`]).
-#[derive(Clone, Debug, PartialEq)]
 ///
 /// ```
 /// use difftransient::{Transient, temporal::TimeAxis};
@@ -28,6 +27,7 @@ use crate::temporal::{Correlation, TimeAxis};
 /// assert_eq!(t.pixel_series(2, 1), vec![0.0, 0.0, 0.0, 2.0]);
 /// assert_eq!(t.bin_totals()[3], 2.0);
 /// ```
+#[derive(Clone, Debug, PartialEq)]
 pub struct Transient {
     /// Image width in pixels (for an NLOS capture: sensor columns, or sensor points).
     pub width: usize,

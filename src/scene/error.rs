@@ -29,9 +29,9 @@ pub enum SceneError {
         path: PathBuf,
         /// "TOML" or "JSON".
         format: &'static str,
-        /// Line of the error, counted from 1.
+        /// Line of the error, counted from 1 (0 when the parser gave no position).
         line: usize,
-        /// Column of the error, counted from 1.
+        /// Column of the error, counted from 1 (0 when the parser gave no position).
         column: usize,
         /// The parser's description of the error.
         message: String,
@@ -52,7 +52,7 @@ pub enum SceneError {
     Override {
         /// The scene file.
         path: PathBuf,
-        /// The dotted field name of the override, e.g. `camera.fov`.
+        /// The overridden name: a `[[param]]` or a dotted field path such as `camera.fov`.
         name: String,
         /// What was wrong and what was expected.
         message: String,

@@ -14,6 +14,7 @@ mod emitters;
 pub(crate) mod error;
 pub(crate) mod field_set;
 mod flush;
+#[doc(hidden)]
 pub mod fuzzing;
 mod info;
 mod load;
@@ -109,7 +110,7 @@ pub struct Geometry {
     /// World-space vertex positions, metres relative to [`Scene::render_origin`].
     pub positions: Vec<Vec3>,
     /// Vertex indices of each triangle into `positions`; the winding gives the geometric
-    /// normal (counter-clockwise seen from the front).
+    /// normal `(p1 − p0) × (p2 − p0)` (the front side).
     pub indices: Vec<[u32; 3]>,
     /// Shape index of each triangle.
     pub tri_shape: Vec<u32>,

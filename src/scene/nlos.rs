@@ -61,7 +61,7 @@ impl WallGrid {
 /// I + dark_counts) per bin, drawn from `seed` (`crate::sensor_noise`).
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct NoiseSpec {
-    /// Expected photon count per unit of rendered intensity in a bin (≥ 0).
+    /// Expected photon count per unit of rendered intensity in a bin (> 0).
     pub photons_per_unit: f64,
     /// Expected background counts per bin (≥ 0).
     pub dark_counts: f64,
