@@ -27,6 +27,7 @@ pub struct AdjointFilm<'a> {
 }
 
 impl<'a> AdjointFilm<'a> {
+    /// A contraction with `adjoint` (∂L/∂I, the film's shape), its sums at zero.
     pub fn new(adjoint: &'a Transient) -> Self {
         Self {
             adjoint,
@@ -90,13 +91,17 @@ impl<const C: usize> crate::integrator::sink::Sink<C> for AdjointFilm<'_> {
 /// What an adjoint render did.
 #[derive(Clone, Debug, Default, serde::Serialize)]
 pub struct AdjointStats {
+    /// Samples per pixel used.
     pub spp: u32,
+    /// Random seed used.
     pub seed: u64,
     /// Interior paths traced.
     pub paths: u64,
+    /// Samples whose contribution was NaN or infinite and was dropped.
     pub non_finite_samples: u64,
     /// The boundary stage, when a parameter moves geometry.
     pub boundary: Option<crate::boundary::BoundaryStats>,
+    /// Wall-clock time of the render(s), seconds.
     pub wall_seconds: f64,
 }
 
@@ -109,6 +114,31 @@ pub struct AdjointStats {
 /// Any number of parameters: the dual-number kernel carries at most `MAX_PARAMS`
 /// derivative lanes, so longer lists run in groups of that many, each group a render with
 /// the same samples (memory stays O(P); time grows with the number of groups).
+///
+/// With ∂L/∂I = 1 in every bin (L = Σ I), the gradient is the sum of
+/// [`crate::render_diff`]'s derivative film, rendered with the same samples:
+///
+/// ```
+/// use difftransient::{RenderOptions, Scene, Transient, render_adjoint, render_diff};
+/// use std::path::Path;
+///
+/// let path = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/diff_room.toml"));
+/// let scene = Scene::load(path, &[])?;
+/// let opts = RenderOptions { spp: Some(2), ..Default::default() };
+/// let params = ["intensity".to_string()];
+///
+/// let f = &scene.film;
+/// let mut ones = Transient::zeros(f.width as usize, f.height as usize, f.axis, f.channels);
+/// ones.data.fill(1.0);
+/// let (grad, stats) = render_adjoint(&scene, &params, &ones, &opts)?;
+/// assert_eq!((grad.len(), stats.spp), (1, 2));
+///
+/// let (_, films, _) = render_diff(&scene, &params, &opts)?;
+/// let summed: f64 = films[0].data.iter().map(|&v| v as f64).sum();
+/// assert!(summed > 0.0);
+/// assert!((grad[0] - summed).abs() <= 1e-4 * summed, "{} vs {summed}", grad[0]);
+/// # Ok::<(), difftransient::Error>(())
+/// ```
 pub fn render_adjoint(
     scene: &crate::Scene,
     params: &[String],

@@ -12,17 +12,40 @@ use crate::temporal::{Correlation, TimeAxis};
 /// same paths: the integral over the window ([`SteadyMode::Window`], the default) or over
 /// all time, counting every path whether or not it falls inside the time axis
 /// ([`SteadyMode::Full`]).
+///
+/// ```
+/// use difftransient::{Transient, temporal::TimeAxis};
+///
+/// let axis = TimeAxis { start_opl: 0.0, bin_width_opl: 0.1, bins: 4 };
+/// let mut t = Transient::zeros(3, 2, axis, 1);
+/// assert_eq!(t.shape(), [2, 3, 4, 1]);
+/// // Pixel (x = 2, y = 1), bin 3, channel 0 is the last value of `data`.
+/// let i = t.index(2, 1, 3, 0);
+/// assert_eq!(i, t.data.len() - 1);
+/// t.data[i] = 2.0;
+/// assert_eq!(t.at(2, 1, 3, 0), 2.0);
+/// assert_eq!(t.pixel_series(2, 1), vec![0.0, 0.0, 0.0, 2.0]);
+/// assert_eq!(t.bin_totals()[3], 2.0);
+/// ```
 #[derive(Clone, Debug, PartialEq)]
 pub struct Transient {
+    /// Image width in pixels (for an NLOS capture: sensor columns, or sensor points).
     pub width: usize,
+    /// Image height in pixels (for an NLOS capture: sensor rows, or laser points).
     pub height: usize,
+    /// The time axis of the bins (OPL in metres).
     pub axis: TimeAxis,
+    /// Channels per value: 1 (mono) or 3 (RGB).
     pub channels: usize,
+    /// Radiance per bin, `[height, width, bins, channels]` row-major; index it with
+    /// [`Self::index`]. For a derivative film, ∂I/∂θ in the same layout.
     pub data: Vec<f32>,
+    /// Time-integrated image, `[height, width, channels]` row-major (see [`SteadyMode`]).
     pub steady: Vec<f32>,
 }
 
 impl Transient {
+    /// A film of zeros with the given size, axis and channel count.
     pub fn zeros(width: usize, height: usize, axis: TimeAxis, channels: usize) -> Self {
         Self {
             width,
@@ -37,10 +60,12 @@ impl Transient {
     pub fn shape(&self) -> [usize; 4] {
         [self.height, self.width, self.axis.bins, self.channels]
     }
+    /// Offset of pixel (`x`, `y`), bin `bin`, channel `c` in [`Self::data`].
     #[inline]
     pub fn index(&self, x: usize, y: usize, bin: usize, c: usize) -> usize {
         ((y * self.width + x) * self.axis.bins + bin) * self.channels + c
     }
+    /// The value of pixel (`x`, `y`), bin `bin`, channel `c`. Panics when out of range.
     pub fn at(&self, x: usize, y: usize, bin: usize, c: usize) -> f32 {
         self.data[self.index(x, y, bin, c)]
     }
@@ -70,6 +95,7 @@ impl Transient {
     pub fn non_finite_count(&self) -> usize {
         self.data.iter().chain(&self.steady).filter(|v| !v.is_finite()).count()
     }
+    /// Multiplies every value of the transient and the steady image by `s`.
     pub fn scale(&mut self, s: f32) {
         self.data.iter_mut().chain(self.steady.iter_mut()).for_each(|v| *v *= s);
     }
@@ -242,6 +268,7 @@ impl Accumulate for TileFilm {
 
 /// A [`TileFilm`]'s running sums, exactly (f32 or f64 bins as the film keeps them).
 #[derive(Clone, Debug, Default)]
+#[doc(hidden)]
 pub struct TileSums {
     pub data32: Vec<f32>,
     pub data64: Vec<f64>,
@@ -252,6 +279,7 @@ pub struct TileSums {
 /// A rectangle of pixels accumulated by one worker; merged into a [`Transient`] in a fixed
 /// order, so results do not depend on the thread count or scheduling.
 #[derive(Clone, Debug)]
+#[doc(hidden)]
 pub struct TileFilm {
     pub x0: usize,
     pub y0: usize,
@@ -415,9 +443,14 @@ impl TileFilm {
 /// `total = before + inside + after`.
 #[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
 pub struct WindowEnergy {
+    /// Σ of the steady image: all primal energy that reached the camera.
     pub total: f64,
+    /// S_e mass of the paths that arrived before bin 0.
     pub before: f64,
+    /// Σ of the transient over pixels, bins and channels.
     pub inside: f64,
+    /// S_e mass of the paths that arrived after the last bin (estimated by a pilot when
+    /// `after_pilot_paths > 0`).
     pub after: f64,
     /// `inside / total` (0 when nothing reached the camera).
     pub inside_fraction: f64,
@@ -433,8 +466,11 @@ pub struct WindowEnergy {
 /// `total = inside` and `outside` is not measured (`None`).
 #[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
 pub struct DerivWindowEnergy {
+    /// Σ of the steady derivative image.
     pub total: f64,
+    /// Σ of the derivative transient over pixels, bins and channels.
     pub inside: f64,
+    /// `total − inside`; `None` when paths were cut at the window.
     pub outside: Option<f64>,
 }
 

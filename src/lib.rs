@@ -12,6 +12,42 @@
 //! [`render::render`] runs it all on a rayon pool. [`render::render_diff`] adds the derivative:
 //! the interior (Algorithm 1, dual numbers in the same kernel) plus, when a parameter moves
 //! geometry, the [`boundary`] integral (Algorithm 2: primary and secondary edges).
+//! [`render_adjoint`] contracts the derivative with a loss's gradient ∂L/∂I without storing a
+//! derivative film, and [`optimize`] uses it to recover parameters from a target transient.
+//!
+//! Units: lengths and optical path lengths (OPL) are in metres, time is OPL / c
+//! ([`temporal::TimeAxis::time_ns_of_opl`]), angles in the scene file are in degrees. A
+//! [`Transient`] is `[height, width, bins, channels]`, row-major.
+//!
+//! # Example
+//!
+//! Load the Cornell box at 16 × 16 pixels (dotted `--set` overrides of the description),
+//! render two samples per pixel and look at the result:
+//!
+//! ```
+//! use difftransient::{RenderOptions, Scene, render};
+//! use std::path::Path;
+//!
+//! let path = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell_box.toml"));
+//! let overrides = [("camera.resolution.0".to_string(), 16.0), ("camera.resolution.1".to_string(), 16.0)];
+//! let scene = Scene::load(path, &overrides)?;
+//! let opts = RenderOptions { spp: Some(2), ..Default::default() };
+//! let (transient, stats) = render(&scene, &opts)?;
+//!
+//! // [height, width, bins, channels]: the file's 200 bins of 6 cm, RGB.
+//! assert_eq!(transient.shape(), [16, 16, 200, 3]);
+//! assert_eq!(stats.spp, 2);
+//! assert_eq!(transient.non_finite_count(), 0);
+//! // Light reached the camera, and no path is shorter than the camera's distance to the
+//! // lamp (3.78 m): bins 0 and 1, [3.6, 3.72) m of OPL, stay dark.
+//! let per_bin = transient.bin_totals();
+//! assert!(per_bin.iter().sum::<f32>() > 0.0);
+//! assert!(per_bin[..2].iter().all(|&e| e == 0.0));
+//! assert!(stats.energy.inside > 0.0);
+//! # Ok::<(), difftransient::Error>(())
+//! ```
+
+#![warn(missing_docs)]
 
 #[doc(hidden)]
 pub mod accel;

@@ -66,6 +66,8 @@ pub enum Lanes {
     Scalar,
 }
 
+/// How to render: overrides of the scene's sampling settings, threads, estimators and output
+/// conventions. `RenderOptions::default()` renders the scene as its file describes it.
 #[derive(Clone, Debug, Default)]
 pub struct RenderOptions {
     /// Overrides the scene's samples per pixel.
@@ -76,6 +78,7 @@ pub struct RenderOptions {
     pub threads: Option<usize>,
     /// Show a progress bar (only on a terminal).
     pub progress: bool,
+    /// Packet width of the kernel: eight paths per SIMD packet (default) or one.
     pub lanes: Lanes,
     /// Overrides the scene's `[integrator] kind` (`dtr render --integrator`).
     pub integrator: Option<IntegratorKind>,
@@ -120,25 +123,37 @@ pub enum BoundaryMode {
 /// What a render did and how fast.
 #[derive(Clone, Debug, Default, serde::Serialize)]
 pub struct RenderStats {
+    /// Samples per pixel used (the option's or the scene's).
     pub spp: u32,
+    /// Random seed used (the option's or the scene's).
     pub seed: u64,
+    /// Worker threads of the pool.
     pub threads: usize,
     /// Wall and CPU seconds of the interior pass (the path or BDPT tiles); the boundary stage
     /// is in `boundary_seconds`, and the whole render in `total_*`.
     pub wall_seconds: f64,
+    /// CPU seconds (all threads) of the interior pass.
     pub cpu_seconds: f64,
     /// The whole render: interior pass + boundary stage (+ the window-energy pilot of a
     /// render cut at the window).
     pub total_wall_seconds: f64,
+    /// CPU seconds (all threads) of the whole render.
     pub total_cpu_seconds: f64,
+    /// Interior paths traced (0 when the interior pass did not run).
     pub paths: u64,
+    /// Closest-hit queries of the interior pass (Embree `rtcIntersect`).
     pub intersect_rays: u64,
+    /// Shadow (any-hit) queries of the interior pass (Embree `rtcOccluded`).
     pub occluded_rays: u64,
+    /// `paths / cpu_seconds` of the interior pass.
     pub paths_per_cpu_second: f64,
+    /// Ray queries (closest-hit + shadow) per wall-clock second of the interior pass.
     pub rays_per_second: f64,
+    /// Ray queries (closest-hit + shadow) per CPU second of the interior pass.
     pub rays_per_cpu_second: f64,
     /// Samples dropped because they were not finite (should be 0; reported, never hidden).
     pub non_finite_samples: u64,
+    /// Wall time of building Embree's BVH of the scene.
     pub bvh_build_seconds: f64,
     /// Where the CPU time went: Embree queries, shading/sampling (the rest of the kernel and
     /// driver), and film binning; seconds, summing to `cpu_seconds` of the tiles.
@@ -148,6 +163,7 @@ pub struct RenderStats {
     pub boundary_samples: u64,
     /// Wall time of the boundary stage (primary + secondary, pilot included).
     pub boundary_seconds: f64,
+    /// Details of the boundary stage (primary and secondary edges), when it ran.
     pub boundary: Option<crate::boundary::BoundaryStats>,
     /// Embree traversal mode: "robust" (watertight) or "fast" (`--fast-traversal`).
     pub traversal: &'static str,
@@ -164,10 +180,14 @@ pub struct RenderStats {
     pub opl: crate::integrator::opl::OplPrecision,
 }
 
+/// CPU seconds of the interior pass split by phase, apportioned by the tiles' tick counts.
 #[derive(Clone, Debug, Default, serde::Serialize)]
 pub struct PhaseSeconds {
+    /// Embree queries (closest-hit and shadow rays).
     pub tracing: f64,
+    /// Everything else in the kernel and the driver: sampling, BSDFs, MIS, connections.
     pub shading: f64,
+    /// Binning contributions into the film through S_e.
     pub film: f64,
 }
 
@@ -214,6 +234,8 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<(Transient, RenderS
 /// one film per parameter in each part. The derivative of the rendered transient is their
 /// sum ([`DiffParts::sum`]).
 pub struct DiffParts {
+    /// The forward transient, from the interior pass (zero with
+    /// [`BoundaryMode::BoundaryOnly`]).
     pub primal: Transient,
     /// The interior integral (Algorithm 1), from the path tracer or BDPT.
     pub interior: Vec<Transient>,
@@ -222,6 +244,7 @@ pub struct DiffParts {
     pub primary: Vec<Transient>,
     /// The boundary integral at secondary edges (Algorithm 2); empty like `primary`.
     pub secondary: Vec<Transient>,
+    /// What the whole render did.
     pub stats: RenderStats,
 }
 
@@ -248,6 +271,30 @@ impl DiffParts {
 /// Renders the transient and the derivative of every bin with respect to each parameter in
 /// `params`: interior + primary + secondary ([`render_diff_parts`]). Returns the transient
 /// and one derivative transient per parameter, in order.
+///
+/// Parameters are the names of the scene's `[[param]]` entries (`dtr info SCENE` lists
+/// them). Below, the wall albedo a of the closed room of `scenes/diff_room.toml`: every path
+/// that reaches the camera scatters k ≥ 1 times off the walls, so its contribution is
+/// a^k · g and its derivative k · a^(k−1) · g. Summed over the film, with the same samples,
+/// ∂I/∂a ≥ I / a.
+///
+/// ```
+/// use difftransient::{RenderOptions, Scene, render_diff};
+/// use std::path::Path;
+///
+/// let path = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/diff_room.toml"));
+/// let scene = Scene::load(path, &[])?;
+/// let opts = RenderOptions { spp: Some(2), ..Default::default() };
+/// let (primal, grads, _stats) = render_diff(&scene, &["albedo".to_string()], &opts)?;
+///
+/// assert_eq!(grads.len(), 1);
+/// assert_eq!(grads[0].shape(), primal.shape());
+/// let total: f64 = primal.data.iter().map(|&v| v as f64).sum();
+/// let d_total: f64 = grads[0].data.iter().map(|&v| v as f64).sum();
+/// assert!(total > 0.0);
+/// assert!(d_total >= total / 0.6 * (1.0 - 1e-4), "{d_total} vs {total}");
+/// # Ok::<(), difftransient::Error>(())
+/// ```
 pub fn render_diff(
     scene: &Scene,
     params: &[String],

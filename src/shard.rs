@@ -16,7 +16,9 @@ use std::ops::Range;
 /// Shard `index` of `count` (0-based). [`Shard::WHOLE`] is the whole render.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct Shard {
+    /// This shard's number, 0-based, `< count`.
     pub index: u32,
+    /// How many shards the render is split into (≥ 1).
     pub count: u32,
 }
 
@@ -53,6 +55,7 @@ impl Shard {
         Self::new(i, n)
     }
 
+    /// Whether this is the whole render (one shard of one).
     pub fn is_whole(&self) -> bool {
         self.count == 1
     }

@@ -17,6 +17,7 @@ use serde::{Deserialize, Serialize};
 
 mod normal;
 
+/// Speed of light in vacuum, m/s (exact, SI): converts OPL in metres to time.
 pub const SPEED_OF_LIGHT_M_PER_S: f64 = 299_792_458.0;
 
 /// Gaussian factors are truncated at this many standard deviations; `eval` is zero outside
@@ -28,23 +29,43 @@ pub const GAUSSIAN_CUTOFF_SIGMAS: f64 = 8.0;
 /// The film's time axis: `bins` bins of `bin_width_opl` starting at `start_opl`.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct TimeAxis {
-    /// f64 end to end (scene file, axis, binning, JSON): at 4 m an f32 step is 4.8·10⁻⁷ m,
-    /// coarser than the sub-micrometre bins of femtosecond pulses.
+    /// OPL of the start of bin 0, metres. f64 end to end (scene file, axis, binning, JSON):
+    /// at 4 m an f32 step is 4.8·10⁻⁷ m, coarser than the sub-micrometre bins of
+    /// femtosecond pulses.
     pub start_opl: f64,
+    /// Width of every bin, metres of OPL (> 0); in time, `bin_width_opl / c`.
     pub bin_width_opl: f64,
+    /// Number of bins (≥ 1).
     pub bins: usize,
 }
 
 impl TimeAxis {
+    /// OPL (metres) of the left edge of bin `l`: `start_opl + l · bin_width_opl`.
+    /// `l == bins` gives [`Self::end_opl`].
     pub fn bin_start(&self, l: usize) -> f64 {
         self.start_opl + l as f64 * self.bin_width_opl
     }
+    /// OPL (metres) of the centre of bin `l`, half a bin width after [`Self::bin_start`].
+    ///
+    /// ```
+    /// use difftransient::temporal::TimeAxis;
+    ///
+    /// let axis = TimeAxis { start_opl: 1.0, bin_width_opl: 0.03, bins: 100 };
+    /// assert!((axis.bin_centre(0) - 1.015).abs() < 1e-12);
+    /// assert!((axis.end_opl() - 4.0).abs() < 1e-12);
+    /// // 0.299792458 m of OPL is one nanosecond of flight.
+    /// let ns = TimeAxis::time_ns_of_opl(axis.bin_centre(10) - axis.bin_centre(0));
+    /// assert!((ns - 0.3 / 0.299_792_458).abs() < 1e-9);
+    /// ```
     pub fn bin_centre(&self, l: usize) -> f64 {
         self.bin_start(l) + 0.5 * self.bin_width_opl
     }
+    /// OPL (metres) of the right edge of the last bin, `start_opl + bins · bin_width_opl`.
     pub fn end_opl(&self) -> f64 {
         self.bin_start(self.bins)
     }
+    /// Converts an OPL in metres to the time light takes to travel it in vacuum, in
+    /// nanoseconds (`opl / c · 10⁹`).
     pub fn time_ns_of_opl(opl: f64) -> f64 {
         opl / SPEED_OF_LIGHT_M_PER_S * 1e9
     }
@@ -53,12 +74,16 @@ impl TimeAxis {
 /// Emitted pulse shape (unit area), centred on the emitter's offset τ.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub enum Pulse {
+    /// A Dirac impulse at τ: S_e is then the gate itself, shifted by the path's OPL.
     Delta,
+    /// Normal density centred on τ, truncated at [`GAUSSIAN_CUTOFF_SIGMAS`].
     Gaussian {
+        /// Standard deviation, metres of OPL (> 0).
         sigma_opl: f32,
     },
     /// Uniform on [τ − width/2, τ + width/2].
     Box {
+        /// Full width, metres of OPL (> 0).
         width_opl: f32,
     },
 }
@@ -70,15 +95,23 @@ pub enum Gate {
     Box,
     /// g_l(t) = w · N(t; bin centre, σ). Σ_l g_l = 1 up to a ripple of 2·exp(−2π²σ²/w²):
     /// 1.4% at σ = w/2, 5·10⁻⁹ at σ = w.
-    Gaussian { sigma_opl: f32 },
+    Gaussian {
+        /// Standard deviation σ of the gate, metres of OPL (> 0).
+        sigma_opl: f32,
+    },
 }
 
+/// A time axis, pulse or gate that [`Correlation::new`] rejects.
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum TemporalError {
+    /// A value is not finite, not positive where it must be, or a count is zero.
     #[error("{field}: expected {expected}, got {got}")]
     Invalid {
+        /// The scene field, e.g. `film.bin_width_opl`.
         field: &'static str,
+        /// What was expected, e.g. "a finite number > 0".
         expected: &'static str,
+        /// The value that was given.
         got: String,
     },
 }
@@ -115,6 +148,9 @@ fn check(field: &'static str, v: impl Into<f64>, positive: bool) -> Result<(), T
 }
 
 impl Correlation {
+    /// The correlation of `pulse`, emitted with offset τ = `offset_opl` (metres of OPL), with
+    /// the gate of every bin of `axis` (supplemental Eq. 24). Fails if the axis start, the
+    /// offset or a width is not finite, a width or σ is not positive, or the axis has no bins.
     pub fn new(axis: TimeAxis, pulse: Pulse, offset_opl: f64, gate: Gate) -> Result<Self, TemporalError> {
         check("film.start_opl", axis.start_opl, false)?;
         check("film.bin_width_opl", axis.bin_width_opl, true)?;
@@ -159,6 +195,7 @@ impl Correlation {
         })
     }
 
+    /// The film time axis the correlation was built for.
     pub fn axis(&self) -> &TimeAxis {
         &self.axis
     }

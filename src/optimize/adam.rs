@@ -6,8 +6,11 @@
 pub struct Adam {
     /// Learning rate per parameter.
     pub lr: Vec<f64>,
+    /// Decay rate β₁ of the first-moment (mean) estimate, in [0, 1).
     pub beta1: f64,
+    /// Decay rate β₂ of the second-moment (uncentred variance) estimate, in [0, 1).
     pub beta2: f64,
+    /// ε added to the square root of the second moment in the step's denominator.
     pub eps: f64,
     m: Vec<f64>,
     v: Vec<f64>,

@@ -13,17 +13,23 @@
 
 use crate::film::Transient;
 
+/// A loss L(I, T) between a rendered transient and a target of the same shape (see the
+/// module documentation for each).
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub enum Loss {
+    /// Mean over all values of (I − T)².
     L2,
-    /// Gaussian blur along time, σ in bins.
+    /// Mean square difference after a Gaussian blur along time of both.
     Smooth {
+        /// Standard deviation of the blur, in bins.
         sigma_bins: f64,
     },
-    /// Number of time scales (1, 2, 4, … bins).
+    /// Sum over time scales of the mean square difference of sums of 2^l adjacent bins.
     Multiscale {
+        /// Number of time scales (1, 2, 4, … bins).
         levels: u32,
     },
+    /// Mean square difference of the time-summed images (blind to arrival time).
     Steady,
 }
 

@@ -26,7 +26,9 @@ pub struct Problem {
     pub fixed: Vec<(String, f64)>,
     /// The parameters to recover (names of `[[param]]` entries).
     pub params: Vec<String>,
+    /// The transient to match: the film's shape and time axis.
     pub target: Transient,
+    /// The loss between the rendered transient and `target`.
     pub loss: loss::Loss,
     /// Samples, threads, estimators; the seed is the first of the run's seed stream.
     pub opts: RenderOptions,
@@ -37,10 +39,16 @@ pub struct Problem {
 /// One iteration: the loss at `values` and its gradient there.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct Step {
+    /// Iteration number, from 0.
     pub iteration: usize,
+    /// The loss at `values`.
     pub loss: f64,
+    /// Parameter values of this iteration, in the order of [`Problem::params`] (their
+    /// units: metres, degrees, ...).
     pub values: Vec<f64>,
+    /// dL/dθ at `values`, one per parameter, from the adjoint render.
     pub grad: Vec<f64>,
+    /// Wall-clock seconds of the iteration (forward and adjoint render).
     pub seconds: f64,
 }
 

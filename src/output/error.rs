@@ -9,37 +9,70 @@ pub enum OutputError {
     /// The data length does not match the shape it claims.
     #[error("{}: shape {shape:?} holds {expected} values, but {actual} were given", .path.display())]
     ShapeMismatch {
+        /// The destination file.
         path: PathBuf,
+        /// The claimed shape.
         shape: Vec<usize>,
+        /// The product of `shape`.
         expected: usize,
+        /// The length of the data given.
         actual: usize,
     },
 
     /// The shape's element count does not fit in memory (`usize` overflow).
     #[error("{}: shape {shape:?} is too large", .path.display())]
-    ShapeOverflow { path: PathBuf, shape: Vec<usize> },
+    ShapeOverflow {
+        /// The destination file.
+        path: PathBuf,
+        /// The claimed shape.
+        shape: Vec<usize>,
+    },
 
     /// Nothing to write: some dimension is zero, or a list is empty.
     #[error("{}: nothing to write: {what}", .path.display())]
-    Empty { path: PathBuf, what: String },
+    Empty {
+        /// The destination file.
+        path: PathBuf,
+        /// Which dimension or list is empty.
+        what: String,
+    },
 
     /// The data holds NaN or ±Inf. The renderer must never produce those, so this is refused
     /// rather than written.
     #[error("{}: {count} of {total} values are not finite (NaN or ±Inf); refusing to write", .path.display())]
-    NonFinite { path: PathBuf, count: usize, total: usize },
+    NonFinite {
+        /// The destination file.
+        path: PathBuf,
+        /// How many values are NaN or ±Inf.
+        count: usize,
+        /// How many values there are.
+        total: usize,
+    },
 
     /// Only mono (1) and RGB (3) films are supported.
     #[error("{}: unsupported channel count {channels} (expected 1 for mono or 3 for RGB)", .path.display())]
-    Channels { path: PathBuf, channels: usize },
+    Channels {
+        /// The destination file.
+        path: PathBuf,
+        /// The channel count given.
+        channels: usize,
+    },
 
     /// An argument other than the data is out of range (exposure, time axis, series length, ...).
     #[error("{}: {detail}", .path.display())]
-    Invalid { path: PathBuf, detail: String },
+    Invalid {
+        /// The destination file.
+        path: PathBuf,
+        /// Which argument, what it was and what was expected.
+        detail: String,
+    },
 
     /// The file system refused (missing folder, no permission, disk full, ...).
     #[error("cannot write {}: {source}", .path.display())]
     Io {
+        /// The destination file.
         path: PathBuf,
+        /// The operating system's error.
         #[source]
         source: std::io::Error,
     },
@@ -47,14 +80,22 @@ pub enum OutputError {
     /// The encoder of a file format failed.
     #[error("cannot encode {} as {format}: {detail}", .path.display())]
     Encode {
+        /// The destination file.
         path: PathBuf,
+        /// The format being written, e.g. "PNG" or "OpenEXR".
         format: &'static str,
+        /// The encoder's message.
         detail: String,
     },
 
     /// No usable font was found for the text of a plot.
     #[error("{}: {detail}", .path.display())]
-    Font { path: PathBuf, detail: String },
+    Font {
+        /// The plot file.
+        path: PathBuf,
+        /// What was looked for and not found.
+        detail: String,
+    },
 }
 
 impl OutputError {

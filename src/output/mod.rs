@@ -49,10 +49,15 @@ pub(crate) const SPEED_OF_LIGHT_M_PER_S: f64 = 299_792_458.0;
 /// A borrowed transient film: `data` is `[height, width, bins, channels]` in row-major order.
 #[derive(Clone, Copy, Debug)]
 pub struct FilmView<'a> {
+    /// The values, `height · width · bins · channels` of them.
     pub data: &'a [f32],
+    /// Rows (pixels).
     pub height: usize,
+    /// Columns (pixels).
     pub width: usize,
+    /// Time bins per pixel.
     pub bins: usize,
+    /// Channels per bin: 1 (mono) or 3 (RGB).
     pub channels: usize,
 }
 

@@ -9,6 +9,33 @@ use std::path::Path;
 ///
 /// `shape`'s product must equal `data.len()`; zero dimensions and NaN/±Inf values are refused.
 /// An empty `shape` writes a 0-d array holding the one value of `data`.
+///
+/// ```
+/// use difftransient::{Transient, output::{OutputError, write_npy}, temporal::TimeAxis};
+///
+/// let dir = std::env::temp_dir().join(format!("dtr-doc-npy-{}", std::process::id()));
+/// std::fs::create_dir_all(&dir).unwrap();
+/// let axis = TimeAxis { start_opl: 0.0, bin_width_opl: 0.1, bins: 3 };
+/// let mut t = Transient::zeros(2, 2, axis, 1);
+/// t.data[0] = 0.5;
+///
+/// let path = dir.join("transient.npy");
+/// write_npy(&path, &t.shape(), &t.data)?;
+/// let bytes = std::fs::read(&path).unwrap();
+/// assert_eq!(&bytes[..6], b"\x93NUMPY");
+/// // The header is followed by the 12 values, little-endian f32, C order.
+/// let body = &bytes[bytes.len() - 4 * t.data.len()..];
+/// assert_eq!(&body[..4], &0.5f32.to_le_bytes());
+///
+/// // NaN is refused and nothing is written.
+/// t.data[1] = f32::NAN;
+/// let bad = dir.join("bad.npy");
+/// let err = write_npy(&bad, &t.shape(), &t.data).unwrap_err();
+/// assert!(matches!(err, OutputError::NonFinite { count: 1, .. }));
+/// assert!(!bad.exists());
+/// std::fs::remove_dir_all(&dir).unwrap();
+/// # Ok::<(), OutputError>(())
+/// ```
 pub fn write_npy(path: &Path, shape: &[usize], data: &[f32]) -> Result<(), OutputError> {
     check_data(path, shape, data)?;
     let shape64: Vec<u64> = shape.iter().map(|&d| d as u64).collect();

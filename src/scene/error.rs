@@ -10,36 +10,63 @@ use std::path::{Path, PathBuf};
 pub enum SceneError {
     /// The scene file could not be read.
     #[error("{}: cannot read the scene file: {err}", path.display())]
-    Io { path: PathBuf, err: std::io::Error },
+    Io {
+        /// The scene file.
+        path: PathBuf,
+        /// The error of the read.
+        err: std::io::Error,
+    },
     /// The file name has neither a `.toml` nor a `.json` extension.
     #[error("{}: unknown scene format: expected a file ending in .toml or .json", path.display())]
-    UnknownFormat { path: PathBuf },
+    UnknownFormat {
+        /// The scene file.
+        path: PathBuf,
+    },
     /// The text is not valid TOML / JSON.
     #[error("{}: {format} syntax error at line {line}, column {column}: {message}", path.display())]
     Syntax {
+        /// The scene file.
         path: PathBuf,
+        /// "TOML" or "JSON".
         format: &'static str,
+        /// Line of the error, counted from 1 (0 when the parser gave no position).
         line: usize,
+        /// Column of the error, counted from 1 (0 when the parser gave no position).
         column: usize,
+        /// The parser's description of the error.
         message: String,
     },
     /// A value in the description is missing, of the wrong type, out of range or refers to
     /// something that does not exist. `at` is the location, e.g. `camera: field 'fov'`.
     #[error("{}: {at}: {message}", path.display())]
-    Invalid { path: PathBuf, at: String, message: String },
+    Invalid {
+        /// The scene file.
+        path: PathBuf,
+        /// Where in the description, e.g. `shape[2] "box": field 'scale'`.
+        at: String,
+        /// What was wrong and what was expected.
+        message: String,
+    },
     /// A `--set NAME=VALUE` override that cannot be applied.
     #[error("{}: --set {name}: {message}", path.display())]
     Override {
+        /// The scene file.
         path: PathBuf,
+        /// The overridden name: a `[[param]]` or a dotted field path such as `camera.fov`.
         name: String,
+        /// What was wrong and what was expected.
         message: String,
     },
     /// An OBJ mesh referenced by a shape is missing or malformed.
     #[error("{}: {at}: OBJ file {}: {message}", path.display(), obj.display())]
     Obj {
+        /// The scene file.
         path: PathBuf,
+        /// The shape that names the mesh, e.g. `shape[0] "bunny": field 'file'`.
         at: String,
+        /// The mesh file.
         obj: PathBuf,
+        /// What was wrong with it.
         message: String,
     },
 }

@@ -10,7 +10,9 @@ use std::path::Path;
 /// The two spellings of the schema.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Format {
+    /// TOML (`.toml`), the form of the shipped scenes.
     Toml,
+    /// JSON (`.json`), the same schema.
     Json,
 }
 

@@ -14,6 +14,7 @@ mod emitters;
 pub(crate) mod error;
 pub(crate) mod field_set;
 mod flush;
+#[doc(hidden)]
 pub mod fuzzing;
 mod info;
 mod load;
@@ -43,8 +44,11 @@ use std::path::PathBuf;
 /// [`Scene::render_origin`], like every position of a loaded scene.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Transform {
+    /// Translation in metres (after rotation and scale).
     pub translate: Vec3,
+    /// Rotation angles about the world X, Y and Z axes, in degrees, applied X first.
     pub rotate_deg: Vec3,
+    /// Per-axis scale factors, applied first (component-wise, in local space).
     pub scale: Vec3,
 }
 
@@ -59,10 +63,12 @@ impl Default for Transform {
 }
 
 impl Transform {
+    /// The rotation matrix `R = Rz · Ry · Rx` of [`Self::rotate_deg`].
     pub fn rotation(&self) -> Mat3 {
         let r = self.rotate_deg * (std::f32::consts::PI / 180.0);
         Mat3::from_rotation_z(r.z) * Mat3::from_rotation_y(r.y) * Mat3::from_rotation_x(r.x)
     }
+    /// Maps a local point to world: `translate + R · (scale ∘ p)`.
     pub fn apply(&self, p: Vec3) -> Vec3 {
         self.translate + self.rotation() * (self.scale * p)
     }
@@ -77,15 +83,22 @@ impl Transform {
 /// of [`Geometry`], and its vertices `first_vertex .. first_vertex + vertex_count`.
 #[derive(Clone, Debug)]
 pub struct Shape {
+    /// The shape's `name` in the scene file (unique; parameters and messages refer to it).
     pub name: String,
+    /// Local-to-world transform, with parameters applied.
     pub transform: Transform,
     /// Vertex positions before the transform, rounded to f32 (the world vertices are built
     /// from the f64 local mesh; see `origin.rs`).
     pub local_positions: Vec<Vec3>,
+    /// Index of the shape's first vertex in [`Geometry::positions`].
     pub first_vertex: u32,
+    /// Number of vertices of the shape.
     pub vertex_count: u32,
+    /// Index of the shape's first triangle in [`Geometry::indices`].
     pub first_tri: u32,
+    /// Number of triangles of the shape (after dropping degenerate ones).
     pub tri_count: u32,
+    /// Index into [`Scene::materials`].
     pub material: u32,
     /// Index into [`Scene::emitters`] if the shape is an area emitter.
     pub emitter: Option<u32>,
@@ -94,7 +107,10 @@ pub struct Shape {
 /// All triangles of the scene in world space, as handed to Embree.
 #[derive(Clone, Debug, Default)]
 pub struct Geometry {
+    /// World-space vertex positions, metres relative to [`Scene::render_origin`].
     pub positions: Vec<Vec3>,
+    /// Vertex indices of each triangle into `positions`; the winding gives the geometric
+    /// normal `(p1 − p0) × (p2 − p0)` (the front side).
     pub indices: Vec<[u32; 3]>,
     /// Shape index of each triangle.
     pub tri_shape: Vec<u32>,
@@ -106,21 +122,31 @@ pub struct Geometry {
 #[derive(Clone, Debug, PartialEq)]
 pub enum Material {
     /// Lambertian: f = albedo / π. Mono albedos are stored as three equal channels.
-    Diffuse { albedo: [f32; 3] },
+    Diffuse {
+        /// Reflectance per channel, in [0, 1].
+        albedo: [f32; 3],
+    },
     /// GGX microfacet conductor of roughness α (0: a smooth mirror, a Dirac lobe), reflecting
     /// `specular` times the Fresnel term of the complex index `ior` = (η, κ) per channel, or
     /// times 1 without one.
     Conductor {
+        /// GGX roughness α (≥ 0; 0 is a smooth mirror).
         roughness: f32,
+        /// Reflectance scale per channel, in [0, 1].
         specular: [f32; 3],
+        /// Complex index of refraction (η, κ) per channel; `None` for a Fresnel term of 1.
         ior: Option<([f32; 3], [f32; 3])>,
     },
     /// GGX microfacet dielectric of roughness α (0: smooth, Dirac lobes) with index `int_ior`
     /// on the side the shape's normals point away from; on the other side is the interior of
     /// material `exterior` (a dielectric), or the scene's medium (`[medium] eta`) when `None`.
     Dielectric {
+        /// GGX roughness α (≥ 0; 0 is smooth).
         roughness: f32,
+        /// Refractive index of the interior (the side the normals point away from).
         int_ior: f32,
+        /// Index into [`Scene::materials`] of the dielectric whose interior surrounds this
+        /// one; `None` for the scene's medium.
         exterior: Option<u32>,
     },
 }
@@ -160,9 +186,12 @@ impl Material {
     }
 }
 
+/// A `[[material]]` of the scene file: its name and what it is.
 #[derive(Clone, Debug)]
 pub struct NamedMaterial {
+    /// The material's `name` in the scene file (shapes refer to it).
     pub name: String,
+    /// The reflectance model and its values.
     pub material: Material,
 }
 
@@ -173,21 +202,37 @@ pub enum EmitterKind {
     /// shape is coplanar with another surface it overlaps, the emitting face wins: the loader
     /// moves it a tiny distance off that surface towards its front (`flush.rs`).
     /// Radiance in W·sr⁻¹·m⁻².
-    Area { shape: u32, radiance: [f32; 3] },
+    Area {
+        /// Index into [`Scene::shapes`] of the emitting shape.
+        shape: u32,
+        /// Radiance per channel, W·sr⁻¹·m⁻².
+        radiance: [f32; 3],
+    },
     /// Isotropic point light with intensity in W·sr⁻¹.
-    Point { position: Vec3, intensity: [f32; 3] },
+    Point {
+        /// Position in metres, relative to [`Scene::render_origin`].
+        position: Vec3,
+        /// Intensity per channel, W·sr⁻¹.
+        intensity: [f32; 3],
+    },
     /// A laser beam (delta position and direction) with power in W. The spot it lights is
     /// connected to by next-event estimation (the usual NLOS set-up).
     Laser {
+        /// Where the beam starts, metres relative to [`Scene::render_origin`].
         position: Vec3,
+        /// Unit direction of the beam.
         direction: Vec3,
+        /// Power per channel, W.
         power: [f32; 3],
     },
 }
 
+/// One light source: where and how it emits ([`EmitterKind`]) and when ([`Pulse`]).
 #[derive(Clone, Debug)]
 pub struct Emitter {
+    /// The emitter's `name` in the scene file.
     pub name: String,
+    /// Its spatial emission.
     pub kind: EmitterKind,
     /// Temporal profile of the emission (unit area).
     pub pulse: Pulse,
@@ -199,15 +244,20 @@ pub struct Emitter {
 /// The transient film: time axis, gate, channels, and whether the camera segment is counted.
 #[derive(Clone, Debug)]
 pub struct FilmSpec {
+    /// Width in pixels (for an NLOS capture, from [`NlosSpec::film_size`]).
     pub width: u32,
+    /// Height in pixels (for an NLOS capture, from [`NlosSpec::film_size`]).
     pub height: u32,
+    /// The time bins, in metres of OPL.
     pub axis: TimeAxis,
+    /// The sensor gate of each bin.
     pub gate: Gate,
     /// 1 (mono) or 3 (RGB).
     pub channels: usize,
     /// Leave out the camera-to-first-hit distance from the OPL ("unwarped" / confocal NLOS
     /// convention).
     pub unwarp: bool,
+    /// Pixel reconstruction filter.
     pub filter: PixelFilter,
 }
 
@@ -222,12 +272,16 @@ pub enum IntegratorKind {
     Bdpt,
 }
 
+/// The scene's `[integrator]`: estimator, path length and sampling defaults.
 #[derive(Clone, Debug)]
 pub struct IntegratorSpec {
+    /// Which estimator renders the interior integral.
     pub kind: IntegratorKind,
     /// Maximum number of scattering events (1 = direct illumination only).
     pub max_bounces: u32,
+    /// Samples per pixel (≥ 1), the default when [`crate::RenderOptions::spp`] is `None`.
     pub spp: u32,
+    /// Random seed, the default when [`crate::RenderOptions::seed`] is `None`.
     pub seed: u64,
     /// Russian roulette starts after this many bounces (None = off).
     pub rr_depth: Option<u32>,
@@ -241,15 +295,23 @@ pub struct Scene {
     /// Every file the scene was read from: the scene file and the OBJ meshes it names. No
     /// output may replace one of them (`cli::output_set`).
     pub inputs: Vec<PathBuf>,
+    /// Every shape, in file order; a shape's index is its position here.
     pub shapes: Vec<Shape>,
+    /// All world-space triangles.
     pub geometry: Geometry,
+    /// Every material, in file order.
     pub materials: Vec<NamedMaterial>,
+    /// Every emitter, in file order (`[[emitter]]`).
     pub emitters: Vec<Emitter>,
+    /// The sensor (for an NLOS capture, its position is the SPAD's).
     pub camera: Camera,
+    /// The transient film.
     pub film: FilmSpec,
     /// Refractive index of the medium: OPL = η × geometric length.
     pub eta: f32,
+    /// Estimator and sampling defaults.
     pub integrator: IntegratorSpec,
+    /// The differentiable parameters (`[[param]]`), with the values applied to this scene.
     pub params: Vec<Param>,
     /// Where the renderer's f32 world sits in the file's coordinates: every position in this
     /// struct (geometry, transforms, camera, emitters) is the file's position minus this

@@ -21,27 +21,37 @@ pub const MAX_WALL_POINTS: i64 = 1 << 20;
 /// side), and the triangle and barycentrics it lies on (p = p0 + u·(p1 − p0) + v·(p2 − p0)).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct WallPoint {
+    /// Position on the wall, metres relative to [`super::Scene::render_origin`].
     pub p: Vec3,
+    /// Unit normal of the wall at `p`, on the SPAD's side.
     pub n: Vec3,
+    /// Index of the triangle in [`super::Geometry::indices`].
     pub prim: u32,
+    /// Barycentric coordinate along p1 − p0.
     pub u: f32,
+    /// Barycentric coordinate along p2 − p0.
     pub v: f32,
 }
 
 /// Points on the wall in grid order (index iy · nx + ix; explicit points are one row).
 #[derive(Clone, Debug, PartialEq)]
 pub struct WallGrid {
+    /// Points per row (grid columns).
     pub nx: usize,
+    /// Rows (1 for explicit points).
     pub ny: usize,
+    /// The points, `nx · ny` of them, index `iy · nx + ix`.
     pub points: Vec<WallPoint>,
     /// Explicit points (`nlos.points`), not a grid.
     pub explicit: bool,
 }
 
 impl WallGrid {
+    /// Number of points.
     pub fn len(&self) -> usize {
         self.points.len()
     }
+    /// Whether the grid has no points.
     pub fn is_empty(&self) -> bool {
         self.points.is_empty()
     }
@@ -51,8 +61,11 @@ impl WallGrid {
 /// I + dark_counts) per bin, drawn from `seed` (`crate::sensor_noise`).
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct NoiseSpec {
+    /// Expected photon count per unit of rendered intensity in a bin (> 0).
     pub photons_per_unit: f64,
+    /// Expected background counts per bin (≥ 0).
     pub dark_counts: f64,
+    /// Seed of the Poisson draws.
     pub seed: u64,
 }
 
@@ -63,7 +76,9 @@ pub struct NlosSpec {
     pub wall: u32,
     /// Emitter index of the laser.
     pub laser: u32,
+    /// Confocal (laser at each sensor point) or exhaustive (every laser × sensor pair).
     pub scan: NlosScan,
+    /// Whether the laser-to-wall and wall-to-SPAD legs count in the OPL.
     pub relay_legs: RelayLegs,
     /// The sensor points.
     pub sensors: WallGrid,
@@ -72,10 +87,12 @@ pub struct NlosSpec {
     /// The wall's mean unit normal (towards the SPAD) and the grid's in-plane axes: `u`
     /// along grid columns (ix), `v` along rows (iy).
     pub frame: [Vec3; 3],
+    /// Photon noise to add to the capture (`[nlos.noise]`), if any.
     pub noise: Option<NoiseSpec>,
 }
 
 impl NlosSpec {
+    /// Whether the scan is exhaustive (laser points × sensor points).
     pub fn exhaustive(&self) -> bool {
         self.scan == NlosScan::Exhaustive
     }

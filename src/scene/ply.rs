@@ -14,7 +14,9 @@ const MAX_PLY_BYTES: u64 = 2 << 30;
 /// A mesh as read: vertex positions and triangles (indices into them).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct PlyMesh {
+    /// The `vertex` element's (`x`, `y`, `z`), in the file's units, f64.
     pub positions: Vec<DVec3>,
+    /// Triangles (faces split into fans), indices into `positions`.
     pub tris: Vec<[u32; 3]>,
 }
 

@@ -22,7 +22,9 @@ pub const DEFAULT_SUBDIVISIONS: i64 = 3;
 /// A triangle mesh in local space.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Mesh {
+    /// Vertex positions in local space (metres before the shape's scale).
     pub positions: Vec<Vec3>,
+    /// Vertex indices of each triangle into `positions`.
     pub tris: Vec<[u32; 3]>,
 }
 
@@ -146,7 +148,9 @@ pub fn icosphere(level: u32) -> Mesh {
 /// subtracted; see `origin.rs`).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct LocalMesh {
+    /// Vertex positions in local space, f64.
     pub positions: Vec<DVec3>,
+    /// Vertex indices of each triangle into `positions`.
     pub tris: Vec<[u32; 3]>,
 }
 
