@@ -45,15 +45,19 @@ pub struct AutoWindow {
     pub bin_width_opl: f64,
     /// The scene's number of bins, kept.
     pub bins: usize,
-    /// The pilot's window: `[pilot_start_opl, pilot_end_opl]`, bounding every path's OPL.
+    /// Start of the pilot's window (metres of OPL): the earliest emission, 0 or before.
     pub pilot_start_opl: f64,
+    /// End of the pilot's window (metres of OPL): the bound on every path's OPL.
     pub pilot_end_opl: f64,
-    /// The pilot's resolution (width, height), samples per pixel and bins.
+    /// The pilot's resolution (width, height).
     pub pilot_resolution: [u32; 2],
+    /// The pilot's samples per pixel ([`PILOT_SPP`]).
     pub pilot_spp: u32,
+    /// The pilot's bins ([`PILOT_BINS`]).
     pub pilot_bins: usize,
-    /// The OPLs where [`LOW_QUANTILE`] and [`HIGH_QUANTILE`] of the pilot's energy arrived.
+    /// The OPL (a pilot bin's start) by which [`LOW_QUANTILE`] of the pilot's energy arrived.
     pub low_quantile_opl: f64,
+    /// The OPL (a pilot bin's end) by which [`HIGH_QUANTILE`] of the pilot's energy arrived.
     pub high_quantile_opl: f64,
     /// Wall seconds of the pilot.
     pub pilot_seconds: f64,

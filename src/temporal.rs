@@ -215,6 +215,8 @@ impl Correlation {
         self.reach
     }
 
+    /// The largest OPL a path can have and still touch a bin: the axis's end plus the reach,
+    /// less the emitter's offset.
     pub fn last_opl(&self) -> f64 {
         self.axis.end_opl() + self.reach - self.offset
     }
