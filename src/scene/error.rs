@@ -11,10 +11,10 @@ pub enum SceneError {
     /// The scene file could not be read.
     #[error("{}: cannot read the scene file: {err}", path.display())]
     Io { path: PathBuf, err: std::io::Error },
-    /// The file name has neither a `.toml` nor a `.json` extension.
-    #[error("{}: unknown scene format: expected a file ending in .toml or .json", path.display())]
+    /// The file name has none of the extensions `.toml`, `.json`, `.xml`.
+    #[error("{}: unknown scene format: expected a file ending in .toml, .json or .xml (Mitsuba 3)", path.display())]
     UnknownFormat { path: PathBuf },
-    /// The text is not valid TOML / JSON.
+    /// The text is not valid TOML / JSON / XML.
     #[error("{}: {format} syntax error at line {line}, column {column}: {message}", path.display())]
     Syntax {
         path: PathBuf,

@@ -40,17 +40,28 @@ impl Format {
 }
 
 impl Scene {
-    /// Loads `path` (TOML if it ends in `.toml`, JSON if `.json`), applies the `--set`
+    /// Loads `path` (TOML if it ends in `.toml`, JSON if `.json`, Mitsuba 3 XML if `.xml`), applies the `--set`
     /// overrides `(param name, value)` and resolves it. OBJ files are looked up relative to
     /// the scene file's folder.
+    ///
+    /// A `.xml` file is a Mitsuba 3 scene, converted to our description first
+    /// ([`super::mitsuba`]); errors about a converted entry name its XML element too.
     pub fn load(path: &Path, overrides: &[(String, f64)]) -> Result<Scene, SceneError> {
+        if super::mitsuba::is_xml(path) {
+            let imported = super::mitsuba::import(path)?;
+            return Scene::from_str(&imported.toml, Format::Toml, path, overrides).map_err(|e| imported.annotate(e));
+        }
         let (text, format) = Scene::read_description(path)?;
         Scene::from_str(&text, format, path, overrides)
     }
 
     /// The description text of `path` and its format, read as [`Scene::load`] reads it (a
-    /// regular file of bounded size; FIFOs and devices refused before they are opened).
+    /// regular file of bounded size; FIFOs and devices refused before they are opened). For a
+    /// Mitsuba `.xml` scene, the TOML it converts to.
     pub fn read_description(path: &Path) -> Result<(String, Format), SceneError> {
+        if super::mitsuba::is_xml(path) {
+            return Ok((super::mitsuba::import(path)?.toml, Format::Toml));
+        }
         let format = Format::from_path(path)?;
         let text = read_regular_file(path, MAX_SCENE_BYTES).map_err(|err| SceneError::Io {
             path: path.to_path_buf(),
