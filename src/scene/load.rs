@@ -266,7 +266,7 @@ mod tests {
         let mut n = 0;
         for entry in std::fs::read_dir(scenes_dir()).unwrap() {
             let p = entry.unwrap().path();
-            if matches!(p.extension().and_then(|e| e.to_str()), Some("toml" | "json")) {
+            if matches!(p.extension().and_then(|e| e.to_str()), Some("toml" | "json" | "xml")) {
                 let s = Scene::load(&p, &[]).unwrap_or_else(|e| panic!("{e}"));
                 assert!(!s.geometry.indices.is_empty(), "{}", p.display());
                 assert_eq!(s.geometry.indices.len(), s.geometry.tri_shape.len());
@@ -313,7 +313,12 @@ mod tests {
     fn format_follows_the_extension() {
         assert_eq!(Format::from_path(Path::new("a/b.toml")).unwrap(), Format::Toml);
         assert_eq!(Format::from_path(Path::new("b.JSON")).unwrap(), Format::Json);
-        let e = expect_err("scene.yaml", MINI, &[], &["unknown scene format", ".toml or .json"]);
+        let e = expect_err(
+            "scene.yaml",
+            MINI,
+            &[],
+            &["unknown scene format", ".toml, .json or .xml"],
+        );
         assert!(e.starts_with('/'), "{e}");
     }
 
