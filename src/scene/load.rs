@@ -3,7 +3,7 @@
 
 use super::desc::SceneDesc;
 use super::error::{Seg, line_column, location};
-use super::read::read_regular_file;
+use super::read::{MAX_SCENE_BYTES, read_regular_file};
 use super::{Scene, SceneError};
 use std::path::Path;
 
@@ -87,9 +87,6 @@ impl Scene {
         super::resolve::resolve(desc, source, &params)
     }
 }
-
-/// The largest scene description read (a scene is text; meshes go in OBJ files).
-pub(crate) const MAX_SCENE_BYTES: u64 = 64 << 20;
 
 /// Text → description: syntax, non-finite numbers, the `--set` overrides of fields
 /// (`field_set`), then types (with field paths; without line numbers when fields were set).

@@ -140,7 +140,7 @@ pub fn import(path: &Path) -> Result<Imported, SceneError> {
 /// `out_dir`: when that is not the XML file's folder, relative mesh file names are made
 /// absolute (joined to the XML file's folder), so the description finds them.
 pub fn import_for(path: &Path, out_dir: Option<&Path>) -> Result<Imported, SceneError> {
-    let text = super::read_regular_file(path, super::load::MAX_SCENE_BYTES).map_err(|err| SceneError::Io {
+    let text = super::read::read_regular_file(path, super::read::MAX_SCENE_BYTES).map_err(|err| SceneError::Io {
         path: path.to_path_buf(),
         err,
     })?;
