@@ -87,7 +87,7 @@ fn transforms_compose_in_mitsubas_order() {
     // rotations about z then x (not our order), a uniform scale, a translation: decomposed
     let s = load(
         r#"<shape type="rectangle"><transform name="to_world"><rotate z="1" angle="30"/><rotate x="1" angle="-50"/><scale value="2"/><translate value="1, 2, 3"/></transform></shape>
-           <shape type="cube"><transform name="to_world"><translate x="0.5"/><rotate value="1, 1, 0" angle="40"/><scale value="0.5, 0.5, 0.5"/></transform></shape>
+           <shape type="cube"><transform name="to_world"><translate x="0.5"/><rotate value="0.6, 0.8, 0" angle="40"/><scale value="0.5, 0.5, 0.5"/></transform></shape>
            <shape type="cube"><transform name="to_world"><matrix value="0 -2 0 1  1 0 0 2  0 0 3 3  0 0 0 1"/></transform></shape>
            <shape type="rectangle"><transform name="to_world"><lookat origin="1, 1, 1" target="0, 0, 0" up="0, 1, 0"/></transform></shape>"#,
     );
@@ -98,7 +98,7 @@ fn transforms_compose_in_mitsubas_order() {
         * r(DVec3::Z, 30.0);
     assert_placed(&s, 0, &m0);
     let m1 = DMat4::from_scale(DVec3::splat(0.5))
-        * r(DVec3::new(1.0, 1.0, 0.0), 40.0)
+        * r(DVec3::new(0.6, 0.8, 0.0), 40.0)
         * DMat4::from_translation(DVec3::X * 0.5);
     assert_placed(&s, 1, &m1);
     // row-major in the file
@@ -169,9 +169,9 @@ fn spheres_flipped_rectangles_materials_emitters_and_defaults() {
            <shape type="rectangle"><bsdf type="roughconductor"><string name="distribution" value="ggx"/><float name="alpha" value="0.3"/>
                <rgb name="eta" value="0.2, 0.4, 1.4"/><rgb name="k" value="3.6, 2.4, 1.8"/></bsdf></shape>"#,
     );
-    // the sphere: our icosphere at level 4, inside the true sphere by at most 0.1% of r
+    // the sphere: our icosphere at level 6, vertices on the true sphere
     let sh = &s.shapes[0];
-    assert_eq!(sh.tri_count, 5120);
+    assert_eq!(sh.tri_count, 81920);
     let world = &s.geometry.positions[sh.first_vertex as usize..(sh.first_vertex + sh.vertex_count) as usize];
     assert!(world.iter().all(|p| ((*p - Vec3::X).length() - 0.5).abs() < 1e-5));
     assert_eq!(
@@ -382,6 +382,14 @@ fn bad_cases() -> Vec<(String, &'static str, &'static str, &'static str)> {
             "<shear",
             "<shear>",
             "lookat",
+        ),
+        (
+            body(
+                r#"<shape type="cube"><transform name="to_world"><rotate value="1, 1, 0" angle="35"/></transform></shape>"#,
+            ),
+            "<rotate",
+            "<rotate>",
+            "not a unit vector",
         ),
         // found after conversion, when the description is checked: the XML element is named too
         (

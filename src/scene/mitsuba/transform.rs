@@ -12,7 +12,7 @@ use roxmltree::Node;
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) enum Op {
     Translate([f64; 3]),
-    /// About `axis` (not necessarily unit) by `angle` degrees, right-handed.
+    /// About the unit vector `axis` (checked when parsed) by `angle` degrees, right-handed.
     Rotate {
         axis: [f64; 3],
         angle: f64,
@@ -40,6 +40,17 @@ pub(crate) fn parse(doc: &Doc, node: Node) -> Result<Vec<Op>, ImportError> {
                     return Err(doc.err(
                         c,
                         "rotate needs an axis: x=\"1\", y=\"1\", z=\"1\" or value=\"x, y, z\"",
+                    ));
+                }
+                // Mitsuba 3 uses the axis as written (Rodrigues' formula without normalising),
+                // so a longer axis gives a matrix that is not a rotation
+                if (DVec3::from(axis).length_squared() - 1.0).abs() > 1e-6 {
+                    return Err(doc.err(
+                        c,
+                        format!(
+                            "the rotation axis {axis:?} is not a unit vector: Mitsuba 3 does not normalise it, so \
+                             its transform is not a rotation; write a unit axis"
+                        ),
                     ));
                 }
                 let angle = doc.number(c, &doc.req_attr(c, "angle")?)?;
@@ -299,9 +310,9 @@ mod tests {
     }
 
     #[test]
-    fn rotate_is_right_handed_about_a_normalised_axis() {
+    fn rotate_is_right_handed() {
         let m = Op::Rotate {
-            axis: [0.0, 3.0, 0.0],
+            axis: [0.0, 1.0, 0.0],
             angle: 90.0,
         }
         .matrix()
@@ -361,7 +372,7 @@ mod tests {
             // an oblique axis, a uniform scale after it, then a translation before another rotation
             vec![
                 Op::Rotate {
-                    axis: [1.0, 1.0, 0.0],
+                    axis: [0.6, 0.8, 0.0],
                     angle: 40.0,
                 },
                 Op::Scale([2.0, 2.0, 2.0]),
