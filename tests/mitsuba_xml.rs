@@ -492,3 +492,47 @@ fn cli_renders_xml_and_imports_it_to_toml() {
     let o = common::dtr(&["import", "m.xml", "-o", "m.xml"], d);
     assert_eq!(o.status.code(), Some(2));
 }
+
+#[test]
+fn truncated_and_mutated_xml_never_panics() {
+    use difftransient::scene::{Format, mitsuba};
+    let path = common::scene_path("mitsuba_features.xml");
+    let text = std::fs::read_to_string(&path).unwrap();
+    let load = |t: &str| {
+        if let Ok(imported) = mitsuba::import_str(t, &path) {
+            let _ = Scene::from_str(&imported.toml, Format::Toml, &path, &[]);
+        }
+    };
+    // every prefix (at character boundaries, every 5th byte)
+    for i in (0..text.len()).step_by(5).filter(|&i| text.is_char_boundary(i)) {
+        load(&text[..i]);
+    }
+    // every number replaced by values outside what it may hold
+    let mut starts = Vec::new();
+    for (i, c) in text.char_indices() {
+        if c.is_ascii_digit() && !text[..i].ends_with(|p: char| p.is_ascii_digit() || p == '.') {
+            starts.push(i);
+        }
+    }
+    let mut refused = 0;
+    for &i in &starts {
+        let end = text[i..]
+            .find(|c: char| !(c.is_ascii_digit() || c == '.' || c == 'e' || c == '-'))
+            .map_or(text.len(), |e| i + e);
+        for bad in ["nan", "inf", "1e400", "1e39", "-7", "0", "99999999999", ""] {
+            let t = format!("{}{}{}", &text[..i], bad, &text[end..]);
+            let ok = mitsuba::import_str(&t, &path)
+                .map_err(|e| e.to_string())
+                .and_then(|im| Scene::from_str(&im.toml, Format::Toml, &path, &[]).map_err(|e| e.to_string()));
+            if let Err(e) = ok {
+                assert!(e.contains("mitsuba_features.xml") && !e.contains('\n'), "{e}");
+                refused += 1;
+            }
+        }
+    }
+    assert!(
+        starts.len() > 50 && refused > starts.len(),
+        "{} numbers, {refused} refused",
+        starts.len()
+    );
+}
