@@ -26,6 +26,8 @@ import mitsuba as mi
 mi.set_variant("llvm_ad_rgb")
 import mitransient as mitr  # noqa: E402,F401
 
+import agreement  # noqa: E402  (beside this script)
+
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 SCENE = os.path.join(ROOT, "scenes", os.environ.get("PEER_SCENE", "cornell_box.toml"))
 DTR = os.environ.get("PEER_DTR", os.path.join(ROOT, "target", "release", "dtr"))
@@ -164,32 +166,13 @@ def main():
     paths = ours.shape[0] * ours.shape[1] * SPP
 
     tot = lambda a: float(a.sum())
-    bins = lambda a: a.sum(axis=(0, 1, 3))
-    # 8x8-pixel blocks of the time-summed image
-    blocks = lambda a: a.sum(axis=(2, 3)).reshape(a.shape[0] // 8, 8, a.shape[1] // 8, 8).sum(axis=(1, 3)).ravel()
-    # Agreement within noise, before any speed is compared: for each aggregate, the difference
-    # of the two renderers' means over SEEDS independent seeds, in units of its standard error.
-    # Under agreement Σz² ≈ number of entries (χ²) and no |z| exceeds a Bonferroni bound.
-    agree = True
-    for name, agg in (("per-bin totals", bins), ("8x8 blocks of the time-summed image", blocks)):
-        a = np.array([agg(x) for x in ours_runs])
-        b = np.array([agg(x) for x in theirs_runs])
-        se2 = a.var(axis=0, ddof=1) / SEEDS + b.var(axis=0, ddof=1) / SEEDS
-        used = se2 > 0
-        z = (a.mean(axis=0) - b.mean(axis=0))[used] / np.sqrt(se2[used])
-        n = int(used.sum())
-        chi2 = float((z ** 2).sum())
-        zmax = float(np.abs(z).max()) if n else 0.0
-        # Student-t with SEEDS-1 dof has variance (SEEDS-1)/(SEEDS-3); allow 4 sd of the χ² sum
-        var_t = (SEEDS - 1) / (SEEDS - 3) if SEEDS > 3 else 3.0
-        ok = chi2 <= n * var_t + 4.0 * math.sqrt(2.0 * n) * var_t and zmax <= 6.0
-        agree &= ok
-        print(f"agreement, {name}: {n} entries, sum z^2 {chi2:.1f} (expected ~{n * var_t:.1f}), max |z| {zmax:.2f}: {'ok' if ok else 'DISAGREE'}")
+    # Agreement within noise, before any speed is compared (agreement.py)
+    agree = agreement.agree(ours_runs, theirs_runs)
     if not agree:
         print("the two transients disagree beyond noise: find out why before comparing speeds")
         return 1
     print(f"total energy: ours {tot(ours):.4f}, mitransient {tot(theirs):.4f}, reference {tot(ref):.4f}")
-    print(f"per-bin totals rel. L2 vs reference: ours {rel_l2(bins(ours), bins(ref)):.4f}, mitransient {rel_l2(bins(theirs), bins(ref)):.4f}")
+    print(f"per-bin totals rel. L2 vs reference: ours {rel_l2(agreement.bins(ours), agreement.bins(ref)):.4f}, mitransient {rel_l2(agreement.bins(theirs), agreement.bins(ref)):.4f}")
     e_ours, e_theirs = rel_l2(ours, ref), rel_l2(theirs, ref)
     print(f"transient rel. L2 vs {REF_SPP}-spp reference: ours {e_ours:.4f}, mitransient {e_theirs:.4f}")
     med = lambda v: float(np.median(v))

@@ -54,7 +54,7 @@ class Scene:
 
     @staticmethod
     def load(path: "os.PathLike[str] | str", params: Optional[Mapping[str, float]] = None) -> "Scene":
-        """Loads a scene file (.toml or .json), with `params` ({name: value}) set."""
+        """Loads a scene file (.toml, .json, or a Mitsuba 3 .xml converted on load), with `params` ({name: value}) set."""
         return Scene(_NativeScene.load(os.fspath(path), _pairs(params)))
 
     @staticmethod

@@ -69,7 +69,7 @@ impl PyScene {
 
 #[pymethods]
 impl PyScene {
-    /// Loads a scene file (.toml or .json), with parameter values `set` ({name: value}).
+    /// Loads a scene file (.toml, .json, or a Mitsuba 3 .xml converted on load), with parameter values `set` ({name: value}).
     #[staticmethod]
     #[pyo3(signature = (path, set = None))]
     fn load(path: PathBuf, set: Option<Vec<(String, f64)>>) -> PyResult<Self> {

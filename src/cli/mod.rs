@@ -1,6 +1,7 @@
 //! The `dtr` command line: argument parsing and the commands it runs.
 
 mod checkpoint_cmd;
+mod import_cmd;
 mod info;
 pub mod logging;
 mod nlos_out;
@@ -51,6 +52,9 @@ pub enum Command {
         #[arg(long = "set", value_name = "NAME=VALUE")]
         set: Vec<String>,
     },
+    /// Convert a Mitsuba 3 XML scene (the subset in scenes/README.md) to our TOML description:
+    /// `dtr import scene.xml -o scene.toml` (`dtr render scene.xml` reads it directly too).
+    Import(import_cmd::ImportArgs),
     /// Print a shell completion script: `dtr completions bash > /etc/bash_completion.d/dtr`
     /// (or zsh, fish, elvish, powershell).
     Completions {
@@ -66,6 +70,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Merge(args) => shard_set::run(args),
         Command::Optimize(args) => optimize_cmd::run(args),
         Command::Info { scene, json, set } => info::run(&scene, json, &set),
+        Command::Import(args) => import_cmd::run(args),
         Command::Completions { shell } => {
             use clap::CommandFactory;
             use std::io::Write;

@@ -12,7 +12,7 @@ use std::path::{Path, PathBuf};
 
 #[derive(clap::Args, Debug)]
 pub struct RenderArgs {
-    /// Scene description (.toml or .json).
+    /// Scene description (.toml or .json, or a Mitsuba 3 .xml: scenes/README.md).
     pub scene: PathBuf,
     /// Output prefix: writes PREFIX.npy ([H, W, T, C] float32) and PREFIX.json. A trailing
     /// .npy is dropped; a folder (ending in /) gets the scene file's name. Outputs never

@@ -16,13 +16,13 @@ pub enum SceneError {
         /// The error of the read.
         err: std::io::Error,
     },
-    /// The file name has neither a `.toml` nor a `.json` extension.
-    #[error("{}: unknown scene format: expected a file ending in .toml or .json", path.display())]
+    /// The file name has none of the extensions `.toml`, `.json`, `.xml`.
+    #[error("{}: unknown scene format: expected a file ending in .toml, .json or .xml (Mitsuba 3)", path.display())]
     UnknownFormat {
         /// The scene file.
         path: PathBuf,
     },
-    /// The text is not valid TOML / JSON.
+    /// The text is not valid TOML / JSON / XML.
     #[error("{}: {format} syntax error at line {line}, column {column}: {message}", path.display())]
     Syntax {
         /// The scene file.

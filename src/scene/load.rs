@@ -3,7 +3,7 @@
 
 use super::desc::SceneDesc;
 use super::error::{Seg, line_column, location};
-use super::read::read_regular_file;
+use super::read::{MAX_SCENE_BYTES, read_regular_file};
 use super::{Scene, SceneError};
 use std::path::Path;
 
@@ -42,17 +42,28 @@ impl Format {
 }
 
 impl Scene {
-    /// Loads `path` (TOML if it ends in `.toml`, JSON if `.json`), applies the `--set`
+    /// Loads `path` (TOML if it ends in `.toml`, JSON if `.json`, Mitsuba 3 XML if `.xml`), applies the `--set`
     /// overrides `(param name, value)` and resolves it. OBJ files are looked up relative to
     /// the scene file's folder.
+    ///
+    /// A `.xml` file is a Mitsuba 3 scene, converted to our description first
+    /// ([`super::mitsuba`]); errors about a converted entry name its XML element too.
     pub fn load(path: &Path, overrides: &[(String, f64)]) -> Result<Scene, SceneError> {
+        if super::mitsuba::is_xml(path) {
+            let imported = super::mitsuba::import(path)?;
+            return Scene::from_str(&imported.toml, Format::Toml, path, overrides).map_err(|e| imported.annotate(e));
+        }
         let (text, format) = Scene::read_description(path)?;
         Scene::from_str(&text, format, path, overrides)
     }
 
     /// The description text of `path` and its format, read as [`Scene::load`] reads it (a
-    /// regular file of bounded size; FIFOs and devices refused before they are opened).
+    /// regular file of bounded size; FIFOs and devices refused before they are opened). For a
+    /// Mitsuba `.xml` scene, the TOML it converts to.
     pub fn read_description(path: &Path) -> Result<(String, Format), SceneError> {
+        if super::mitsuba::is_xml(path) {
+            return Ok((super::mitsuba::import(path)?.toml, Format::Toml));
+        }
         let format = Format::from_path(path)?;
         let text = read_regular_file(path, MAX_SCENE_BYTES).map_err(|err| SceneError::Io {
             path: path.to_path_buf(),
@@ -78,9 +89,6 @@ impl Scene {
         super::resolve::resolve(desc, source, &params)
     }
 }
-
-/// The largest scene description read (a scene is text; meshes go in OBJ files).
-pub(crate) const MAX_SCENE_BYTES: u64 = 64 << 20;
 
 /// Text → description: syntax, non-finite numbers, the `--set` overrides of fields
 /// (`field_set`), then types (with field paths; without line numbers when fields were set).
@@ -257,7 +265,7 @@ mod tests {
         let mut n = 0;
         for entry in std::fs::read_dir(scenes_dir()).unwrap() {
             let p = entry.unwrap().path();
-            if matches!(p.extension().and_then(|e| e.to_str()), Some("toml" | "json")) {
+            if matches!(p.extension().and_then(|e| e.to_str()), Some("toml" | "json" | "xml")) {
                 let s = Scene::load(&p, &[]).unwrap_or_else(|e| panic!("{e}"));
                 assert!(!s.geometry.indices.is_empty(), "{}", p.display());
                 assert_eq!(s.geometry.indices.len(), s.geometry.tri_shape.len());
@@ -304,7 +312,12 @@ mod tests {
     fn format_follows_the_extension() {
         assert_eq!(Format::from_path(Path::new("a/b.toml")).unwrap(), Format::Toml);
         assert_eq!(Format::from_path(Path::new("b.JSON")).unwrap(), Format::Json);
-        let e = expect_err("scene.yaml", MINI, &[], &["unknown scene format", ".toml or .json"]);
+        let e = expect_err(
+            "scene.yaml",
+            MINI,
+            &[],
+            &["unknown scene format", ".toml, .json or .xml"],
+        );
         assert!(e.starts_with('/'), "{e}");
     }
 

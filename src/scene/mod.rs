@@ -19,6 +19,7 @@ pub mod fuzzing;
 mod info;
 mod load;
 mod materials;
+pub mod mitsuba;
 pub mod nlos;
 pub use desc::{NlosScan, RelayLegs};
 pub use nlos::{NlosSpec, NoiseSpec, WallGrid, WallPoint};

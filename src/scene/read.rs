@@ -3,6 +3,9 @@
 
 use std::path::Path;
 
+/// The largest scene description read (a scene is text; meshes go in OBJ files).
+pub(crate) const MAX_SCENE_BYTES: u64 = 64 << 20;
+
 /// Reads `path` as UTF-8 text if it is a regular file of at most `cap` bytes. FIFOs, devices
 /// (`/dev/zero`) and folders are refused before they are opened, so reading never hangs or
 /// runs out of memory.

@@ -1,0 +1,251 @@
+//! `<bsdf>` → a `[[material]]` (without its name): diffuse, (rough) conductor and (rough)
+//! dielectric, through a `twosided` wrapper or not. Our diffuse and conductor lobes are
+//! two-sided already, so `twosided` changes nothing for them; a bare one-sided Mitsuba BSDF
+//! is black from behind, ours is not (the difference shows only where a back face is seen).
+
+use super::ImportError;
+use super::xml::{Colour, Doc, Props};
+use roxmltree::Node;
+use toml::{Table, Value};
+
+/// The named indices of refraction Mitsuba knows (Hecht, Optics, 4th edition, about 589 nm).
+const IOR_PRESETS: [(&str, f64); 23] = [
+    ("vacuum", 1.0),
+    ("helium", 1.000036),
+    ("hydrogen", 1.000132),
+    ("air", 1.000277),
+    ("carbon dioxide", 1.00045),
+    ("water", 1.3330),
+    ("acetone", 1.36),
+    ("ethanol", 1.361),
+    ("carbon tetrachloride", 1.461),
+    ("glycerol", 1.4729),
+    ("benzene", 1.501),
+    ("silicone oil", 1.52045),
+    ("bromine", 1.661),
+    ("water ice", 1.31),
+    ("fused quartz", 1.458),
+    ("pyrex", 1.470),
+    ("acrylic glass", 1.49),
+    ("polypropylene", 1.49),
+    ("bk7", 1.5046),
+    ("sodium chloride", 1.544),
+    ("amber", 1.55),
+    ("pet", 1.5750),
+    ("diamond", 2.419),
+];
+
+/// The largest exterior index taken as vacuum (air, 1.000277, is; its OPL differs by 0.03%).
+const EXT_IOR_AS_VACUUM: f64 = 1.0003;
+
+/// A converted BSDF: the material's fields (`type` and its values).
+pub(crate) struct Material {
+    pub table: Table,
+    pub dielectric: bool,
+}
+
+pub(crate) fn colour_value(c: Colour) -> Value {
+    match c {
+        Colour::Scalar(x) => Value::Float(x),
+        Colour::Rgb(v) => Value::Array(v.iter().map(|x| Value::Float(*x)).collect()),
+    }
+}
+
+/// Converts a `<bsdf>` element.
+pub(crate) fn material(doc: &Doc, node: Node) -> Result<Material, ImportError> {
+    let ty = doc.req_attr(node, "type")?;
+    let p = doc.props(node);
+    if ty == "twosided" {
+        let inner = p.nested("bsdf");
+        let [b] = inner.as_slice() else {
+            return Err(doc.err(
+                node,
+                format!(
+                    "twosided takes exactly one nested <bsdf> (got {}); two different sides are not supported",
+                    inner.len()
+                ),
+            ));
+        };
+        p.finish(doc, "one nested <bsdf>")?;
+        let m = material(doc, *b)?;
+        if m.dielectric {
+            return Err(doc.err(*b, "a dielectric cannot be two-sided (Mitsuba refuses it too)"));
+        }
+        return Ok(m);
+    }
+    let mut t = Table::new();
+    let dielectric = matches!(ty.as_str(), "dielectric" | "roughdielectric");
+    let supported = match ty.as_str() {
+        "diffuse" => {
+            t.insert("type".into(), "diffuse".into());
+            let albedo = p.colour(doc, "reflectance")?.unwrap_or(Colour::Scalar(0.5));
+            t.insert("albedo".into(), colour_value(albedo));
+            "reflectance"
+        }
+        "conductor" | "roughconductor" => {
+            t.insert("type".into(), ty.as_str().into());
+            conductor(doc, &p, &mut t)?;
+            if ty == "roughconductor" {
+                roughness(doc, &p, &mut t)?;
+                "material (none), eta, k, specular_reflectance, distribution (ggx), alpha, sample_visible"
+            } else {
+                "material (none), eta, k, specular_reflectance"
+            }
+        }
+        "dielectric" | "roughdielectric" => {
+            t.insert("type".into(), ty.as_str().into());
+            let int_ior = ior(doc, &p, "int_ior", "bk7")?;
+            let ext_ior = ior(doc, &p, "ext_ior", "air")?;
+            if !(1.0..=EXT_IOR_AS_VACUUM).contains(&ext_ior) {
+                let at = p.get(doc, "ext_ior")?.unwrap_or(node);
+                return Err(doc.err(
+                    at,
+                    format!(
+                        "ext_ior {ext_ior}: only vacuum or air (taken as 1) outside a dielectric is supported; \
+                         for nested media write the TOML `exterior` field"
+                    ),
+                ));
+            }
+            t.insert("int_ior".into(), Value::Float(int_ior));
+            for k in ["specular_reflectance", "specular_transmittance"] {
+                if let Some(c) = p.colour(doc, k)?
+                    && c != Colour::Scalar(1.0)
+                    && c != Colour::Rgb([1.0; 3])
+                {
+                    let at = p.get(doc, k)?.unwrap_or(node);
+                    return Err(doc.err(at, format!("{k} other than 1 is not supported on dielectrics")));
+                }
+            }
+            if ty == "roughdielectric" {
+                roughness(doc, &p, &mut t)?;
+                "int_ior, ext_ior (vacuum or air), distribution (ggx), alpha, sample_visible"
+            } else {
+                "int_ior, ext_ior (vacuum or air)"
+            }
+        }
+        "thindielectric" => {
+            return Err(doc.err(
+                node,
+                "thindielectric is not supported (use dielectric on a closed shape)",
+            ));
+        }
+        other => {
+            return Err(doc.err(
+                node,
+                format!(
+                    "bsdf type {other:?} is not supported (supported: diffuse, conductor, roughconductor, \
+                     dielectric, roughdielectric, twosided)"
+                ),
+            ));
+        }
+    };
+    p.finish(doc, supported)?;
+    Ok(Material { table: t, dielectric })
+}
+
+fn conductor(doc: &Doc, p: &Props, t: &mut Table) -> Result<(), ImportError> {
+    let eta = p.colour(doc, "eta")?;
+    let k = p.colour(doc, "k")?;
+    let preset = p.string(doc, "material")?;
+    match (eta, k) {
+        (Some(eta), Some(k)) => {
+            if let Some((_, n)) = preset {
+                return Err(doc.err(n, "give either a material preset or eta and k, not both"));
+            }
+            t.insert("eta".into(), colour_value(eta));
+            t.insert("k".into(), colour_value(k));
+        }
+        (None, None) => match preset {
+            None => {}
+            Some((m, _)) if m == "none" => {}
+            Some((m, n)) => {
+                return Err(doc.err(
+                    n,
+                    format!(
+                        "conductor material preset {m:?} is not supported (its spectral index is not built in): \
+                         give eta and k as <rgb>, or material \"none\" (a perfect mirror)"
+                    ),
+                ));
+            }
+        },
+        _ => {
+            let at = p.get(doc, "eta")?.or(p.get(doc, "k")?).unwrap_or(p.node);
+            return Err(doc.err(at, "give both eta and k (or neither)"));
+        }
+    }
+    if let Some(r) = p.colour(doc, "specular_reflectance")? {
+        t.insert("specular_reflectance".into(), colour_value(r));
+    }
+    Ok(())
+}
+
+/// GGX α: `distribution` must be "ggx" (Mitsuba's default is Beckmann, which we lack);
+/// `alpha`, or `alpha_u` = `alpha_v` (isotropic only); Mitsuba's default α is 0.1.
+fn roughness(doc: &Doc, p: &Props, t: &mut Table) -> Result<(), ImportError> {
+    match p.string(doc, "distribution")? {
+        Some((d, _)) if d == "ggx" => {}
+        Some((d, n)) => {
+            return Err(doc.err(
+                n,
+                format!("microfacet distribution {d:?} is not supported (only \"ggx\")"),
+            ));
+        }
+        None => {
+            return Err(doc.err(
+                p.node,
+                "Mitsuba's default microfacet distribution is Beckmann, which is not supported: \
+                 add <string name=\"distribution\" value=\"ggx\"/>",
+            ));
+        }
+    }
+    let alpha = match (
+        p.float(doc, "alpha")?,
+        p.float(doc, "alpha_u")?,
+        p.float(doc, "alpha_v")?,
+    ) {
+        (Some(a), None, None) => a,
+        (None, Some(u), Some(v)) if u == v => u,
+        (None, None, None) => 0.1,
+        _ => {
+            return Err(doc.err(
+                p.node,
+                "anisotropic roughness is not supported: give alpha (or alpha_u equal to alpha_v)",
+            ));
+        }
+    };
+    if let Some(n) = p.nested("texture").first() {
+        return Err(doc.err(*n, "textured roughness is not supported"));
+    }
+    // visible-normal sampling changes only the noise
+    p.ignore(doc, &["sample_visible"])?;
+    t.insert("roughness".into(), Value::Float(alpha));
+    Ok(())
+}
+
+/// An index of refraction: a number or one of Mitsuba's named presets.
+fn ior(doc: &Doc, p: &Props, name: &str, default: &str) -> Result<f64, ImportError> {
+    let (text, node) = match p.get(doc, name)? {
+        None => (default.to_string(), None),
+        Some(n) => (doc.req_attr(n, "value")?, Some(n)),
+    };
+    if let Ok(x) = text.trim().parse::<f64>()
+        && x.is_finite()
+    {
+        return Ok(x);
+    }
+    let key = text.trim().to_ascii_lowercase();
+    IOR_PRESETS
+        .iter()
+        .find(|(n, _)| *n == key)
+        .map(|(_, v)| *v)
+        .ok_or_else(|| {
+            let names: Vec<&str> = IOR_PRESETS.iter().map(|(n, _)| *n).collect();
+            doc.err(
+                node.unwrap_or(p.node),
+                format!(
+                    "unknown index of refraction {text:?} (a number or one of: {})",
+                    names.join(", ")
+                ),
+            )
+        })
+}

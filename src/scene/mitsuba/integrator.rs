@@ -1,0 +1,94 @@
+//! `<integrator>`: mitransient's `transient_path` (or `transient_prbvolpath`, which without
+//! media is the same estimator) → `[integrator]`.
+
+use super::ImportError;
+use super::xml::Doc;
+use crate::scene::resolve::MAX_BOUNCES;
+use roxmltree::Node;
+use toml::Table;
+
+/// Our `max_bounces` and `rr_depth` from Mitsuba's `max_depth` and `rr_depth`. Mitsuba's
+/// `max_depth` counts the camera segment (1 = emitters seen directly, 2 = direct
+/// illumination), so `max_bounces = max_depth − 1`; −1 (unbounded) becomes our largest
+/// depth. Both count the first surface hit as depth 1 for Russian roulette; an `rr_depth`
+/// past the last bounce never fires, and then none is written (no roulette).
+pub(crate) fn depths(max_depth: i64, rr_depth: i64) -> Result<(i64, Option<i64>), String> {
+    let max_bounces = match max_depth {
+        -1 => MAX_BOUNCES,
+        d if d >= 2 => (d - 1).min(MAX_BOUNCES),
+        d => {
+            return Err(format!(
+                "max_depth {d} is not supported: 2 or more (2 = direct illumination), or -1 (unbounded)"
+            ));
+        }
+    };
+    if rr_depth < 1 {
+        return Err(format!("rr_depth must be at least 1 (got {rr_depth})"));
+    }
+    Ok((max_bounces, (rr_depth <= max_bounces).then_some(rr_depth)))
+}
+
+/// The `[integrator]` table without spp and seed, and whether the camera segment is left
+/// out of the OPL (`camera_unwarp`).
+pub(crate) fn integrator(doc: &Doc, node: Node) -> Result<(Table, bool), ImportError> {
+    let ty = doc.req_attr(node, "type")?;
+    match ty.as_str() {
+        "transient_path" | "transient_prbvolpath" => {}
+        "transient_nlos_path" => {
+            return Err(doc.err(
+                node,
+                "transient_nlos_path is not supported: NLOS captures are written as our TOML [nlos] section",
+            ));
+        }
+        other => {
+            return Err(doc.err(
+                node,
+                format!("integrator {other:?} is not supported: use mitransient's \"transient_path\""),
+            ));
+        }
+    }
+    let p = doc.props(node);
+    // Mitsuba's defaults for its differentiable integrators, which mitransient's extend
+    let max_depth = p.integer(doc, "max_depth")?.unwrap_or(6);
+    let rr_depth = p.integer(doc, "rr_depth")?.unwrap_or(5);
+    let at = p.get(doc, "max_depth")?.unwrap_or(node);
+    let (max_bounces, rr) = depths(max_depth, rr_depth).map_err(|m| doc.err(at, m))?;
+    let unwarp = p.boolean(doc, "camera_unwarp")?.unwrap_or(false);
+    for k in ["discard_direct_light", "hide_emitters"] {
+        if let Some(true) = p.boolean(doc, k)? {
+            let at = p.get(doc, k)?.unwrap_or(node);
+            return Err(doc.err(at, format!("{k} = true is not supported")));
+        }
+    }
+    // read and ignored by mitransient itself
+    p.ignore(doc, &["temporal_filter", "gaussian_stddev"])?;
+    p.finish(
+        doc,
+        "max_depth, rr_depth, camera_unwarp, discard_direct_light and hide_emitters (false)",
+    )?;
+    let mut t = Table::new();
+    t.insert("kind".into(), "path".into());
+    t.insert("max_bounces".into(), max_bounces.into());
+    if let Some(r) = rr {
+        t.insert("rr_depth".into(), r.into());
+    }
+    Ok((t, unwarp))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::depths;
+
+    #[test]
+    fn max_depth_counts_the_camera_segment() {
+        assert_eq!(depths(9, 1000).unwrap(), (8, None));
+        assert_eq!(depths(2, 5).unwrap(), (1, None));
+        assert_eq!(depths(6, 5).unwrap(), (5, Some(5)));
+        assert_eq!(depths(6, 6).unwrap(), (5, None));
+        assert_eq!(depths(-1, 5).unwrap(), (1024, Some(5)));
+        assert!(depths(1, 5).unwrap_err().contains("max_depth 1"));
+        assert!(depths(0, 5).is_err());
+        assert!(depths(-2, 5).is_err());
+        assert!(depths(5, 0).unwrap_err().contains("rr_depth"));
+    }
+}

@@ -1,0 +1,418 @@
+//! Import of Mitsuba 3 XML scenes (a documented subset, scenes/README.md "Mitsuba 3 XML"),
+//! so that scenes written for mitransient render here: the XML is converted to our TOML
+//! description, which then loads like any other (`dtr render scene.xml`, `Scene::load`,
+//! Python's `Scene.load`), or is written out by `dtr import` to be read and edited.
+//!
+//! One file per concept: `xml.rs` (defaults, `$name` substitution, properties, line numbers),
+//! `transform.rs`, `bsdf.rs`, `shape.rs`, `emitter.rs`, `sensor.rs`, `integrator.rs`.
+//! Anything outside the subset is refused with the file, the element (tag, type, id, line)
+//! and what is supported.
+
+mod bsdf;
+mod emitter;
+mod integrator;
+mod sensor;
+mod shape;
+mod transform;
+mod xml;
+
+use super::SceneError;
+use roxmltree::Node;
+use std::collections::{HashMap, HashSet};
+use std::path::Path;
+use toml::{Table, Value};
+use xml::Doc;
+
+/// An element the importer cannot convert: where (`<tag type=".." id=".."> (line N)`) and why.
+#[derive(Debug)]
+pub(crate) struct ImportError {
+    at: String,
+    message: String,
+}
+
+/// A converted scene: our TOML description and, for each of its entries, the XML element it
+/// came from (so that a later error about the entry can name that element).
+pub struct Imported {
+    /// The scene as our TOML description.
+    pub toml: String,
+    /// `(location prefix in our errors, XML element)`, e.g. `("shape[2]", "<shape ...> (line 9)")`.
+    origins: Vec<(String, String)>,
+}
+
+impl Imported {
+    /// Adds the XML element to an error about one of the converted entries.
+    pub fn annotate(&self, e: SceneError) -> SceneError {
+        match e {
+            SceneError::Invalid { path, at, message } => {
+                let origin = self
+                    .origins
+                    .iter()
+                    .filter(|(prefix, _)| at.starts_with(prefix.as_str()))
+                    .max_by_key(|(prefix, _)| prefix.len());
+                let at = match origin {
+                    Some((_, el)) => format!("{el}, converted to {at}"),
+                    None => at,
+                };
+                SceneError::Invalid { path, at, message }
+            }
+            other => other,
+        }
+    }
+}
+
+/// Whether `path` names a Mitsuba XML scene (extension `.xml`, any case).
+pub fn is_xml(path: &Path) -> bool {
+    path.extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("xml"))
+}
+
+/// Converts Mitsuba 3 XML text; `source` names the file in messages. Mesh file names are
+/// kept as written (relative to the XML file's folder).
+pub fn import_str(text: &str, source: &Path) -> Result<Imported, SceneError> {
+    import_str_for(text, source, None)
+}
+
+/// [`import_str`] for a description that will live in another folder: relative mesh file
+/// names are joined to `mesh_base` (the XML file's folder).
+fn import_str_for(text: &str, source: &Path, mesh_base: Option<&Path>) -> Result<Imported, SceneError> {
+    let invalid = |e: ImportError| SceneError::Invalid {
+        path: source.to_path_buf(),
+        at: e.at,
+        message: e.message,
+    };
+    let opts = roxmltree::ParsingOptions {
+        allow_dtd: false,
+        ..Default::default()
+    };
+    let tree = roxmltree::Document::parse_with_options(text, opts).map_err(|e| {
+        let pos = e.pos();
+        SceneError::Syntax {
+            path: source.to_path_buf(),
+            format: "XML",
+            line: pos.row as usize,
+            column: pos.col as usize,
+            message: e.to_string(),
+        }
+    })?;
+    let mut doc = Doc::new(tree.root_element(), text);
+    let root = doc.root;
+    if root.tag_name().name() != "scene" {
+        return Err(invalid(
+            doc.err(root, "the root element must be <scene version=\"3.0.0\">"),
+        ));
+    }
+    match root
+        .attribute("version")
+        .map(|v| v.split('.').next().unwrap_or("").parse::<u32>())
+    {
+        Some(Ok(major)) if major >= 2 => {}
+        Some(_) => {
+            return Err(invalid(doc.err(
+                root,
+                "a Mitsuba 0.x scene (version < 2): its names differ (toWorld, intIOR, ...); \
+                 upgrade it to Mitsuba 3 syntax first",
+            )));
+        }
+        None => {
+            return Err(invalid(
+                doc.err(root, "missing attribute 'version' (e.g. version=\"3.0.0\")"),
+            ));
+        }
+    }
+    for c in root
+        .children()
+        .filter(|c| c.is_element() && c.tag_name().name() == "default")
+    {
+        doc.add_default(c).map_err(invalid)?;
+    }
+    let mut conv = Converter::new(&doc, mesh_base);
+    conv.scene(root).map_err(invalid)?;
+    Ok(conv.finish(source))
+}
+
+/// Reads and converts a Mitsuba XML file.
+pub fn import(path: &Path) -> Result<Imported, SceneError> {
+    import_for(path, None)
+}
+
+/// Reads and converts a Mitsuba XML file for a description written into the folder
+/// `out_dir`: when that is not the XML file's folder, relative mesh file names are made
+/// absolute (joined to the XML file's folder), so the description finds them.
+pub fn import_for(path: &Path, out_dir: Option<&Path>) -> Result<Imported, SceneError> {
+    let text = super::read::read_regular_file(path, super::read::MAX_SCENE_BYTES).map_err(|err| SceneError::Io {
+        path: path.to_path_buf(),
+        err,
+    })?;
+    let canon = |p: &Path| std::fs::canonicalize(if p.as_os_str().is_empty() { Path::new(".") } else { p }).ok();
+    let xml_dir = canon(path.parent().unwrap_or(Path::new(".")));
+    let base = match (out_dir.map(canon), &xml_dir) {
+        (Some(out), Some(x)) if out.as_ref() != Some(x) => Some(x.clone()),
+        _ => None,
+    };
+    import_str_for(&text, path, base.as_deref())
+}
+
+struct Converter<'d, 'a, 'input> {
+    doc: &'d Doc<'a, 'input>,
+    mesh_base: Option<&'d Path>,
+    /// top-level `<bsdf id>` elements
+    bsdf_ids: HashMap<String, Node<'a, 'input>>,
+    /// id → material name, for BSDFs already converted
+    converted: HashMap<String, (String, bool)>,
+    names: HashMap<&'static str, HashSet<String>>,
+    materials: Vec<Value>,
+    shapes: Vec<Value>,
+    emitters: Vec<Value>,
+    integrator: Option<(Table, bool)>,
+    sensor: Option<sensor::Sensor>,
+    origins: Vec<(String, String)>,
+}
+
+impl<'d, 'a, 'input> Converter<'d, 'a, 'input> {
+    fn new(doc: &'d Doc<'a, 'input>, mesh_base: Option<&'d Path>) -> Self {
+        Converter {
+            doc,
+            mesh_base,
+            bsdf_ids: HashMap::new(),
+            converted: HashMap::new(),
+            names: HashMap::new(),
+            materials: Vec::new(),
+            shapes: Vec::new(),
+            emitters: Vec::new(),
+            integrator: None,
+            sensor: None,
+            origins: Vec::new(),
+        }
+    }
+
+    /// A unique name in `section`, from `wanted`.
+    fn name(&mut self, section: &'static str, wanted: &str) -> String {
+        let set = self.names.entry(section).or_default();
+        let mut name = wanted.to_string();
+        let mut k = 2;
+        while set.contains(&name) {
+            name = format!("{wanted}_{k}");
+            k += 1;
+        }
+        set.insert(name.clone());
+        name
+    }
+
+    fn scene(&mut self, root: Node<'a, 'input>) -> Result<(), ImportError> {
+        let doc = self.doc;
+        let children: Vec<Node> = doc.children(root).collect();
+        for &c in &children {
+            if c.tag_name().name() == "bsdf" {
+                let id = doc.attr(c, "id")?.ok_or_else(|| {
+                    doc.err(
+                        c,
+                        "a top-level <bsdf> needs an id (shapes refer to it with <ref id=...>)",
+                    )
+                })?;
+                if self.bsdf_ids.insert(id.clone(), c).is_some() {
+                    return Err(doc.err(c, format!("a second element with id {id:?}")));
+                }
+            }
+        }
+        for &c in &children {
+            match c.tag_name().name() {
+                "default" => {}
+                "bsdf" => {
+                    let id = doc.req_attr(c, "id")?;
+                    self.material_by_id(&id, c)?;
+                }
+                "shape" => self.shape(c)?,
+                "emitter" => {
+                    let mut t = emitter::top_level(doc, c)?;
+                    let name = self.name("emitter", &doc.attr(c, "id")?.unwrap_or_else(|| "point".into()));
+                    self.origins
+                        .push((format!("emitter[{}]", self.emitters.len()), doc.describe(c)));
+                    t.insert("name".into(), name.into());
+                    self.emitters.push(Value::Table(t));
+                }
+                "sensor" => {
+                    if self.sensor.is_some() {
+                        return Err(doc.err(c, "a second <sensor>: one camera per scene"));
+                    }
+                    self.origins.push(("camera".into(), doc.describe(c)));
+                    self.origins.push(("film".into(), doc.describe(c)));
+                    self.sensor = Some(sensor::sensor(doc, c)?);
+                }
+                "integrator" => {
+                    if self.integrator.is_some() {
+                        return Err(doc.err(c, "a second <integrator>"));
+                    }
+                    self.origins.push(("integrator".into(), doc.describe(c)));
+                    self.integrator = Some(integrator::integrator(doc, c)?);
+                }
+                "include" => {
+                    return Err(doc.err(c, "<include> is not supported: merge the included file into this one"));
+                }
+                other => {
+                    return Err(doc.err(
+                        c,
+                        format!(
+                            "<{other}> is not supported at the top level (supported: default, bsdf, shape, \
+                             emitter, sensor, integrator)"
+                        ),
+                    ));
+                }
+            }
+        }
+        if self.sensor.is_none() {
+            return Err(doc.err(
+                root,
+                "no <sensor>: a perspective sensor with a transient_hdr_film is required",
+            ));
+        }
+        if self.integrator.is_none() {
+            return Err(doc.err(root, "no <integrator>: add <integrator type=\"transient_path\">"));
+        }
+        Ok(())
+    }
+
+    /// The material of a top-level BSDF (converted once) and whether it is a dielectric.
+    fn material_by_id(&mut self, id: &str, at: Node) -> Result<(String, bool), ImportError> {
+        if let Some(m) = self.converted.get(id) {
+            return Ok(m.clone());
+        }
+        let node = *self
+            .bsdf_ids
+            .get(id)
+            .ok_or_else(|| self.doc.err(at, format!("no <bsdf id={id:?}> in this file")))?;
+        let m = self.add_material(node, id)?;
+        self.converted.insert(id.to_string(), m.clone());
+        Ok(m)
+    }
+
+    fn add_material(&mut self, node: Node, wanted: &str) -> Result<(String, bool), ImportError> {
+        let m = bsdf::material(self.doc, node)?;
+        let name = self.name("material", wanted);
+        self.origins
+            .push((format!("material[{}]", self.materials.len()), self.doc.describe(node)));
+        let mut t = m.table;
+        t.insert("name".into(), name.clone().into());
+        self.materials.push(Value::Table(t));
+        Ok((name, m.dielectric))
+    }
+
+    fn shape(&mut self, node: Node<'a, 'input>) -> Result<(), ImportError> {
+        let doc = self.doc;
+        let p = doc.props(node);
+        let ty = doc.req_attr(node, "type")?;
+        let name = self.name("shape", &doc.attr(node, "id")?.unwrap_or_else(|| ty.clone()));
+        let (material, dielectric) = match shape::bsdf_source(doc, &p)? {
+            shape::BsdfSource::Ref(id, r) => self.material_by_id(&id, r)?,
+            shape::BsdfSource::Inline(b) => {
+                let wanted = doc.attr(b, "id")?.unwrap_or_else(|| format!("{name}_bsdf"));
+                self.add_material(b, &wanted)?
+            }
+            shape::BsdfSource::Default => match self.converted.get("\0default") {
+                Some(m) => m.clone(),
+                None => {
+                    let name = self.name("material", "default_diffuse");
+                    let mut t = Table::new();
+                    t.insert("name".into(), name.clone().into());
+                    t.insert("type".into(), "diffuse".into());
+                    t.insert("albedo".into(), Value::Float(0.5));
+                    self.materials.push(Value::Table(t));
+                    self.converted.insert("\0default".into(), (name.clone(), false));
+                    (name, false)
+                }
+            },
+        };
+        let emitters = p.nested("emitter");
+        if emitters.len() > 1 {
+            return Err(doc.err(emitters[1], "a shape takes at most one emitter"));
+        }
+        let emitter = match emitters.first() {
+            Some(e) => Some((emitter::area(doc, *e)?, *e)),
+            None => None,
+        };
+        let geo = shape::geometry(doc, &p)?;
+        if geo.front_flipped && (emitter.is_some() || dielectric) {
+            let what = if emitter.is_some() { "emits" } else { "is a dielectric" };
+            return Err(doc.err(
+                node,
+                format!(
+                    "this shape {what}, and with its mirroring to_world or flip_normals its front side would be \
+                     the opposite of Mitsuba's (meshes: we keep the mirrored outward side); remove the mirror or \
+                     flip_normals and orient the mesh instead"
+                ),
+            ));
+        }
+        self.origins
+            .push((format!("shape[{}]", self.shapes.len()), doc.describe(node)));
+        let mut t = geo.table;
+        if let (Some(base), Some(Value::String(f))) = (self.mesh_base, t.get("file"))
+            && Path::new(f).is_relative()
+        {
+            let abs = base.join(f).to_string_lossy().into_owned();
+            t.insert("file".into(), abs.into());
+        }
+        t.insert("name".into(), name.clone().into());
+        t.insert("material".into(), material.into());
+        self.shapes.push(Value::Table(t));
+        if let Some((mut e, e_node)) = emitter {
+            let wanted = doc.attr(e_node, "id")?.unwrap_or_else(|| format!("{name}_emitter"));
+            let en = self.name("emitter", &wanted);
+            self.origins
+                .push((format!("emitter[{}]", self.emitters.len()), doc.describe(e_node)));
+            e.insert("name".into(), en.into());
+            e.insert("shape".into(), name.into());
+            self.emitters.push(Value::Table(e));
+        }
+        Ok(())
+    }
+
+    fn finish(self, source: &Path) -> Imported {
+        let (mut integ, unwarp) = self.integrator.unwrap_or_default();
+        let s = self.sensor.expect("checked in scene()");
+        integ.insert("spp".into(), s.spp.into());
+        integ.insert("seed".into(), s.seed.into());
+        let mut film = s.film;
+        film.insert("unwarp".into(), unwarp.into());
+        let mut text = format!(
+            "# Converted from the Mitsuba 3 scene {} by dtr import (scenes/README.md, \"Mitsuba 3 XML\").\n",
+            source.display()
+        );
+        for (at, el) in &self.origins {
+            text.push_str(&format!("# {at} <- {el}\n"));
+        }
+        write_table(&mut text, "[integrator]", &integ);
+        write_table(&mut text, "[camera]", &s.camera);
+        write_table(&mut text, "[film]", &film);
+        for (header, items) in [
+            ("[[material]]", &self.materials),
+            ("[[shape]]", &self.shapes),
+            ("[[emitter]]", &self.emitters),
+        ] {
+            for item in items {
+                if let Value::Table(t) = item {
+                    write_table(&mut text, header, t);
+                }
+            }
+        }
+        Imported {
+            toml: text,
+            origins: self.origins,
+        }
+    }
+}
+
+/// Appends `header` and the table's `key = value` lines, `name` and `type` first.
+fn write_table(out: &mut String, header: &str, t: &Table) {
+    out.push('\n');
+    out.push_str(header);
+    out.push('\n');
+    let first = ["name", "type"];
+    let keys = first
+        .iter()
+        .filter(|k| t.contains_key(**k))
+        .copied()
+        .chain(t.keys().map(String::as_str).filter(|k| !first.contains(k)));
+    for k in keys {
+        out.push_str(&format!("{k} = {}\n", t[k]));
+    }
+}
