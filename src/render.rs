@@ -460,35 +460,34 @@ fn check_materials(scene: &Scene, motion: &Motion, kind: IntegratorKind, boundar
         return Ok(());
     }
     let refuse = |why: String| Err(Error::Invalid(format!("{}: {why}", scene.source.display())));
-    if !motion.is_empty() {
-        if let Some(d) = scene.first_delta_material() {
-            let smooth = |why: &str| {
-                refuse(format!(
-                    "material {:?} (type {}) is smooth (a Dirac lobe): {why}",
-                    d.name,
-                    d.material.type_name(),
-                ))
-            };
-            if kind == IntegratorKind::Bdpt
-                && (motion.moves_geometry() || bends_smooth_dielectric(scene, motion).is_some())
-            {
+    if !motion.is_empty()
+        && let Some(d) = scene.first_delta_material()
+    {
+        let smooth = |why: &str| {
+            refuse(format!(
+                "material {:?} (type {}) is smooth (a Dirac lobe): {why}",
+                d.name,
+                d.material.type_name(),
+            ))
+        };
+        if kind == IntegratorKind::Bdpt && (motion.moves_geometry() || bends_smooth_dielectric(scene, motion).is_some())
+        {
+            return smooth(
+                "BDPT differentiates through it only parameters that move no path vertex (albedo, reflectance, radiance, pulse offset, an index no smooth dielectric bends with), since its strategies would move a specular chain in different ways; render this derivative with [integrator] kind = \"path\"",
+            );
+        }
+        if boundary != BoundaryMode::InteriorOnly {
+            if motion.moves_geometry() {
                 return smooth(
-                    "BDPT differentiates through it only parameters that move no path vertex (albedo, reflectance, radiance, pulse offset, an index no smooth dielectric bends with), since its strategies would move a specular chain in different ways; render this derivative with [integrator] kind = \"path\"",
+                    "a parameter that moves geometry needs the boundary stage, which assumes no Dirac lobes (supplemental assumption A.4); differentiate another parameter or pass --estimators interior for the interior term alone",
                 );
             }
-            if boundary != BoundaryMode::InteriorOnly {
-                if motion.moves_geometry() {
-                    return smooth(
-                        "a parameter that moves geometry needs the boundary stage, which assumes no Dirac lobes (supplemental assumption A.4); differentiate another parameter or pass --estimators interior for the interior term alone",
-                    );
-                }
-                if let Some(g) = bends_smooth_dielectric(scene, motion) {
-                    return refuse(format!(
-                        "material {:?} (type {}) is a smooth dielectric whose index a requested parameter changes: edges seen through it move on the film, a boundary term that is not computed; pass --estimators interior for the interior term alone",
-                        g.name,
-                        g.material.type_name(),
-                    ));
-                }
+            if let Some(g) = bends_smooth_dielectric(scene, motion) {
+                return refuse(format!(
+                    "material {:?} (type {}) is a smooth dielectric whose index a requested parameter changes: edges seen through it move on the film, a boundary term that is not computed; pass --estimators interior for the interior term alone",
+                    g.name,
+                    g.material.type_name(),
+                ));
             }
         }
     }
