@@ -25,17 +25,22 @@
 //! Estimator: a film point u is drawn on the edges with density 1/ℓ_total per pixel of
 //! projected length ([`SilhouetteSet`]), jittered: sample i of N in the i-th of N equal parts
 //! of the concatenated length; an edge point hidden from the eye is skipped (both
-//! sides would see the same occluder, ΔL = 0); otherwise two camera rays through u ∓ ε·n
-//! (ε = [`SIDE_OFFSET_PX`]) are traced by the ordinary path kernel with common random numbers
-//! (`trace_packet_from`, four samples per packet of eight lanes), and their difference is
+//! sides would see the same occluder, ΔL = 0): hidden when the eye ray meets a surface clearly
+//! before it, or a face other than the edge's own before it at all (a back crease just behind
+//! a silhouette, which a relative margin alone would call seen). Otherwise two camera rays
+//! through u ∓ ε_∓·n are traced by the ordinary path kernel with common random numbers
+//! (`trace_packet_from`, four samples per packet of eight lanes). ε_∓ is [`SIDE_OFFSET_PX`],
+//! shortened to half the width of the edge's own face on that side along n: a face seen
+//! nearly edge-on beside a silhouette projects to a sliver thinner than a fixed offset, and a
+//! side ray past it would take the silhouette's jump for the crease's. Their difference is
 //! splatted with weight h_j(u)·V_k / (pdf · N) into every pixel j the filter reaches, in
 //! derivative film k. N = `spp_boundary` × pixels samples are split into fixed chunks traced in
 //! parallel; each chunk keeps its jumps (only the bins the side paths reached) and they are
 //! splatted in chunk order, so the same seed gives the same bytes for any thread count, and no
 //! chunk holds a full-frame film.
 
-use super::edges::build_edges;
-use super::silhouette::{Pinhole, SilhouetteSet};
+use super::edges::{Edge, build_edges};
+use super::silhouette::{Pinhole, SilhouetteSet, Z_NEAR};
 use crate::film::{TileFilm, Transient};
 use crate::integrator::RenderContext;
 use crate::integrator::deposit::PathCounts;
@@ -54,7 +59,8 @@ const CHUNK: u64 = 2048;
 const EDGE_STREAM: u64 = 0x5052_494D_4544_4745;
 const PATH_STREAM: u64 = 0x5052_494D_5041_5448;
 /// Relative margin before the edge point when testing whether the eye sees it: a false
-/// "visible" only costs two rays (both sides then agree), a false "hidden" would bias.
+/// "hidden" would bias. Within the margin only the edge's own faces may be met first (see
+/// `Estimator::sample`): a false "visible" point just behind a silhouette would count its jump.
 const VISIBILITY_MARGIN: f64 = 1e-3;
 
 /// What the primary-edge stage did.
@@ -144,6 +150,7 @@ fn for_each_jump(
     let total = spp_boundary as u64 * (w * h) as u64;
     let est = Estimator {
         ctx,
+        edges: &edges,
         set: &set,
         pin: &pin,
         seed,
@@ -260,12 +267,15 @@ struct SideSample {
     id: u64,
     film: DVec2,
     normal: DVec2,
+    /// Film offsets of the −n and +n side rays (pixels).
+    offset: [f64; 2],
     /// V_k / (pdf · N) per parameter.
     weight: [f32; MAX_PARAMS],
 }
 
 struct Estimator<'a> {
     ctx: &'a RenderContext<'a>,
+    edges: &'a [Edge],
     set: &'a SilhouetteSet,
     pin: &'a Pinhole,
     seed: u64,
@@ -304,7 +314,9 @@ impl Estimator<'_> {
         // Jittered: sample i lies in the i-th of N equal parts of the concatenated length.
         let xi = PathSampler::new(self.seed ^ EDGE_STREAM, &[id]).next::<f32>();
         let e = self.set.sample_at((id as f64 + xi as f64) / self.samples as f64)?;
-        let shape = self.set.edges[e.index].shape as usize;
+        let projected = &self.set.edges[e.index];
+        let edge = &self.edges[projected.edge];
+        let shape = projected.shape as usize;
         let x = e.world.as_vec3();
         let mut weight = [0.0f32; MAX_PARAMS];
         for (k, wk) in weight.iter_mut().enumerate().take(self.derivs) {
@@ -322,20 +334,66 @@ impl Estimator<'_> {
         let to = e.world - self.pin.eye;
         let dist = to.length();
         let dir = (to / dist).as_vec3().to_array();
-        let tfar = (dist * (1.0 - VISIBILITY_MARGIN)) as f32;
-        if self
+        let tfar = (dist * (1.0 + VISIBILITY_MARGIN)) as f32;
+        if let Some(hit) = self
             .ctx
             .accel
-            .occluded1(self.pin.eye.as_vec3().to_array(), dir, 0.0, tfar)
+            .intersect1(self.pin.eye.as_vec3().to_array(), dir, 0.0, tfar)
         {
-            return None;
+            let t = hit.t as f64;
+            let own = hit.prim == edge.face0 || Some(hit.prim) == edge.face1;
+            // Hidden: a surface clearly in front, or another face than the edge's own in front
+            // of it within the margin (a back crease just behind a silhouette: its side rays
+            // would straddle that silhouette and count its jump a second time).
+            if t < dist * (1.0 - VISIBILITY_MARGIN) || (!own && t < dist) {
+                return None;
+            }
         }
         Some(SideSample {
             id,
             film: e.film,
             normal: e.normal,
+            offset: self.side_offsets(edge, e.film, e.normal),
             weight,
         })
+    }
+
+    /// Offsets of the two side rays: [`SIDE_OFFSET_PX`], shortened to half the extent of the
+    /// edge's own face on that side (its projected triangle, along ±n from `film`), so that
+    /// the side ray still sees that face. A face seen nearly edge-on projects to a sliver
+    /// thinner than the fixed offset; a side ray beyond it would see what lies past the
+    /// sliver's far edge (often the background behind a silhouette) and count that edge's
+    /// jump a second time.
+    fn side_offsets(&self, edge: &Edge, film: DVec2, normal: DVec2) -> [f64; 2] {
+        let geo = &self.ctx.scene.geometry;
+        let world = |v: u32| geo.positions[v as usize].as_dvec3();
+        let mut offset = [SIDE_OFFSET_PX; 2];
+        let (a, b) = (world(edge.v0), world(edge.v1));
+        if self.pin.depth(a) < Z_NEAR || self.pin.depth(b) < Z_NEAR {
+            return offset;
+        }
+        let (pa, pb) = (self.pin.film(a), self.pin.film(b));
+        for c in [Some(edge.opposite0), edge.opposite1].into_iter().flatten() {
+            let c = world(c);
+            if self.pin.depth(c) < Z_NEAR {
+                continue;
+            }
+            let pc = self.pin.film(c);
+            let side = if (pc - film).dot(normal) < 0.0 { 0 } else { 1 };
+            let m = if side == 0 { -normal } else { normal };
+            // distance along m from film to the lines pa–pc and pb–pc
+            let exit = [pa, pb]
+                .into_iter()
+                .filter_map(|q| {
+                    let d = pc - q;
+                    let den = m.perp_dot(d);
+                    let s = (q - film).perp_dot(d) / den;
+                    (den != 0.0 && s > 0.0).then_some(s)
+                })
+                .fold(f64::INFINITY, f64::min);
+            offset[side] = offset[side].min(0.5 * exit);
+        }
+        offset
     }
 
     /// Traces the −n and +n sides of up to four samples in one packet (lanes 2i and 2i + 1,
@@ -353,7 +411,7 @@ impl Estimator<'_> {
         let mut dirs = [Vec3::Z; 8];
         for (i, s) in batch.iter().enumerate() {
             for (side, sign) in [(0, -1.0), (1, 1.0)] {
-                let f = s.film + s.normal * (sign * SIDE_OFFSET_PX);
+                let f = s.film + s.normal * (sign * s.offset[side]);
                 dirs[2 * i + side] = ctx.camera.direction(f.x as f32, f.y as f32);
                 lanes.ids[2 * i + side] = s.id;
             }
