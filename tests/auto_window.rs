@@ -72,12 +72,11 @@ fn the_chosen_window_holds_the_light() {
             steady: SteadyMode::Full,
             ..Default::default()
         };
-        let (_, stats) = render(&chosen, &run).unwrap();
+        let (film, stats) = render(&chosen, &run).unwrap();
         let e = stats.energy;
         assert!(e.before <= 0.003 * e.total, "{name}: {e:?}");
         assert!(e.after <= 0.02 * e.total, "{name}: {e:?}");
         // and it is not needlessly wide: the first and last tenth of the window hold light
-        let (film, _) = render(&chosen, &run).unwrap();
         let totals = film.bin_totals();
         let tenth = totals.len() / 10;
         assert!(

@@ -8,7 +8,7 @@
 //! each frame with [`Normalise::Frame`].
 
 use super::atomic::write_atomic;
-use super::label::{LABEL_H, bin_label, draw_labels, labels_available};
+use super::label::{LABEL_H, bin_label, draw_labels, label_axis};
 use super::png::write_png;
 use super::tonemap::robust_white;
 use super::{FilmView, OutputError};
@@ -49,6 +49,11 @@ pub fn log_display(x: f64) -> f64 {
     (1.0 + x.log10() / DECADES).clamp(0.0, 1.0)
 }
 
+/// Linear value over display white → 8 bits on the logarithmic curve ([`log_display`]).
+pub(crate) fn display8(x: f64) -> u8 {
+    (log_display(x) * 255.0 + 0.5) as u8
+}
+
 /// The enlargement of a film of `h` × `w` pixels for previews.
 fn upscale(h: usize, w: usize) -> usize {
     (MIN_SIDE / h.max(w).max(1)).clamp(1, MAX_UPSCALE)
@@ -67,7 +72,7 @@ fn chosen(bins: usize, max: usize) -> Vec<usize> {
 fn rgb(film: &FilmView, p: usize, t: usize, scale: f64) -> [u8; 3] {
     let ch = film.channels;
     let at = |c: usize| film.data[(p * film.bins + t) * ch + c.min(ch - 1)] as f64;
-    std::array::from_fn(|c| (log_display(at(c) * scale) * 255.0 + 0.5) as u8)
+    std::array::from_fn(|c| display8(at(c) * scale))
 }
 
 pub(crate) fn white_scale(w: Option<f32>) -> f64 {
@@ -92,10 +97,10 @@ pub fn write_flight_gif(
     axis: Option<&TimeAxis>,
 ) -> Result<(), OutputError> {
     film.validate(path)?;
-    let (h, w, bins, ch) = (film.height, film.width, film.bins, film.channels);
+    let (h, w, bins) = (film.height, film.width, film.bins);
     let up = upscale(h, w);
     let (gw, gh) = (w * up, h * up);
-    let labelled = axis.filter(|a| a.bins == bins && bin_label(a, 0, gw).is_some() && labels_available());
+    let labelled = label_axis(axis, bins, gw);
     let strip = if labelled.is_some() { LABEL_H } else { 0 };
     let too_large = || OutputError::invalid(path, format!("a {gw}x{} GIF is too large", gh + strip));
     if gw > u16::MAX as usize || gh + strip > u16::MAX as usize {
@@ -113,9 +118,7 @@ pub fn write_flight_gif(
         for &t in &frames {
             let scale = match normalise {
                 Normalise::Global => global,
-                Normalise::Frame => white_scale(robust_white(|| {
-                    (0..h * w).flat_map(move |p| (0..ch).map(move |c| film.data[(p * bins + t) * ch + c]))
-                })),
+                Normalise::Frame => white_scale(robust_white(|| film.bin_values(t))),
             };
             let small = ImageBuffer::from_fn(w as u32, h as u32, |x, y| {
                 Rgb(rgb(&film, y as usize * w + x as usize, t, scale))

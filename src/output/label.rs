@@ -24,6 +24,12 @@ pub(crate) fn bin_label(axis: &TimeAxis, t: usize, width: usize) -> Option<Strin
     }
 }
 
+/// The axis to label frames `width` pixels wide with: `axis` when it is this film's (`bins`
+/// bins), a label fits and a font was found; else `None` (no label strip).
+pub(crate) fn label_axis(axis: Option<&TimeAxis>, bins: usize, width: usize) -> Option<&TimeAxis> {
+    axis.filter(|a| a.bins == bins && bin_label(a, 0, width).is_some() && labels_available())
+}
+
 /// Whether labels can be drawn (a font was found); says once why not.
 pub(crate) fn labels_available() -> bool {
     match ensure_font() {

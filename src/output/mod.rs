@@ -61,10 +61,16 @@ pub struct FilmView<'a> {
     pub channels: usize,
 }
 
-impl FilmView<'_> {
+impl<'a> FilmView<'a> {
     /// `[height, width, bins, channels]`.
     pub fn shape(&self) -> [usize; 4] {
         [self.height, self.width, self.bins, self.channels]
+    }
+
+    /// Every value (all pixels and channels) of time bin `t`.
+    pub(crate) fn bin_values(self, t: usize) -> impl Iterator<Item = f32> + 'a {
+        let (bins, ch) = (self.bins, self.channels);
+        (0..self.height * self.width).flat_map(move |p| (0..ch).map(move |c| self.data[(p * bins + t) * ch + c]))
     }
 
     /// Flat index of `(y, x, t, c)`.

@@ -1,7 +1,7 @@
 //! PNG previews: a contact sheet of time bins and the time-integrated image.
 
-use super::flight::{Normalise, log_display, white_scale};
-use super::label::{LABEL_H, bin_label, draw_labels, labels_available};
+use super::flight::{Normalise, display8, white_scale};
+use super::label::{LABEL_H, bin_label, draw_labels, label_axis};
 use super::png::write_png;
 use super::tonemap::{exposure_scale, robust_white, to_srgb8};
 use super::{FilmView, OutputError, check_channels, check_data};
@@ -51,9 +51,7 @@ pub fn write_contact_sheet(path: &Path, film: FilmView, style: &SheetStyle) -> R
     film.validate(path)?;
     let (h, w, bins, ch) = (film.height, film.width, film.bins, film.channels);
     let frames = chosen_bins(bins);
-    let frame_values =
-        move |t: usize| (0..h * w).flat_map(move |p| (0..ch).map(move |c| film.data[(p * bins + t) * ch + c]));
-    let sheet_white = robust_white(|| frames.iter().flat_map(|&t| frame_values(t)));
+    let sheet_white = robust_white(|| frames.iter().flat_map(|&t| film.bin_values(t)));
     let sheet_scale = exposure_scale(path, style.exposure, sheet_white)?;
 
     let n = frames.len();
@@ -66,9 +64,7 @@ pub fn write_contact_sheet(path: &Path, film: FilmView, style: &SheetStyle) -> R
         1
     };
     let (cell_w, cell_h) = (w.div_ceil(down) * up, h.div_ceil(down) * up);
-    let labelled = style
-        .axis
-        .filter(|a| a.bins == bins && bin_label(a, 0, cell_w).is_some() && labels_available());
+    let labelled = label_axis(style.axis.as_ref(), bins, cell_w);
     let strip = if labelled.is_some() { LABEL_H } else { 0 };
     let sheet_w = cols * (cell_w + GAP) + GAP;
     let sheet_h = rows * (cell_h + strip + GAP) + GAP;
@@ -86,7 +82,7 @@ pub fn write_contact_sheet(path: &Path, film: FilmView, style: &SheetStyle) -> R
             GAP + (k / cols) * (cell_h + strip + GAP),
         );
         let scale = match (style.normalise, style.exposure) {
-            (Normalise::Frame, None) => white_scale(robust_white(|| frame_values(t))),
+            (Normalise::Frame, None) => white_scale(robust_white(|| film.bin_values(t))),
             _ => sheet_scale,
         };
         // relative to display white before resizing: imageops clamps f32 pixels to [0, 1]
@@ -126,11 +122,6 @@ pub fn write_contact_sheet(path: &Path, film: FilmView, style: &SheetStyle) -> R
         return write_png(path, &grey, sheet_w, sheet_h, 1);
     }
     write_png(path, &pixels, sheet_w, sheet_h, 3)
-}
-
-/// Scaled linear value → 8 bits on the logarithmic display curve.
-fn display8(v: f64) -> u8 {
-    (log_display(v) * 255.0 + 0.5) as u8
 }
 
 /// Writes the time-integrated image `data` (`[h, w, c]` row-major, c = 1 or 3) as a PNG with
