@@ -1,7 +1,7 @@
 //! Which SIMD instructions this build of the library uses, against what the CPU offers.
 //!
 //! The 8-wide kernel (`wide::f32x8`) maps to one 256-bit register only when AVX is enabled at
-//! compile time; otherwise it runs as two 128-bit halves, 8–10 % slower on the Cornell box.
+//! compile time; otherwise it runs as two 128-bit halves, 8–10 % slower (measured when issue 15 was filed).
 //! The repository's `.cargo/config.toml` builds with `-C target-cpu=x86-64-v3` (AVX2 + FMA),
 //! but Cargo reads that file only for builds started inside this repository: a crate that
 //! depends on difftransient must set the flag itself (its own `.cargo/config.toml`, or
