@@ -94,8 +94,9 @@ fn total(t: &Transient) -> f64 {
 fn main() {
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
     let mut scene = Scene::load(&root.join("scenes/shadow_hidden_occluder.toml"), &[]).expect("scene");
-    scene.film.width = 64;
-    scene.film.height = 64;
+    let res: u32 = env_or("DTR_BENCH_RES", 64);
+    scene.film.width = res;
+    scene.film.height = res;
     let threads: usize = env_or(
         "DTR_BENCH_THREADS",
         std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1),
@@ -105,25 +106,28 @@ fn main() {
         seed: Some(1),
         ..Default::default()
     };
-    println!("1-2. boundary samples per second; boundary estimate vs samples (8 seeds)");
-    variance_table(
-        &format!("shadow_hidden_occluder 64x64, d/d{PARAM}"),
-        &scene,
-        PARAM,
-        &base,
-        &[1, 4, 16],
-        256,
-    );
-    let cornell = Scene::load(&root.join("scenes/cornell_box.toml"), &[]).expect("scene");
-    let cornell = common::with_pose_param(cornell);
-    variance_table(
-        "cornell_box 64x64 (secondary edges only; max 8 bounces), d/dtall_box_x",
-        &cornell,
-        "tall_box_x",
-        &base,
-        &[1, 4, 16],
-        64,
-    );
+    let only_ratio = std::env::var("DTR_BENCH_ONLY_RATIO").is_ok();
+    if !only_ratio {
+        println!("1-2. boundary samples per second; boundary estimate vs samples (8 seeds)");
+        variance_table(
+            &format!("shadow_hidden_occluder {res}x{res}, d/d{PARAM}"),
+            &scene,
+            PARAM,
+            &base,
+            &[1, 4, 16],
+            256,
+        );
+        let cornell = Scene::load(&root.join("scenes/cornell_box.toml"), &[]).expect("scene");
+        let cornell = common::with_pose_param(cornell);
+        variance_table(
+            "cornell_box 64x64 (secondary edges only; max 8 bounces), d/dtall_box_x",
+            &cornell,
+            "tall_box_x",
+            &base,
+            &[1, 4, 16],
+            64,
+        );
+    }
 
     // 3. interior + boundary vs primal; references for both
     let reference_b = diff(&scene, &boundary_only(&base, 256, 1000, true)).0;
@@ -151,7 +155,7 @@ fn main() {
         },
     )
     .unwrap();
-    let spp = 16u32;
+    let spp: u32 = env_or("DTR_BENCH_SPP", 16);
     let reps = 3;
     let o = RenderOptions {
         spp: Some(spp),
@@ -166,7 +170,7 @@ fn main() {
     }
     let e_p = common::rel_l2(&primal.unwrap().data, &reference_p.data);
     println!(
-        "3. shadow_hidden_occluder 64x64, {spp} spp: primal {best_p:.4} s wall (best of {reps}), rel. L2 {e_p:.3}"
+        "3. shadow_hidden_occluder {res}x{res}, {spp} spp: primal {best_p:.4} s wall (best of {reps}), rel. L2 {e_p:.3}"
     );
     println!("   guiding  spp_boundary  interior+boundary s  (boundary s)  rel. L2 of dI/dθ  time ratio");
     for (guiding, spp_b) in [(false, 4u32), (false, 16), (false, 64), (true, 4), (true, 16)] {

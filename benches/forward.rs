@@ -61,6 +61,16 @@ fn main() {
     let t_bounce = bare(&bounce, n_bounce, &|r| accel.raw_intersect8_batch(r, false));
     let t_shadow = bare(&shadow, stats.occluded_rays, &|r| accel.raw_occluded8_batch(r, false));
     let bare_total = t_primary + t_bounce + t_shadow;
+    // the same rays as 16-wide packets (two of ours per call) and as single rays
+    let p16 = bare(&primary, n_primary, &|r| accel.raw_intersect16_batch(r, true));
+    let b16 = bare(&bounce, n_bounce, &|r| accel.raw_intersect16_batch(r, false));
+    let s16 = bare(&shadow, stats.occluded_rays, &|r| accel.raw_occluded16_batch(r, false));
+    let b1 = bare(&bounce, n_bounce, &|r| accel.raw_intersect1_batch(r));
+    let s1 = bare(&shadow, stats.occluded_rays, &|r| accel.raw_occluded1_batch(r));
+    println!(
+        "  bare seconds, 8-wide: primary {t_primary:.4} bounce {t_bounce:.4} shadow {t_shadow:.4}; \
+         16-wide: {p16:.4} {b16:.4} {s16:.4}; 1-wide: bounce {b1:.4} shadow {s1:.4}"
+    );
     let rays = (stats.intersect_rays + stats.occluded_rays) as f64;
 
     println!("Cornell box 64x64, 200 bins x 0.06 m from 3.6 m, max 8 bounces, {spp} spp, {threads} threads");

@@ -139,6 +139,43 @@ pub struct RTCRayHit8 {
     pub hit: RTCHit8,
 }
 
+#[repr(C, align(64))]
+#[derive(Clone, Copy)]
+pub struct RTCRay16 {
+    pub org_x: [f32; 16],
+    pub org_y: [f32; 16],
+    pub org_z: [f32; 16],
+    pub tnear: [f32; 16],
+    pub dir_x: [f32; 16],
+    pub dir_y: [f32; 16],
+    pub dir_z: [f32; 16],
+    pub time: [f32; 16],
+    pub tfar: [f32; 16],
+    pub mask: [u32; 16],
+    pub id: [u32; 16],
+    pub flags: [u32; 16],
+}
+
+#[repr(C, align(64))]
+#[derive(Clone, Copy)]
+pub struct RTCHit16 {
+    pub Ng_x: [f32; 16],
+    pub Ng_y: [f32; 16],
+    pub Ng_z: [f32; 16],
+    pub u: [f32; 16],
+    pub v: [f32; 16],
+    pub primID: [u32; 16],
+    pub geomID: [u32; 16],
+    pub instID: [[u32; 16]; 1],
+}
+
+#[repr(C, align(64))]
+#[derive(Clone, Copy)]
+pub struct RTCRayHit16 {
+    pub ray: RTCRay16,
+    pub hit: RTCHit16,
+}
+
 // Measured with gcc on /usr/include/embree3 (sizeof, _Alignof, offsetof).
 const _: () = {
     assert!(size_of::<RTCRay>() == 48 && align_of::<RTCRay>() == 16);
@@ -207,6 +244,15 @@ unsafe extern "C" {
     );
     /// As [`rtcIntersect8`]; a blocked lane comes back with `tfar = -inf`.
     pub fn rtcOccluded8(valid: *const c_int, scene: RTCScene, context: *mut RTCIntersectContext, ray: *mut RTCRay8);
+    /// `valid` points to 16 `int`s, 64-byte aligned like `rayhit`.
+    pub fn rtcIntersect16(
+        valid: *const c_int,
+        scene: RTCScene,
+        context: *mut RTCIntersectContext,
+        rayhit: *mut RTCRayHit16,
+    );
+    /// As [`rtcIntersect16`]; a blocked lane comes back with `tfar = -inf`.
+    pub fn rtcOccluded16(valid: *const c_int, scene: RTCScene, context: *mut RTCIntersectContext, ray: *mut RTCRay16);
 }
 
 /// `rtcInitIntersectContext` is `RTC_FORCEINLINE` in `rtcore_ray.h`, not an exported symbol;

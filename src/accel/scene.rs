@@ -313,6 +313,43 @@ impl Accel {
         hits
     }
 
+    /// `rtcIntersect16` on each pair of packets, all lanes active. Returns the hits.
+    pub fn raw_intersect16_batch(&self, rays: &[Ray8], coherent: bool) -> usize {
+        #[repr(C, align(64))]
+        struct V([i32; 16]);
+        let valid = V([-1; 16]);
+        let mut hits = 0;
+        let mut ctx = ffi::init_intersect_context(coherent);
+        for p in rays.chunks_exact(2) {
+            let mut rh = rayhit16(&p[0], &p[1]);
+            // SAFETY: valid and rh are 64-byte aligned, as Embree requires.
+            unsafe { ffi::rtcIntersect16(valid.0.as_ptr(), self.scene, &mut ctx, &mut rh) };
+            hits += rh
+                .hit
+                .geomID
+                .iter()
+                .filter(|&&g| g != ffi::RTC_INVALID_GEOMETRY_ID)
+                .count();
+        }
+        hits
+    }
+
+    /// `rtcOccluded16` on each pair of packets, all lanes active. Returns blocked rays.
+    pub fn raw_occluded16_batch(&self, rays: &[Ray8], coherent: bool) -> usize {
+        #[repr(C, align(64))]
+        struct V([i32; 16]);
+        let valid = V([-1; 16]);
+        let mut blocked = 0;
+        let mut ctx = ffi::init_intersect_context(coherent);
+        for p in rays.chunks_exact(2) {
+            let mut r = rayhit16(&p[0], &p[1]).ray;
+            // SAFETY: as above.
+            unsafe { ffi::rtcOccluded16(valid.0.as_ptr(), self.scene, &mut ctx, &mut r) };
+            blocked += r.tfar.iter().filter(|&&t| t == f32::NEG_INFINITY).count();
+        }
+        blocked
+    }
+
     /// `rtcOccluded8` on each packet, all lanes active. Returns blocked rays.
     pub fn raw_occluded8_batch(&self, rays: &[Ray8], coherent: bool) -> usize {
         let valid = Valid8::from([true; 8]);
@@ -468,6 +505,38 @@ fn rayhit8(r: &Ray8) -> ffi::RTCRayHit8 {
             geomID: [ffi::RTC_INVALID_GEOMETRY_ID; 8],
             instID: [[ffi::RTC_INVALID_GEOMETRY_ID; 8]],
             ..Default::default()
+        },
+    }
+}
+
+#[inline(always)]
+fn rayhit16(a: &Ray8, b: &Ray8) -> ffi::RTCRayHit16 {
+    let cat =
+        |x: &[f32; 8], y: &[f32; 8]| -> [f32; 16] { std::array::from_fn(|i| if i < 8 { x[i] } else { y[i - 8] }) };
+    ffi::RTCRayHit16 {
+        ray: ffi::RTCRay16 {
+            org_x: cat(&a.org_x, &b.org_x),
+            org_y: cat(&a.org_y, &b.org_y),
+            org_z: cat(&a.org_z, &b.org_z),
+            tnear: cat(&a.tnear, &b.tnear),
+            dir_x: cat(&a.dir_x, &b.dir_x),
+            dir_y: cat(&a.dir_y, &b.dir_y),
+            dir_z: cat(&a.dir_z, &b.dir_z),
+            time: [0.0; 16],
+            tfar: cat(&a.tfar, &b.tfar),
+            mask: [u32::MAX; 16],
+            id: [0; 16],
+            flags: [0; 16],
+        },
+        hit: ffi::RTCHit16 {
+            Ng_x: [0.0; 16],
+            Ng_y: [0.0; 16],
+            Ng_z: [0.0; 16],
+            u: [0.0; 16],
+            v: [0.0; 16],
+            primID: [ffi::RTC_INVALID_GEOMETRY_ID; 16],
+            geomID: [ffi::RTC_INVALID_GEOMETRY_ID; 16],
+            instID: [[ffi::RTC_INVALID_GEOMETRY_ID; 16]],
         },
     }
 }
