@@ -7,6 +7,7 @@
 //! of magnitude.
 
 mod common;
+use difftransient::kernel::SampleSequence;
 use difftransient::render::{DiffParts, render_diff_parts};
 use difftransient::scene::IntegratorKind;
 use difftransient::shard::add_films;
@@ -45,25 +46,29 @@ fn path_tracer_shards_add_up_to_the_whole_render() {
     scene.film.width = 16;
     scene.film.height = 16;
     let spp = 7;
-    let (whole, ws) = render(&scene, &opts(spp, Shard::WHOLE, IntegratorKind::Path)).unwrap();
-    // 9 shards of 7 samples: two are empty
-    for count in [3, 9] {
-        let parts: Vec<(Transient, _)> = shards(count)
-            .map(|s| render(&scene, &opts(spp, s, IntegratorKind::Path)).unwrap())
-            .collect();
-        let paths: u64 = parts.iter().map(|p| p.1.paths).sum();
-        assert_eq!(paths, ws.paths, "{count} shards trace the whole render's paths");
-        let merged = add_films(&parts.iter().map(|p| &p.0).collect::<Vec<_>>()).unwrap();
-        // A pixel-bin of the whole render sums at most spp·2·(B + 1) non-negative terms in f32
-        // (emission and next-event at each vertex): recursive summation errs by at most
-        // (n − 1)·u of the sum; the shards' sums the same, then three roundings.
-        let n = (spp as f64) * 2.0 * (scene.integrator.max_bounces as f64 + 1.0);
-        let tol = |v: f32| (2.0 * n + 8.0) * U * v.abs() as f64;
-        let r = worst(&merged.data, &whole.data, |i| tol(whole.data[i]));
-        assert!(r <= 1.0, "{count} shards: transient off by {r} × the rounding bound");
-        let r = worst(&merged.steady, &whole.steady, |i| tol(whole.steady[i]));
-        assert!(r <= 1.0, "{count} shards: steady image off by {r} × the rounding bound");
-        assert!(whole.data.iter().sum::<f32>() > 0.0);
+    // both sample sequences: a Sobol point depends on the pixel and the global sample index
+    for sampler in [SampleSequence::Independent, SampleSequence::Sobol] {
+        scene.integrator.sampler = sampler;
+        let (whole, ws) = render(&scene, &opts(spp, Shard::WHOLE, IntegratorKind::Path)).unwrap();
+        // 9 shards of 7 samples: two are empty
+        for count in [3, 9] {
+            let parts: Vec<(Transient, _)> = shards(count)
+                .map(|s| render(&scene, &opts(spp, s, IntegratorKind::Path)).unwrap())
+                .collect();
+            let paths: u64 = parts.iter().map(|p| p.1.paths).sum();
+            assert_eq!(paths, ws.paths, "{count} shards trace the whole render's paths");
+            let merged = add_films(&parts.iter().map(|p| &p.0).collect::<Vec<_>>()).unwrap();
+            // A pixel-bin of the whole render sums at most spp·2·(B + 1) non-negative terms in f32
+            // (emission and next-event at each vertex): recursive summation errs by at most
+            // (n − 1)·u of the sum; the shards' sums the same, then three roundings.
+            let n = (spp as f64) * 2.0 * (scene.integrator.max_bounces as f64 + 1.0);
+            let tol = |v: f32| (2.0 * n + 8.0) * U * v.abs() as f64;
+            let r = worst(&merged.data, &whole.data, |i| tol(whole.data[i]));
+            assert!(r <= 1.0, "{count} shards: transient off by {r} × the rounding bound");
+            let r = worst(&merged.steady, &whole.steady, |i| tol(whole.steady[i]));
+            assert!(r <= 1.0, "{count} shards: steady image off by {r} × the rounding bound");
+            assert!(whole.data.iter().sum::<f32>() > 0.0);
+        }
     }
 }
 

@@ -407,6 +407,7 @@ impl Estimator<'_> {
             py: [0; 8],
             ids: [0; 8],
             count: 2 * batch.len(),
+            spp: 0,
         };
         let mut dirs = [Vec3::Z; 8];
         for (i, s) in batch.iter().enumerate() {

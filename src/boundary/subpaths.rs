@@ -139,6 +139,7 @@ pub fn subpaths<const C: usize>(
             py: [0; 8],
             ids,
             count: n,
+            spp: 0,
         };
         let mut sink = SourceSink(&mut terms.source);
         trace_packet_from::<f32x8, C, _>(ctx, seed, &lanes, PathStart::Surface(&starts), &mut sink, counts);

@@ -2,6 +2,7 @@
 
 use super::output_set::{OutputSet, with_suffix};
 use crate::film::{SteadyMode, Transient};
+use crate::kernel::SampleSequence;
 use crate::output::{self, FilmView};
 use crate::render::{BoundaryMode, Lanes, RenderOptions, RenderStats, render, render_diff, render_strategies};
 use crate::scene::{IntegratorKind, Scene};
@@ -81,6 +82,11 @@ pub struct RenderArgs {
     /// shared edge may slip through, so light can leak out of closed objects now and then).
     #[arg(long = "fast-traversal")]
     pub fast_traversal: bool,
+    /// The numbers paths draw (overrides the scene's [integrator] sampler): `independent`
+    /// or `sobol` (Owen-scrambled Sobol points, stratified over each pixel's samples: lower
+    /// error per sample at about the same cost; see BENCHMARKS.md).
+    #[arg(long, value_name = "independent|sobol", value_parser = parse_sampler)]
+    pub sampler: Option<SampleSequence>,
     /// What the steady image (PREFIX.steady.png, the JSON's energy) integrates: `window`
     /// (default: the time window; paths end once they cannot reach it, the transient is
     /// unchanged) or `full` (all time: every path is traced to its last bounce).
@@ -174,7 +180,11 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
     } else {
         None
     };
-    let scene = Scene::load(&a.scene, &overrides)?;
+    let mut scene = Scene::load(&a.scene, &overrides)?;
+    if let Some(s) = a.sampler {
+        scene.integrator.sampler = s;
+    }
+    let scene = scene;
     log::debug!(
         "{}: {} shapes, {} triangles, {} emitters, {} materials, {} parameters; film {}x{}x{} channel(s), {} bins of {} m from {} m; max_bounces {}",
         a.scene.display(),
@@ -319,6 +329,7 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
         meta["nlos"] = n;
     }
     meta["identity"] = identity;
+    meta["sampler"] = json!(scene.integrator.sampler.name());
     let shard = opts.shard;
     meta["shard"] = json!({
         "index": shard.index,
@@ -381,6 +392,16 @@ fn parse_shard(s: &str) -> Result<crate::shard::Shard, String> {
 fn stats_range(shard: &crate::shard::Shard, total: u64) -> [u64; 2] {
     let r = shard.range(total);
     [r.start, r.end]
+}
+
+fn parse_sampler(s: &str) -> Result<SampleSequence, String> {
+    match s {
+        "independent" => Ok(SampleSequence::Independent),
+        "sobol" => Ok(SampleSequence::Sobol),
+        other => Err(format!(
+            "unknown sampler {other:?}: expected \"independent\" or \"sobol\""
+        )),
+    }
 }
 
 fn parse_integrator(s: &str) -> Result<IntegratorKind, String> {

@@ -48,6 +48,7 @@ pub fn identity(
         "spp_boundary": if diff.is_empty() { None } else { Some(opts.spp_boundary.unwrap_or(spp)) },
         "seed": opts.seed.unwrap_or(scene.integrator.seed),
         "integrator": opts.integrator.unwrap_or(scene.integrator.kind),
+        "sampler": scene.integrator.sampler.name(),
         "estimators": format!("{:?}", opts.boundary),
         "guiding": opts.guiding,
         "fast_traversal": opts.fast_traversal,

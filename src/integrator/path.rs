@@ -37,6 +37,9 @@ pub struct PacketLanes {
     pub ids: [u64; 8],
     /// Lanes in use (the rest are padding and stay inactive).
     pub count: usize,
+    /// Samples per pixel when `ids` are `pixel · spp + sample` (as [`PacketLanes::row`]
+    /// makes them), which a Sobol sequence needs apart; 0 for ids of another form.
+    pub spp: u32,
 }
 
 impl PacketLanes {
@@ -49,6 +52,7 @@ impl PacketLanes {
             py: [0; 8],
             ids: [0; 8],
             count: n,
+            spp,
         };
         for i in 0..n {
             let px = px0 + i;
@@ -138,7 +142,12 @@ pub fn trace_packet_from<R: Real, const C: usize, S: Sink<C>>(
     debug_assert!(surface.is_none() || R::DERIVS == 0);
     let max_bounces = surface.map_or(scene.integrator.max_bounces, |s| s.max_scatters);
     let eta = ctx.motion.eta::<R>(scene.eta);
-    let mut sampler = PathSampler::new(seed, &lanes.ids[..lanes.count.max(1)]);
+    let mut sampler = PathSampler::with_sequence(
+        scene.integrator.sampler,
+        seed,
+        &lanes.ids[..lanes.count.max(1)],
+        lanes.spp,
+    );
     let mut in_use = [false; 8];
     in_use[..lanes.count].iter_mut().for_each(|b| *b = true);
     let mut active = R::Mask::from_bools(&in_use[..R::LANES]);

@@ -10,13 +10,14 @@ mod dual;
 mod mask;
 mod real;
 mod sampler;
+mod sobol;
 mod spectrum;
 mod vec3;
 
 pub use dual::Dual8;
 pub use mask::Mask;
 pub use real::Real;
-pub use sampler::{PathSampler, hash_to_unit};
+pub use sampler::{PathSampler, SampleSequence, hash_to_unit};
 pub use spectrum::Spectrum;
 pub use vec3::V3;
 pub use wide::f32x8;

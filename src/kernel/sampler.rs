@@ -1,10 +1,34 @@
-//! Counter-based random numbers, one independent stream per path.
+//! Counter-based random numbers, one stream per path.
 //!
-//! Sample `k` of path `p` is a hash of `(seed, p, k)`: it does not depend on which lane or
-//! packet carries the path, how many threads run, or in what order tiles finish. So the
-//! scalar and 8-wide kernels see the same numbers, and renders are reproducible.
+//! Sample `k` of path `p` is a function of `(seed, p, k)` alone: it does not depend on which
+//! lane or packet carries the path, how many threads run, or in what order tiles finish. So the
+//! scalar and 8-wide kernels see the same numbers, renders are reproducible, and shards add up
+//! to the whole render. Two sequences: independent numbers (a hash per dimension), or padded
+//! Owen-scrambled Sobol points per pixel ([`super::sobol`]), stratified over a pixel's samples.
 
 use super::real::Real;
+use super::sobol::sobol_pair;
+
+/// Which numbers the paths of a render draw (`[integrator] sampler`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum SampleSequence {
+    /// Independent uniform numbers for every path and dimension.
+    #[default]
+    Independent,
+    /// Owen-scrambled Sobol points: the samples of one pixel are stratified in every pair of
+    /// dimensions (a (0, 2)-sequence per pair, each pair scrambled and shuffled on its own).
+    Sobol,
+}
+
+impl SampleSequence {
+    /// The name used in scene files and the JSON.
+    pub fn name(self) -> &'static str {
+        match self {
+            SampleSequence::Independent => "independent",
+            SampleSequence::Sobol => "sobol",
+        }
+    }
+}
 
 /// Mixes a 64-bit key into a uniform `f32` in `[0, 1)` (24 bits of mantissa).
 #[inline(always)]
@@ -23,6 +47,22 @@ pub struct PathSampler {
     keys: [u64; 8],
     lanes: usize,
     dim: u64,
+    /// Sobol mode: each lane's sample index within its pixel (`keys` then identify the pixel),
+    /// and the second number of the last pair drawn, for a 1D draw at an odd dimension.
+    sobol: Option<SobolState>,
+}
+
+#[derive(Clone, Debug)]
+struct SobolState {
+    index: [u32; 8],
+    /// (pair, second coordinates) of the last pair drawn.
+    cached: Option<(u64, [f32; 8])>,
+}
+
+/// The per-lane key of a stream: the path (or pixel) id in the high bits, mixed with the seed.
+#[inline(always)]
+fn stream_key(seed: u64, id: u64) -> u64 {
+    seed.wrapping_mul(0xD1B5_4A32_D192_ED03) ^ id.wrapping_mul(0x1_0000_0000)
 }
 
 impl PathSampler {
@@ -31,13 +71,33 @@ impl PathSampler {
         let mut keys = [0u64; 8];
         for (k, &p) in keys.iter_mut().zip(path_ids) {
             // Distinct streams: the path id occupies the high bits, the dimension the low ones.
-            *k = seed.wrapping_mul(0xD1B5_4A32_D192_ED03) ^ p.wrapping_mul(0x1_0000_0000);
+            *k = stream_key(seed, p);
         }
         Self {
             keys,
             lanes: path_ids.len().min(8),
             dim: 0,
+            sobol: None,
         }
+    }
+
+    /// Numbers of `sequence` for paths whose ids are `pixel · spp + sample` (as
+    /// `integrator::path::PacketLanes::row` numbers them). Sobol points need the pixel and
+    /// the sample index apart; with `spp == 0` (ids of another form) the numbers are
+    /// independent.
+    pub fn with_sequence(sequence: SampleSequence, seed: u64, path_ids: &[u64], spp: u32) -> Self {
+        if sequence == SampleSequence::Independent || spp == 0 {
+            return Self::new(seed, path_ids);
+        }
+        let spp = spp as u64;
+        let pixels: Vec<u64> = path_ids.iter().map(|&p| p / spp).collect();
+        let mut s = Self::new(seed, &pixels);
+        let mut index = [0u32; 8];
+        for (o, &p) in index.iter_mut().zip(path_ids) {
+            *o = (p % spp) as u32;
+        }
+        s.sobol = Some(SobolState { index, cached: None });
+        s
     }
 
     /// The next dimension, one uniform number per lane.
@@ -46,6 +106,22 @@ impl PathSampler {
         debug_assert!(R::LANES <= self.lanes.max(1) || R::LANES == 8);
         let d = self.dim;
         self.dim += 1;
+        if let Some(sb) = &mut self.sobol {
+            let pair = d >> 1;
+            if d & 1 == 1
+                && let Some((p, second)) = sb.cached
+                && p == pair
+            {
+                return R::from_lanes(&second);
+            }
+            let seeds = std::array::from_fn(|i| {
+                let k = stream_key(self.keys[i], pair);
+                (k ^ (k >> 32)) as u32
+            });
+            let (first, second) = sobol_pair(sb.index, seeds);
+            sb.cached = Some((pair, second));
+            return R::from_lanes(if d & 1 == 0 { &first } else { &second });
+        }
         let mut a = [0.0f32; 8];
         for (o, k) in a.iter_mut().zip(self.keys.iter()).take(R::LANES) {
             *o = hash_to_unit(k.wrapping_add(d.wrapping_mul(0x9E37_79B9)));
@@ -53,7 +129,12 @@ impl PathSampler {
         R::from_lanes(&a)
     }
 
+    /// Two numbers; with Sobol points, a pair of dimensions stratified together (a 2D draw
+    /// starting at an odd dimension skips one).
     pub fn next2<R: Real>(&mut self) -> (R, R) {
+        if self.sobol.is_some() && self.dim & 1 == 1 {
+            self.dim += 1;
+        }
         let a = self.next();
         (a, self.next())
     }
@@ -80,6 +161,51 @@ mod tests {
                 assert_eq!(s1.next::<f32>(), vk.lane(i), "lane {i} dim {k}");
             }
         }
+    }
+
+    #[test]
+    fn sobol_lanes_equal_scalar_streams_and_pixels_are_stratified() {
+        let spp = 16u32;
+        // two pixels (5 and 6), eight samples each, in one packet
+        let ids: Vec<u64> = (0..8).map(|i| if i < 4 { 5 * 16 + i } else { 6 * 16 + i }).collect();
+        let mut s8 = PathSampler::with_sequence(SampleSequence::Sobol, 7, &ids, spp);
+        let first: f32x8 = s8.next();
+        let v: Vec<(f32x8, f32x8)> = (0..4).map(|_| s8.next2::<f32x8>()).collect();
+        for (i, &id) in ids.iter().enumerate() {
+            let mut s1 = PathSampler::with_sequence(SampleSequence::Sobol, 7, &[id], spp);
+            assert_eq!(s1.next::<f32>(), first.lane(i));
+            for (k, (a, b)) in v.iter().enumerate() {
+                assert_eq!(s1.next2::<f32>(), (a.lane(i), b.lane(i)), "lane {i} pair {k}");
+            }
+        }
+        // all 16 samples of one pixel: every 2D draw is a (0, 4, 2)-net (one point per 1/4 × 1/4
+        // cell), the 1D draw is one point per 1/16
+        let draws: Vec<Vec<f32>> = (0..spp as u64)
+            .map(|s| {
+                let mut q = PathSampler::with_sequence(SampleSequence::Sobol, 3, &[9 * 16 + s], spp);
+                let mut d = vec![q.next::<f32>()];
+                for _ in 0..3 {
+                    let (a, b) = q.next2::<f32>();
+                    d.extend([a, b]);
+                }
+                d
+            })
+            .collect();
+        let mut cells = vec![0; 16];
+        draws.iter().for_each(|d| cells[(d[0] * 16.0) as usize] += 1);
+        assert!(cells.iter().all(|&c| c == 1), "1D: {cells:?}");
+        for pair in 0..3 {
+            let mut cells = vec![0; 16];
+            for d in &draws {
+                let (a, b) = (d[1 + 2 * pair], d[2 + 2 * pair]);
+                cells[(a * 4.0) as usize * 4 + (b * 4.0) as usize] += 1;
+            }
+            assert!(cells.iter().all(|&c| c == 1), "pair {pair}: {cells:?}");
+        }
+        // without the sample count the numbers are the independent ones
+        let mut a = PathSampler::with_sequence(SampleSequence::Sobol, 7, &[3], 0);
+        let mut b = PathSampler::new(7, &[3]);
+        assert_eq!(a.next::<f32>(), b.next::<f32>());
     }
 
     #[test]

@@ -39,6 +39,16 @@ pub struct IntegratorDesc {
     pub spp: i64,
     pub seed: u64,
     pub rr_depth: Option<i64>,
+    pub sampler: SamplerName,
+}
+
+/// `[integrator] sampler`.
+#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+pub enum SamplerName {
+    #[default]
+    Independent,
+    Sobol,
 }
 
 impl Default for IntegratorDesc {
@@ -49,6 +59,7 @@ impl Default for IntegratorDesc {
             spp: 16,
             seed: 0,
             rr_depth: None,
+            sampler: SamplerName::Independent,
         }
     }
 }

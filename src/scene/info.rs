@@ -234,6 +234,7 @@ impl Scene {
                 "spp": it.spp,
                 "seed": it.seed,
                 "rr_depth": it.rr_depth,
+                "sampler": it.sampler.name(),
             },
             "params": params,
             "nlos": self.nlos.as_ref().map(|n| {
@@ -399,7 +400,7 @@ impl fmt::Display for Scene {
         writeln!(out, "  medium: eta {}", self.eta)?;
         writeln!(
             out,
-            "  integrator: {}, max {} bounces, {} spp, seed {}, russian roulette {}",
+            "  integrator: {}, max {} bounces, {} spp, seed {}, {} sampler, russian roulette {}",
             match it.kind {
                 super::IntegratorKind::Path => "path",
                 super::IntegratorKind::Bdpt => "bdpt (bidirectional, MIS)",
@@ -407,6 +408,7 @@ impl fmt::Display for Scene {
             it.max_bounces,
             it.spp,
             it.seed,
+            it.sampler.name(),
             it.rr_depth.map_or("off".to_string(), |d| format!("from bounce {d}"))
         )?;
         if let Some(n) = &self.nlos {

@@ -286,6 +286,9 @@ pub struct IntegratorSpec {
     pub seed: u64,
     /// Russian roulette starts after this many bounces (None = off).
     pub rr_depth: Option<u32>,
+    /// The numbers paths draw: independent (the default) or Owen-scrambled Sobol points
+    /// stratified over each pixel's samples (`[integrator] sampler`).
+    pub sampler: crate::kernel::SampleSequence,
 }
 
 /// A loaded scene. Everything the renderer needs, with parameters already applied.

@@ -116,6 +116,10 @@ fn integrator(desc: &SceneDesc, ctx: &Ctx) -> Result<IntegratorSpec, SceneError>
         spp,
         seed: d.seed,
         rr_depth,
+        sampler: match d.sampler {
+            super::desc::SamplerName::Independent => crate::kernel::SampleSequence::Independent,
+            super::desc::SamplerName::Sobol => crate::kernel::SampleSequence::Sobol,
+        },
     })
 }
 

@@ -111,8 +111,9 @@ pub fn trace_packet<R: Real, const C: usize, S: Sink<C>>(
 ) {
     let max_bounces = ctx.scene.integrator.max_bounces as usize;
     let ids = &lanes.ids[..lanes.count.max(1)];
-    let mut cam_sampler = PathSampler::new(seed, ids);
-    let mut light_sampler = PathSampler::new(seed ^ LIGHT_STREAM, ids);
+    let sequence = ctx.scene.integrator.sampler;
+    let mut cam_sampler = PathSampler::with_sequence(sequence, seed, ids, lanes.spp);
+    let mut light_sampler = PathSampler::with_sequence(sequence, seed ^ LIGHT_STREAM, ids, lanes.spp);
     let Scratch {
         camera,
         light,

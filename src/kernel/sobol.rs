@@ -1,0 +1,204 @@
+//! Owen-scrambled Sobol points, eight lanes at once: the `sobol` sample sequence.
+//!
+//! Each 2D sample a path asks for is the first two dimensions of the Sobol sequence (a
+//! (0, 2)-sequence in base 2), Owen-scrambled with a seed of its own and taken at a shuffled
+//! index ("padding", as pbrt-v4's PaddedSobolSampler does): every pair of dimensions of one
+//! pixel's samples is stratified in every elementary interval, and different pairs are
+//! decorrelated. The scrambling is Burley's hash-based nested uniform scramble (B. Burley,
+//! "Practical Hash-based Owen Scrambling", JCGT 9(4), 2020) with the constants of its
+//! improved form in the `sobol_burley` crate; the index shuffle is the same scramble applied to
+//! the index. Owen scrambling keeps each point uniform on [0, 1)², so estimates stay unbiased,
+//! and keeps the net property, so `2^m` samples of a pixel put one point in each elementary
+//! interval of area `2^-m`.
+
+use wide::u32x8;
+
+#[inline(always)]
+fn reverse_bits(x: u32x8) -> u32x8 {
+    let swap = |x: u32x8, s: u32, m: u32| ((x >> s) & u32x8::splat(m)) | ((x & u32x8::splat(m)) << s);
+    let x = swap(x, 1, 0x5555_5555);
+    let x = swap(x, 2, 0x3333_3333);
+    let x = swap(x, 4, 0x0F0F_0F0F);
+    let x = swap(x, 8, 0x00FF_00FF);
+    (x >> 16u32) | (x << 16u32)
+}
+
+/// A hash-based permutation of bit strings in which each bit depends only on the bits below it
+/// (Laine–Karras style), so applied to reversed bits it is a nested uniform (Owen) scramble.
+#[inline(always)]
+fn lk_permute(mut x: u32x8, seed: u32x8) -> u32x8 {
+    x ^= x * u32x8::splat(0x3d20_adea);
+    x += seed;
+    x = x * ((seed >> 16u32) | u32x8::splat(1));
+    x ^= x * u32x8::splat(0x0552_6c56);
+    x ^= x * u32x8::splat(0x53a2_2864);
+    x
+}
+
+#[inline(always)]
+fn owen_scramble(x: u32x8, seed: u32x8) -> u32x8 {
+    reverse_bits(lk_permute(reverse_bits(x), seed))
+}
+
+/// A fast 32-bit integer hash (mixes a seed before scrambling).
+#[inline(always)]
+fn hash(x: u32x8) -> u32x8 {
+    let x = (x ^ (x >> 16u32)) * u32x8::splat(0x21f0_aaad);
+    let x = (x ^ (x >> 15u32)) * u32x8::splat(0x735a_2d97);
+    x ^ (x >> 15u32)
+}
+
+#[inline(always)]
+fn to_unit(x: u32x8) -> [f32; 8] {
+    // 24 high bits: exactly representable, so every value is < 1
+    (x >> 8u32).to_array().map(|v| v as f32 * (1.0 / (1u32 << 24) as f32))
+}
+
+/// Sobol dimension 1 with its bits reversed (least significant bit = the first binary digit).
+/// Its generator matrix is Pascal's triangle mod 2, so by Lucas' theorem digit r is the XOR of
+/// the index bits c with r ⊆ c (bitwise): a superset-XOR transform, five shift-XOR steps.
+#[inline(always)]
+fn sobol1_reversed(i: u32x8) -> u32x8 {
+    let mut y = i;
+    for (k, m) in [0x5555_5555u32, 0x3333_3333, 0x0F0F_0F0F, 0x00FF_00FF, 0x0000_FFFF]
+        .into_iter()
+        .enumerate()
+    {
+        y ^= (y >> (1u32 << k)) & u32x8::splat(m);
+    }
+    y
+}
+
+/// Point `index` of a pair of dimensions scrambled with `seed`, per lane: two numbers in
+/// [0, 1). Different seeds give independent scrambles (and index orders) of the same net.
+#[inline]
+pub fn sobol_pair(index: [u32; 8], seed: [u32; 8]) -> ([f32; 8], [f32; 8]) {
+    let seed = hash(u32x8::from(seed));
+    let i = owen_scramble(u32x8::from(index), seed);
+    let s0 = hash(seed ^ u32x8::splat(0x9e37_79b9));
+    let s1 = hash(seed ^ u32x8::splat(0x7f4a_7c15));
+    // Owen scrambling a point is reverse ∘ permute ∘ reverse, and both dimensions are cheapest
+    // in reversed form: dimension 0 (van der Corput) is the index itself reversed.
+    let d0 = reverse_bits(lk_permute(i, s0));
+    let d1 = reverse_bits(lk_permute(sobol1_reversed(i), s1));
+    (to_unit(d0), to_unit(d1))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Generator matrix columns of Sobol dimension 1 (primitive polynomial x + 1, all direction
+    /// numbers 1), most significant bit first: column `b` is the image of index bit `b`.
+    const DIM1: [u32; 32] = {
+        let mut v = [0u32; 32];
+        v[0] = 1 << 31;
+        let mut b = 1;
+        while b < 32 {
+            v[b] = v[b - 1] ^ (v[b - 1] >> 1);
+            b += 1;
+        }
+        v
+    };
+
+    fn pairs(n: u32, seed: u32) -> Vec<(f32, f32)> {
+        let mut out = Vec::new();
+        for base in (0..n).step_by(8) {
+            let idx = std::array::from_fn(|k| base + k as u32);
+            let (a, b) = sobol_pair(idx, [seed; 8]);
+            out.extend((0..8).map(|k| (a[k], b[k])));
+        }
+        out.truncate(n as usize);
+        out
+    }
+
+    #[test]
+    fn superset_xor_equals_the_generator_matrix() {
+        let mut x = 0x1234_5678u32;
+        for _ in 0..2000 {
+            x = x.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            let mut by_matrix = 0u32;
+            for (b, c) in DIM1.iter().enumerate() {
+                if x >> b & 1 == 1 {
+                    by_matrix ^= c;
+                }
+            }
+            let fast = reverse_bits(sobol1_reversed(u32x8::splat(x))).to_array()[0];
+            assert_eq!(fast, by_matrix, "index {x:#x}");
+        }
+    }
+
+    #[test]
+    fn unscrambled_dimensions_are_sobol() {
+        // the generator matrix of dimension 1 (direction numbers 1/2, 3/4, 5/8, ...), in index
+        // (not Gray-code) order: indices 1, 2, 3, 4 give 1/2, 3/4, 1/4, 5/8
+        let col = |i: u32| {
+            let mut d = 0u32;
+            for (b, c) in DIM1.iter().enumerate() {
+                if i >> b & 1 == 1 {
+                    d ^= c;
+                }
+            }
+            d as f64 / 2f64.powi(32)
+        };
+        assert_eq!([col(1), col(2), col(3), col(4)], [0.5, 0.75, 0.25, 0.625]);
+        let r = reverse_bits(u32x8::from([1, 2, 3, 0x8000_0000, 0, 0, 0, 0])).to_array();
+        assert_eq!(&r[..4], &[0x8000_0000, 0x4000_0000, 0xC000_0000, 1]);
+    }
+
+    /// (0, m, 2)-net: every elementary interval of area 2^-m holds exactly one of the first
+    /// 2^m points, for every shape 2^-j × 2^-(m-j) and several seeds.
+    #[test]
+    fn first_power_of_two_points_form_a_net() {
+        for seed in [0u32, 1, 77, 0xdead_beef] {
+            for m in [4u32, 6, 8] {
+                let pts = pairs(1 << m, seed);
+                for j in 0..=m {
+                    let mut seen = vec![0u32; 1 << m];
+                    for &(x, y) in &pts {
+                        assert!((0.0..1.0).contains(&x) && (0.0..1.0).contains(&y));
+                        let cx = (x * (1u32 << j) as f32) as usize;
+                        let cy = (y * (1u32 << (m - j)) as f32) as usize;
+                        seen[(cx << (m - j)) | cy] += 1;
+                    }
+                    assert!(seen.iter().all(|&c| c == 1), "seed {seed} m {m} j {j}: {seen:?}");
+                }
+            }
+        }
+    }
+
+    /// Over many seeds each point is uniform: the mean of point k over seeds is 1/2 in both
+    /// dimensions (within 5 standard errors) and the two dimensions are uncorrelated.
+    #[test]
+    fn scrambled_points_are_uniform_over_seeds() {
+        let seeds = 4096;
+        for k in [0u32, 1, 5, 13] {
+            let (mut sx, mut sy, mut sxy) = (0.0f64, 0.0f64, 0.0f64);
+            for s in 0..seeds {
+                let (a, b) = sobol_pair([k; 8], [s; 8]);
+                sx += a[0] as f64;
+                sy += b[0] as f64;
+                sxy += (a[0] as f64 - 0.5) * (b[0] as f64 - 0.5);
+            }
+            let n = seeds as f64;
+            let se = (1.0 / 12.0 / n).sqrt();
+            assert!((sx / n - 0.5).abs() < 5.0 * se, "k {k} mean x {}", sx / n);
+            assert!((sy / n - 0.5).abs() < 5.0 * se, "k {k} mean y {}", sy / n);
+            assert!((sxy / n).abs() < 5.0 / 12.0 / n.sqrt(), "k {k} cov {}", sxy / n);
+        }
+    }
+
+    /// Two seeds give unrelated point sets (padding decorrelates the pairs of one path).
+    #[test]
+    fn different_seeds_are_decorrelated() {
+        let n = 1 << 12;
+        let (a, b) = (pairs(n, 3), pairs(n, 4));
+        let c: f64 = a
+            .iter()
+            .zip(&b)
+            .map(|(p, q)| (p.0 as f64 - 0.5) * (q.0 as f64 - 0.5))
+            .sum::<f64>()
+            / n as f64;
+        assert!(c.abs() < 5.0 / 12.0 / (n as f64).sqrt(), "cov {c}");
+    }
+}
