@@ -22,6 +22,7 @@ time around mi.render), and reports medians with their ranges:
 import json, math, os, subprocess, sys, time, tomllib
 import numpy as np
 import mitsuba as mi
+import drjit as dr
 
 mi.set_variant("llvm_ad_rgb")
 import mitransient as mitr  # noqa: E402,F401
@@ -40,6 +41,14 @@ REPEATS = int(os.environ.get("PEER_REPEATS", "5"))
 # extra `dtr render` options, e.g. PEER_DTR_ARGS=--fast-traversal (Embree's non-watertight
 # mode, as Mitsuba traces)
 DTR_ARGS = os.environ.get("PEER_DTR_ARGS", "").split()
+# options of the reference render only, e.g. PEER_REF_ARGS="--sampler sobol" (an unbiased
+# reference with less noise of its own; tests/sobol_sampler.rs checks its expectation)
+REF_ARGS = os.environ.get("PEER_REF_ARGS", "").split()
+# mitransient's sampler: "independent" (default), or one of Mitsuba's stratified ones
+# ("multijitter", "ldsampler", "orthogonal", "stratified") to compare like with like
+MI_SAMPLER = os.environ.get("PEER_MI_SAMPLER", "independent")
+# threads for both renderers (default: every core)
+THREADS = int(os.environ.get("PEER_THREADS", "0"))
 OUT = os.path.join(ROOT, "bench-out", "peer")
 
 
@@ -102,7 +111,7 @@ def mitsuba_scene(d, max_depth):
             # that below f32 resolution of the OPL.
             "type": "perspective", "fov_axis": "y", "fov": float(cam.get("fov", 40.0)), "near_clip": 1e-5,
             "to_world": mi.ScalarTransform4f().look_at(origin=pos, target=at, up=up),
-            "sampler": {"type": "independent", "sample_count": SPP},
+            "sampler": {"type": MI_SAMPLER, "sample_count": SPP},
             "film": {"type": "transient_hdr_film", "width": w, "height": h, "rfilter": {"type": "box"},
                      "temporal_bins": int(film["bins"]), "start_opl": float(film.get("start_opl", 0.0)),
                      "bin_width_opl": float(film["bin_width_opl"])},
@@ -123,8 +132,11 @@ def mitsuba_scene(d, max_depth):
     return sc
 
 
-def run_dtr(spp, seed, prefix):
-    subprocess.run([DTR, "render", SCENE, "--spp", str(spp), "--seed", str(seed), "-o", prefix, "-q", *DTR_ARGS], check=True)
+def run_dtr(spp, seed, prefix, args=None):
+    threads = ["--threads", str(THREADS)] if THREADS > 0 else []
+    args = DTR_ARGS if args is None else args
+    subprocess.run([DTR, "render", SCENE, "--spp", str(spp), "--seed", str(seed), "-o", prefix, "-q", *threads, *args],
+                   check=True)
     with open(prefix + ".json") as f:
         return np.load(prefix + ".npy"), json.load(f)
 
@@ -138,7 +150,9 @@ def main():
     with open(SCENE, "rb") as f:
         d = tomllib.load(f)
     max_depth = int(d.get("integrator", {}).get("max_bounces", 8)) + 1
-    ref, _ = run_dtr(REF_SPP, 777, os.path.join(OUT, "ref"))
+    if THREADS > 0:
+        dr.set_thread_count(THREADS)
+    ref, _ = run_dtr(REF_SPP, 777, os.path.join(OUT, "ref"), REF_ARGS)
     scene = mi.load_dict(mitsuba_scene(d, max_depth))
     # warm-ups at the timed spp, not timed: Dr.Jit compiles one kernel per sample count
     mi.render(scene, spp=SPP, seed=10_000)
@@ -173,8 +187,11 @@ def main():
         return 1
     print(f"total energy: ours {tot(ours):.4f}, mitransient {tot(theirs):.4f}, reference {tot(ref):.4f}")
     print(f"per-bin totals rel. L2 vs reference: ours {rel_l2(agreement.bins(ours), agreement.bins(ref)):.4f}, mitransient {rel_l2(agreement.bins(theirs), agreement.bins(ref)):.4f}")
-    e_ours, e_theirs = rel_l2(ours, ref), rel_l2(theirs, ref)
-    print(f"transient rel. L2 vs {REF_SPP}-spp reference: ours {e_ours:.4f}, mitransient {e_theirs:.4f}")
+    # root mean square over the seeds' renders
+    rms = lambda runs: math.sqrt(sum(rel_l2(r, ref) ** 2 for r in runs) / len(runs))
+    e_ours, e_theirs = rms(ours_runs), rms(theirs_runs)
+    print(f"transient rel. L2 vs {REF_SPP}-spp reference {' '.join(REF_ARGS)} (rms over {SEEDS} renders): "
+          f"ours {e_ours:.4f}, mitransient {e_theirs:.4f}")
     med = lambda v: float(np.median(v))
     ppc_ours = [paths / c for c in cpu_ours]
     ppc_theirs = [paths / c for c in cpu_theirs]

@@ -190,6 +190,10 @@ const _: () = {
     assert!(offset_of!(RTCRayHit8, hit) == 384);
     assert!(offset_of!(RTCHit8, geomID) == 192);
     assert!(offset_of!(RTCRay8, tfar) == 256);
+    assert!(size_of::<RTCRay16>() == 768 && align_of::<RTCRay16>() == 64);
+    assert!(size_of::<RTCHit16>() == 512 && align_of::<RTCHit16>() == 64);
+    assert!(size_of::<RTCRayHit16>() == 1280 && offset_of!(RTCRayHit16, hit) == 768);
+    assert!(offset_of!(RTCHit16, geomID) == 384 && offset_of!(RTCRay16, tfar) == 512);
     assert!(size_of::<RTCIntersectContext>() == 24 && align_of::<RTCIntersectContext>() == 8);
     assert!(offset_of!(RTCIntersectContext, filter) == 8);
     assert!(offset_of!(RTCIntersectContext, instID) == 16);

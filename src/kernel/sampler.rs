@@ -12,7 +12,7 @@ use super::sobol::sobol_pair;
 /// Which numbers the paths of a render draw (`[integrator] sampler`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum SampleSequence {
-    /// Independent uniform numbers for every path and dimension.
+    /// Independent uniform numbers for every path and dimension (the default).
     #[default]
     Independent,
     /// Owen-scrambled Sobol points: the samples of one pixel are stratified in every pair of
