@@ -97,6 +97,14 @@ fn main() {
     let res: u32 = env_or("DTR_BENCH_RES", 64);
     scene.film.width = res;
     scene.film.height = res;
+    // DTR_BENCH_SAMPLER=sobol: Sobol points for the interior and the boundary samples
+    let sobol = std::env::var("DTR_BENCH_SAMPLER").is_ok_and(|s| s == "sobol");
+    let sampler = if sobol {
+        difftransient::kernel::SampleSequence::Sobol
+    } else {
+        difftransient::kernel::SampleSequence::Independent
+    };
+    scene.integrator.sampler = sampler;
     let threads: usize = env_or(
         "DTR_BENCH_THREADS",
         std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1),
@@ -118,7 +126,8 @@ fn main() {
             256,
         );
         let cornell = Scene::load(&root.join("scenes/cornell_box.toml"), &[]).expect("scene");
-        let cornell = common::with_pose_param(cornell);
+        let mut cornell = common::with_pose_param(cornell);
+        cornell.integrator.sampler = sampler;
         variance_table(
             "cornell_box 64x64 (secondary edges only; max 8 bounces), d/dtall_box_x",
             &cornell,

@@ -325,7 +325,7 @@ impl<'a> Secondary<'a> {
         scratch: &mut Scratch,
     ) -> Option<Prepared> {
         let ctx = self.ctx;
-        let mut rng = PathSampler::new(seed, &[id]);
+        let mut rng = boundary_numbers(ctx, seed, id);
         let pick = rng.next::<f32>();
         let inner = [rng.next::<f32>(), rng.next::<f32>(), rng.next::<f32>()];
         let (u, p_guide) = grid.sample(pick, inner);
@@ -396,7 +396,7 @@ impl<'a> Secondary<'a> {
         scratch: &mut Scratch,
     ) -> Option<Prepared> {
         let ctx = self.ctx;
-        let mut rng = PathSampler::new(seed, &[id]);
+        let mut rng = boundary_numbers(ctx, seed, id);
         let pick = rng.next::<f32>();
         let inner = [rng.next::<f32>(), rng.next::<f32>(), rng.next::<f32>()];
         let (u, p_guide) = grid.sample(pick, inner);
@@ -530,4 +530,11 @@ impl<'a> Secondary<'a> {
     pub fn edge_count(&self) -> usize {
         self.edges.edges.len()
     }
+}
+
+/// The numbers of boundary sample `id` of a stream: with Sobol points, the samples of the whole
+/// stage are one sequence (one "pixel" whose sample index is `id`), so the edge, the point on
+/// it and the direction are stratified over the stage.
+fn boundary_numbers(ctx: &RenderContext, seed: u64, id: u64) -> PathSampler {
+    PathSampler::with_sequence(ctx.scene.integrator.sampler, seed, &[id], u32::MAX)
 }
