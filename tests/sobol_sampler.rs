@@ -241,3 +241,52 @@ fn sobol_points_keep_the_boundary_terms_expectation() {
         }
     }
 }
+
+/// Derivatives with Sobol points keep the expectation of those with independent numbers
+/// (the dual kernel draws the same points as the primal): the liquid's index in the glass
+/// block of scenes/liquid_glass.toml, 4×4 blocks × groups of 4 bins of ∂I/∂η and per-bin
+/// totals, K seeds each.
+#[test]
+fn sobol_points_keep_the_derivatives_expectation() {
+    use difftransient::render_diff;
+    let scene = common::load("liquid_glass.toml");
+    let runs: Vec<Vec<[Vec<f64>; 2]>> = [SampleSequence::Independent, SampleSequence::Sobol]
+        .iter()
+        .enumerate()
+        .map(|(j, &q)| {
+            let mut s = scene.clone();
+            s.integrator.sampler = q;
+            (0..K)
+                .map(|k| {
+                    let o = RenderOptions {
+                        spp: Some(16),
+                        seed: Some(500 * j as u64 + k),
+                        threads: Some(2),
+                        ..Default::default()
+                    };
+                    let (_, d, _) = render_diff(&s, &["liquid_ior".to_string()], &o).unwrap();
+                    [
+                        common::blocks_and_bin_groups(&d[0], 4),
+                        d[0].bin_totals().into_iter().map(|v| v as f64).collect(),
+                    ]
+                })
+                .collect()
+        })
+        .collect();
+    for (a, what) in ["blocks x bin groups", "bins"].iter().enumerate() {
+        let x: Vec<Vec<f64>> = runs[0].iter().map(|r| r[a].clone()).collect();
+        let y: Vec<Vec<f64>> = runs[1].iter().map(|r| r[a].clone()).collect();
+        let (chi2, zmax, n) = common::two_sample_z(&x, &y);
+        let (mean, sd) = common::t2_sum_moments(n as f64, (K - 1) as f64);
+        eprintln!("d/d liquid_ior {what}: Σz² = {chi2:.1} (expect {mean:.1} ± {sd:.1}) over {n}, max|z| = {zmax:.2}");
+        assert!(n > 0);
+        assert!(
+            chi2 <= mean + 5.0 * sd,
+            "d/d liquid_ior {what}: Sobol and independent disagree"
+        );
+        assert!(
+            zmax <= 8.0,
+            "d/d liquid_ior {what}: an entry is {zmax:.1} standard errors off"
+        );
+    }
+}
