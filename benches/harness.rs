@@ -80,7 +80,7 @@ fn main() {
     };
     let workloads = vec![
         forward("cornell", cornell.clone(), None, "path", "cornell"),
-        forward("cornell", sobol(cornell.clone()), None, "path, Sobol points", "cornell"),
+        forward("cornell", sobol(cornell.clone()), None, "path-sobol", "cornell"),
         forward(
             "cornell",
             cornell.clone(),
