@@ -14,7 +14,8 @@
 //! pulse and one pose parameter (derivative: interior alone, and interior + primary + secondary
 //! boundary, both against a full-gradient reference); the Cornell box plus a ~1M-triangle
 //! bumpy sphere; scenes/gated_laser_room.toml (a laser spot on a wall seen through a gated
-//! window: path tracer and BDPT). Steady images integrate the window (the default).
+//! window: path tracer and BDPT); scenes/lamp_shade.toml (a lamp inside a shade open at the
+//! top, the room lit by way of the ceiling: path tracer and BDPT). Steady images integrate the window (the default).
 
 mod common;
 use common::{bare_seconds, bounce_rays, camera_rays, rel_l2, shadow_rays, with_pose_param};
@@ -55,6 +56,7 @@ fn main() {
     let cornell = Scene::load(&root.join("scenes/cornell_box.toml"), &[]).unwrap();
     let gated = Scene::load(&root.join("scenes/gated_laser_room.toml"), &[]).unwrap();
     let nlos = Scene::load(&root.join("scenes/nlos_occluder.toml"), &[]).unwrap();
+    let lamp_shade = Scene::load(&root.join("scenes/lamp_shade.toml"), &[]).unwrap();
     let forward = |name, scene: Scene, integrator, estimator, reference| Workload {
         name,
         scene,
@@ -95,6 +97,15 @@ fn main() {
         // where BDPT's light subpaths from the spot might pay
         forward("gated_laser", gated.clone(), None, "path", "gated_laser"),
         forward("gated_laser", gated, Some(IntegratorKind::Bdpt), "bdpt", "gated_laser"),
+        // a light behind an occluder (a lamp in a shade open at the top): where BDPT pays
+        forward("lamp_shade", lamp_shade.clone(), None, "path", "lamp_shade"),
+        forward(
+            "lamp_shade",
+            lamp_shade,
+            Some(IntegratorKind::Bdpt),
+            "bdpt",
+            "lamp_shade",
+        ),
         // relay-wall captures (scenes/nlos_occluder.toml): a 16 × 16 confocal scan, and an
         // 8 × 8 exhaustive one (each sensor path connected to all 64 laser points)
         forward("nlos_confocal", nlos.clone(), None, "path", "nlos_confocal"),
