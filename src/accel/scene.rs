@@ -428,9 +428,9 @@ fn ray_ok(org: [f32; 3], dir: [f32; 3], tnear: f32, tfar: f32) -> bool {
 /// `active & ray_ok` per lane, eight lanes at once.
 #[inline(always)]
 fn valid_lanes(r: &Ray8, active: [bool; 8]) -> Valid8 {
-    use wide::{CmpGe, CmpLe, f32x8};
+    use wide::f32x8;
     let big = f32x8::splat(FLT_LARGE);
-    let fin = |a: &[f32; 8]| f32x8::from(*a).abs().cmp_le(big);
+    let fin = |a: &[f32; 8]| f32x8::from(*a).abs().simd_le(big);
     let (tn, tf) = (f32x8::from(r.tnear), f32x8::from(r.tfar));
     let ok = fin(&r.org_x)
         & fin(&r.org_y)
@@ -438,10 +438,12 @@ fn valid_lanes(r: &Ray8, active: [bool; 8]) -> Valid8 {
         & fin(&r.dir_x)
         & fin(&r.dir_y)
         & fin(&r.dir_z)
-        & tn.cmp_ge(f32x8::ZERO)
-        & tn.cmp_le(tf);
-    let bits = ok.move_mask();
-    Valid8(std::array::from_fn(|i| if active[i] { -((bits >> i) & 1) } else { 0 }))
+        & tn.simd_ge(f32x8::ZERO)
+        & tn.simd_le(tf);
+    let bits = ok.to_bitmask();
+    Valid8(std::array::from_fn(|i| {
+        if active[i] { -(((bits >> i) & 1) as i32) } else { 0 }
+    }))
 }
 
 /// An `RTCRay` with mask all-ones (a zero mask misses everything: ray masks are compiled

@@ -6,7 +6,7 @@
 
 use super::real::Real;
 use std::ops::{Add, AddAssign, Div, Mul, MulAssign, Neg, Sub, SubAssign};
-use wide::{CmpGe, CmpGt, CmpLe, CmpLt, f32x8};
+use wide::f32x8;
 
 #[derive(Clone, Copy, Debug)]
 pub struct Dual8<const P: usize> {
@@ -30,9 +30,9 @@ impl<const P: usize> Dual8<P> {
     /// 1/√x, with zero value and derivative where x ≤ 0.
     #[inline(always)]
     pub fn rsqrt(self) -> Self {
-        let pos = self.v.cmp_gt(f32x8::ZERO);
+        let pos = self.v.simd_gt(f32x8::ZERO);
         let s = f32x8::sqrt(f32x8::max(self.v, f32x8::splat(f32::MIN_POSITIVE)));
-        let r = pos.blend(f32x8::ONE / s, f32x8::ZERO);
+        let r = pos.select(f32x8::ONE / s, f32x8::ZERO);
         // d(x^-1/2) = -1/2 x^-3/2
         self.chain(r, r * r * r * f32x8::splat(-0.5))
     }
@@ -49,7 +49,7 @@ impl<const P: usize> Dual8<P> {
                         + t * (f32x8::splat(-1.453_152_1) + t * f32x8::splat(1.061_405_4)))));
         let g = (-(x * x)).exp();
         let y = f32x8::ONE - poly * g;
-        let v = x.cmp_lt(f32x8::ZERO).blend(-y, y);
+        let v = x.simd_lt(f32x8::ZERO).select(-y, y);
         self.chain(v, g * f32x8::splat(std::f32::consts::FRAC_2_SQRT_PI))
     }
 }
@@ -149,11 +149,11 @@ impl<const P: usize> Real for Dual8<P> {
     }
     #[inline(always)]
     fn lane(self, i: usize) -> f32 {
-        self.v.as_array_ref()[i]
+        self.v.as_array()[i]
     }
     #[inline(always)]
     fn deriv_lane(self, p: usize, i: usize) -> f32 {
-        if p < P { self.d[p].as_array_ref()[i] } else { 0.0 }
+        if p < P { self.d[p].as_array()[i] } else { 0.0 }
     }
     #[inline(always)]
     fn with_deriv_lanes(mut self, p: usize, d: &[f32]) -> Self {
@@ -165,22 +165,22 @@ impl<const P: usize> Real for Dual8<P> {
     #[inline(always)]
     fn sqrt(self) -> Self {
         let s = <f32x8 as Real>::sqrt(self.v);
-        let pos = s.cmp_gt(f32x8::ZERO);
-        let slope = pos.blend(f32x8::splat(0.5) / s, f32x8::ZERO);
+        let pos = s.simd_gt(f32x8::ZERO);
+        let slope = pos.select(f32x8::splat(0.5) / s, f32x8::ZERO);
         self.chain(s, slope)
     }
     #[inline(always)]
     fn abs(self) -> Self {
-        let neg = self.v.cmp_lt(f32x8::ZERO);
-        self.chain(self.v.abs(), neg.blend(f32x8::splat(-1.0), f32x8::ONE))
+        let neg = self.v.simd_lt(f32x8::ZERO);
+        self.chain(self.v.abs(), neg.select(f32x8::splat(-1.0), f32x8::ONE))
     }
     #[inline(always)]
     fn min(self, o: Self) -> Self {
-        Self::select(self.v.cmp_le(o.v), self, o)
+        Self::select(self.v.simd_le(o.v), self, o)
     }
     #[inline(always)]
     fn max(self, o: Self) -> Self {
-        Self::select(self.v.cmp_ge(o.v), self, o)
+        Self::select(self.v.simd_ge(o.v), self, o)
     }
     #[inline(always)]
     fn exp(self) -> Self {
@@ -195,25 +195,25 @@ impl<const P: usize> Real for Dual8<P> {
     #[inline(always)]
     fn select(m: f32x8, t: Self, f: Self) -> Self {
         Self {
-            v: m.blend(t.v, f.v),
-            d: std::array::from_fn(|k| m.blend(t.d[k], f.d[k])),
+            v: m.select(t.v, f.v),
+            d: std::array::from_fn(|k| m.select(t.d[k], f.d[k])),
         }
     }
     #[inline(always)]
     fn lt(self, o: Self) -> f32x8 {
-        self.v.cmp_lt(o.v)
+        self.v.simd_lt(o.v)
     }
     #[inline(always)]
     fn le(self, o: Self) -> f32x8 {
-        self.v.cmp_le(o.v)
+        self.v.simd_le(o.v)
     }
     #[inline(always)]
     fn gt(self, o: Self) -> f32x8 {
-        self.v.cmp_gt(o.v)
+        self.v.simd_gt(o.v)
     }
     #[inline(always)]
     fn ge(self, o: Self) -> f32x8 {
-        self.v.cmp_ge(o.v)
+        self.v.simd_ge(o.v)
     }
     #[inline(always)]
     fn is_finite(self) -> f32x8 {

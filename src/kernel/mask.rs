@@ -66,11 +66,11 @@ impl Mask for f32x8 {
     }
     #[inline(always)]
     fn bit(self, i: usize) -> bool {
-        (self.move_mask() >> i) & 1 == 1
+        (self.to_bitmask() >> i) & 1 == 1
     }
     #[inline(always)]
     fn bits(self) -> u32 {
-        self.move_mask() as u32
+        self.to_bitmask() as u32
     }
     #[inline(always)]
     fn any(self) -> bool {

@@ -3,7 +3,7 @@
 use super::mask::Mask;
 use std::fmt::Debug;
 use std::ops::{Add, AddAssign, Div, Mul, MulAssign, Neg, Sub, SubAssign};
-use wide::{CmpGe, CmpGt, CmpLe, CmpLt, f32x8};
+use wide::f32x8;
 
 /// A number carried through the path kernel: one lane (`f32`), eight lanes (`f32x8`), or eight
 /// lanes with forward-mode derivative lanes (dual numbers).
@@ -210,7 +210,7 @@ impl Real for f32x8 {
     }
     #[inline(always)]
     fn lane(self, i: usize) -> f32 {
-        self.as_array_ref()[i]
+        self.as_array()[i]
     }
     #[inline(always)]
     fn to_array8(self) -> [f32; 8] {
@@ -250,23 +250,23 @@ impl Real for f32x8 {
     }
     #[inline(always)]
     fn select(m: f32x8, t: Self, f: Self) -> Self {
-        m.blend(t, f)
+        m.select(t, f)
     }
     #[inline(always)]
     fn lt(self, o: Self) -> f32x8 {
-        self.cmp_lt(o)
+        self.simd_lt(o)
     }
     #[inline(always)]
     fn le(self, o: Self) -> f32x8 {
-        self.cmp_le(o)
+        self.simd_le(o)
     }
     #[inline(always)]
     fn gt(self, o: Self) -> f32x8 {
-        self.cmp_gt(o)
+        self.simd_gt(o)
     }
     #[inline(always)]
     fn ge(self, o: Self) -> f32x8 {
-        self.cmp_ge(o)
+        self.simd_ge(o)
     }
     #[inline(always)]
     fn is_finite(self) -> f32x8 {

@@ -159,7 +159,10 @@ pub(crate) fn parse(
     }
     match format {
         Format::Toml => {
-            let de = toml::Deserializer::new(text);
+            let de = toml::Deserializer::parse(text).map_err(|e| {
+                let pos = e.span().map(|s| line_column(text, s.start));
+                typed(Vec::new(), e.message().replace("`", "'"), pos)
+            })?;
             serde_path_to_error::deserialize::<_, SceneDesc>(de).map_err(|e| {
                 let segs = segments(e.path());
                 let inner = e.into_inner();
