@@ -9,8 +9,9 @@
 //!
 //! `cargo bench --bench embree_bare` (about 20 s).
 
-use criterion::{Criterion, Throughput, black_box, criterion_group, criterion_main};
+use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use difftransient::accel::{Accel, Device, Ray8, set_flush_denormals};
+use std::hint::black_box;
 use std::time::Duration;
 
 fn quad_grid(p: &mut Vec<[f32; 3]>, t: &mut Vec<[u32; 3]>, o: [f32; 3], a: [f32; 3], b: [f32; 3], n: u32) {

@@ -9,10 +9,11 @@
 //!
 //! Run: `cargo bench --bench micro`.
 
-use criterion::{Criterion, Throughput, black_box, criterion_group, criterion_main};
+use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use difftransient::film::{Accumulate, TileFilm};
 use difftransient::kernel::{Dual8, Real, V3, f32x8};
 use difftransient::temporal::{Correlation, Gate, Pulse, TimeAxis};
+use std::hint::black_box;
 use std::time::Duration;
 
 fn chain<R: Real>(a: V3<R>, b: V3<R>) -> R {

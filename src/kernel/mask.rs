@@ -70,7 +70,7 @@ impl Mask for f32x8 {
     }
     #[inline(always)]
     fn bits(self) -> u32 {
-        self.to_bitmask() as u32
+        self.to_bitmask()
     }
     #[inline(always)]
     fn any(self) -> bool {

@@ -29,7 +29,7 @@ fn reverse_bits(x: u32x8) -> u32x8 {
 fn lk_permute(mut x: u32x8, seed: u32x8) -> u32x8 {
     x ^= x * u32x8::splat(0x3d20_adea);
     x += seed;
-    x = x * ((seed >> 16u32) | u32x8::splat(1));
+    x *= (seed >> 16u32) | u32x8::splat(1);
     x ^= x * u32x8::splat(0x0552_6c56);
     x ^= x * u32x8::splat(0x53a2_2864);
     x
