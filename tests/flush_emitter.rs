@@ -93,3 +93,47 @@ fn a_light_flush_with_the_ceiling_matches_one_just_below_it() {
         }
     }
 }
+
+/// scenes/cornell_glass.toml with its glass block's centre at height `y` (half-height 0.6 m:
+/// the block stands on the floor at y = 0.6).
+fn cornell_glass_with_block_at(y: f64) -> Result<Scene, String> {
+    let text = std::fs::read_to_string(common::scene_path("cornell_glass.toml")).unwrap();
+    let mut v: toml::Value = toml::from_str(&text).unwrap();
+    let block = v["shape"]
+        .as_array_mut()
+        .unwrap()
+        .iter_mut()
+        .find(|s| s["name"].as_str() == Some("tall_box"))
+        .unwrap();
+    block["translate"] = toml::Value::try_from([-0.33, y, -0.29]).unwrap();
+    Scene::from_str(
+        &toml::to_string(&v).unwrap(),
+        Format::Toml,
+        Path::new("glass.toml"),
+        &[],
+    )
+    .map_err(|e| e.to_string())
+}
+
+/// A dielectric standing flush on another surface (a glass block on the floor: its bottom
+/// face in the floor plane) leaves it to rounding whether a ray inside the glass meets the
+/// glass or the floor there: refused, naming both shapes, the field and the gap that is
+/// needed (src/scene/flush.rs). Standing on the floor, sunk into it by less than the lift
+/// and hovering above it by less are all flush; 1 mm of air is not.
+#[test]
+fn a_dielectric_flush_on_another_surface_is_refused() {
+    for y in [0.6, 0.6 - 1e-5, 0.6 + 1e-5] {
+        let e = cornell_glass_with_block_at(y)
+            .err()
+            .unwrap_or_else(|| panic!("y = {y}: not refused"));
+        assert!(
+            e.contains("glass.toml")
+                && e.contains("shape[7] \"tall_box\": field 'translate'")
+                && e.contains("\"floor\"")
+                && e.contains("gap of more than"),
+            "{e}"
+        );
+    }
+    let lifted = cornell_glass_with_block_at(0.601).unwrap_or_else(|e| panic!("{e}"));
+    assert!(lifted.lifted_emitters.is_empty());
+}
