@@ -174,8 +174,9 @@ fn judge(label: &str, ad: &[Vec<f64>], r: &Runs) -> Verdict {
 /// the derivative is concentrated in a few aggregates (the shadow's edges), this resolves a
 /// scaled derivative far better than Σz² over all aggregates, whose other entries only add
 /// noise. The weights come from the same runs, so they correlate with AD − R (by var(AD) −
-/// var(R) per aggregate); that biases the fit by about Σ_i (var(AD_i) − var(R_i)) / v_i over
-/// Σ_i w_i m_i, a few hundredths of its standard error here. Returns (mean, standard error).
+/// var(R) per aggregate); that biases the fit by about Σ_i (var(AD_i) − var(R_i)) / (2 K v_i)
+/// over Σ_i w_i m_i (K seeds), at most n / (2K) over that: about 0.1 % here, a tenth of its
+/// standard error. Returns (mean, standard error).
 fn relative_bias(ad: &[Vec<f64>], r: &Runs) -> (f64, f64) {
     let seeds = ad.len();
     let n = ad[0].len();
@@ -330,9 +331,11 @@ fn glass_ball_pose_bdpt() {
 /// what Σz² spreads over 26 of them; the boundary stage gets 2048 samples per pixel (its
 /// noise dominated there), the FD 1024 (the ±2h renders of Richardson's reference 256). 32
 /// seeds, 59 s of CPU time. Measured (seeds 0..32): the full derivative −1.87 % ± 0.93 %
-/// (z −2.0); × 0.95 → z −7.5, but × 1.05 → z 3.2 only, so 5 % is not resolved upwards: the fit
+/// (z −2.0); × 0.93 → z −9.7 and × 1.07 → z 5.3 (asserted); × 0.95 → z −7.5, but × 1.05 → z
+/// 3.2 only, so 5 % is not resolved upwards: the fit
 /// sits about 2 % low (48 seeds: −2.09 % ± 0.76 %, z −2.75; 16 seeds: +0.39 % ± 1.15 %), a
-/// possible 2 % bias of the derivative (or of the reference) that is not found yet. A light 4×
+/// possible 2 % bias of the derivative (or of the reference) that is not found yet; with
+/// h = 0.06 instead of 0.03 the same seeds gave −1.31 % ± 0.85 %, so it is not the step. A light 4×
 /// as large gave ± 2.5 % at 16 seeds (a softer shadow edge, less concentrated), with α 0.5
 /// too ± 1.8 %, against ± 1.15 % here.
 #[test]
