@@ -13,26 +13,35 @@ const SEEDS: u64 = 6;
 /// 2 integrators × 2 measures: a z bound of 3.5 keeps a false alarm below 0.2%.
 const Z: f64 = 3.5;
 
-/// The Cornell box (32×32, 4 bounces) with its light quad at height `y`.
-fn cornell_with_light_at(y: f64) -> Scene {
-    let text = std::fs::read_to_string(common::scene_path("cornell_box.toml")).unwrap();
+/// Scene file `name` from scenes/ with shape `shape` moved to `to`, after `edit`, loaded as
+/// `as_file`.
+fn moved(
+    name: &str,
+    shape: &str,
+    to: [f64; 3],
+    edit: impl FnOnce(&mut toml::Value),
+    as_file: &str,
+) -> Result<Scene, String> {
+    let text = std::fs::read_to_string(common::scene_path(name)).unwrap();
     let mut v: toml::Value = toml::from_str(&text).unwrap();
-    v["camera"]["resolution"] = toml::Value::try_from([32, 32]).unwrap();
-    v["integrator"]["max_bounces"] = toml::Value::Integer(4);
-    let light = v["shape"]
+    edit(&mut v);
+    let entry = v["shape"]
         .as_array_mut()
         .unwrap()
         .iter_mut()
-        .find(|s| s["name"].as_str() == Some("light_quad"))
+        .find(|s| s["name"].as_str() == Some(shape))
         .unwrap();
-    light["translate"] = toml::Value::try_from([0.0, y, 0.0]).unwrap();
-    Scene::from_str(
-        &toml::to_string(&v).unwrap(),
-        Format::Toml,
-        Path::new("flush.toml"),
-        &[],
-    )
-    .unwrap_or_else(|e| panic!("{e}"))
+    entry["translate"] = toml::Value::try_from(to).unwrap();
+    Scene::from_str(&toml::to_string(&v).unwrap(), Format::Toml, Path::new(as_file), &[]).map_err(|e| e.to_string())
+}
+
+/// The Cornell box (32×32, 4 bounces) with its light quad at height `y`.
+fn cornell_with_light_at(y: f64) -> Scene {
+    let edit = |v: &mut toml::Value| {
+        v["camera"]["resolution"] = toml::Value::try_from([32, 32]).unwrap();
+        v["integrator"]["max_bounces"] = toml::Value::Integer(4);
+    };
+    moved("cornell_box.toml", "light_quad", [0.0, y, 0.0], edit, "flush.toml").unwrap_or_else(|e| panic!("{e}"))
 }
 
 fn renders(scene: &Scene, kind: IntegratorKind, seed0: u64) -> Vec<Transient> {
@@ -92,4 +101,39 @@ fn a_light_flush_with_the_ceiling_matches_one_just_below_it() {
             );
         }
     }
+}
+
+/// scenes/cornell_glass.toml with its glass block's centre at height `y` (half-height 0.6 m:
+/// the block stands on the floor at y = 0.6).
+fn cornell_glass_with_block_at(y: f64) -> Result<Scene, String> {
+    moved(
+        "cornell_glass.toml",
+        "tall_box",
+        [-0.33, y, -0.29],
+        |_| {},
+        "glass.toml",
+    )
+}
+
+/// A dielectric standing flush on another surface (a glass block on the floor: its bottom
+/// face in the floor plane) leaves it to rounding whether a ray inside the glass meets the
+/// glass or the floor there: refused, naming both shapes, the field and the gap that is
+/// needed (src/scene/flush.rs). Standing on the floor, sunk into it by less than the lift
+/// and hovering above it by less are all flush; 1 mm of air is not.
+#[test]
+fn a_dielectric_flush_on_another_surface_is_refused() {
+    for y in [0.6, 0.6 - 1e-5, 0.6 + 1e-5] {
+        let e = cornell_glass_with_block_at(y)
+            .err()
+            .unwrap_or_else(|| panic!("y = {y}: not refused"));
+        assert!(
+            e.contains("glass.toml")
+                && e.contains("shape[7] \"tall_box\": field 'translate'")
+                && e.contains("\"floor\"")
+                && e.contains("gap of more than"),
+            "{e}"
+        );
+    }
+    let lifted = cornell_glass_with_block_at(0.601).unwrap_or_else(|e| panic!("{e}"));
+    assert!(lifted.lifted_emitters.is_empty());
 }

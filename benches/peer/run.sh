@@ -1,6 +1,9 @@
 #!/usr/bin/env bash
 # Optional peer comparison (not in CI): installs mitsuba 3.9.1 + mitransient 1.3.1 into a venv,
 # Debian's libllvm19 for Dr.Jit's LLVM backend (LLVM 15 aborts), builds dtr, and runs the script.
+# PEER_NEE_FIX=1 runs it with a copy of the venv (bench-out/peer-venv-neefix) whose mitransient
+# places next-event segments taken through a refraction at the far side's index
+# (nee_opl_fix.py; BENCHMARKS.md, "Rough dielectrics against mitransient's roughdielectric").
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 apt-get install -y -qq libllvm19 >/dev/null
@@ -8,4 +11,10 @@ apt-get install -y -qq libllvm19 >/dev/null
 bench-out/peer-venv/bin/pip install -q mitsuba==3.9.1 mitransient==1.3.1 numpy
 cargo build --release -q
 export DRJIT_LIBLLVM_PATH=$(ls /usr/lib/*-linux-gnu/libLLVM-19.so* | head -n 1)
-exec bench-out/peer-venv/bin/python benches/peer/compare_mitransient.py "$@"
+venv=bench-out/peer-venv
+if [ "${PEER_NEE_FIX:-0}" = 1 ]; then
+  [ -x bench-out/peer-venv-neefix/bin/python ] || cp -a bench-out/peer-venv bench-out/peer-venv-neefix
+  bench-out/peer-venv-neefix/bin/python benches/peer/nee_opl_fix.py bench-out/peer-venv-neefix
+  venv=bench-out/peer-venv-neefix
+fi
+exec "$venv"/bin/python benches/peer/compare_mitransient.py "$@"

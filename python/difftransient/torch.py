@@ -28,32 +28,36 @@ __all__ = ["render", "RenderFunction"]
 
 
 class RenderFunction(torch.autograd.Function):
-    """forward(theta, scene, names, options) → transient; backward → dL/dθ by the adjoint."""
+    """forward(theta, scene, names, options, estimators) → transient; backward → dL/dθ by the
+    adjoint with those estimators."""
 
     @staticmethod
-    def forward(ctx, theta: torch.Tensor, scene: Scene, names: Sequence[str], options: dict):
+    def forward(ctx, theta: torch.Tensor, scene: Scene, names: Sequence[str], options: dict,
+                estimators: str = "full"):
         values = {n: float(v) for n, v in zip(names, theta.detach().cpu().tolist())}
         at = scene.with_params(values)
         r = _render(at, **options)
-        ctx.scene, ctx.names, ctx.options = at, list(names), options
+        ctx.scene, ctx.names, ctx.options, ctx.estimators = at, list(names), options, estimators
         ctx.theta_dtype, ctx.theta_device = theta.dtype, theta.device
         return torch.from_numpy(r.transient).to(theta.device)
 
     @staticmethod
     def backward(ctx, grad_output: torch.Tensor):
-        options = dict(ctx.options)
+        options = dict(ctx.options, estimators=ctx.estimators)
         options["seed"] = (options.get("seed") or 0) + 1
         adj = grad_output.detach().to("cpu", torch.float32).contiguous().numpy()
         g, _ = gradient(ctx.scene, ctx.names, adj, **options)
         grad = torch.from_numpy(np.asarray(g)).to(ctx.theta_dtype).to(ctx.theta_device)
-        return grad, None, None, None
+        return grad, None, None, None, None
 
 
 def render(scene: Scene, names: Sequence[str], theta: torch.Tensor, *, spp: Optional[int] = None,
-           seed: Optional[int] = None, threads: Optional[int] = None) -> torch.Tensor:
+           seed: Optional[int] = None, threads: Optional[int] = None, estimators: str = "full") -> torch.Tensor:
     """The transient [H, W, T, C] of `scene` with parameters `names` set to `theta` (1-D),
-    differentiable with respect to `theta`."""
+    differentiable with respect to `theta`. `estimators` is the backward pass's choice of
+    gradient terms, as in `difftransient.gradient` ("interior" for a smooth dielectric's index,
+    whose boundary term is refused)."""
     if theta.dim() != 1 or theta.numel() != len(names):
         raise ValueError(f"theta must be 1-D with one value per name ({len(names)}), got shape {tuple(theta.shape)}")
     options = {"spp": spp, "seed": seed, "threads": threads}
-    return RenderFunction.apply(theta, scene, list(names), options)
+    return RenderFunction.apply(theta, scene, list(names), options, estimators)

@@ -191,3 +191,36 @@ def test_torch_adapter_backward_is_the_adjoint():
     assert theta.grad.dtype == torch.float64
     # both too bright: the loss falls as albedo and intensity fall
     assert (theta.grad.numpy() > 0).all()
+
+
+def test_smooth_dielectric_index_needs_estimators_interior():
+    """A smooth dielectric's index has no boundary term (supplemental assumption A.4): refused
+    by default, computed with estimators="interior" by render_diff and by gradient (the
+    adjoint the optimizers use), the latter the contraction of the former's derivative film."""
+    s = scene("slab_ior.toml")
+    with pytest.raises(dt.RenderError, match="--estimators interior"):
+        dt.render_diff(s, ["slab_ior"], spp=2)
+    with pytest.raises(dt.RenderError, match="--estimators interior"):
+        dt.gradient(s, ["slab_ior"], np.ones(s.shape, np.float32), spp=2)
+    d = dt.render_diff(s, ["slab_ior"], spp=4, seed=5, estimators="interior")
+    dI = d.derivatives["slab_ior"]
+    assert np.isfinite(dI).all() and np.abs(dI).sum() > 0
+    adj = np.random.default_rng(1).standard_normal(s.shape).astype(np.float32)
+    g, _ = dt.gradient(s, ["slab_ior"], adj, spp=4, seed=5, estimators="interior")
+    want = float((adj.astype(np.float64) * dI).sum())
+    assert abs(g[0] - want) <= 1e-4 * (np.abs(adj) * np.abs(dI)).sum(), (g[0], want)
+
+
+def test_torch_adapter_passes_estimators_to_the_backward_pass():
+    torch = pytest.importorskip("torch")
+    from difftransient.torch import render
+
+    s = scene("slab_ior.toml")
+    theta = torch.tensor([1.5], dtype=torch.float64, requires_grad=True)
+    with pytest.raises(dt.RenderError, match="--estimators interior"):
+        render(s, ["slab_ior"], theta, spp=2, seed=3).sum().backward()
+    theta.grad = None
+    image = render(s, ["slab_ior"], theta, spp=2, seed=3, estimators="interior")
+    image.sum().backward()
+    g, _ = dt.gradient(s, ["slab_ior"], np.ones(s.shape, np.float32), spp=2, seed=4, estimators="interior")
+    np.testing.assert_allclose(theta.grad.numpy(), g, rtol=1e-6)

@@ -55,55 +55,67 @@ fn overlap(e: [Vec3; 3], o: [Vec3; 3], n: Vec3) -> bool {
     (0..3).any(|i| (0..3).any(|j| segments_cross(e[i], e[(i + 1) % 3], o_flat[j], o_flat[(j + 1) % 3], n)))
 }
 
+/// The faces of other shapes that `shape` lies flush on: for each parallel triangle `o` of
+/// another shape that one of its triangles overlaps less than `lift` in front of or behind,
+/// `(o, n, d)` with `n` that triangle's unit normal and `d` its signed distance in front of
+/// `o`'s plane along `n`; and that `lift`.
+fn flush_faces(shape: &Shape, geo: &Geometry) -> (Vec<(usize, Vec3, f32)>, f32) {
+    let tris = shape.first_tri as usize..(shape.first_tri + shape.tri_count) as usize;
+    let verts = shape.first_vertex as usize..(shape.first_vertex + shape.vertex_count) as usize;
+    let m = geo.positions[verts.clone()]
+        .iter()
+        .fold(1.0f32, |m, p| m.max(p.abs().max_element()));
+    let delta = lift(m);
+    let (lo, hi) = geo.positions[verts]
+        .iter()
+        .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), &p| {
+            (lo.min(p), hi.max(p))
+        });
+    let (lo, hi) = (lo - delta, hi + delta);
+    let mut found = Vec::new();
+    for o in 0..geo.indices.len() {
+        if tris.contains(&o) {
+            continue;
+        }
+        let oc = corners(geo, o);
+        let (olo, ohi) = (oc[0].min(oc[1]).min(oc[2]), oc[0].max(oc[1]).max(oc[2]));
+        if olo.cmpgt(hi).any() || ohi.cmplt(lo).any() {
+            continue;
+        }
+        let on = (oc[1] - oc[0]).cross(oc[2] - oc[0]).normalize_or_zero();
+        for t in tris.clone() {
+            let ec = corners(geo, t);
+            let n = (ec[1] - ec[0]).cross(ec[2] - ec[0]).normalize_or_zero();
+            if n == Vec3::ZERO || on == Vec3::ZERO || n.dot(on).abs() < 1.0 - 1e-6 {
+                continue;
+            }
+            let d = ec.iter().map(|&p| (p - oc[0]).dot(n)).fold(f32::INFINITY, f32::min);
+            if d.abs() < delta && overlap(ec, oc, n) {
+                found.push((o, n, d));
+            }
+        }
+    }
+    (found, delta)
+}
+
 /// Moves every area-emitter shape that lies flush on (or less than [`lift`] in front of or
 /// behind) a parallel surface it overlaps, along its emitting normal, to `lift` in front of
 /// it. Returns the names of the shapes moved.
 pub(crate) fn lift_flush_emitters(shapes: &mut [Shape], geo: &mut Geometry) -> Vec<String> {
     let mut moved = Vec::new();
     for shape in shapes.iter_mut().filter(|s| s.emitter.is_some()) {
-        let tris = shape.first_tri as usize..(shape.first_tri + shape.tri_count) as usize;
-        let verts = shape.first_vertex as usize..(shape.first_vertex + shape.vertex_count) as usize;
-        let m = geo.positions[verts.clone()]
-            .iter()
-            .fold(1.0f32, |m, p| m.max(p.abs().max_element()));
-        let delta = lift(m);
-        let (lo, hi) = geo.positions[verts.clone()]
-            .iter()
-            .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), &p| {
-                (lo.min(p), hi.max(p))
-            });
-        let (lo, hi) = (lo - delta, hi + delta);
+        let (faces, delta) = flush_faces(shape, geo);
         // the largest shift along each flagged normal
-        let mut shift: Option<(Vec3, f32)> = None;
-        for o in 0..geo.indices.len() {
-            if tris.contains(&o) {
-                continue;
-            }
-            let oc = corners(geo, o);
-            let (olo, ohi) = (oc[0].min(oc[1]).min(oc[2]), oc[0].max(oc[1]).max(oc[2]));
-            if olo.cmpgt(hi).any() || ohi.cmplt(lo).any() {
-                continue;
-            }
-            let on = (oc[1] - oc[0]).cross(oc[2] - oc[0]).normalize_or_zero();
-            for t in tris.clone() {
-                let ec = corners(geo, t);
-                let n = (ec[1] - ec[0]).cross(ec[2] - ec[0]).normalize_or_zero();
-                if n == Vec3::ZERO || on == Vec3::ZERO || n.dot(on).abs() < 1.0 - 1e-6 {
-                    continue;
-                }
-                // signed distance of the emitter in front of the other plane, along n
-                let d = ec.iter().map(|&p| (p - oc[0]).dot(n)).fold(f32::INFINITY, f32::min);
-                if d.abs() >= delta || !overlap(ec, oc, n) {
-                    continue;
-                }
-                let need = delta - d;
-                if shift.is_none_or(|(_, k)| need > k) {
-                    shift = Some((n, need));
-                }
-            }
-        }
+        let shift = faces
+            .iter()
+            .map(|&(_, n, d)| (n, delta - d))
+            .fold(None, |best: Option<(Vec3, f32)>, (n, need)| match best {
+                Some((_, k)) if k >= need => best,
+                _ => Some((n, need)),
+            });
         if let Some((n, k)) = shift {
             let by = n * k;
+            let verts = shape.first_vertex as usize..(shape.first_vertex + shape.vertex_count) as usize;
             for p in &mut geo.positions[verts] {
                 *p += by;
             }
@@ -112,4 +124,28 @@ pub(crate) fn lift_flush_emitters(shapes: &mut [Shape], geo: &mut Geometry) -> V
         }
     }
     moved
+}
+
+/// The first dielectric shape found lying flush on another surface it overlaps (a glass
+/// block standing on a floor, a liquid filling its container to the walls), with that other
+/// shape and the separation needed: two triangles at the same distance leave it to rounding
+/// which one a ray meets, so whether a path enters the glass, or stays in it, is undefined
+/// there (and differs between renderers). Such scenes are refused (`resolve.rs`), not
+/// repaired: lifting the glass off a floor is a small air gap, but the same gap between a
+/// liquid and its container would be wrong.
+pub(crate) fn flush_dielectric(
+    shapes: &[Shape],
+    geo: &Geometry,
+    materials: &[super::NamedMaterial],
+) -> Option<(usize, usize, f32)> {
+    shapes.iter().enumerate().find_map(|(i, shape)| {
+        if !matches!(
+            materials[shape.material as usize].material,
+            super::Material::Dielectric { .. }
+        ) {
+            return None;
+        }
+        let (faces, delta) = flush_faces(shape, geo);
+        faces.first().map(|&(o, _, _)| (i, geo.tri_shape[o] as usize, delta))
+    })
 }

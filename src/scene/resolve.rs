@@ -9,7 +9,7 @@
 
 use super::context::{Ctx, Names, count, index_names};
 use super::desc::SceneDesc;
-use super::error::table_field;
+use super::error::{item_field, table_field};
 use super::{IntegratorSpec, Scene, SceneError, camera_film, emitters, materials};
 use std::collections::HashMap;
 use std::path::Path;
@@ -61,6 +61,19 @@ pub(crate) fn resolve(mut desc: SceneDesc, path: &Path, overrides: &[(String, f6
     let mut film = camera_film::film(&desc.film, width, height, channels, filter, &ctx)?;
     let (mut shapes, mut geometry) = super::shapes::build(&desc, &names, &emitters, &ctx, meshes, origin)?;
     let lifted_emitters = super::flush::lift_flush_emitters(&mut shapes, &mut geometry);
+    if let Some((d, o, delta)) = super::flush::flush_dielectric(&shapes, &geometry, &materials) {
+        let (name, other) = (&shapes[d].name, &shapes[o].name);
+        let index = names.shapes.iter().position(|n| n == name).unwrap_or(d);
+        return Err(ctx.invalid(
+            item_field("shape", index, name, "translate"),
+            format!(
+                "the dielectric shape {name:?} lies flush on shape {other:?} (a face of each in one plane, \
+                 overlapping, closer than {delta:.1e} m): which of the two a ray meets there is left to \
+                 rounding, so whether a path enters the dielectric is undefined; leave a gap of more than \
+                 {delta:.1e} m between them (e.g. 1 mm of air)"
+            ),
+        ));
+    }
     let nlos = super::nlos::resolve(
         &desc,
         &names,
