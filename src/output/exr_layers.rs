@@ -84,8 +84,10 @@ fn write(path: &Path, film: FilmView, steady: &[f32], axis: Option<(f64, f64)>) 
         channels.push(AnyChannel::new(name.as_str(), FlatSamples::F32(plane)));
     }
 
-    let mut attributes = LayerAttributes::default();
-    attributes.software_name = Some(Text::from(concat!("difftransient ", env!("CARGO_PKG_VERSION"))));
+    let mut attributes = LayerAttributes {
+        software_name: Some(Text::from(concat!("difftransient ", env!("CARGO_PKG_VERSION")))),
+        ..Default::default()
+    };
     let other = &mut attributes.other;
     other.insert(Text::from("time_bins"), AttributeValue::I32(bins as i32));
     if let Some((start, width)) = axis {
