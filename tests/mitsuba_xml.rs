@@ -303,6 +303,15 @@ fn included_files_are_read_relative_to_the_including_file() {
            <shape type="rectangle"><ref id="paint"/></shape>"#,
     );
     let s = load_in(dir.path(), "s.xml", &text).unwrap_or_else(|e| panic!("{e}"));
+    let inputs: Vec<String> = s.inputs.iter().map(|p| p.display().to_string()).collect();
+    for file in [
+        "s.xml",
+        "parts/meshes/p.obj",
+        "parts/materials.xml",
+        "parts/more/paint.xml",
+    ] {
+        assert!(inputs.iter().any(|i| i.ends_with(file)), "{file} not in {inputs:?}");
+    }
     assert_eq!(s.shapes.len(), 2);
     assert_eq!(s.materials.len(), 1);
     assert_eq!(s.materials[0].material, Material::Diffuse { albedo: [0.25; 3] });

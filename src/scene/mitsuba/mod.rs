@@ -4,7 +4,8 @@
 //! Python's `Scene.load`), or is written out by `dtr import` to be read and edited.
 //!
 //! One file per concept: `xml.rs` (defaults, `$name` substitution, properties, line numbers),
-//! `include.rs` (`<include>`d files), `transform.rs`, `bsdf.rs`, `shape.rs`, `emitter.rs`, `sensor.rs`, `integrator.rs`.
+//! `include.rs` (`<include>`d files), `transform.rs`, `bsdf.rs`, `conductors.rs`, `shape.rs`,
+//! `emitter.rs`, `sensor.rs`, `integrator.rs`.
 //! Anything outside the subset is refused with the file, the element (tag, type, id, line)
 //! and what is supported.
 
@@ -41,6 +42,8 @@ pub struct Imported {
     pub toml: String,
     /// `(location prefix in our errors, XML element)`, e.g. `("shape[2]", "<shape ...> (line 9)")`.
     origins: Vec<(String, String)>,
+    /// The files the scene `<include>`s (each once), as named from the scene file's folder.
+    pub included: Vec<PathBuf>,
 }
 
 impl Imported {
@@ -143,7 +146,13 @@ fn import_str_for(text: &str, source: &Path, mesh_base: Option<&Path>) -> Result
     include::flatten(&docs, &files.links, 0, &mut items).map_err(invalid)?;
     let mut conv = Converter::new(&docs[0], mesh_base);
     conv.scene(root, &items).map_err(invalid)?;
-    Ok(conv.finish(source))
+    let mut imported = conv.finish(source);
+    for s in &files.sources[1..] {
+        if !imported.included.contains(&s.path) {
+            imported.included.push(s.path.clone());
+        }
+    }
+    Ok(imported)
 }
 
 /// Parses one file of the scene (DTDs refused).
@@ -439,6 +448,7 @@ impl<'d, 'a, 'input> Converter<'d, 'a, 'input> {
         Imported {
             toml: text,
             origins: self.origins,
+            included: Vec::new(),
         }
     }
 }
