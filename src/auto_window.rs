@@ -77,7 +77,18 @@ impl AutoWindow {
 /// with `opts`' seed and threads. Refuses relay-wall captures (their window is the hidden
 /// scene's, which the wall's own light would swamp) and scenes whose pilot sees no light.
 pub fn choose_window(path: &Path, overrides: &[(String, f64)], opts: &RenderOptions) -> Result<AutoWindow, Error> {
-    let scene = Scene::load(path, overrides)?;
+    choose_window_with(path, overrides, opts, |o| Ok(Scene::load(path, o)?))
+}
+
+/// [`choose_window`] for a scene that `load` builds with the overrides it is given (a
+/// description held in memory, say); `path` names the scene in messages.
+pub fn choose_window_with(
+    path: &Path,
+    overrides: &[(String, f64)],
+    opts: &RenderOptions,
+    load: impl Fn(&[(String, f64)]) -> Result<Scene, Error>,
+) -> Result<AutoWindow, Error> {
+    let scene = load(overrides)?;
     let refuse = |why: String| Err(Error::Invalid(format!("{}: --auto-window: {why}", path.display())));
     if scene.nlos.is_some() {
         return refuse(
@@ -100,7 +111,7 @@ pub fn choose_window(path: &Path, overrides: &[(String, f64)], opts: &RenderOpti
         ("film.bin_width_opl".to_string(), width),
         ("film.bins".to_string(), PILOT_BINS as f64),
     ]);
-    let pilot_scene = Scene::load(path, &pilot_overrides)?;
+    let pilot_scene = load(&pilot_overrides)?;
     let pilot_opts = RenderOptions {
         spp: Some(PILOT_SPP),
         progress: false,

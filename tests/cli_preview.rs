@@ -184,10 +184,13 @@ fn per_frame_normalisation_brings_every_lit_frame_to_white() {
     assert!(String::from_utf8_lossy(&bad.stderr).contains("normalise"));
 }
 
-/// `--exr` layers carry the film's time axis (f64 metres of OPL and ns), as the JSON does.
+/// `--exr` is one part whose default layer is the steady image (here all time, so it is not
+/// just the sum of the bins) and whose layer `tNNNN` is bin NNNN of the .npy, with the film's
+/// time axis (f64 metres of OPL and ns) in the header, as the JSON has it.
 #[test]
-fn exr_layers_carry_the_time_axis() {
+fn exr_holds_the_steady_image_every_bin_and_the_time_axis() {
     use exr::meta::attribute::{AttributeValue, Text};
+    use exr::prelude::{FlatSamples, ReadChannels, ReadLayers};
     let dir = tempfile::tempdir().unwrap();
     let scene = common::scene_path(SCENE);
     let prefix = dir.path().join("p");
@@ -198,6 +201,9 @@ fn exr_layers_carry_the_time_axis() {
             "--spp",
             "1",
             "--exr",
+            "--preview",
+            "--steady",
+            "full",
             "--set",
             "film.start_opl=4.0000001",
             "-o",
@@ -206,18 +212,58 @@ fn exr_layers_carry_the_time_axis() {
         dir.path(),
     );
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let meta = exr::meta::MetaData::read_from_file(with(&prefix, "exr"), false).unwrap();
     let json: serde_json::Value = serde_json::from_slice(&std::fs::read(with(&prefix, "json")).unwrap()).unwrap();
     let width = json["time_axis"]["bin_width_opl"].as_f64().unwrap();
     assert_eq!(json["time_axis"]["start_opl"].as_f64(), Some(4.0000001));
-    for (t, header) in meta.headers.iter().enumerate() {
-        let get = |k: &str| header.own_attributes.other.get(&Text::from(k)).cloned();
-        assert_eq!(get("start_opl"), Some(AttributeValue::F64(4.0000001)));
-        assert_eq!(get("bin_width_opl"), Some(AttributeValue::F64(width)));
-        assert_eq!(
-            get("opl_begin"),
-            Some(AttributeValue::F64(4.0000001 + t as f64 * width))
-        );
-        assert_eq!(get("opl_units"), Some(AttributeValue::Text(Text::from("metres"))));
+    let (shape, film) = npy(&with(&prefix, "npy"));
+    let (_, steady) = npy(&with(&prefix, "steady.npy"));
+    let [h, w, bins, c] = [0, 1, 2, 3].map(|i| shape[i] as usize);
+    let image = exr::prelude::read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .all_layers()
+        .all_attributes()
+        .from_file(with(&prefix, "exr"))
+        .unwrap();
+    assert_eq!(image.layer_data.len(), 1, "a single part");
+    let layer = &image.layer_data[0];
+    let get = |k: &str| layer.attributes.other.get(&Text::from(k)).cloned();
+    assert_eq!(get("start_opl"), Some(AttributeValue::F64(4.0000001)));
+    assert_eq!(get("bin_width_opl"), Some(AttributeValue::F64(width)));
+    assert_eq!(
+        get("end_opl"),
+        Some(AttributeValue::F64(4.0000001 + bins as f64 * width))
+    );
+    assert_eq!(get("time_bins"), Some(AttributeValue::I32(bins as i32)));
+    assert_eq!(get("opl_units"), Some(AttributeValue::Text(Text::from("metres"))));
+    let names: &[&str] = if c == 1 { &["Y"] } else { &["R", "G", "B"] };
+    assert_eq!(layer.channel_data.list.len(), (bins + 1) * c);
+    let plane = |name: &str| -> &Vec<f32> {
+        let ch = layer
+            .channel_data
+            .list
+            .iter()
+            .find(|ch| ch.name == *name)
+            .unwrap_or_else(|| panic!("{name}"));
+        match &ch.sample_data {
+            FlatSamples::F32(v) => v,
+            other => panic!("{name}: f32 expected, got {other:?}"),
+        }
+    };
+    let mut binned_sum = 0.0f64;
+    for (ci, n) in names.iter().enumerate() {
+        let default: Vec<f32> = (0..h * w).map(|p| steady[p * c + ci]).collect();
+        assert_eq!(plane(n), &default, "default layer {n} = steady.npy");
+        for t in 0..bins {
+            let bin: Vec<f32> = (0..h * w).map(|p| film[(p * bins + t) * c + ci]).collect();
+            binned_sum += bin.iter().map(|&v| v as f64).sum::<f64>();
+            assert_eq!(plane(&format!("t{t:04}.{n}")), &bin, "bin {t} channel {n}");
+        }
     }
+    let steady_sum: f64 = steady.iter().map(|&v| v as f64).sum();
+    assert!(
+        binned_sum > 0.0 && steady_sum > binned_sum,
+        "full steady {steady_sum} vs window {binned_sum}"
+    );
 }

@@ -230,12 +230,148 @@ fn an_obj_mesh_by_relative_file_name() {
     assert_eq!(s.shapes[0].local_positions, obj.shapes[k].local_positions);
 }
 
+#[test]
+fn a_twosided_bsdf_may_refer_to_another_by_id() {
+    let s = load(
+        r#"<bsdf type="diffuse" id="paint"><rgb name="reflectance" value="0.1, 0.7, 0.3"/></bsdf>
+           <bsdf type="twosided" id="two"><ref id="paint"/></bsdf>
+           <bsdf type="twosided" id="twice"><ref id="two"/></bsdf>
+           <shape type="rectangle"><ref id="twice"/></shape>
+           <shape type="rectangle"><bsdf type="twosided"><ref id="paint"/></bsdf></shape>"#,
+    );
+    let paint = Material::Diffuse {
+        albedo: [0.1, 0.7, 0.3],
+    };
+    assert_eq!(
+        s.materials.len(),
+        4,
+        "{:?}",
+        s.materials.iter().map(|m| &m.name).collect::<Vec<_>>()
+    );
+    assert!(s.materials.iter().all(|m| m.material == paint));
+    let of = |i: usize| &s.materials[s.shapes[i].material as usize].name;
+    assert_eq!(of(0), "twice");
+}
+
+/// A named conductor becomes its RGB complex index (src/scene/mitsuba/conductors.rs, computed
+/// from Mitsuba's spectra by tools/conductor_presets.py), on smooth and rough conductors.
+#[test]
+fn conductor_material_presets_become_their_rgb_index() {
+    let s = load(
+        r#"<shape type="rectangle"><bsdf type="conductor"><string name="material" value="Au"/></bsdf></shape>
+           <shape type="rectangle"><bsdf type="roughconductor"><string name="material" value="Cu"/><string name="distribution" value="ggx"/></bsdf></shape>
+           <shape type="rectangle"><bsdf type="conductor"><string name="material" value="none"/></bsdf></shape>"#,
+    );
+    let ior = |i: usize| match &s.materials[i].material {
+        Material::Conductor { ior, roughness, .. } => (*ior, *roughness),
+        m => panic!("{m:?}"),
+    };
+    assert_eq!(
+        ior(0),
+        (Some(([0.1431, 0.3750, 1.4425], [3.9832, 2.3857, 1.6032])), 0.0)
+    );
+    assert_eq!(
+        ior(1),
+        (Some(([0.2004, 0.9240, 1.1022], [3.9130, 2.4528, 2.1422])), 0.1)
+    );
+    assert_eq!(ior(2), (None, 0.0));
+}
+
+#[test]
+fn included_files_are_read_relative_to_the_including_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let sub = dir.path().join("parts");
+    std::fs::create_dir_all(sub.join("meshes")).unwrap();
+    std::fs::copy(common::scene_path("meshes/pyramid.obj"), sub.join("meshes/p.obj")).unwrap();
+    // the included file names its mesh and its own include relative to its folder, uses the
+    // including file's default, and defines a BSDF the scene file refers to
+    std::fs::write(
+        sub.join("materials.xml"),
+        r#"<scene version="3.0.0"><include filename="more/paint.xml"/>
+             <shape type="obj"><string name="filename" value="meshes/p.obj"/><ref id="paint"/></shape></scene>"#,
+    )
+    .unwrap();
+    std::fs::create_dir_all(sub.join("more")).unwrap();
+    std::fs::write(
+        sub.join("more/paint.xml"),
+        r#"<scene version="3.0.0"><default name="r" value="0.9"/>
+             <bsdf type="diffuse" id="paint"><float name="reflectance" value="$r"/></bsdf></scene>"#,
+    )
+    .unwrap();
+    let text = scene_text(
+        r#"<default name="r" value="0.25"/><include filename="parts/materials.xml"/>
+           <shape type="rectangle"><ref id="paint"/></shape>"#,
+    );
+    let s = load_in(dir.path(), "s.xml", &text).unwrap_or_else(|e| panic!("{e}"));
+    let inputs: Vec<String> = s.inputs.iter().map(|p| p.display().to_string()).collect();
+    for file in [
+        "s.xml",
+        "parts/meshes/p.obj",
+        "parts/materials.xml",
+        "parts/more/paint.xml",
+    ] {
+        assert!(inputs.iter().any(|i| i.ends_with(file)), "{file} not in {inputs:?}");
+    }
+    assert_eq!(s.shapes.len(), 2);
+    assert_eq!(s.materials.len(), 1);
+    assert_eq!(s.materials[0].material, Material::Diffuse { albedo: [0.25; 3] });
+    let obj = common::load("obj_mesh.toml");
+    let k = obj.shapes.iter().position(|s| s.name == "pyramid").unwrap();
+    assert_eq!(s.shapes[0].local_positions, obj.shapes[k].local_positions);
+}
+
+#[test]
+fn include_cycles_and_errors_in_included_files_name_that_file_and_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path();
+    let write = |name: &str, body: &str| {
+        std::fs::write(p.join(name), format!("<scene version=\"3.0.0\">{body}</scene>")).unwrap();
+    };
+    let include =
+        |name: &str| load_in(p, "s.xml", &scene_text(&format!(r#"<include filename="{name}"/>"#))).unwrap_err();
+    let shown = |name: &str| p.join(name).display().to_string();
+    write("a.xml", "\n<include filename=\"b.xml\"/>");
+    write("b.xml", "\n\n<include filename=\"a.xml\"/>");
+    let e = include("a.xml");
+    assert!(e.starts_with(&shown("b.xml")), "{e}");
+    assert!(e.contains(&format!("<include> (line 3 of {})", shown("b.xml"))), "{e}");
+    assert!(
+        e.contains("include cycle") && e.contains("a.xml includes") && e.contains("b.xml includes"),
+        "{e}"
+    );
+    // a file including itself
+    write("c.xml", "<include filename=\"./c.xml\"/>");
+    assert!(include("c.xml").contains("include cycle"));
+    // an unsupported element inside an included file: that file, its element and line
+    write("d.xml", "\n  <shape type=\"disk\"/>\n");
+    let e = include("d.xml");
+    assert!(e.starts_with(&shown("d.xml")), "{e}");
+    assert!(
+        e.contains(&format!("<shape type=\"disk\"> (line 2 of {})", shown("d.xml"))),
+        "{e}"
+    );
+    // a missing file and a syntax error in an included file
+    let e = include("none.xml");
+    assert!(
+        e.contains("cannot read the included file") && e.contains("none.xml"),
+        "{e}"
+    );
+    write("e.xml", "\n<shape>\n");
+    let e = include("e.xml");
+    assert!(e.starts_with(&shown("e.xml")) && e.contains("XML syntax error"), "{e}");
+}
+
 /// Bad inputs: (the scene text, a string on the offending element's line, what `at` names,
 /// what the message says).
 fn bad_cases() -> Vec<(String, &'static str, &'static str, &'static str)> {
     let body = |b: &str| scene_text(b);
     let rect = r#"<shape type="rectangle"/>"#;
-    vec![
+    let texture = |ty: &str| {
+        body(&format!(
+            r#"<shape type="rectangle"><bsdf type="diffuse"><texture type="{ty}" name="reflectance"/></bsdf></shape>"#
+        ))
+    };
+    let mut rows = vec![
         (
             body(r#"<shape type="disk"/>"#),
             r#"<shape type="disk""#,
@@ -249,14 +385,6 @@ fn bad_cases() -> Vec<(String, &'static str, &'static str, &'static str)> {
             "not supported",
         ),
         (
-            body(
-                r#"<shape type="rectangle"><bsdf type="diffuse"><texture type="bitmap" name="reflectance"/></bsdf></shape>"#,
-            ),
-            "<texture",
-            r#"<texture type="bitmap" name="reflectance">"#,
-            "textures are not supported",
-        ),
-        (
             body(r#"<shape type="rectangle"><bsdf type="roughconductor"/></shape>"#),
             "roughconductor",
             r#"<bsdf type="roughconductor">"#,
@@ -264,11 +392,11 @@ fn bad_cases() -> Vec<(String, &'static str, &'static str, &'static str)> {
         ),
         (
             body(
-                r#"<shape type="rectangle"><bsdf type="conductor"><string name="material" value="Au"/></bsdf></shape>"#,
+                r#"<shape type="rectangle"><bsdf type="conductor"><string name="material" value="W"/></bsdf></shape>"#,
             ),
-            "Au",
+            r#"value="W""#,
             r#"<string name="material">"#,
-            "eta and k",
+            "\"W\" is not built in (built in: Ag, Al, Au, Cr, Cu, none)",
         ),
         (
             body(r#"<bsdf type="thindielectric" id="t"/>"#),
@@ -279,8 +407,36 @@ fn bad_cases() -> Vec<(String, &'static str, &'static str, &'static str)> {
         (
             body(r#"<include filename="more.xml"/>"#),
             "<include",
-            "<include>",
-            "merge",
+            r#"<include>"#,
+            "cannot read the included file",
+        ),
+        (
+            body(
+                r#"<shape type="rectangle"><bsdf type="roughconductor"><string name="distribution" value="beckmann"/></bsdf></shape>"#,
+            ),
+            "beckmann",
+            r#"<string name="distribution">"#,
+            "\"beckmann\" is not supported (only \"ggx\")",
+        ),
+        (
+            body(
+                r#"<bsdf type="twosided" id="a"><ref id="b"/></bsdf><bsdf type="twosided" id="b"><ref id="a"/></bsdf>"#,
+            ),
+            r#"<ref id="b""#,
+            r#"<ref id="b">"#,
+            "cycle",
+        ),
+        (
+            body(r#"<bsdf type="twosided" id="a"><ref id="zz"/></bsdf>"#),
+            "zz",
+            r#"<ref id="zz">"#,
+            "no <bsdf id=\"zz\">",
+        ),
+        (
+            body(r#"<bsdf type="dielectric" id="g"/><bsdf type="twosided" id="a"><ref id="g"/></bsdf>"#),
+            r#"<ref id="g""#,
+            r#"<ref id="g">"#,
+            "cannot be two-sided",
         ),
         (
             body(r#"<emitter type="spot"/>"#),
@@ -409,7 +565,12 @@ fn bad_cases() -> Vec<(String, &'static str, &'static str, &'static str)> {
             "radiance",
         ),
         (body(r#"<shape type="rectangle">"#), "", "XML syntax error", ""),
-    ]
+    ];
+    // textures are refused whatever their type, naming the element and its line
+    for ty in ["bitmap", "checkerboard"] {
+        rows.push((texture(ty), "<texture", "<texture type=", "textures are not supported"));
+    }
+    rows
 }
 
 #[test]

@@ -8,6 +8,7 @@ handed over from the renderer without copying.
     import difftransient as dt
     scene = dt.Scene.load("scenes/cornell_box.toml")
     r = dt.render(scene, spp=16)
+    r = dt.render(scene, spp=16, auto_window=True)   # window over the light's arrival and decay
     r.transient.shape            # (H, W, T, C)
     d = dt.render_diff(scene, ["tall_box_x"], spp=16)
     d.derivatives["tall_box_x"]  # dI/dθ, same shape
@@ -51,6 +52,8 @@ class Scene:
 
     def __init__(self, native: _NativeScene):
         self._native = native
+        #: the window chosen by `auto_window` (a dict), or None
+        self.window: Optional[dict] = None
 
     @staticmethod
     def load(path: "os.PathLike[str] | str", params: Optional[Mapping[str, float]] = None) -> "Scene":
@@ -68,6 +71,16 @@ class Scene:
     def with_params(self, params: Mapping[str, float]) -> "Scene":
         """The same scene with the values of `params` ({name: value}) replaced."""
         return Scene(self._native.with_params(_pairs(params)))
+
+    def auto_window(self, *, seed: Optional[int] = None, threads: Optional[int] = None) -> "Scene":
+        """The same scene with its time window (film start and bin width; the number of bins
+        kept) chosen by a short pilot render over where the light arrives and decays, as
+        `dtr render --auto-window`. The returned scene's `window` is the choice (a dict: the
+        window, the pilot's resolution, spp, span and seconds)."""
+        native, info = self._native.auto_window(seed, threads)
+        scene = Scene(native)
+        scene.window = json.loads(info)
+        return scene
 
     @property
     def params(self) -> Dict[str, float]:
@@ -114,10 +127,19 @@ class DiffRender:
 
 
 def render(scene: Scene, *, spp: Optional[int] = None, seed: Optional[int] = None,
-           threads: Optional[int] = None) -> Render:
-    """Renders the scene's transient (spp and seed default to the scene's)."""
+           threads: Optional[int] = None, auto_window: bool = False) -> Render:
+    """Renders the scene's transient (spp and seed default to the scene's). With
+    `auto_window`, the time window is chosen first (`Scene.auto_window`, with this seed) and
+    the choice is `stats["auto_window"]`, as in the JSON of `dtr render --auto-window`."""
+    window = None
+    if auto_window:
+        scene = scene.auto_window(seed=seed, threads=threads)
+        window = scene.window
     t, steady, stats = _render(scene._native, spp, seed, threads)
-    return Render(t, steady, scene.bin_centres, json.loads(stats))
+    stats = json.loads(stats)
+    if window is not None:
+        stats["auto_window"] = window
+    return Render(t, steady, scene.bin_centres, stats)
 
 
 def render_diff(scene: Scene, params: Sequence[str], *, spp: Optional[int] = None, seed: Optional[int] = None,

@@ -73,8 +73,18 @@ impl PyScene {
     #[staticmethod]
     #[pyo3(signature = (path, set = None))]
     fn load(path: PathBuf, set: Option<Vec<(String, f64)>>) -> PyResult<Self> {
+        let overrides = set.unwrap_or_default();
+        // `Scene::load`, as `dtr render` loads it: its errors about an entry converted from a
+        // Mitsuba XML scene name the XML element and line, as the CLI's do
+        let scene = Scene::load(&path, &overrides).map_err(scene_err)?;
         let (text, format) = Scene::read_description(&path).map_err(scene_err)?;
-        Self::build(text, format, path, set.unwrap_or_default())
+        Ok(Self {
+            scene,
+            text,
+            format,
+            source: path,
+            overrides,
+        })
     }
 
     /// A scene from JSON description text; relative mesh paths are resolved in `base_dir`.
@@ -98,6 +108,30 @@ impl PyScene {
             overrides.push((name, v));
         }
         Self::build(self.text.clone(), self.format, self.source.clone(), overrides)
+    }
+
+    /// Chooses the film's time window by a short pilot render, as `dtr render --auto-window`
+    /// (src/auto_window.rs): (the scene with that window, the choice as JSON text). The pilot
+    /// releases the GIL.
+    #[pyo3(signature = (seed = None, threads = None))]
+    fn auto_window(&self, py: Python<'_>, seed: Option<u64>, threads: Option<usize>) -> PyResult<(Self, String)> {
+        let opts = RenderOptions {
+            seed,
+            threads,
+            ..Default::default()
+        };
+        let w = py
+            .detach(|| {
+                difftransient::auto_window::choose_window_with(&self.source, &self.overrides, &opts, |o| {
+                    Ok(Scene::from_str(&self.text, self.format, &self.source, o)?)
+                })
+            })
+            .map_err(render_err)?;
+        let mut overrides = self.overrides.clone();
+        overrides.retain(|(n, _)| n != "film.start_opl" && n != "film.bin_width_opl");
+        overrides.extend(w.overrides());
+        let scene = Self::build(self.text.clone(), self.format, self.source.clone(), overrides)?;
+        Ok((scene, stats_json(&w)?))
     }
 
     /// {name: value} of the scene's `[[param]]` entries, in file order.

@@ -33,7 +33,7 @@ pub struct RenderArgs {
     /// of the description by its dotted path: --set film.bins=100, --set camera.resolution.0=128.
     #[arg(long = "set", value_name = "NAME=VALUE")]
     pub set: Vec<String>,
-    /// Also write PREFIX.exr: one layer per time bin.
+    /// Also write PREFIX.exr: the steady image as the default layer and one layer per time bin (t0000, …), with the time axis in its header.
     #[arg(long)]
     pub exr: bool,
     /// Also write PREFIX.frames.png (contact sheet, frames labelled with their time, log scale), PREFIX.steady.png, PREFIX.steady.npy (the
@@ -307,7 +307,7 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
     }
     if a.exr {
         let axis = (film.axis.start_opl, film.axis.bin_width_opl);
-        output::write_exr_layers_with_axis(&set.stage("exr")?, view(&film), Some(axis))?;
+        output::write_exr_layers_with_axis(&set.stage("exr")?, view(&film), &film.steady, axis)?;
     }
     if a.preview {
         let normalise = match a.normalise.as_str() {

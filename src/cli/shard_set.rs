@@ -67,7 +67,7 @@ pub struct MergeArgs {
     /// Output prefix of the merged render (same rules as `dtr render -o`).
     #[arg(short = 'o', long = "output", value_name = "PREFIX")]
     pub output: PathBuf,
-    /// Also write PREFIX.exr: one layer per time bin.
+    /// Also write PREFIX.exr: the steady image as the default layer and one layer per time bin (t0000, …), with the time axis in its header.
     #[arg(long)]
     pub exr: bool,
     /// Also write the previews (contact sheet, steady image, plot), as `dtr render --preview`.
@@ -265,7 +265,12 @@ pub fn run(a: MergeArgs) -> anyhow::Result<()> {
     }
     if a.exr {
         let axis = (film.axis.start_opl, film.axis.bin_width_opl);
-        crate::output::write_exr_layers_with_axis(&set.stage("exr")?, super::render_cmd::view(&film), Some(axis))?;
+        crate::output::write_exr_layers_with_axis(
+            &set.stage("exr")?,
+            super::render_cmd::view(&film),
+            &film.steady,
+            axis,
+        )?;
     }
     if a.preview {
         super::render_cmd::write_previews(&film, &mut set, None, crate::output::Normalise::Global)?;

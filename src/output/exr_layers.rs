@@ -1,36 +1,59 @@
-//! Multi-layer OpenEXR: one layer (EXR part) per time bin, named `t0000`, `t0001`, ...,
-//! with channel `Y` (mono) or `R`, `G`, `B` (RGB) as f32 samples.
+//! Single-part, multi-layer OpenEXR that common viewers open: the default layer (channels
+//! `R`, `G`, `B`, or `Y` for mono, without a prefix) is the steady (time-integrated) image,
+//! and every time bin is a layer of the same part, `t0000.R`, `t0000.G`, `t0000.B` (`t0000.Y`
+//! mono), `t0001.…`, …, f32, ZIP-compressed. Viewers that show only the first part of a
+//! multi-part file, or only channels named `R`, `G`, `B`/`Y`, show the steady image; viewers
+//! that list layers (tev, Nuke, Blender, exrdisplay) list one per bin. The time axis is in the
+//! header (see [`write_exr_layers_with_axis`]).
 
 use super::atomic::write_atomic;
-use super::{FilmView, OutputError, SPEED_OF_LIGHT_M_PER_S};
+use super::{FilmView, OutputError, SPEED_OF_LIGHT_M_PER_S, check_data};
 use exr::meta::attribute::{AttributeValue, Text};
 use exr::prelude::*;
 use std::path::Path;
 use std::result::Result;
 
-/// Writes `film` as a multi-layer OpenEXR file, one layer per time bin, atomically.
-///
-/// Layers are named `t0000`, `t0001`, ... (more digits when there are more than 10000 bins),
-/// each with channel `Y` (mono) or `R`, `G`, `B` (RGB), f32, ZIP-compressed. Every layer
-/// carries the custom attribute `time_bin` (i32).
+/// Writes `film` as a single-part OpenEXR file, atomically: the default layer holds the time
+/// sum of the bins, layer `tNNNN` holds bin `NNNN` (four digits, more when there are more than
+/// 10000 bins). The header carries `time_bins` (i32).
 pub fn write_exr_layers(path: &Path, film: FilmView) -> Result<(), OutputError> {
-    write_exr_layers_with_axis(path, film, None)
+    film.validate(path)?;
+    let mut steady = vec![0.0f64; film.height * film.width * film.channels];
+    for (i, s) in steady.iter_mut().enumerate() {
+        let (p, c) = (i / film.channels, i % film.channels);
+        let base = p * film.bins * film.channels + c;
+        *s = (0..film.bins).map(|t| film.data[base + t * film.channels] as f64).sum();
+    }
+    let steady: Vec<f32> = steady.into_iter().map(|v| v as f32).collect();
+    write(path, film, &steady, None)
 }
 
-/// [`write_exr_layers`], plus the time axis as custom attributes when `axis` is
-/// `Some((start_opl, bin_width_opl))` (metres of optical path length): on every layer
-/// `start_opl`, `bin_width_opl` and this bin's `opl_begin`/`opl_end` and `time_begin_ns`
-/// (f64, like the time axis everywhere) and the text `opl_units` = `metres`.
-pub fn write_exr_layers_with_axis(path: &Path, film: FilmView, axis: Option<(f64, f64)>) -> Result<(), OutputError> {
+/// [`write_exr_layers`] with the steady image given (`steady`: `[height, width, channels]`,
+/// the render's own, e.g. all time with `--steady full`) as the default layer, and the time
+/// axis `(start_opl, bin_width_opl)` (metres of optical path length) in the header: `start_opl`,
+/// `bin_width_opl`, `end_opl` (f64), `time_bins` (i32), `start_time_ns`, `bin_width_ns` (f64),
+/// `opl_units` = `metres` and `time_layers`, a sentence saying how a layer's name maps to its
+/// interval. Bin `t` (layer `t{t:04}`) covers OPL `[start_opl + t·bin_width_opl,
+/// start_opl + (t+1)·bin_width_opl)`.
+pub fn write_exr_layers_with_axis(
+    path: &Path,
+    film: FilmView,
+    steady: &[f32],
+    axis: (f64, f64),
+) -> Result<(), OutputError> {
     film.validate(path)?;
-    if let Some((start, width)) = axis
-        && (!start.is_finite() || !width.is_finite() || width <= 0.0)
-    {
+    let (start, width) = axis;
+    if !start.is_finite() || !width.is_finite() || width <= 0.0 {
         return Err(OutputError::invalid(
             path,
             format!("time axis start_opl={start}, bin_width_opl={width} must be finite with a positive bin width"),
         ));
     }
+    check_data(path, &[film.height, film.width, film.channels], steady)?;
+    write(path, film, steady, Some(axis))
+}
+
+fn write(path: &Path, film: FilmView, steady: &[f32], axis: Option<(f64, f64)>) -> Result<(), OutputError> {
     let (h, w, bins, ch) = (film.height, film.width, film.bins, film.channels);
     if i32::try_from(h).is_err() || i32::try_from(w).is_err() || i32::try_from(bins).is_err() {
         return Err(OutputError::invalid(
@@ -41,63 +64,62 @@ pub fn write_exr_layers_with_axis(path: &Path, film: FilmView, axis: Option<(f64
     let names: &[&str] = if ch == 1 { &["Y"] } else { &["R", "G", "B"] };
     let digits = (bins - 1).max(1).to_string().len().max(4);
 
-    let mut layers = Vec::with_capacity(bins);
-    for t in 0..bins {
-        let channels: Vec<AnyChannel<FlatSamples>> = names
-            .iter()
-            .enumerate()
-            .map(|(c, name)| {
-                let mut samples = Vec::with_capacity(h * w);
-                for y in 0..h {
-                    for x in 0..w {
-                        samples.push(film.data[film.index(y, x, t, c)]);
-                    }
-                }
-                AnyChannel::new(*name, FlatSamples::F32(samples))
-            })
-            .collect();
-        let mut attributes = LayerAttributes::named(format!("t{t:0digits$}").as_str());
-        let other = &mut attributes.other;
-        other.insert(Text::from("time_bin"), AttributeValue::I32(t as i32));
-        if let Some((start, width)) = axis {
-            let begin = start + t as f64 * width;
-            other.insert(Text::from("start_opl"), AttributeValue::F64(start));
-            other.insert(Text::from("bin_width_opl"), AttributeValue::F64(width));
-            other.insert(Text::from("opl_begin"), AttributeValue::F64(begin));
-            other.insert(Text::from("opl_end"), AttributeValue::F64(begin + width));
-            other.insert(
-                Text::from("time_begin_ns"),
-                AttributeValue::F64(begin / SPEED_OF_LIGHT_M_PER_S * 1e9),
-            );
-            other.insert(Text::from("opl_units"), AttributeValue::Text(Text::from("metres")));
+    // One pass over the film in memory order, appending each value to its (bin, channel)
+    // plane: linear in the bins, like the single header written once below.
+    let pixels = h * w;
+    let mut planes: Vec<Vec<f32>> = (0..bins * ch).map(|_| Vec::with_capacity(pixels)).collect();
+    for pixel in film.data.chunks_exact(bins * ch) {
+        for (plane, &v) in planes.iter_mut().zip(pixel) {
+            plane.push(v);
         }
-        attributes.software_name = Some(Text::from(concat!("difftransient ", env!("CARGO_PKG_VERSION"))));
-        layers.push(Layer::new(
-            (w, h),
-            attributes,
-            Encoding::SMALL_LOSSLESS,
-            AnyChannels::sort(channels.into()),
-        ));
     }
-    let image = Image::from_layers(ImageAttributes::new(IntegerBounds::from_dimensions((w, h))), layers);
+    let mut channels: Vec<AnyChannel<FlatSamples>> = Vec::with_capacity((bins + 1) * ch);
+    for (c, name) in names.iter().enumerate() {
+        let plane = steady.iter().skip(c).step_by(ch).copied().collect();
+        channels.push(AnyChannel::new(*name, FlatSamples::F32(plane)));
+    }
+    for (k, plane) in planes.into_iter().enumerate() {
+        let (t, c) = (k / ch, k % ch);
+        let name = format!("t{t:0digits$}.{}", names[c]);
+        channels.push(AnyChannel::new(name.as_str(), FlatSamples::F32(plane)));
+    }
 
-    // The exr crate's parallel compressor clones the headers of every layer for each block it
-    // queues: O(bins²) with one layer per bin (2000 bins took 5.5 s, 4000 bins 22 s). The
-    // sequential writer touches each header once, so the file is written in time linear in
-    // the bins; only small layer counts keep the parallel compressor.
-    let writer = image.write();
-    let writer = if bins > PARALLEL_MAX_LAYERS {
-        writer.non_parallel()
-    } else {
-        writer
+    let mut attributes = LayerAttributes {
+        software_name: Some(Text::from(concat!("difftransient ", env!("CARGO_PKG_VERSION")))),
+        ..Default::default()
     };
+    let other = &mut attributes.other;
+    other.insert(Text::from("time_bins"), AttributeValue::I32(bins as i32));
+    if let Some((start, width)) = axis {
+        let ns = 1e9 / SPEED_OF_LIGHT_M_PER_S;
+        other.insert(Text::from("start_opl"), AttributeValue::F64(start));
+        other.insert(Text::from("bin_width_opl"), AttributeValue::F64(width));
+        other.insert(Text::from("end_opl"), AttributeValue::F64(start + bins as f64 * width));
+        other.insert(Text::from("start_time_ns"), AttributeValue::F64(start * ns));
+        other.insert(Text::from("bin_width_ns"), AttributeValue::F64(width * ns));
+        other.insert(Text::from("opl_units"), AttributeValue::Text(Text::from("metres")));
+        let last = bins - 1;
+        let about = format!(
+            "default layer: the steady image; layer t{:0digits$}..t{last:0digits$}: time bin t, \
+             optical path length [start_opl + t*bin_width_opl, start_opl + (t+1)*bin_width_opl) metres",
+            0
+        );
+        other.insert(
+            Text::from("time_layers"),
+            AttributeValue::Text(Text::from(about.as_str())),
+        );
+    }
+    let layer = Layer::new(
+        (w, h),
+        attributes,
+        Encoding::SMALL_LOSSLESS,
+        AnyChannels::sort(channels.into()),
+    );
+    let image = Image::from_layer(layer);
     write_atomic(path, |out| {
-        writer.to_unbuffered(&mut *out).map_err(|e| exr_error(path, e))
+        image.write().to_unbuffered(&mut *out).map_err(|e| exr_error(path, e))
     })
 }
-
-/// Most layers (time bins) written with the exr crate's parallel compressor.
-const PARALLEL_MAX_LAYERS: usize = 64;
 
 fn exr_error(path: &Path, e: exr::error::Error) -> OutputError {
     match e {
@@ -130,12 +152,17 @@ mod tests {
         }
     }
 
+    fn names(layer: &Layer<AnyChannels<FlatSamples>>) -> Vec<String> {
+        layer.channel_data.list.iter().map(|c| c.name.to_string()).collect()
+    }
+
     #[test]
     fn rgb_round_trip() {
         let dir = tempfile::tempdir().unwrap();
         let p = dir.path().join("film.exr");
         let (h, w, t, c) = (3, 5, 4, 3);
         let data = coded_film(h, w, t, c);
+        let steady: Vec<f32> = (0..h * w * c).map(|i| i as f32 * 0.5 - 3.0).collect();
         let film = FilmView {
             data: &data,
             height: h,
@@ -143,38 +170,48 @@ mod tests {
             bins: t,
             channels: c,
         };
-        write_exr_layers_with_axis(&p, film, Some((1.5, 0.25))).unwrap();
+        write_exr_layers_with_axis(&p, film, &steady, (1.5, 0.25)).unwrap();
         let img = read_all(&p);
-        assert_eq!(img.layer_data.len(), t);
-        for (b, layer) in img.layer_data.iter().enumerate() {
-            assert_eq!(
-                layer.attributes.layer_name,
-                Some(Text::from(format!("t{b:04}").as_str()))
-            );
-            assert_eq!(layer.size, Vec2(w, h));
-            let names: Vec<String> = layer.channel_data.list.iter().map(|c| c.name.to_string()).collect();
-            assert_eq!(names, vec!["B", "G", "R"]);
-            for (y, x) in [(0, 0), (2, 4), (1, 3)] {
-                for (ci, n) in ["R", "G", "B"].iter().enumerate() {
+        assert_eq!(img.layer_data.len(), 1, "one part");
+        let layer = &img.layer_data[0];
+        assert_eq!(layer.size, Vec2(w, h));
+        let mut expected = vec!["B".to_string(), "G".into(), "R".into()];
+        for b in 0..t {
+            expected.extend(["B", "G", "R"].map(|n| format!("t{b:04}.{n}")));
+        }
+        assert_eq!(names(layer), expected);
+        for (y, x) in [(0, 0), (2, 4), (1, 3)] {
+            for (ci, n) in ["R", "G", "B"].iter().enumerate() {
+                assert_eq!(
+                    sample(layer, n, x, y),
+                    steady[(y * w + x) * c + ci],
+                    "steady ({x},{y}) {n}"
+                );
+                for b in 0..t {
                     assert_eq!(
-                        sample(layer, n, x, y),
+                        sample(layer, &format!("t{b:04}.{n}"), x, y),
                         data[film.index(y, x, b, ci)],
                         "t{b} ({x},{y}) {n}"
                     );
                 }
             }
-            let other = &layer.attributes.other;
-            assert_eq!(other.get(&Text::from("time_bin")), Some(&AttributeValue::I32(b as i32)));
-            assert_eq!(
-                other.get(&Text::from("opl_begin")),
-                Some(&AttributeValue::F64(1.5 + 0.25 * b as f64))
-            );
+        }
+        let other = &layer.attributes.other;
+        let get = |k: &str| other.get(&Text::from(k)).cloned();
+        assert_eq!(get("time_bins"), Some(AttributeValue::I32(t as i32)));
+        assert_eq!(get("start_opl"), Some(AttributeValue::F64(1.5)));
+        assert_eq!(get("bin_width_opl"), Some(AttributeValue::F64(0.25)));
+        assert_eq!(get("end_opl"), Some(AttributeValue::F64(2.5)));
+        assert_eq!(get("opl_units"), Some(AttributeValue::Text(Text::from("metres"))));
+        match get("bin_width_ns") {
+            Some(AttributeValue::F64(ns)) => assert!((ns - 0.833_910_24).abs() < 1e-6, "{ns}"),
+            other => panic!("bin_width_ns: {other:?}"),
         }
         assert_eq!(entries(dir.path()), vec!["film.exr"]);
     }
 
     #[test]
-    fn mono_round_trip() {
+    fn mono_default_layer_is_the_time_sum() {
         let dir = tempfile::tempdir().unwrap();
         let p = dir.path().join("mono.exr");
         let (h, w, t) = (4, 2, 3);
@@ -188,20 +225,22 @@ mod tests {
         };
         write_exr_layers(&p, film).unwrap();
         let img = read_all(&p);
-        assert_eq!(img.layer_data.len(), 3);
-        let last = &img.layer_data[2];
-        assert_eq!(last.attributes.layer_name, Some(Text::from("t0002")));
-        assert_eq!(last.channel_data.list.len(), 1);
-        assert_eq!(sample(last, "Y", 1, 3), data[film.index(3, 1, 2, 0)]);
-        assert_eq!(sample(&img.layer_data[0], "Y", 0, 0), 0.25);
+        let layer = &img.layer_data[0];
+        assert_eq!(names(layer), ["Y", "t0000.Y", "t0001.Y", "t0002.Y"]);
+        assert_eq!(sample(layer, "t0002.Y", 1, 3), data[film.index(3, 1, 2, 0)]);
+        assert_eq!(sample(layer, "t0000.Y", 0, 0), 0.25);
+        // (3, 1): 3100.25 + 3110.25 + 3120.25
+        assert_eq!(sample(layer, "Y", 1, 3), 9330.75);
+        let other = &layer.attributes.other;
+        assert_eq!(other.get(&Text::from("time_bins")), Some(&AttributeValue::I32(3)));
+        assert_eq!(other.get(&Text::from("start_opl")), None, "no axis given");
     }
 
     #[test]
-    fn many_bins_round_trip_through_the_sequential_writer() {
-        // more layers than PARALLEL_MAX_LAYERS: the sequential compressor writes them
+    fn many_bins_round_trip() {
         let dir = tempfile::tempdir().unwrap();
         let p = dir.path().join("many.exr");
-        let (h, w, t) = (17, 3, PARALLEL_MAX_LAYERS * 2 + 5);
+        let (h, w, t) = (17, 3, 10_003);
         let data = coded_film(h, w, t, 1);
         let film = FilmView {
             data: &data,
@@ -210,16 +249,17 @@ mod tests {
             bins: t,
             channels: 1,
         };
-        write_exr_layers_with_axis(&p, film, Some((0.0, 0.5))).unwrap();
+        write_exr_layers(&p, film).unwrap();
         let img = read_all(&p);
-        assert_eq!(img.layer_data.len(), t);
-        for (b, layer) in img.layer_data.iter().enumerate() {
-            assert_eq!(
-                layer.attributes.layer_name,
-                Some(Text::from(format!("t{b:04}").as_str()))
-            );
+        let layer = &img.layer_data[0];
+        assert_eq!(layer.channel_data.list.len(), t + 1);
+        for b in [0, 1, 9_999, 10_002] {
             for (y, x) in [(0, 0), (16, 2), (9, 1)] {
-                assert_eq!(sample(layer, "Y", x, y), data[film.index(y, x, b, 0)], "t{b} ({x},{y})");
+                assert_eq!(
+                    sample(layer, &format!("t{b:05}.Y"), x, y),
+                    data[film.index(y, x, b, 0)],
+                    "t{b} ({x},{y})"
+                );
             }
         }
     }
@@ -263,8 +303,13 @@ mod tests {
         assert!(matches!(e, OutputError::Channels { .. }), "{e}");
         let good = coded_film(2, 2, 2, 1);
         let film = FilmView { data: &good, ..film };
-        let e = write_exr_layers_with_axis(&p, film, Some((0.0, 0.0))).unwrap_err();
+        let steady = [1.0f32; 4];
+        let e = write_exr_layers_with_axis(&p, film, &steady, (0.0, 0.0)).unwrap_err();
         assert!(e.to_string().contains("bin width"), "{e}");
+        let e = write_exr_layers_with_axis(&p, film, &steady[..3], (0.0, 1.0)).unwrap_err();
+        assert!(matches!(e, OutputError::ShapeMismatch { .. }), "{e}");
+        let e = write_exr_layers_with_axis(&p, film, &[1.0, f32::INFINITY, 0.0, 0.0], (0.0, 1.0)).unwrap_err();
+        assert!(matches!(e, OutputError::NonFinite { .. }), "{e}");
         let e = write_exr_layers(&dir.path().join("missing/x.exr"), film).unwrap_err();
         assert!(matches!(e, OutputError::Io { .. }), "{e}");
         assert!(entries(dir.path()).is_empty(), "{:?}", entries(dir.path()));

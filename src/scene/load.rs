@@ -51,7 +51,11 @@ impl Scene {
     pub fn load(path: &Path, overrides: &[(String, f64)]) -> Result<Scene, SceneError> {
         if super::mitsuba::is_xml(path) {
             let imported = super::mitsuba::import(path)?;
-            return Scene::from_str(&imported.toml, Format::Toml, path, overrides).map_err(|e| imported.annotate(e));
+            let mut scene =
+                Scene::from_str(&imported.toml, Format::Toml, path, overrides).map_err(|e| imported.annotate(e))?;
+            // the included files are inputs too (output safety, the shard identity's hash)
+            scene.inputs.extend(imported.included);
+            return Ok(scene);
         }
         let (text, format) = Scene::read_description(path)?;
         Scene::from_str(&text, format, path, overrides)

@@ -6,6 +6,7 @@
 use super::ImportError;
 use super::xml::{Colour, Doc, Props};
 use roxmltree::Node;
+use std::collections::HashMap;
 use toml::{Table, Value};
 
 /// The named indices of refraction Mitsuba knows (Hecht, Optics, 4th edition, about 589 nm).
@@ -51,25 +52,49 @@ pub(crate) fn colour_value(c: Colour) -> Value {
     }
 }
 
-/// Converts a `<bsdf>` element.
-pub(crate) fn material(doc: &Doc, node: Node) -> Result<Material, ImportError> {
+/// The top-level `<bsdf id>` elements of the scene (and of the files it includes), each with
+/// the document it is in: what a `<ref id>` may name.
+pub(crate) type BsdfIds<'d, 'a, 'input> = HashMap<String, (&'d Doc<'a, 'input>, Node<'a, 'input>)>;
+
+/// Converts a `<bsdf>` element; a `<ref id>` inside `twosided` is looked up in `ids`
+/// (`through`: the ids followed to get here, so that a cycle is refused).
+pub(crate) fn material(doc: &Doc, node: Node, ids: &BsdfIds, through: &[&str]) -> Result<Material, ImportError> {
     let ty = doc.req_attr(node, "type")?;
     let p = doc.props(node);
     if ty == "twosided" {
         let inner = p.nested("bsdf");
-        let [b] = inner.as_slice() else {
-            return Err(doc.err(
-                node,
-                format!(
-                    "twosided takes exactly one nested <bsdf> (got {}); two different sides are not supported",
-                    inner.len()
-                ),
-            ));
+        let refs = p.refs();
+        let (m, at) = match (inner.as_slice(), refs.as_slice()) {
+            ([b], []) => (material(doc, *b, ids, through)?, *b),
+            ([], [r]) => {
+                let id = doc.req_attr(*r, "id")?;
+                if through.contains(&id.as_str()) || doc.attr(node, "id")?.as_deref() == Some(id.as_str()) {
+                    return Err(doc.err(
+                        *r,
+                        format!("<ref id={id:?}> refers back to itself (a cycle of twosided BSDFs)"),
+                    ));
+                }
+                let &(d, b) = ids
+                    .get(&id)
+                    .ok_or_else(|| doc.err(*r, format!("no <bsdf id={id:?}> in this file")))?;
+                let mut through = through.to_vec();
+                through.push(&id);
+                (material(d, b, ids, &through)?, *r)
+            }
+            _ => {
+                return Err(doc.err(
+                    node,
+                    format!(
+                        "twosided takes exactly one nested <bsdf> or <ref id=...> (got {}); two different sides \
+                         are not supported",
+                        inner.len() + refs.len()
+                    ),
+                ));
+            }
         };
-        p.finish(doc, "one nested <bsdf>")?;
-        let m = material(doc, *b)?;
+        p.finish(doc, "one nested <bsdf> or <ref id=...>")?;
         if m.dielectric {
-            return Err(doc.err(*b, "a dielectric cannot be two-sided (Mitsuba refuses it too)"));
+            return Err(doc.err(at, "a dielectric cannot be two-sided (Mitsuba refuses it too)"));
         }
         return Ok(m);
     }
@@ -87,9 +112,9 @@ pub(crate) fn material(doc: &Doc, node: Node) -> Result<Material, ImportError> {
             conductor(doc, &p, &mut t)?;
             if ty == "roughconductor" {
                 roughness(doc, &p, &mut t)?;
-                "material (none), eta, k, specular_reflectance, distribution (ggx), alpha, sample_visible"
+                "material (none, Ag, Al, Au, Cr, Cu), eta, k, specular_reflectance, distribution (ggx), alpha, sample_visible"
             } else {
-                "material (none), eta, k, specular_reflectance"
+                "material (none, Ag, Al, Au, Cr, Cu), eta, k, specular_reflectance"
             }
         }
         "dielectric" | "roughdielectric" => {
@@ -159,13 +184,19 @@ fn conductor(doc: &Doc, p: &Props, t: &mut Table) -> Result<(), ImportError> {
             None => {}
             Some((m, _)) if m == "none" => {}
             Some((m, n)) => {
-                return Err(doc.err(
-                    n,
-                    format!(
-                        "conductor material preset {m:?} is not supported (its spectral index is not built in): \
-                         give eta and k as <rgb>, or material \"none\" (a perfect mirror)"
-                    ),
-                ));
+                let (eta, k) = super::conductors::preset(&m).ok_or_else(|| {
+                    let names: Vec<&str> = super::conductors::CONDUCTOR_PRESETS.iter().map(|p| p.0).collect();
+                    doc.err(
+                        n,
+                        format!(
+                            "conductor material preset {m:?} is not built in (built in: {}, none): give eta and \
+                             k as <rgb>",
+                            names.join(", ")
+                        ),
+                    )
+                })?;
+                t.insert("eta".into(), colour_value(Colour::Rgb(eta)));
+                t.insert("k".into(), colour_value(Colour::Rgb(k)));
             }
         },
         _ => {

@@ -4,12 +4,15 @@
 //! Python's `Scene.load`), or is written out by `dtr import` to be read and edited.
 //!
 //! One file per concept: `xml.rs` (defaults, `$name` substitution, properties, line numbers),
-//! `transform.rs`, `bsdf.rs`, `shape.rs`, `emitter.rs`, `sensor.rs`, `integrator.rs`.
+//! `include.rs` (`<include>`d files), `transform.rs`, `bsdf.rs`, `conductors.rs`, `shape.rs`,
+//! `emitter.rs`, `sensor.rs`, `integrator.rs`.
 //! Anything outside the subset is refused with the file, the element (tag, type, id, line)
 //! and what is supported.
 
 mod bsdf;
+mod conductors;
 mod emitter;
+mod include;
 mod integrator;
 mod sensor;
 mod shape;
@@ -19,13 +22,15 @@ mod xml;
 use super::SceneError;
 use roxmltree::Node;
 use std::collections::{HashMap, HashSet};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use toml::{Table, Value};
 use xml::Doc;
 
 /// An element the importer cannot convert: where (`<tag type=".." id=".."> (line N)`) and why.
 #[derive(Debug)]
 pub(crate) struct ImportError {
+    /// The included file the element is in (`None`: the scene file itself).
+    file: Option<PathBuf>,
     at: String,
     message: String,
 }
@@ -37,6 +42,8 @@ pub struct Imported {
     pub toml: String,
     /// `(location prefix in our errors, XML element)`, e.g. `("shape[2]", "<shape ...> (line 9)")`.
     origins: Vec<(String, String)>,
+    /// The files the scene `<include>`s (each once), as named from the scene file's folder.
+    pub included: Vec<PathBuf>,
 }
 
 impl Imported {
@@ -77,29 +84,28 @@ pub fn import_str(text: &str, source: &Path) -> Result<Imported, SceneError> {
 /// names are joined to `mesh_base` (the XML file's folder).
 fn import_str_for(text: &str, source: &Path, mesh_base: Option<&Path>) -> Result<Imported, SceneError> {
     let invalid = |e: ImportError| SceneError::Invalid {
-        path: source.to_path_buf(),
+        path: e.file.unwrap_or_else(|| source.to_path_buf()),
         at: e.at,
         message: e.message,
     };
-    let opts = roxmltree::ParsingOptions {
-        allow_dtd: false,
-        ..Default::default()
-    };
-    let tree = roxmltree::Document::parse_with_options(text, opts).map_err(|e| {
-        let pos = e.pos();
-        SceneError::Syntax {
-            path: source.to_path_buf(),
-            format: "XML",
-            line: pos.row as usize,
-            column: pos.col as usize,
-            message: e.to_string(),
+    let files = include::gather(text, source)?;
+    let trees = files
+        .sources
+        .iter()
+        .map(|s| parse(&s.text, &s.path))
+        .collect::<Result<Vec<_>, _>>()?;
+    let mut docs: Vec<Doc> = Vec::with_capacity(trees.len());
+    for (k, (tree, s)) in trees.iter().zip(&files.sources).enumerate() {
+        let mut doc = Doc::new(tree.root_element(), &s.text);
+        if k > 0 {
+            doc.included(s.path.clone(), s.rel_dir.clone());
         }
-    })?;
-    let mut doc = Doc::new(tree.root_element(), text);
-    let root = doc.root;
+        docs.push(doc);
+    }
+    let root = docs[0].root;
     if root.tag_name().name() != "scene" {
         return Err(invalid(
-            doc.err(root, "the root element must be <scene version=\"3.0.0\">"),
+            docs[0].err(root, "the root element must be <scene version=\"3.0.0\">"),
         ));
     }
     match root
@@ -108,7 +114,7 @@ fn import_str_for(text: &str, source: &Path, mesh_base: Option<&Path>) -> Result
     {
         Some(Ok(major)) if major >= 2 => {}
         Some(_) => {
-            return Err(invalid(doc.err(
+            return Err(invalid(docs[0].err(
                 root,
                 "a Mitsuba 0.x scene (version < 2): its names differ (toWorld, intIOR, ...); \
                  upgrade it to Mitsuba 3 syntax first",
@@ -116,19 +122,55 @@ fn import_str_for(text: &str, source: &Path, mesh_base: Option<&Path>) -> Result
         }
         None => {
             return Err(invalid(
-                doc.err(root, "missing attribute 'version' (e.g. version=\"3.0.0\")"),
+                docs[0].err(root, "missing attribute 'version' (e.g. version=\"3.0.0\")"),
             ));
         }
     }
-    for c in root
-        .children()
-        .filter(|c| c.is_element() && c.tag_name().name() == "default")
-    {
-        doc.add_default(c).map_err(invalid)?;
+    // `<default>` values: a file's own, after those of the file including it (the first
+    // definition wins, so the including file's values override an included file's defaults)
+    for k in 0..docs.len() {
+        if let Some(parent) = files.sources[k].parent {
+            let inherited = docs[parent].defaults().clone();
+            docs[k].inherit(inherited);
+        }
+        let doc = &mut docs[k];
+        for c in doc
+            .root
+            .children()
+            .filter(|c| c.is_element() && c.tag_name().name() == "default")
+        {
+            doc.add_default(c).map_err(invalid)?;
+        }
     }
-    let mut conv = Converter::new(&doc, mesh_base);
-    conv.scene(root).map_err(invalid)?;
-    Ok(conv.finish(source))
+    let mut items = Vec::new();
+    include::flatten(&docs, &files.links, 0, &mut items).map_err(invalid)?;
+    let mut conv = Converter::new(&docs[0], mesh_base);
+    conv.scene(root, &items).map_err(invalid)?;
+    let mut imported = conv.finish(source);
+    for s in &files.sources[1..] {
+        if !imported.included.contains(&s.path) {
+            imported.included.push(s.path.clone());
+        }
+    }
+    Ok(imported)
+}
+
+/// Parses one file of the scene (DTDs refused).
+fn parse<'t>(text: &'t str, path: &Path) -> Result<roxmltree::Document<'t>, SceneError> {
+    let opts = roxmltree::ParsingOptions {
+        allow_dtd: false,
+        ..Default::default()
+    };
+    roxmltree::Document::parse_with_options(text, opts).map_err(|e| {
+        let pos = e.pos();
+        SceneError::Syntax {
+            path: path.to_path_buf(),
+            format: "XML",
+            line: pos.row as usize,
+            column: pos.col as usize,
+            message: e.to_string(),
+        }
+    })
 }
 
 /// Reads and converts a Mitsuba XML file.
@@ -156,8 +198,8 @@ pub fn import_for(path: &Path, out_dir: Option<&Path>) -> Result<Imported, Scene
 struct Converter<'d, 'a, 'input> {
     doc: &'d Doc<'a, 'input>,
     mesh_base: Option<&'d Path>,
-    /// top-level `<bsdf id>` elements
-    bsdf_ids: HashMap<String, Node<'a, 'input>>,
+    /// top-level `<bsdf id>` elements (of this file and the files it includes)
+    bsdf_ids: bsdf::BsdfIds<'d, 'a, 'input>,
     /// id → material name, for BSDFs already converted
     converted: HashMap<String, (String, bool)>,
     names: HashMap<&'static str, HashSet<String>>,
@@ -199,10 +241,15 @@ impl<'d, 'a, 'input> Converter<'d, 'a, 'input> {
         name
     }
 
-    fn scene(&mut self, root: Node<'a, 'input>) -> Result<(), ImportError> {
-        let doc = self.doc;
-        let children: Vec<Node> = doc.children(root).collect();
-        for &c in &children {
+    /// Converts the scene's elements, `items`: the children of `root` with each `<include>`
+    /// replaced by the children of the file it names, each with the file it is in.
+    fn scene(
+        &mut self,
+        root: Node<'a, 'input>,
+        items: &[(&'d Doc<'a, 'input>, Node<'a, 'input>)],
+    ) -> Result<(), ImportError> {
+        let main = self.doc;
+        for &(doc, c) in items {
             if c.tag_name().name() == "bsdf" {
                 let id = doc.attr(c, "id")?.ok_or_else(|| {
                     doc.err(
@@ -210,14 +257,14 @@ impl<'d, 'a, 'input> Converter<'d, 'a, 'input> {
                         "a top-level <bsdf> needs an id (shapes refer to it with <ref id=...>)",
                     )
                 })?;
-                if self.bsdf_ids.insert(id.clone(), c).is_some() {
+                if self.bsdf_ids.insert(id.clone(), (doc, c)).is_some() {
                     return Err(doc.err(c, format!("a second element with id {id:?}")));
                 }
             }
         }
-        for &c in &children {
+        for &(doc, c) in items {
+            self.doc = doc;
             match c.tag_name().name() {
-                "default" => {}
                 "bsdf" => {
                     let id = doc.req_attr(c, "id")?;
                     self.material_by_id(&id, c)?;
@@ -246,20 +293,19 @@ impl<'d, 'a, 'input> Converter<'d, 'a, 'input> {
                     self.origins.push(("integrator".into(), doc.describe(c)));
                     self.integrator = Some(integrator::integrator(doc, c)?);
                 }
-                "include" => {
-                    return Err(doc.err(c, "<include> is not supported: merge the included file into this one"));
-                }
                 other => {
                     return Err(doc.err(
                         c,
                         format!(
-                            "<{other}> is not supported at the top level (supported: default, bsdf, shape, \
-                             emitter, sensor, integrator)"
+                            "<{other}> is not supported at the top level (supported: default, include, bsdf, \
+                             shape, emitter, sensor, integrator)"
                         ),
                     ));
                 }
             }
         }
+        self.doc = main;
+        let doc = main;
         if self.sensor.is_none() {
             return Err(doc.err(
                 root,
@@ -277,20 +323,20 @@ impl<'d, 'a, 'input> Converter<'d, 'a, 'input> {
         if let Some(m) = self.converted.get(id) {
             return Ok(m.clone());
         }
-        let node = *self
+        let &(doc, node) = self
             .bsdf_ids
             .get(id)
             .ok_or_else(|| self.doc.err(at, format!("no <bsdf id={id:?}> in this file")))?;
-        let m = self.add_material(node, id)?;
+        let m = self.add_material(doc, node, id)?;
         self.converted.insert(id.to_string(), m.clone());
         Ok(m)
     }
 
-    fn add_material(&mut self, node: Node, wanted: &str) -> Result<(String, bool), ImportError> {
-        let m = bsdf::material(self.doc, node)?;
+    fn add_material(&mut self, doc: &Doc, node: Node, wanted: &str) -> Result<(String, bool), ImportError> {
+        let m = bsdf::material(doc, node, &self.bsdf_ids, &[])?;
         let name = self.name("material", wanted);
         self.origins
-            .push((format!("material[{}]", self.materials.len()), self.doc.describe(node)));
+            .push((format!("material[{}]", self.materials.len()), doc.describe(node)));
         let mut t = m.table;
         t.insert("name".into(), name.clone().into());
         self.materials.push(Value::Table(t));
@@ -306,7 +352,7 @@ impl<'d, 'a, 'input> Converter<'d, 'a, 'input> {
             shape::BsdfSource::Ref(id, r) => self.material_by_id(&id, r)?,
             shape::BsdfSource::Inline(b) => {
                 let wanted = doc.attr(b, "id")?.unwrap_or_else(|| format!("{name}_bsdf"));
-                self.add_material(b, &wanted)?
+                self.add_material(doc, b, &wanted)?
             }
             shape::BsdfSource::Default => match self.converted.get("\0default") {
                 Some(m) => m.clone(),
@@ -345,11 +391,16 @@ impl<'d, 'a, 'input> Converter<'d, 'a, 'input> {
         self.origins
             .push((format!("shape[{}]", self.shapes.len()), doc.describe(node)));
         let mut t = geo.table;
-        if let (Some(base), Some(Value::String(f))) = (self.mesh_base, t.get("file"))
+        // mesh file names are relative to the file that names them: to the scene file's
+        // folder through an included file's folder, then to where the description will live
+        if let Some(Value::String(f)) = t.get("file")
             && Path::new(f).is_relative()
         {
-            let abs = base.join(f).to_string_lossy().into_owned();
-            t.insert("file".into(), abs.into());
+            let mut name = doc.rel_dir().join(f);
+            if let Some(base) = self.mesh_base {
+                name = base.join(name);
+            }
+            t.insert("file".into(), name.to_string_lossy().into_owned().into());
         }
         t.insert("name".into(), name.clone().into());
         t.insert("material".into(), material.into());
@@ -397,6 +448,7 @@ impl<'d, 'a, 'input> Converter<'d, 'a, 'input> {
         Imported {
             toml: text,
             origins: self.origins,
+            included: Vec::new(),
         }
     }
 }

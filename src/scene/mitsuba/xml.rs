@@ -7,12 +7,16 @@ use super::ImportError;
 use roxmltree::Node;
 use std::cell::Cell;
 use std::collections::HashMap;
+use std::path::{Path, PathBuf};
 
 /// The document with its `<default>` values.
 pub(crate) struct Doc<'a, 'input> {
     pub root: Node<'a, 'input>,
     text: &'input str,
     defaults: HashMap<String, String>,
+    /// For a file the scene `<include>`s: its path (errors name it) and its folder relative
+    /// to the scene file's folder (mesh file names in it are relative to that).
+    included: Option<(PathBuf, PathBuf)>,
 }
 
 /// The tags that hold a property value (the others are plugins or structure).
@@ -35,7 +39,29 @@ impl<'a, 'input> Doc<'a, 'input> {
             root,
             text,
             defaults: HashMap::new(),
+            included: None,
         }
+    }
+
+    /// Marks this document as the included file `path`, in the folder `rel_dir` relative to
+    /// the scene file's folder.
+    pub fn included(&mut self, path: PathBuf, rel_dir: PathBuf) {
+        self.included = Some((path, rel_dir));
+    }
+
+    /// The folder of this file relative to the scene file's folder (empty for the scene file).
+    pub fn rel_dir(&self) -> &Path {
+        self.included.as_ref().map_or(Path::new(""), |(_, d)| d.as_path())
+    }
+
+    /// The `<default>` values recorded so far.
+    pub fn defaults(&self) -> &HashMap<String, String> {
+        &self.defaults
+    }
+
+    /// Takes the values of the file that includes this one; they win over this file's own.
+    pub fn inherit(&mut self, defaults: HashMap<String, String>) {
+        self.defaults.extend(defaults);
     }
 
     /// Records a `<default name=... value=...>` (the first definition wins, as in Mitsuba,
@@ -69,12 +95,16 @@ impl<'a, 'input> Doc<'a, 'input> {
                 s.push_str(&format!(" {key}=\"{v}\""));
             }
         }
-        format!("{s}> (line {})", self.line(node))
+        match &self.included {
+            None => format!("{s}> (line {})", self.line(node)),
+            Some((path, _)) => format!("{s}> (line {} of {})", self.line(node), path.display()),
+        }
     }
 
     /// An error about `node`.
     pub fn err(&self, node: Node, message: impl Into<String>) -> ImportError {
         ImportError {
+            file: self.included.as_ref().map(|(p, _)| p.clone()),
             at: self.describe(node),
             message: message.into(),
         }
