@@ -56,18 +56,25 @@ fn same_expectation(name: &str, scene: &Scene, kind: IntegratorKind, spp: u32) {
                 .collect()
         })
         .collect();
-    for (a, what) in ["bins", "image", "blocks x bin groups"].iter().enumerate() {
+    assert_same_means(name, ["bins", "image", "blocks x bin groups"], &runs);
+}
+
+/// Independent-number runs (`runs[0]`) and Sobol runs (`runs[1]`), K seeds each, have the same
+/// mean for every aggregate `names[a]`: Σz² within its Student-t expectation + 5 sd, every
+/// |z| ≤ 8.
+fn assert_same_means<const A: usize>(label: &str, names: [&str; A], runs: &[Vec<[Vec<f64>; A]>]) {
+    for (a, what) in names.iter().enumerate() {
         let x: Vec<Vec<f64>> = runs[0].iter().map(|r| r[a].clone()).collect();
         let y: Vec<Vec<f64>> = runs[1].iter().map(|r| r[a].clone()).collect();
         let (chi2, zmax, n) = common::two_sample_z(&x, &y);
         let (mean, sd) = common::t2_sum_moments(n as f64, (K - 1) as f64);
-        eprintln!("{name} {what}: Σz² = {chi2:.1} (expect {mean:.1} ± {sd:.1}) over {n}, max|z| = {zmax:.2}");
-        assert!(n > 0);
+        eprintln!("{label} {what}: Σz² = {chi2:.1} (expect {mean:.1} ± {sd:.1}) over {n}, max|z| = {zmax:.2}");
+        assert!(n > 0, "{label} {what}: nothing rendered");
         assert!(
             chi2 <= mean + 5.0 * sd,
-            "{name} {what}: Sobol and independent renders disagree"
+            "{label} {what}: Sobol and independent renders disagree"
         );
-        assert!(zmax <= 8.0, "{name} {what}: an entry is {zmax:.1} standard errors off");
+        assert!(zmax <= 8.0, "{label} {what}: an entry is {zmax:.1} standard errors off");
     }
 }
 
@@ -190,55 +197,25 @@ fn the_cli_flag_selects_and_records_the_sequence() {
 /// in `cargo bench --bench boundary`).
 #[test]
 fn sobol_points_keep_the_boundary_terms_expectation() {
-    use difftransient::{BoundaryMode, render_diff};
+    use difftransient::BoundaryMode;
     let mut scene = common::load("shadow_hidden_occluder.toml");
     scene.film.width = 16;
     scene.film.height = 16;
     for guiding in [false, true] {
-        let runs: Vec<Vec<[Vec<f64>; 2]>> = [SampleSequence::Independent, SampleSequence::Sobol]
-            .iter()
-            .enumerate()
-            .map(|(j, &q)| {
-                let mut s = scene.clone();
-                s.integrator.sampler = q;
-                (0..K)
-                    .map(|k| {
-                        let o = RenderOptions {
-                            spp: Some(1),
-                            spp_boundary: Some(16),
-                            seed: Some(300 * j as u64 + k),
-                            threads: Some(2),
-                            boundary: BoundaryMode::BoundaryOnly,
-                            guiding,
-                            ..Default::default()
-                        };
-                        let (_, d, _) = render_diff(&s, &["occluder_x".to_string()], &o).unwrap();
-                        [
-                            common::blocks_and_bin_groups(&d[0], 4),
-                            d[0].bin_totals().into_iter().map(|v| v as f64).collect(),
-                        ]
-                    })
-                    .collect()
-            })
-            .collect();
-        for (a, what) in ["blocks x bin groups", "bins"].iter().enumerate() {
-            let x: Vec<Vec<f64>> = runs[0].iter().map(|r| r[a].clone()).collect();
-            let y: Vec<Vec<f64>> = runs[1].iter().map(|r| r[a].clone()).collect();
-            let (chi2, zmax, n) = common::two_sample_z(&x, &y);
-            let (mean, sd) = common::t2_sum_moments(n as f64, (K - 1) as f64);
-            eprintln!(
-                "boundary (guiding {guiding}) {what}: Σz² = {chi2:.1} (expect {mean:.1} ± {sd:.1}) over {n}, max|z| = {zmax:.2}"
-            );
-            assert!(n > 0);
-            assert!(
-                chi2 <= mean + 5.0 * sd,
-                "boundary {what}: Sobol and independent disagree"
-            );
-            assert!(
-                zmax <= 8.0,
-                "boundary {what}: an entry is {zmax:.1} standard errors off"
-            );
-        }
+        let runs = derivative_runs(&scene, "occluder_x", |seed| RenderOptions {
+            spp: Some(1),
+            spp_boundary: Some(16),
+            seed: Some(seed),
+            threads: Some(2),
+            boundary: BoundaryMode::BoundaryOnly,
+            guiding,
+            ..Default::default()
+        });
+        assert_same_means(
+            &format!("boundary (guiding {guiding})"),
+            ["blocks x bin groups", "bins"],
+            &runs,
+        );
     }
 }
 
@@ -248,9 +225,20 @@ fn sobol_points_keep_the_boundary_terms_expectation() {
 /// totals, K seeds each.
 #[test]
 fn sobol_points_keep_the_derivatives_expectation() {
-    use difftransient::render_diff;
     let scene = common::load("liquid_glass.toml");
-    let runs: Vec<Vec<[Vec<f64>; 2]>> = [SampleSequence::Independent, SampleSequence::Sobol]
+    let runs = derivative_runs(&scene, "liquid_ior", |seed| RenderOptions {
+        spp: Some(16),
+        seed: Some(seed),
+        threads: Some(2),
+        ..Default::default()
+    });
+    assert_same_means("d/d liquid_ior", ["blocks x bin groups", "bins"], &runs);
+}
+
+/// ∂I/∂`param` with independent numbers and with Sobol points, K seeds each (`opts(seed)`):
+/// 4×4 blocks × groups of 4 bins, and per-bin totals, per render.
+fn derivative_runs(scene: &Scene, param: &str, opts: impl Fn(u64) -> RenderOptions) -> Vec<Vec<[Vec<f64>; 2]>> {
+    [SampleSequence::Independent, SampleSequence::Sobol]
         .iter()
         .enumerate()
         .map(|(j, &q)| {
@@ -258,13 +246,8 @@ fn sobol_points_keep_the_derivatives_expectation() {
             s.integrator.sampler = q;
             (0..K)
                 .map(|k| {
-                    let o = RenderOptions {
-                        spp: Some(16),
-                        seed: Some(500 * j as u64 + k),
-                        threads: Some(2),
-                        ..Default::default()
-                    };
-                    let (_, d, _) = render_diff(&s, &["liquid_ior".to_string()], &o).unwrap();
+                    let (_, d, _) =
+                        difftransient::render_diff(&s, &[param.to_string()], &opts(1000 * j as u64 + k)).unwrap();
                     [
                         common::blocks_and_bin_groups(&d[0], 4),
                         d[0].bin_totals().into_iter().map(|v| v as f64).collect(),
@@ -272,21 +255,5 @@ fn sobol_points_keep_the_derivatives_expectation() {
                 })
                 .collect()
         })
-        .collect();
-    for (a, what) in ["blocks x bin groups", "bins"].iter().enumerate() {
-        let x: Vec<Vec<f64>> = runs[0].iter().map(|r| r[a].clone()).collect();
-        let y: Vec<Vec<f64>> = runs[1].iter().map(|r| r[a].clone()).collect();
-        let (chi2, zmax, n) = common::two_sample_z(&x, &y);
-        let (mean, sd) = common::t2_sum_moments(n as f64, (K - 1) as f64);
-        eprintln!("d/d liquid_ior {what}: Σz² = {chi2:.1} (expect {mean:.1} ± {sd:.1}) over {n}, max|z| = {zmax:.2}");
-        assert!(n > 0);
-        assert!(
-            chi2 <= mean + 5.0 * sd,
-            "d/d liquid_ior {what}: Sobol and independent disagree"
-        );
-        assert!(
-            zmax <= 8.0,
-            "d/d liquid_ior {what}: an entry is {zmax:.1} standard errors off"
-        );
-    }
+        .collect()
 }
