@@ -85,5 +85,5 @@ pub use render::{
     BoundaryMode, DiffParts, Lanes, RenderOptions, RenderStats, render, render_diff, render_diff_parts,
     render_strategies,
 };
-pub use scene::Scene;
+pub use scene::{Entry, Scene, SceneBuilder};
 pub use shard::Shard;

@@ -47,8 +47,9 @@ __all__ = [
 
 
 class Scene:
-    """A loaded scene (immutable). Set parameter values with `with_params`, which reloads the
-    description with the new values (as `dtr render --set NAME=VALUE`)."""
+    """A loaded scene (immutable). Set parameter values with `with_params`, which gives a copy
+    with the new values (the scene `dtr render --set NAME=VALUE` renders) without reading any
+    file again."""
 
     def __init__(self, native: _NativeScene):
         self._native = native

@@ -2,8 +2,8 @@
 //! the pure-Python package `difftransient` (python/difftransient/) wraps.
 //!
 //! - Scenes are loaded from a file or from description text (the JSON schema of
-//!   scenes/README.md), and keep that text, so parameter values can be set by reloading it
-//!   with overrides (the same path as `dtr render --set`).
+//!   scenes/README.md); parameter values are set on a copy of a loaded scene
+//!   (`Scene::set_params`: the same scene as loading with `--set`, without reading files).
 //! - Renders release the GIL and run on the library's own thread pool; their films are moved
 //!   into numpy arrays without copying (the array's memory is the film's `Vec`).
 //! - Errors become `SceneError` (bad scene description or parameter) or `RenderError`
@@ -16,7 +16,7 @@ use numpy::{IntoPyArray, PyArray1, PyArray3, PyArray4, PyReadonlyArray4};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 pyo3::create_exception!(
     _difftransient,
@@ -42,28 +42,17 @@ fn render_err(e: difftransient::Error) -> PyErr {
     }
 }
 
-/// A loaded scene, with the description it came from (to set parameters by reloading it).
+/// A loaded scene (which keeps the description it was resolved from, so parameter values are
+/// set on it without reading any file again: `Scene::set_params`).
 #[pyclass(name = "Scene", module = "difftransient._difftransient", frozen)]
 struct PyScene {
     scene: Scene,
-    text: String,
-    format: Format,
-    /// The file the description came from, or a stand-in in the folder relative mesh paths
-    /// are resolved against.
-    source: PathBuf,
-    overrides: Vec<(String, f64)>,
 }
 
 impl PyScene {
-    fn build(text: String, format: Format, source: PathBuf, overrides: Vec<(String, f64)>) -> PyResult<Self> {
-        let scene = Scene::from_str(&text, format, &source, &overrides).map_err(scene_err)?;
-        Ok(Self {
-            scene,
-            text,
-            format,
-            source,
-            overrides,
-        })
+    fn build(text: &str, format: Format, source: &Path, overrides: &[(String, f64)]) -> PyResult<Self> {
+        let scene = Scene::from_str(text, format, source, overrides).map_err(scene_err)?;
+        Ok(Self { scene })
     }
 }
 
@@ -77,14 +66,7 @@ impl PyScene {
         // `Scene::load`, as `dtr render` loads it: its errors about an entry converted from a
         // Mitsuba XML scene name the XML element and line, as the CLI's do
         let scene = Scene::load(&path, &overrides).map_err(scene_err)?;
-        let (text, format) = Scene::read_description(&path).map_err(scene_err)?;
-        Ok(Self {
-            scene,
-            text,
-            format,
-            source: path,
-            overrides,
-        })
+        Ok(Self { scene })
     }
 
     /// A scene from JSON description text; relative mesh paths are resolved in `base_dir`.
@@ -92,22 +74,19 @@ impl PyScene {
     #[pyo3(signature = (text, base_dir, set = None))]
     fn from_json(text: String, base_dir: PathBuf, set: Option<Vec<(String, f64)>>) -> PyResult<Self> {
         Self::build(
-            text,
+            &text,
             Format::Json,
-            base_dir.join("<dict>.json"),
-            set.unwrap_or_default(),
+            &base_dir.join("<dict>.json"),
+            &set.unwrap_or_default(),
         )
     }
 
-    /// The same description with parameter values replaced ({name: value}; the others keep
-    /// theirs).
+    /// The same scene with parameter values replaced ({name: value}; the others keep theirs),
+    /// set on a copy of the loaded scene without reading any file.
     fn with_params(&self, values: Vec<(String, f64)>) -> PyResult<Self> {
-        let mut overrides = self.overrides.clone();
-        for (name, v) in values {
-            overrides.retain(|(n, _)| *n != name);
-            overrides.push((name, v));
-        }
-        Self::build(self.text.clone(), self.format, self.source.clone(), overrides)
+        let mut scene = self.scene.clone();
+        scene.set_params(&values).map_err(scene_err)?;
+        Ok(Self { scene })
     }
 
     /// Chooses the film's time window by a short pilot render, as `dtr render --auto-window`
@@ -120,17 +99,19 @@ impl PyScene {
             threads,
             ..Default::default()
         };
+        // the pilot and the chosen scene are the held scene with window fields set: no file
+        // is read again (`Scene::set_params` takes the dotted fields `--set` takes)
+        let with = |o: &[(String, f64)]| -> Result<Scene, difftransient::Error> {
+            let mut scene = self.scene.clone();
+            scene.set_params(o)?;
+            Ok(scene)
+        };
         let w = py
-            .detach(|| {
-                difftransient::auto_window::choose_window_with(&self.source, &self.overrides, &opts, |o| {
-                    Ok(Scene::from_str(&self.text, self.format, &self.source, o)?)
-                })
-            })
+            .detach(|| difftransient::auto_window::choose_window_with(&self.scene.source, &[], &opts, with))
             .map_err(render_err)?;
-        let mut overrides = self.overrides.clone();
-        overrides.retain(|(n, _)| n != "film.start_opl" && n != "film.bin_width_opl");
-        overrides.extend(w.overrides());
-        let scene = Self::build(self.text.clone(), self.format, self.source.clone(), overrides)?;
+        let scene = Self {
+            scene: with(&w.overrides()).map_err(render_err)?,
+        };
         Ok((scene, stats_json(&w)?))
     }
 

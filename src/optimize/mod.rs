@@ -20,7 +20,8 @@ use std::path::PathBuf;
 /// What to recover and from what.
 #[derive(Clone, Debug)]
 pub struct Problem {
-    /// The scene file (re-read at every iteration with the current values as overrides).
+    /// The scene file (read once; each iteration sets the current values on the loaded scene,
+    /// [`Scene::set_params`]).
     pub scene: PathBuf,
     /// Overrides held fixed (`--set`), besides the parameters being optimised.
     pub fixed: Vec<(String, f64)>,
@@ -83,12 +84,28 @@ impl Problem {
 
     /// L and dL/dθ at `values`, with render seeds `seed` (primal) and `seed + 1` (adjoint).
     pub fn loss_and_gradient(&self, values: &[f64], seed: u64) -> Result<(f64, Vec<f64>), Error> {
-        let scene = self.scene_at(values)?;
+        self.loss_and_gradient_of(&self.scene_at(values)?, seed)
+    }
+
+    /// `scene` with the parameters set to `values` (the fixed overrides stay as loaded).
+    fn set_values(&self, scene: &mut Scene, values: &[f64]) -> Result<(), Error> {
+        let set: Vec<(&str, f64)> = self
+            .params
+            .iter()
+            .map(String::as_str)
+            .zip(values.iter().copied())
+            .collect();
+        Ok(scene.set_params(&set)?)
+    }
+
+    /// L and dL/dθ of `scene` (a scene of this problem with its parameters set), with render
+    /// seeds `seed` (primal) and `seed + 1` (adjoint).
+    pub fn loss_and_gradient_of(&self, scene: &Scene, seed: u64) -> Result<(f64, Vec<f64>), Error> {
         let primal = RenderOptions {
             seed: Some(seed),
             ..self.opts.clone()
         };
-        let (image, _) = crate::render::render(&scene, &primal)?;
+        let (image, _) = crate::render::render(scene, &primal)?;
         if image.shape() != self.target.shape() {
             return Err(Error::Invalid(format!(
                 "the target has shape {:?}, the scene renders {:?} ([H, W, T, C])",
@@ -101,7 +118,7 @@ impl Problem {
             seed: Some(seed.wrapping_add(1)),
             ..self.opts.clone()
         };
-        let (grad, _) = crate::adjoint::render_adjoint(&scene, &self.params, &adjoint, &adj_opts)?;
+        let (grad, _) = crate::adjoint::render_adjoint(scene, &self.params, &adjoint, &adj_opts)?;
         Ok((l, grad))
     }
 
@@ -133,10 +150,12 @@ impl Problem {
         let mut adam = adam::Adam::new(lr.to_vec());
         let base = self.opts.seed.unwrap_or(0);
         let mut steps = Vec::with_capacity(iters);
+        let mut scene = Scene::load(&self.scene, &self.fixed)?;
         for it in 0..iters {
             let t0 = std::time::Instant::now();
             let seed = base.wrapping_add(2 * it as u64);
-            let (l, g) = self.loss_and_gradient(&x, seed)?;
+            self.set_values(&mut scene, &x)?;
+            let (l, g) = self.loss_and_gradient_of(&scene, seed)?;
             if !l.is_finite() || g.iter().any(|v| !v.is_finite()) {
                 return Err(Error::Invalid(format!(
                     "iteration {it}: the loss ({l}) or its gradient ({g:?}) is not finite"

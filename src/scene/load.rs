@@ -89,19 +89,28 @@ impl Scene {
             .iter()
             .cloned()
             .partition(|(n, _)| super::field_set::is_field_path(n));
-        let desc = parse(text, format, source, &fields)?;
-        super::resolve::resolve(desc, source, &params)
+        let (raw, desc) = parse(text, format, source, &fields)?;
+        let described = super::described::Described {
+            raw: std::sync::Arc::new(raw),
+            fields,
+            desc,
+            params,
+            meshes: None,
+        };
+        super::resolve::resolve(described, source)
     }
 }
 
 /// Text → description: syntax, non-finite numbers, the `--set` overrides of fields
 /// (`field_set`), then types (with field paths; without line numbers when fields were set).
+/// Returns the generic tree too (before the field overrides), from which
+/// [`Scene::set_params`] re-reads the description when fields change.
 pub(crate) fn parse(
     text: &str,
     format: Format,
     source: &Path,
     fields: &[(String, f64)],
-) -> Result<SceneDesc, SceneError> {
+) -> Result<(serde_json::Value, SceneDesc), SceneError> {
     let path = source.to_path_buf();
     let syntax = |line: usize, column: usize, message: String| SceneError::Syntax {
         path: path.clone(),
@@ -111,67 +120,40 @@ pub(crate) fn parse(
         message: message.trim().replace('\n', "; "),
     };
     // 1. Syntax, into a generic tree; scan it for numbers that are not finite f32s.
-    let mut bad: Option<(Vec<Seg>, String)> = None;
-    let raw: serde_json::Value = match format {
+    let raw = match format {
         Format::Toml => {
             let v: toml::Value = toml::from_str(text).map_err(|e| {
                 let (line, column) = e.span().map_or((0, 0), |s| line_column(text, s.start));
                 syntax(line, column, e.message().to_string())
             })?;
-            scan_toml(&v, &mut Vec::new(), &mut bad);
-            serde_json::to_value(&v).unwrap_or(serde_json::Value::Null)
+            toml_tree(&v, source)?
         }
         Format::Json => {
             let v: serde_json::Value =
                 serde_json::from_str(text).map_err(|e| syntax(e.line(), e.column(), strip_position(&e)))?;
+            let mut bad = None;
             scan_json(&v, &mut Vec::new(), &mut bad);
+            refuse_non_finite(&v, bad, source)?;
             v
         }
     };
-    let name_of = |section: &str, i: usize| -> Option<String> {
-        raw.get(section)?.get(i)?.get("name")?.as_str().map(str::to_string)
-    };
-    if let Some((at, got)) = bad {
-        return Err(SceneError::Invalid {
-            path,
-            at: location(&at, &name_of),
-            message: format!("expected a finite number, got {got}"),
-        });
-    }
     // 2. Types, unknown and missing fields, with the path to the offending field.
-    let typed = |segs: Vec<Seg>, message: String, pos: Option<(usize, usize)>| {
-        let message = match pos {
-            Some((l, c)) if l > 0 => format!("{message} (line {l}, column {c})"),
-            _ => message,
-        };
-        let at = match segs.as_slice() {
-            // a missing field is reported on the table that lacks it
-            [Seg::Key(table)] if message.starts_with("missing field") => table.clone(),
-            _ => location(&segs, &name_of),
-        };
-        SceneError::Invalid {
-            path: source.to_path_buf(),
-            at,
-            message,
-        }
-    };
     if !fields.is_empty() {
-        let mut tree = raw.clone();
-        super::field_set::apply(&mut tree, fields, source)?;
-        return serde_path_to_error::deserialize::<_, SceneDesc>(tree)
-            .map_err(|e| typed(segments(e.path()), strip_position(e.inner()).replace("`", "'"), None));
+        let desc = desc_from_tree(&raw, source, fields)?;
+        return Ok((raw, desc));
     }
-    match format {
+    let desc = match format {
         Format::Toml => {
+            // the syntax was checked in step 1; a failure here is reported the same way
             let de = toml::Deserializer::parse(text).map_err(|e| {
-                let pos = e.span().map(|s| line_column(text, s.start));
-                typed(Vec::new(), e.message().replace("`", "'"), pos)
+                let (line, column) = e.span().map_or((0, 0), |s| line_column(text, s.start));
+                syntax(line, column, e.message().to_string())
             })?;
             serde_path_to_error::deserialize::<_, SceneDesc>(de).map_err(|e| {
                 let segs = segments(e.path());
                 let inner = e.into_inner();
                 let pos = inner.span().map(|s| line_column(text, s.start));
-                typed(segs, inner.message().replace("`", "'"), pos)
+                typed_error(&raw, source, segs, inner.message().replace("`", "'"), pos)
             })
         }
         Format::Json => {
@@ -180,9 +162,85 @@ pub(crate) fn parse(
                 let segs = segments(e.path());
                 let inner = e.into_inner();
                 let pos = Some((inner.line(), inner.column()));
-                typed(segs, strip_position(&inner).replace("`", "'"), pos)
+                typed_error(&raw, source, segs, strip_position(&inner).replace("`", "'"), pos)
             })
         }
+    }?;
+    Ok((raw, desc))
+}
+
+/// A TOML tree (parsed from text, or assembled by [`super::SceneBuilder`]) as the generic
+/// tree the schema is read from, with numbers that are not finite f32s refused by location.
+pub(crate) fn toml_tree(v: &toml::Value, source: &Path) -> Result<serde_json::Value, SceneError> {
+    let mut bad = None;
+    scan_toml(v, &mut Vec::new(), &mut bad);
+    let raw = serde_json::to_value(v).unwrap_or(serde_json::Value::Null);
+    refuse_non_finite(&raw, bad, source)?;
+    Ok(raw)
+}
+
+/// The description read from the generic tree `raw` after the `--set` overrides of fields:
+/// the same checks and messages as reading the text, without line numbers.
+pub(crate) fn desc_from_tree(
+    raw: &serde_json::Value,
+    source: &Path,
+    fields: &[(String, f64)],
+) -> Result<SceneDesc, SceneError> {
+    let mut tree = raw.clone();
+    super::field_set::apply(&mut tree, fields, source)?;
+    serde_path_to_error::deserialize::<_, SceneDesc>(tree).map_err(|e| {
+        typed_error(
+            raw,
+            source,
+            segments(e.path()),
+            strip_position(e.inner()).replace("`", "'"),
+            None,
+        )
+    })
+}
+
+/// The name of entry `i` of an array of entries of `raw` (`material`, `shape`, ...).
+fn name_of(raw: &serde_json::Value, section: &str, i: usize) -> Option<String> {
+    raw.get(section)?.get(i)?.get("name")?.as_str().map(str::to_string)
+}
+
+/// The error of the first non-finite number the scan found, if any.
+fn refuse_non_finite(
+    raw: &serde_json::Value,
+    bad: Option<(Vec<Seg>, String)>,
+    source: &Path,
+) -> Result<(), SceneError> {
+    match bad {
+        None => Ok(()),
+        Some((at, got)) => Err(SceneError::Invalid {
+            path: source.to_path_buf(),
+            at: location(&at, &|s, i| name_of(raw, s, i)),
+            message: format!("expected a finite number, got {got}"),
+        }),
+    }
+}
+
+/// A type, unknown-field or missing-field error at `segs`, with the line and column when known.
+fn typed_error(
+    raw: &serde_json::Value,
+    source: &Path,
+    segs: Vec<Seg>,
+    message: String,
+    pos: Option<(usize, usize)>,
+) -> SceneError {
+    let message = match pos {
+        Some((l, c)) if l > 0 => format!("{message} (line {l}, column {c})"),
+        _ => message,
+    };
+    let at = match segs.as_slice() {
+        // a missing field is reported on the table that lacks it
+        [Seg::Key(table)] if message.starts_with("missing field") => table.clone(),
+        _ => location(&segs, &|s, i| name_of(raw, s, i)),
+    };
+    SceneError::Invalid {
+        path: source.to_path_buf(),
+        at,
+        message,
     }
 }
 

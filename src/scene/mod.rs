@@ -5,11 +5,14 @@
 //! built in local space and transformed to world space. The integrator sees only world-space
 //! triangles plus, per shape, its transform, from which a parameter's velocity field is derived.
 
+mod builder;
+pub use builder::{Entry, SceneBuilder};
 mod camera;
 pub use camera::{Camera, PixelFilter};
 mod camera_film;
 pub(crate) mod context;
 pub(crate) mod desc;
+mod described;
 mod emitters;
 pub(crate) mod error;
 pub(crate) mod field_set;
@@ -21,6 +24,7 @@ mod load;
 mod materials;
 pub mod mitsuba;
 pub mod nlos;
+mod set_params;
 pub use desc::{NlosScan, RelayLegs};
 pub use nlos::{NlosSpec, NoiseSpec, WallGrid, WallPoint};
 mod origin;
@@ -327,6 +331,9 @@ pub struct Scene {
     /// A relay-wall capture (`[nlos]`, `nlos.rs`): the film is then the capture's grid and the
     /// camera position is the SPAD's.
     pub nlos: Option<NlosSpec>,
+    /// The description this scene was resolved from, its overrides and its meshes, from
+    /// which [`Scene::set_params`] resolves the scene again without reading any file.
+    pub(crate) described: std::sync::Arc<described::Described>,
 }
 
 impl Scene {

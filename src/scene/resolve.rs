@@ -9,15 +9,22 @@
 
 use super::context::{Ctx, Names, count, index_names};
 use super::desc::SceneDesc;
+use super::described::Described;
 use super::error::{item_field, table_field};
+use super::shapes::LocalMesh;
 use super::{IntegratorSpec, Scene, SceneError, camera_film, emitters, materials};
 use std::collections::HashMap;
 use std::path::Path;
+use std::sync::Arc;
 
 /// Largest accepted bounce count.
 pub const MAX_BOUNCES: i64 = 1024;
 
-pub(crate) fn resolve(mut desc: SceneDesc, path: &Path, overrides: &[(String, f64)]) -> Result<Scene, SceneError> {
+/// Resolves `described` (its description with the overrides of `described.params` applied)
+/// into a [`Scene`] that keeps `described`, with its meshes, for [`Scene::set_params`].
+pub(crate) fn resolve(described: Described, path: &Path) -> Result<Scene, SceneError> {
+    let mut desc: SceneDesc = described.desc.clone();
+    let overrides = described.params.as_slice();
     let mut ctx = Ctx {
         path,
         set_by: HashMap::new(),
@@ -42,7 +49,11 @@ pub(crate) fn resolve(mut desc: SceneDesc, path: &Path, overrides: &[(String, f6
     .is_ok();
     let overridden = crate::params::resolve::apply_overrides(&mut desc, overrides, &names, path)?;
     let params = crate::params::resolve::apply_params(&mut desc, &names, &mut ctx, &overridden)?;
-    let meshes = super::shapes::local_meshes(&desc, &ctx)?;
+    // The meshes depend on no parameter (types, files and sphere subdivisions only).
+    let meshes: Arc<[LocalMesh]> = match &described.meshes {
+        Some(m) => m.clone(),
+        None => super::shapes::local_meshes(&desc, &ctx)?.into(),
+    };
     let origin = super::origin::choose(super::shapes::world_bounds(
         if written_ok { &as_written } else { &desc },
         &meshes,
@@ -59,7 +70,7 @@ pub(crate) fn resolve(mut desc: SceneDesc, path: &Path, overrides: &[(String, f6
     let emitters = emitters::emitters(&desc, &names, origin, &ctx)?;
     let channels = camera_film::channels(&desc, &params, &ctx)?;
     let mut film = camera_film::film(&desc.film, width, height, channels, filter, &ctx)?;
-    let (mut shapes, mut geometry) = super::shapes::build(&desc, &names, &emitters, &ctx, meshes, origin)?;
+    let (mut shapes, mut geometry) = super::shapes::build(&desc, &names, &emitters, &ctx, &meshes, origin)?;
     let lifted_emitters = super::flush::lift_flush_emitters(&mut shapes, &mut geometry);
     if let Some((d, o, delta)) = super::flush::flush_dielectric(&shapes, &geometry, &materials) {
         let (name, other) = (&shapes[d].name, &shapes[o].name);
@@ -111,6 +122,10 @@ pub(crate) fn resolve(mut desc: SceneDesc, path: &Path, overrides: &[(String, f6
         render_origin: origin.to_array(),
         lifted_emitters,
         nlos,
+        described: Arc::new(Described {
+            meshes: Some(meshes),
+            ..described
+        }),
     })
 }
 

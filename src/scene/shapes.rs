@@ -426,7 +426,7 @@ pub(crate) fn build(
     names: &Names,
     emitters: &[Emitter],
     ctx: &Ctx,
-    meshes: Vec<LocalMesh>,
+    meshes: &[LocalMesh],
     origin: DVec3,
 ) -> Result<(Vec<Shape>, Geometry), SceneError> {
     let mut geo = Geometry::default();
@@ -458,7 +458,7 @@ pub(crate) fn build(
         }
         let (mut transform, translate) = transform(ctx, i, d)?;
         transform.translate = (translate - origin).as_vec3();
-        let world: Vec<Vec3> = world_f64(&transform, translate - origin, &mesh)
+        let world: Vec<Vec3> = world_f64(&transform, translate - origin, mesh)
             .map(|p| p.as_vec3())
             .collect();
         let local: Vec<Vec3> = mesh.positions.iter().map(|p| p.as_vec3()).collect();
