@@ -73,6 +73,17 @@ class Scene:
         """The same scene with the values of `params` ({name: value}) replaced."""
         return Scene(self._native.with_params(_pairs(params)))
 
+    def with_sampler(self, name: str) -> "Scene":
+        """The same scene drawing `name`'s numbers: "independent" (the default) or "sobol"
+        (Owen-scrambled Sobol points, stratified over each pixel's samples: several times less
+        error at the same cost; `dtr render --sampler`)."""
+        return Scene(self._native.with_sampler(name))
+
+    @property
+    def sampler(self) -> str:
+        """The sampler's name ("independent" or "sobol")."""
+        return self._native.sampler
+
     def auto_window(self, *, seed: Optional[int] = None, threads: Optional[int] = None) -> "Scene":
         """The same scene with its time window (film start and bin width; the number of bins
         kept) chosen by a short pilot render over where the light arrives and decays, as

@@ -9,6 +9,7 @@
 //! - Errors become `SceneError` (bad scene description or parameter) or `RenderError`
 //!   (anything a render refuses) with the library's messages.
 
+use difftransient::kernel::SampleSequence;
 use difftransient::scene::Format;
 use difftransient::{BoundaryMode, RenderOptions, Scene, Transient};
 use numpy::ndarray::{Array1, Array4};
@@ -87,6 +88,29 @@ impl PyScene {
         let mut scene = self.scene.clone();
         scene.set_params(&values).map_err(scene_err)?;
         Ok(Self { scene })
+    }
+
+    /// The same scene drawing `name`'s numbers: "independent" or "sobol" (`[integrator]
+    /// sampler`, `dtr render --sampler`).
+    fn with_sampler(&self, name: &str) -> PyResult<Self> {
+        let sampler = match name {
+            "independent" => SampleSequence::Independent,
+            "sobol" => SampleSequence::Sobol,
+            other => {
+                return Err(PyValueError::new_err(format!(
+                    "unknown sampler {other:?}: expected \"independent\" or \"sobol\""
+                )));
+            }
+        };
+        let mut scene = self.scene.clone();
+        scene.integrator.sampler = sampler;
+        Ok(Self { scene })
+    }
+
+    /// The sampler's name ("independent" or "sobol").
+    #[getter]
+    fn sampler(&self) -> &'static str {
+        self.scene.integrator.sampler.name()
     }
 
     /// Chooses the film's time window by a short pilot render, as `dtr render --auto-window`

@@ -131,6 +131,27 @@ def test_with_params_renders_the_bytes_of_a_reload():
     assert not np.array_equal(a.transient, dt.render(s, spp=2, seed=6).transient)
 
 
+def test_with_sampler_is_the_scene_files_sampler():
+    """`with_sampler("sobol")` renders the bytes of the scene whose [integrator] says sampler =
+    "sobol", differs from the default (independent) render, and refuses an unknown name."""
+    import json
+    import tomllib
+
+    s = scene("diff_room.toml")
+    assert s.sampler == "independent"
+    t = s.with_sampler("sobol")
+    assert t.sampler == "sobol"
+    desc = tomllib.loads((SCENES / "diff_room.toml").read_text())
+    desc.setdefault("integrator", {})["sampler"] = "sobol"
+    u = dt.Scene.from_dict(json.loads(json.dumps(desc)), base_dir=SCENES)
+    a = dt.render(t, spp=4, seed=2).transient
+    assert a.sum() > 0
+    assert np.array_equal(a, dt.render(u, spp=4, seed=2).transient)
+    assert not np.array_equal(a, dt.render(s, spp=4, seed=2).transient)
+    with pytest.raises(ValueError, match="halton"):
+        s.with_sampler("halton")
+
+
 def test_scene_from_a_dict():
     import json
     import tomllib
