@@ -93,15 +93,7 @@ impl PyScene {
     /// The same scene drawing `name`'s numbers: "independent" or "sobol" (`[integrator]
     /// sampler`, `dtr render --sampler`).
     fn with_sampler(&self, name: &str) -> PyResult<Self> {
-        let sampler = match name {
-            "independent" => SampleSequence::Independent,
-            "sobol" => SampleSequence::Sobol,
-            other => {
-                return Err(PyValueError::new_err(format!(
-                    "unknown sampler {other:?}: expected \"independent\" or \"sobol\""
-                )));
-            }
-        };
+        let sampler = SampleSequence::from_name(name).map_err(PyValueError::new_err)?;
         let mut scene = self.scene.clone();
         scene.integrator.sampler = sampler;
         Ok(Self { scene })

@@ -85,7 +85,7 @@ pub struct RenderArgs {
     /// The numbers paths draw (overrides the scene's [integrator] sampler): `independent`
     /// or `sobol` (Owen-scrambled Sobol points, stratified over each pixel's samples: lower
     /// error per sample at about the same cost; see BENCHMARKS.md).
-    #[arg(long, value_name = "independent|sobol", value_parser = parse_sampler)]
+    #[arg(long, value_name = "independent|sobol", value_parser = SampleSequence::from_name)]
     pub sampler: Option<SampleSequence>,
     /// What the steady image (PREFIX.steady.png, the JSON's energy) integrates: `window`
     /// (default: the time window; paths end once they cannot reach it, the transient is
@@ -392,16 +392,6 @@ fn parse_shard(s: &str) -> Result<crate::shard::Shard, String> {
 fn stats_range(shard: &crate::shard::Shard, total: u64) -> [u64; 2] {
     let r = shard.range(total);
     [r.start, r.end]
-}
-
-fn parse_sampler(s: &str) -> Result<SampleSequence, String> {
-    match s {
-        "independent" => Ok(SampleSequence::Independent),
-        "sobol" => Ok(SampleSequence::Sobol),
-        other => Err(format!(
-            "unknown sampler {other:?}: expected \"independent\" or \"sobol\""
-        )),
-    }
 }
 
 fn parse_integrator(s: &str) -> Result<IntegratorKind, String> {

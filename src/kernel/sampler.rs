@@ -28,6 +28,15 @@ impl SampleSequence {
             SampleSequence::Sobol => "sobol",
         }
     }
+
+    /// The sequence called `name` (`dtr render --sampler`, Python's `Scene.with_sampler`), or
+    /// a message naming the ones there are.
+    pub fn from_name(name: &str) -> Result<Self, String> {
+        [SampleSequence::Independent, SampleSequence::Sobol]
+            .into_iter()
+            .find(|s| s.name() == name)
+            .ok_or_else(|| format!("unknown sampler {name:?}: expected \"independent\" or \"sobol\""))
+    }
 }
 
 /// Mixes a 64-bit key into a uniform `f32` in `[0, 1)` (24 bits of mantissa).
@@ -90,8 +99,12 @@ impl PathSampler {
             return Self::new(seed, path_ids);
         }
         let spp = spp as u64;
-        let pixels: Vec<u64> = path_ids.iter().map(|&p| p / spp).collect();
-        let mut s = Self::new(seed, &pixels);
+        let lanes = path_ids.len().min(8);
+        let mut pixels = [0u64; 8];
+        for (o, &p) in pixels.iter_mut().zip(path_ids) {
+            *o = p / spp;
+        }
+        let mut s = Self::new(seed, &pixels[..lanes]);
         let mut index = [0u32; 8];
         for (o, &p) in index.iter_mut().zip(path_ids) {
             *o = (p % spp) as u32;
