@@ -80,6 +80,10 @@ pub struct BoundaryStats {
     pub wall_seconds: f64,
     pub cpu_seconds: f64,
     pub primary_seconds: f64,
+    /// Side-path contributions and edge weights of the primary-edge stage dropped because they
+    /// were not finite (`primary::PrimaryStats::non_finite`; 0 when read from an older record).
+    #[serde(default)]
+    pub primary_non_finite: u64,
     pub secondary: pass::SecondaryStats,
     pub edges: usize,
 }
@@ -93,8 +97,8 @@ pub fn render_boundary(ctx: &RenderContext, settings: &BoundarySettings, pool: &
         settings.seed ^ PRIMARY_SEED,
         settings.shard,
         pool,
-    )
-    .0;
+    );
+    let (primary, pstats) = primary;
     let primary_seconds = t0.elapsed().as_secs_f64();
     let sec = secondary::Secondary::new(ctx);
     let (secondary, sstats) = sec.render(settings, pool);
@@ -104,6 +108,7 @@ pub fn render_boundary(ctx: &RenderContext, settings: &BoundarySettings, pool: &
         stats: BoundaryStats {
             spp_boundary: settings.spp_boundary,
             primary_seconds,
+            primary_non_finite: pstats.non_finite,
             secondary: sstats,
             edges: sec.edge_count(),
             ..Default::default()
@@ -121,7 +126,7 @@ pub fn boundary_adjoint(
     adjoint: &Transient,
 ) -> ([f64; crate::params::MAX_PARAMS], BoundaryStats) {
     let t0 = Instant::now();
-    let (mut grad, _) = primary::primary_adjoint(
+    let (mut grad, pstats) = primary::primary_adjoint(
         ctx,
         settings.spp_boundary,
         settings.seed ^ PRIMARY_SEED,
@@ -136,6 +141,7 @@ pub fn boundary_adjoint(
     let stats = BoundaryStats {
         spp_boundary: settings.spp_boundary,
         primary_seconds,
+        primary_non_finite: pstats.non_finite,
         secondary: sstats,
         edges: sec.edge_count(),
         wall_seconds: t0.elapsed().as_secs_f64(),
