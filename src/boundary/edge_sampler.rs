@@ -64,12 +64,13 @@ pub struct EdgeSampler {
 impl EdgeSampler {
     /// Builds the edge table of the scene's world-space geometry, every edge weighted alike.
     pub fn new(geo: &Geometry) -> Self {
-        Self::with_shape_factor(geo, |_| 1.0)
+        Self::with_edge_factors(geo, |edges| vec![1.0; edges.len()])
     }
 
-    /// Builds the edge table with each edge's weight multiplied by `factor(shape)` (> 0 keeps
-    /// every edge reachable, so any factor leaves the estimator unbiased).
-    pub fn with_shape_factor(geo: &Geometry, factor: impl Fn(u32) -> f32) -> Self {
+    /// Builds the edge table with each edge's weight multiplied by its entry of
+    /// `factors(edges)` (given every edge's record; a factor > 0 keeps the edge reachable, so any
+    /// such factors leave the estimator unbiased).
+    pub fn with_edge_factors(geo: &Geometry, factors: impl FnOnce(&[EdgeRecord]) -> Vec<f32>) -> Self {
         let mut edges = Vec::new();
         let mut weights = Vec::new();
         for e in build_edges(geo) {
@@ -102,7 +103,7 @@ impl EdgeSampler {
                 }
             };
             let frac = if e.is_boundary() { 1.0 } else { (PI - psi) / PI };
-            let w = len * frac * factor(geo.tri_shape[e.face0 as usize]);
+            let w = len * frac;
             if !(w > 0.0) {
                 continue;
             }
@@ -116,6 +117,9 @@ impl EdgeSampler {
                 psi: if e.is_boundary() { 0.0 } else { psi },
             });
             weights.push(w as f64);
+        }
+        for (w, f) in weights.iter_mut().zip(factors(&edges)) {
+            *w *= f as f64;
         }
         let total: f64 = weights.iter().sum();
         let mut acc = 0.0f64;

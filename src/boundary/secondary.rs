@@ -84,10 +84,51 @@ use crate::params::MAX_PARAMS;
 use crate::scene::EmitterKind;
 use glam::{DVec3, Vec3};
 
-/// Edges of shapes that a parameter moves are drawn this many times more often per metre: their
-/// shadows move whatever else does (edges of static shapes contribute only where x_L or x_S
-/// moves). Any positive factor keeps the estimator unbiased.
+/// Edges that a parameter moves across themselves are drawn up to this many times more often
+/// per metre (`edge_sampler`): their shadows move whatever else does (edges of static shapes
+/// contribute only where x_L or x_S moves). Any positive factor keeps the estimator unbiased.
 const MOVING_EDGE_FACTOR: f32 = 8.0;
+/// The edge table of the secondary pass: each edge weighted by its length and silhouette
+/// fraction (`EdgeSampler`) times 1 + (F − 1)·s, F = [`MOVING_EDGE_FACTOR`] and s ∈ [0, 1] the
+/// edge's speed across itself relative to the fastest edge, for the parameter that moves it
+/// most: the component of its velocity perpendicular to the edge (largest at either end,
+/// as velocities are affine along an edge) over the largest such speed of any edge under that
+/// parameter. An edge sliding along itself (the sides of a plate translated along them) moves
+/// no discontinuity (its dh̃/dθ vanishes), so it is drawn as often as a static edge.
+fn edge_sampler(ctx: &RenderContext) -> EdgeSampler {
+    let geo = &ctx.scene.geometry;
+    let params = ctx.motion.len();
+    let cross_speed = |k: usize, shape: u32, v0: Vec3, v1: Vec3| -> f32 {
+        let t = (v1 - v0).normalize_or_zero();
+        [v0, v1]
+            .iter()
+            .map(|&x| {
+                let v = ctx.motion.velocity(k, shape as usize, x);
+                (v - t * t.dot(v)).length()
+            })
+            .fold(0.0, f32::max)
+    };
+    EdgeSampler::with_edge_factors(geo, |edges| {
+        let speeds: Vec<Vec<f32>> = edges
+            .iter()
+            .map(|r| (0..params).map(|k| cross_speed(k, r.shape, r.v0, r.v1)).collect())
+            .collect();
+        let fastest: Vec<f32> = (0..params)
+            .map(|k| speeds.iter().map(|s| s[k]).fold(0.0, f32::max))
+            .collect();
+        speeds
+            .iter()
+            .map(|s| {
+                let rel = (0..params)
+                    .filter(|&k| fastest[k] > 0.0)
+                    .map(|k| s[k] / fastest[k])
+                    .fold(0.0f32, f32::max);
+                1.0 + (MOVING_EDGE_FACTOR - 1.0) * rel.clamp(0.0, 1.0)
+            })
+            .collect()
+    })
+}
+
 /// Stream of strategy B (light-directed boundary rays), relative to strategy A's.
 pub(super) const LIGHT_STREAM: u64 = 0x11D1_2EC7_0000_0003;
 
@@ -171,10 +212,7 @@ impl<'a> Secondary<'a> {
     pub fn new(ctx: &'a RenderContext<'a>) -> Self {
         Self {
             ctx,
-            edges: EdgeSampler::with_shape_factor(&ctx.scene.geometry, |s| {
-                let moves = (0..ctx.motion.len()).any(|k| ctx.motion.fields[k].iter().any(|(m, _)| *m == s as usize));
-                if moves { MOVING_EDGE_FACTOR } else { 1.0 }
-            }),
+            edges: edge_sampler(ctx),
             params: ctx.motion.len().min(MAX_PARAMS),
             laser_spots: (0..ctx.scene.emitters.len())
                 .map(|e| {
@@ -537,4 +575,49 @@ impl<'a> Secondary<'a> {
 /// it and the direction are stratified over the stage.
 fn boundary_numbers(ctx: &RenderContext, seed: u64, id: u64) -> PathSampler {
     PathSampler::with_sequence(ctx.scene.integrator.sampler, seed, &[id], u32::MAX)
+}
+
+#[cfg(test)]
+mod edge_weight_tests {
+    use super::*;
+    use crate::accel::Device;
+    use crate::params::lanes::Motion;
+    use crate::scene::Scene;
+
+    /// scenes/shadow_hidden_occluder.toml, d/d`occluder_x`: the occluder's two edges along z
+    /// (moved across themselves at full speed) are drawn 8 times as often per metre as a static
+    /// edge; its two edges along x (sliding along themselves: no discontinuity moves) and
+    /// every static edge once.
+    #[test]
+    fn edges_are_weighted_by_their_speed_across_themselves() {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/shadow_hidden_occluder.toml");
+        let scene = Scene::load(&path, &[]).unwrap();
+        let device = Device::new("").unwrap();
+        let mut ctx = RenderContext::new(&scene, &device).unwrap();
+        ctx.motion = Motion::build(&scene, &["occluder_x".to_string()]).unwrap();
+        let occluder = scene.shapes.iter().position(|s| s.name == "occluder").unwrap() as u32;
+        let table = edge_sampler(&ctx);
+        let static_table = EdgeSampler::new(&scene.geometry);
+        assert_eq!(table.edges.len(), static_table.edges.len());
+        // per-metre weight of each edge relative to the unweighted table
+        let per_metre = |t: &EdgeSampler, i: usize| {
+            let r = &t.edges[i];
+            t.edge_pmf(i) * t.total_weight() / (r.v1 - r.v0).length()
+        };
+        let (mut across, mut along) = (0, 0);
+        for (i, r) in table.edges.iter().enumerate() {
+            let ratio = per_metre(&table, i) / per_metre(&static_table, i);
+            let dir = (r.v1 - r.v0).normalize();
+            if r.shape == occluder && dir.x.abs() < 1e-3 {
+                across += 1;
+                assert!((ratio - MOVING_EDGE_FACTOR).abs() < 1e-3, "edge {i} across: {ratio}");
+            } else {
+                if r.shape == occluder {
+                    along += 1;
+                }
+                assert!((ratio - 1.0).abs() < 1e-3, "edge {i} (shape {}): {ratio}", r.shape);
+            }
+        }
+        assert_eq!((across, along), (2, 2));
+    }
 }
