@@ -54,6 +54,18 @@ pub fn blocks_and_bin_groups(t: &Transient, group: usize) -> Vec<f64> {
     out
 }
 
+/// Every pixel's time-summed value (channel 0, row by row), then groups of `group` bins of the
+/// image total: aggregates fine enough that a relative-bias fit is not dominated by the
+/// blocks where two parts of the derivative cancel (tests/dielectric_pose_fd.rs).
+pub fn pixels_and_bin_groups(t: &Transient, group: usize) -> Vec<f64> {
+    let mut out: Vec<f64> = (0..t.height)
+        .flat_map(|y| (0..t.width).map(move |x| t.time_sum(x, y, 0) as f64))
+        .collect();
+    let bins = t.bin_totals();
+    out.extend(bins.chunks(group).map(|c| c.iter().map(|&v| v as f64).sum::<f64>()));
+    out
+}
+
 /// Mean and standard error over independent estimates.
 pub fn mean_se(xs: &[f64]) -> (f64, f64) {
     let n = xs.len() as f64;
