@@ -271,3 +271,74 @@ fn closed_form_unbinned(scene: &Scene, s: (f64, f64), z: f64, a: f64) -> f64 {
     }
     out
 }
+
+/// Each scan point's laser spot is the scan's own wall point (its triangle and barycentrics,
+/// so its normal), not whichever triangle the BVH happens to meet first where the beam crosses
+/// an edge two triangles share. Every grid point of the curved wall lies on such a crease
+/// (its mesh has vertices at x = k/8, the grid at x = ±0.125, ±0.375, ...); the BVH, built
+/// with the hidden square in it, met either triangle depending on the square's position, so
+/// pixel (5, 4) of nlos_tracking_curved.toml jumped by 3.4 % between target_y = −0.05165
+/// and −0.0516 (its spot's normal turned by 2.7°; the square moved 50 µm), a jump the
+/// interior derivative cannot see (tests/nlos_tracking.rs then failed its FD check). A beam
+/// that meets something before its wall point still lights that (a panel put in the beam of
+/// laser point 0).
+#[test]
+fn laser_spots_are_the_scan_points_whatever_the_bvh() {
+    use difftransient::integrator::context::RenderContext;
+    let dev = difftransient::accel::Device::new("").unwrap();
+    let file = common::scene_path("nlos_tracking_curved.toml");
+    let load = |y: f64| Scene::load(&file, &[("target_y".into(), y)]).unwrap();
+    for y in [-0.0517, -0.05165, -0.0516, -0.0515, -0.05, -0.03, -0.07] {
+        let s = load(y);
+        let ctx = RenderContext::new(&s, &dev).unwrap();
+        let scan = ctx.nlos.as_ref().unwrap();
+        let lasers = &s.nlos.as_ref().unwrap().lasers.points;
+        assert_eq!(scan.spots.len(), 64);
+        for (i, (spot, l)) in scan.spots.iter().zip(lasers).enumerate() {
+            let spot = spot.as_ref().unwrap();
+            assert_eq!(
+                (spot.prim, spot.u, spot.v),
+                (l.prim, l.u, l.v),
+                "target_y {y}, laser point {i}"
+            );
+            let laser = spot.origin;
+            assert!((spot.distance - (l.p - laser).length()).abs() < 1e-5, "laser point {i}");
+        }
+    }
+    // the pixel that jumped: with the same paths, 50 µm of motion changes it by far less
+    let px = |y: f64| render(&load(y), &opts(4096, 0)).unwrap().0.time_sum(5, 4, 0) as f64;
+    let (a, b) = (px(-0.05165), px(-0.0516));
+    assert!(
+        a > 0.0 && (a / b - 1.0).abs() < 5e-3,
+        "pixel (5, 4): {a} at −0.05165, {b} at −0.0516"
+    );
+
+    // a panel (0.1 m square, horizontal) halfway along the beam of laser point 0, which runs
+    // from (−5, 0.2, 2.5) to about (−0.875, −0.875, 0.03)
+    let text = std::fs::read_to_string(&file).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let blocked = dir.path().join("blocked.toml");
+    let meshes = common::scene_path("meshes");
+    let text = text.replace(
+        "meshes/curved_wall.obj",
+        &meshes.join("curved_wall.obj").display().to_string(),
+    );
+    std::fs::write(
+        &blocked,
+        text + "\n[[shape]]\nname = \"panel\"\ntype = \"rectangle\"\nmaterial = \"wall\"\n\
+                scale = [0.05, 0.05, 1.0]\ntranslate = [-2.94, -0.34, 1.27]\n",
+    )
+    .unwrap();
+    let s = Scene::load(&blocked, &[]).unwrap();
+    let ctx = RenderContext::new(&s, &dev).unwrap();
+    let scan = ctx.nlos.as_ref().unwrap();
+    let lasers = &s.nlos.as_ref().unwrap().lasers.points;
+    let panel = s.shapes.iter().position(|sh| sh.name == "panel").unwrap() as u32;
+    let spot0 = scan.spots[0].as_ref().unwrap();
+    assert_eq!(s.geometry.tri_shape[spot0.prim as usize], panel);
+    assert!(spot0.distance < 0.6 * (lasers[0].p - spot0.origin).length());
+    for (i, (spot, l)) in scan.spots.iter().zip(lasers).enumerate().skip(1) {
+        let spot = spot.as_ref().unwrap();
+        assert_eq!((spot.prim, spot.u, spot.v), (l.prim, l.u, l.v), "laser point {i}");
+    }
+}

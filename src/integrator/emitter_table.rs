@@ -40,11 +40,26 @@ pub fn laser_spot(
     direction: Vec3,
     power: [f32; 3],
 ) -> Result<Option<LaserSpot>, String> {
-    let geo = &scene.geometry;
     let Some(h) = accel.intersect1(position.to_array(), direction.to_array(), 0.0, f32::INFINITY) else {
         return Ok(None);
     };
-    let mat = scene.shapes[geo.tri_shape[h.prim as usize] as usize].material;
+    let distance = h.t * direction.length();
+    spot_at(scene, (h.prim, h.u, h.v), distance, position, direction, power).map(Some)
+}
+
+/// The spot of a beam from `position` along `direction` that lands `distance` away at
+/// barycentrics (u, v) of triangle `prim`, given as `(prim, u, v)`: an error unless that
+/// triangle is diffuse.
+pub fn spot_at(
+    scene: &Scene,
+    (prim, u, v): (u32, f32, f32),
+    distance: f32,
+    position: Vec3,
+    direction: Vec3,
+    power: [f32; 3],
+) -> Result<LaserSpot, String> {
+    let geo = &scene.geometry;
+    let mat = scene.shapes[geo.tri_shape[prim as usize] as usize].material;
     let material = &scene.materials[mat as usize];
     let Material::Diffuse { albedo } = material.material else {
         return Err(format!(
@@ -53,23 +68,23 @@ pub fn laser_spot(
             material.material.type_name()
         ));
     };
-    let [a, b, c] = geo.indices[h.prim as usize].map(|i| geo.positions[i as usize]);
+    let [a, b, c] = geo.indices[prim as usize].map(|i| geo.positions[i as usize]);
     let side = if (b - a).cross(c - a).dot(direction) < 0.0 {
         1.0
     } else {
         -1.0
     };
-    Ok(Some(LaserSpot {
+    Ok(LaserSpot {
         side,
         origin: position,
         direction: direction.normalize(),
-        prim: h.prim,
-        u: h.u,
-        v: h.v,
-        distance: h.t * direction.length(),
+        prim,
+        u,
+        v,
+        distance,
         intensity: std::array::from_fn(|c| power[c] * albedo[c] * std::f32::consts::FRAC_1_PI),
         intensity_per_power: albedo.map(|a| a * std::f32::consts::FRAC_1_PI),
-    }))
+    })
 }
 
 /// One emitter as the sampler sees it (`emitters.rs` reads the variants).

@@ -18,7 +18,7 @@
 //! (light tracing, the boundary stage's sensor subpaths), as `CameraSampler::project` is the
 //! pinhole's: a scene point → (sensor index, importance, squared distance).
 
-use super::emitter_table::{LaserSpot, laser_spot};
+use super::emitter_table::{LaserSpot, laser_spot, spot_at};
 use crate::accel::Accel;
 use crate::scene::{EmitterKind, Material, NlosSpec, RelayLegs, Scene, WallPoint};
 use glam::Vec3;
@@ -35,6 +35,33 @@ pub struct SensorProjection {
     pub dist2: f32,
     /// Unit direction from the sensor point to the scene point.
     pub dir: Vec3,
+}
+
+/// The spot the laser at `position` lights when the scan aims it at wall point `l`: `l` itself
+/// (its triangle and barycentrics, so its normal) when nothing stands in the beam up to just
+/// short of it, else the first surface the beam meets.
+///
+/// The beam's hit on the wall is not used: where `l` lies on an edge two wall triangles share
+/// (every grid point of a wall meshed along the grid's lines does), the ray meets both at the
+/// same distance and the BVH's traversal order picks one. That order changes with geometry
+/// elsewhere in the scene, so the spot's normal, hence its light (I ∝ cos θ to the normal),
+/// would jump as an unrelated shape moves, and the spot could take another normal than the
+/// sensor point at the same place. The wall point is the scene's own resolution of `l`.
+fn scan_spot(
+    scene: &Scene,
+    accel: &Accel,
+    position: Vec3,
+    l: &WallPoint,
+    power: [f32; 3],
+) -> Result<Option<LaserSpot>, String> {
+    let to = l.p - position;
+    let len = to.length();
+    let dir = to / len;
+    // as the SPAD's view of the sensor points (`seen`): to just short of the wall point
+    if accel.occluded1(position.to_array(), dir.to_array(), 0.0, len * (1.0 - 1e-5)) {
+        return laser_spot(scene, accel, position, dir, power);
+    }
+    spot_at(scene, (l.prim, l.u, l.v), len, position, dir, power).map(Some)
 }
 
 /// The scan as the kernel sees it. Built once per render.
@@ -100,7 +127,7 @@ impl NlosSensor {
             .lasers
             .points
             .iter()
-            .map(|l| laser_spot(scene, accel, position, (l.p - position).normalize(), power))
+            .map(|l| scan_spot(scene, accel, position, l, power))
             .collect::<Result<Vec<_>, _>>()
             .map_err(|why| crate::error::Error::Invalid(format!("{}: [nlos] laser: {why}", scene.source.display())))?;
         Ok(Self {
