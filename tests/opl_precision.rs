@@ -362,81 +362,16 @@ fn quadratic_form_inverse(s: &[Vec<f64>], d: &[f64]) -> f64 {
     y.iter().map(|v| v * v).sum()
 }
 
-/// ln Γ(x) for x > 0 (Lanczos, g = 7, 9 terms; ~10⁻¹⁵ relative).
-fn ln_gamma(x: f64) -> f64 {
-    const C: [f64; 9] = [
-        0.999_999_999_999_809_9,
-        676.520_368_121_885_1,
-        -1_259.139_216_722_402_8,
-        771.323_428_777_653_1,
-        -176.615_029_162_140_6,
-        12.507_343_278_686_905,
-        -0.138_571_095_265_720_12,
-        9.984_369_578_019_572e-6,
-        1.505_632_735_149_311_6e-7,
-    ];
-    let x = x - 1.0;
-    let mut a = C[0];
-    let t = x + 7.5;
-    for (i, c) in C.iter().enumerate().skip(1) {
-        a += c / (x + i as f64);
-    }
-    0.5 * (2.0 * std::f64::consts::PI).ln() + (x + 0.5) * t.ln() - t + a.ln()
-}
-
-/// The regularized incomplete beta function I_x(a, b) (continued fraction, Numerical
-/// Recipes' betacf).
-fn inc_beta(a: f64, b: f64, x: f64) -> f64 {
-    if x <= 0.0 {
-        return 0.0;
-    }
-    if x >= 1.0 {
-        return 1.0;
-    }
-    let cf = |a: f64, b: f64, x: f64| {
-        let tiny = 1e-300;
-        let (qab, qap, qam) = (a + b, a + 1.0, a - 1.0);
-        let mut c = 1.0;
-        let mut d = 1.0 - qab * x / qap;
-        d = 1.0 / if d.abs() < tiny { tiny } else { d };
-        let mut h = d;
-        for m in 1..1000 {
-            let m = m as f64;
-            let aa = m * (b - m) * x / ((qam + 2.0 * m) * (a + 2.0 * m));
-            d = 1.0 + aa * d;
-            d = 1.0 / if d.abs() < tiny { tiny } else { d };
-            c = 1.0 + aa / c;
-            c = if c.abs() < tiny { tiny } else { c };
-            h *= d * c;
-            let aa = -(a + m) * (qab + m) * x / ((a + 2.0 * m) * (qap + 2.0 * m));
-            d = 1.0 + aa * d;
-            d = 1.0 / if d.abs() < tiny { tiny } else { d };
-            c = 1.0 + aa / c;
-            c = if c.abs() < tiny { tiny } else { c };
-            let del = d * c;
-            h *= del;
-            if (del - 1.0).abs() < 1e-15 {
-                break;
-            }
-        }
-        h
-    };
-    let front = (a * x.ln() + b * (1.0 - x).ln() - ln_gamma(a) - ln_gamma(b) + ln_gamma(a + b)).exp();
-    if x < (a + 1.0) / (a + b + 2.0) {
-        front * cf(a, b, x) / a
-    } else {
-        1.0 - front * cf(b, a, 1.0 - x) / b
-    }
-}
-
 /// P(F > f) for F ~ F(d1, d2).
 fn f_sf(f: f64, d1: f64, d2: f64) -> f64 {
-    inc_beta(d2 / 2.0, d1 / 2.0, d2 / (d2 + d1 * f))
+    use statrs::distribution::{ContinuousCDF, FisherSnedecor};
+    FisherSnedecor::new(d1, d2).unwrap().sf(f)
 }
 
 /// P(|T| > t) for T ~ Student t with `nu` degrees of freedom.
 fn t_sf2(t: f64, nu: f64) -> f64 {
-    inc_beta(nu / 2.0, 0.5, nu / (nu + t * t))
+    use statrs::distribution::{ContinuousCDF, StudentsT};
+    2.0 * StudentsT::new(0.0, 1.0, nu).unwrap().sf(t.abs())
 }
 
 #[test]
@@ -445,7 +380,6 @@ fn the_f_and_t_tails_match_tabulated_values() {
     assert!((f_sf(2.348, 10.0, 20.0) - 0.05).abs() < 2e-4);
     assert!((t_sf2(2.042, 30.0) - 0.05).abs() < 2e-4);
     assert!((t_sf2(4.587, 10.0) - 1e-3).abs() < 2e-5);
-    assert!((ln_gamma(10.0) - 362_880f64.ln()).abs() < 1e-12);
 }
 
 #[test]
