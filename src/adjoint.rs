@@ -288,7 +288,7 @@ fn render_adjoint_group(
         };
         let (g, b) = crate::boundary::boundary_adjoint(ctx, &settings, &run.pool, adjoint);
         grad.iter_mut().zip(g).for_each(|(a, b)| *a += b);
-        stats.non_finite_samples += b.secondary.non_finite + b.primary_non_finite;
+        stats.non_finite_samples += b.non_finite();
         stats.boundary = Some(b);
     }
     stats.wall_seconds = t0.elapsed().as_secs_f64();

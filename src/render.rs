@@ -1126,7 +1126,7 @@ impl<'s> Run<'s> {
                 let steady: f64 = p.steady.iter().zip(&q.steady).map(|(a, b)| (a + b) as f64).sum();
                 steady_sums.push(steady);
             }
-            stats.non_finite_samples += b.stats.secondary.non_finite + b.stats.primary_non_finite;
+            stats.non_finite_samples += b.stats.non_finite();
             stats.boundary_samples = b.stats.secondary.samples;
             stats.boundary_seconds = b.stats.wall_seconds;
             stats.total_wall_seconds += b.stats.wall_seconds;

@@ -88,17 +88,23 @@ pub struct BoundaryStats {
     pub edges: usize,
 }
 
+impl BoundaryStats {
+    /// Contributions of either stage dropped because they were not finite.
+    pub fn non_finite(&self) -> u64 {
+        self.primary_non_finite + self.secondary.non_finite
+    }
+}
+
 /// Runs the primary and secondary estimators for the parameters in `ctx.motion`.
 pub fn render_boundary(ctx: &RenderContext, settings: &BoundarySettings, pool: &rayon::ThreadPool) -> BoundaryParts {
     let t0 = Instant::now();
-    let primary = primary::render_primary_with_stats(
+    let (primary, pstats) = primary::render_primary_with_stats(
         ctx,
         settings.spp_boundary,
         settings.seed ^ PRIMARY_SEED,
         settings.shard,
         pool,
     );
-    let (primary, pstats) = primary;
     let primary_seconds = t0.elapsed().as_secs_f64();
     let sec = secondary::Secondary::new(ctx);
     let (secondary, sstats) = sec.render(settings, pool);

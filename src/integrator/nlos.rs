@@ -57,11 +57,18 @@ fn scan_spot(
     let to = l.p - position;
     let len = to.length();
     let dir = to / len;
-    // as the SPAD's view of the sensor points (`seen`): to just short of the wall point
-    if accel.occluded1(position.to_array(), dir.to_array(), 0.0, len * (1.0 - 1e-5)) {
+    if !clear_to_wall(accel, position, l.p) {
         return laser_spot(scene, accel, position, dir, power);
     }
     spot_at(scene, (l.prim, l.u, l.v), len, position, dir, power).map(Some)
+}
+
+/// Whether nothing stands between `from` (a point on no surface: the SPAD, a laser) and wall
+/// point `p`, up to just short of it (so the wall's own surface does not count).
+fn clear_to_wall(accel: &Accel, from: Vec3, p: Vec3) -> bool {
+    let to = p - from;
+    let len = to.length();
+    !accel.occluded1(from.to_array(), (to / len).to_array(), 0.0, len * (1.0 - 1e-5))
 }
 
 /// The scan as the kernel sees it. Built once per render.
@@ -104,15 +111,7 @@ impl NlosSensor {
                 }
             })
             .collect();
-        // from the SPAD (on no surface) to just short of the wall point
-        let seen = sensors
-            .iter()
-            .map(|s| {
-                let to = s.p - spad;
-                let len = to.length();
-                !accel.occluded1(spad.to_array(), (to / len).to_array(), 0.0, len * (1.0 - 1e-5))
-            })
-            .collect();
+        let seen = sensors.iter().map(|s| clear_to_wall(accel, spad, s.p)).collect();
         let spad_leg = sensors
             .iter()
             .map(|s| {

@@ -49,8 +49,7 @@ pub fn blocks_and_bin_groups(t: &Transient, group: usize) -> Vec<f64> {
             out[(y / bh).min(3) * 4 + (x / bw).min(3)] += t.time_sum(x, y, 0) as f64;
         }
     }
-    let bins = t.bin_totals();
-    out.extend(bins.chunks(group).map(|c| c.iter().map(|&v| v as f64).sum::<f64>()));
+    out.extend(bin_groups(t, group));
     out
 }
 
@@ -61,9 +60,16 @@ pub fn pixels_and_bin_groups(t: &Transient, group: usize) -> Vec<f64> {
     let mut out: Vec<f64> = (0..t.height)
         .flat_map(|y| (0..t.width).map(move |x| t.time_sum(x, y, 0) as f64))
         .collect();
-    let bins = t.bin_totals();
-    out.extend(bins.chunks(group).map(|c| c.iter().map(|&v| v as f64).sum::<f64>()));
+    out.extend(bin_groups(t, group));
     out
+}
+
+/// Sums of `group` consecutive bins of the image total (over pixels and channels).
+fn bin_groups(t: &Transient, group: usize) -> Vec<f64> {
+    let bins = t.bin_totals();
+    bins.chunks(group)
+        .map(|c| c.iter().map(|&v| v as f64).sum::<f64>())
+        .collect()
 }
 
 /// Mean and standard error over independent estimates.
