@@ -8,10 +8,13 @@
 //! 2. the variance of the boundary estimate against its sample count, with and without the
 //!    guiding grid: relative L2 error of the time-resolved derivative against a converged
 //!    reference, and the standard deviation of its image total over seeds;
-//! 3. the time of interior + boundary (one parameter) divided by the primal time, next to the
-//!    relative errors of the primal and of the derivative against their references.
+//! 3. the CPU time the full one-parameter gradient (interior + primary + secondary) needs to
+//!    reach a relative error, over the time the primal needs to reach the same: mean CPU
+//!    seconds × mean squared relative L2 error over seeds, at several (spp, spp_boundary),
+//!    here and on the Cornell box (d/d`tall_box_x`).
 //!
-//! Run: `cargo bench --bench boundary` (DTR_BENCH_THREADS; takes about half a minute).
+//! Run: `cargo bench --bench boundary` (DTR_BENCH_THREADS, DTR_BENCH_SEEDS (4),
+//! DTR_BENCH_ONLY_RATIO: section 3 on the shadow scene alone; about two minutes in all).
 
 mod common;
 use difftransient::{BoundaryMode, RenderOptions, Scene, Transient, render, render_diff};
@@ -26,10 +29,6 @@ const PARAM: &str = "occluder_x";
 fn diff_of(scene: &Scene, param: &str, o: &RenderOptions) -> (Transient, difftransient::RenderStats) {
     let (_, mut d, s) = render_diff(scene, &[param.to_string()], o).unwrap();
     (d.remove(0), s)
-}
-
-fn diff(scene: &Scene, o: &RenderOptions) -> (Transient, difftransient::RenderStats) {
-    diff_of(scene, PARAM, o)
 }
 
 fn boundary_only(base: &RenderOptions, spp_b: u32, seed: u64, guiding: bool) -> RenderOptions {
@@ -115,6 +114,12 @@ fn main() {
         ..Default::default()
     };
     let only_ratio = std::env::var("DTR_BENCH_ONLY_RATIO").is_ok();
+    let cornell = || {
+        let mut cornell =
+            common::with_pose_param(Scene::load(&root.join("scenes/cornell_box.toml"), &[]).expect("scene"));
+        cornell.integrator.sampler = sampler;
+        cornell
+    };
     if !only_ratio {
         println!("1-2. boundary samples per second; boundary estimate vs samples (8 seeds)");
         variance_table(
@@ -125,12 +130,9 @@ fn main() {
             &[1, 4, 16],
             256,
         );
-        let cornell = Scene::load(&root.join("scenes/cornell_box.toml"), &[]).expect("scene");
-        let mut cornell = common::with_pose_param(cornell);
-        cornell.integrator.sampler = sampler;
         variance_table(
-            "cornell_box 64x64 (secondary edges only; max 8 bounces), d/dtall_box_x",
-            &cornell,
+            "cornell_box 64x64 (boundary terms only; max 8 bounces), d/dtall_box_x",
+            &cornell(),
             "tall_box_x",
             &base,
             &[1, 4, 16],
@@ -138,12 +140,71 @@ fn main() {
         );
     }
 
-    // 3. interior + boundary vs primal; references for both
-    let reference_b = diff(&scene, &boundary_only(&base, 256, 1000, true)).0;
-    let (reference_i, _) = diff(
+    // 3. CPU time at equal error: the full one-parameter gradient against the primal
+    let seeds: u64 = env_or("DTR_BENCH_SEEDS", 4);
+    let configs = [(16, 4), (16, 16), (16, 64), (4, 16), (4, 64)];
+    equal_error_table(
+        &format!("shadow_hidden_occluder {res}x{res}, d/d{PARAM}"),
         &scene,
+        PARAM,
+        &base,
+        &[16, 64],
+        &configs,
+        seeds,
+        (1024, 1024, 4096),
+    );
+    if !only_ratio {
+        equal_error_table(
+            "cornell_box 64x64, d/dtall_box_x",
+            &cornell(),
+            "tall_box_x",
+            &base,
+            &[16, 64],
+            &configs,
+            seeds,
+            (256, 256, 1024),
+        );
+    }
+}
+
+/// Mean CPU seconds and mean squared relative L2 error of `seeds` renders.
+struct Cost {
+    cpu: f64,
+    mse: f64,
+}
+
+impl Cost {
+    /// CPU seconds × squared error: for unbiased estimators whose error falls as 1/√time,
+    /// the CPU time needed to reach a relative error of 1 (÷ E² for error E).
+    fn work(&self) -> f64 {
+        self.cpu * self.mse
+    }
+}
+
+/// Section 3: the primal render at `primal_spp`, the full gradient (interior + primary +
+/// secondary, one parameter) at each (spp, spp_boundary) of `configs`, `seeds` renders each
+/// (seeds 1..), relative L2 errors against converged references (primal at `refs.2` spp; the
+/// derivative as an interior render at `refs.0` spp plus a guided boundary-only render at
+/// `refs.1` samples per pixel, their own seeds). The time ratio at equal error is the gradient's
+/// CPU seconds × mean squared error over the primal's: the CPU time the gradient needs to reach
+/// a given relative error over the time the primal needs to reach the same.
+#[allow(clippy::too_many_arguments)]
+fn equal_error_table(
+    label: &str,
+    scene: &Scene,
+    param: &str,
+    base: &RenderOptions,
+    primal_spp: &[u32],
+    configs: &[(u32, u32)],
+    seeds: u64,
+    refs: (u32, u32, u32),
+) {
+    let reference_b = diff_of(scene, param, &boundary_only(base, refs.1, 1000, true)).0;
+    let (reference_i, _) = diff_of(
+        scene,
+        param,
         &RenderOptions {
-            spp: Some(256),
+            spp: Some(refs.0),
             seed: Some(1001),
             boundary: BoundaryMode::InteriorOnly,
             ..base.clone()
@@ -155,53 +216,76 @@ fn main() {
         .zip(&reference_i.data)
         .map(|(a, b)| a + b)
         .collect();
-    let (reference_p, _) = render(
-        &scene,
+    let reference_p = render(
+        scene,
         &RenderOptions {
-            spp: Some(1024),
+            spp: Some(refs.2),
             seed: Some(1002),
             ..base.clone()
         },
     )
-    .unwrap();
-    let spp: u32 = env_or("DTR_BENCH_SPP", 16);
-    let reps = 3;
-    let o = RenderOptions {
-        spp: Some(spp),
-        ..base.clone()
-    };
-    let mut best_p = f64::MAX;
-    let mut primal = None;
-    for _ in 0..reps {
-        let (p, sp) = render(&scene, &o).unwrap();
-        best_p = best_p.min(sp.wall_seconds);
-        primal = Some(p);
-    }
-    let e_p = common::rel_l2(&primal.unwrap().data, &reference_p.data);
-    println!(
-        "3. shadow_hidden_occluder {res}x{res}, {spp} spp: primal {best_p:.4} s wall (best of {reps}), rel. L2 {e_p:.3}"
-    );
-    println!("   guiding  spp_boundary  interior+boundary s  (boundary s)  rel. L2 of dI/dθ  time ratio");
-    for (guiding, spp_b) in [(false, 4u32), (false, 16), (false, 64), (true, 4), (true, 16)] {
-        let ob = RenderOptions {
-            spp_boundary: Some(spp_b),
-            guiding,
-            ..o.clone()
-        };
-        let mut best_d = f64::MAX;
-        let mut last = None;
-        for _ in 0..reps {
-            let (d, sd) = diff(&scene, &ob);
-            best_d = best_d.min(sd.wall_seconds + sd.boundary_seconds);
-            last = Some((d, sd));
+    .unwrap()
+    .0;
+    let measure = |run: &dyn Fn(u64) -> (Vec<f32>, f64), reference: &[f32]| {
+        let (mut cpu, mut mse) = (0.0, 0.0);
+        for seed in 1..=seeds {
+            let (data, seconds) = run(seed);
+            cpu += seconds / seeds as f64;
+            mse += common::rel_l2(&data, reference).powi(2) / seeds as f64;
         }
-        let (d, sd) = last.unwrap();
+        Cost { cpu, mse }
+    };
+    println!("3. {label}: CPU time at equal error, {seeds} seeds per row (mean CPU s, rms rel. L2)");
+    let mut primal = Vec::new();
+    for &spp in primal_spp {
+        let c = measure(
+            &|seed| {
+                let (t, s) = render(
+                    scene,
+                    &RenderOptions {
+                        spp: Some(spp),
+                        seed: Some(seed),
+                        ..base.clone()
+                    },
+                )
+                .unwrap();
+                (t.data, s.total_cpu_seconds)
+            },
+            &reference_p.data,
+        );
         println!(
-            "   {:>7}  {spp_b:>12}  {best_d:>19.4}  {:>12.4}  {:>16.3}  {:>9.2}x",
-            if guiding { "on" } else { "off" },
-            sd.boundary_seconds,
-            common::rel_l2(&d.data, &reference_d),
-            best_d / best_p
+            "   primal          spp {spp:>3}                 {:>8.4} s  rel. L2 {:.4}  CPU s × L2² {:.3e}",
+            c.cpu,
+            c.mse.sqrt(),
+            c.work()
+        );
+        primal.push(c);
+    }
+    // the primal's efficiency: the best of its rows (the larger spp amortises start-up)
+    let primal_work = primal.iter().map(Cost::work).fold(f64::MAX, f64::min);
+    for &(spp, spp_b) in configs {
+        let c = measure(
+            &|seed| {
+                let (d, s) = diff_of(
+                    scene,
+                    param,
+                    &RenderOptions {
+                        spp: Some(spp),
+                        spp_boundary: Some(spp_b),
+                        seed: Some(seed),
+                        ..base.clone()
+                    },
+                );
+                (d.data, s.total_cpu_seconds)
+            },
+            &reference_d,
+        );
+        println!(
+            "   gradient        spp {spp:>3}  spp_boundary {spp_b:>3}  {:>8.4} s  rel. L2 {:.4}  CPU s × L2² {:.3e}  time at equal error {:.2}× the primal",
+            c.cpu,
+            c.mse.sqrt(),
+            c.work(),
+            c.work() / primal_work
         );
     }
 }

@@ -54,11 +54,26 @@ pub struct BoundaryRay {
 /// Edge table with a CDF by weight.
 #[derive(Clone, Debug, Default)]
 pub struct EdgeSampler {
-    pub edges: Vec<EdgeRecord>,
+    /// Shared by the tables [`EdgeSampler::with_weights`] derives (a mesh's edges can be
+    /// millions).
+    pub edges: std::sync::Arc<Vec<EdgeRecord>>,
     /// Normalised cumulative weights, `cdf[i]` = P(edge ≤ i).
     cdf: Vec<f32>,
     /// Σ weights (length × silhouette fraction), metres.
     total: f32,
+}
+
+/// Normalised cumulative weights: entry i is P(edge ≤ i).
+fn cdf_of(weights: &[f64]) -> Vec<f32> {
+    let total: f64 = weights.iter().sum();
+    let mut acc = 0.0f64;
+    weights
+        .iter()
+        .map(|w| {
+            acc += w;
+            (acc / total.max(1e-300)) as f32
+        })
+        .collect()
 }
 
 impl EdgeSampler {
@@ -121,24 +136,34 @@ impl EdgeSampler {
         for (w, f) in weights.iter_mut().zip(factors(&edges)) {
             *w *= f as f64;
         }
-        let total: f64 = weights.iter().sum();
-        let mut acc = 0.0f64;
-        let cdf = weights
-            .iter()
-            .map(|w| {
-                acc += w;
-                (acc / total.max(1e-300)) as f32
-            })
-            .collect();
         Self {
-            edges,
-            cdf,
-            total: total as f32,
+            cdf: cdf_of(&weights),
+            edges: std::sync::Arc::new(edges),
+            total: weights.iter().sum::<f64>() as f32,
         }
     }
 
     pub fn is_empty(&self) -> bool {
         self.edges.is_empty()
+    }
+
+    /// The same edges drawn with probabilities ∝ `weights` (one entry ≥ 0 per edge, not all
+    /// 0; an edge keeps being reachable where its entry is positive). `total_weight` stays
+    /// this table's.
+    pub fn with_weights(&self, weights: &[f64]) -> Self {
+        assert_eq!(weights.len(), self.edges.len());
+        Self {
+            edges: self.edges.clone(),
+            cdf: cdf_of(weights),
+            total: self.total,
+        }
+    }
+
+    /// The edge that edge coordinate `u0` ∈ [0, 1) selects (as [`EdgeSampler::sample`] does).
+    pub fn index_of(&self, u0: f32) -> usize {
+        self.cdf
+            .partition_point(|&c| c <= u0)
+            .min(self.edges.len().saturating_sub(1))
     }
 
     /// Probability of choosing edge `i`.
@@ -152,7 +177,7 @@ impl EdgeSampler {
         if self.edges.is_empty() {
             return None;
         }
-        let i = self.cdf.partition_point(|&c| c <= u0).min(self.edges.len() - 1);
+        let i = self.index_of(u0);
         let lo = if i == 0 { 0.0 } else { self.cdf[i - 1] };
         let pmf = self.cdf[i] - lo;
         let s = ((u0 - lo) / pmf.max(f32::MIN_POSITIVE)).clamp(0.0, 1.0);
@@ -214,7 +239,7 @@ mod tests {
     fn sampled_directions_are_silhouettes() {
         let s = EdgeSampler::new(&geometry(shapes::cube()));
         assert_eq!(s.edges.len(), 12);
-        for r in &s.edges {
+        for r in s.edges.iter() {
             assert!((r.psi - PI / 2.0).abs() < 1e-5, "psi {}", r.psi);
         }
         let geo = geometry(shapes::cube());

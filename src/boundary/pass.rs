@@ -8,10 +8,23 @@
 //!   the budget, so neither is ever starved (any n_s ≥ 1 keeps the sum unbiased);
 //! - with guiding on, a grid of `guiding.rs` for each strategy: over (edge coordinate,
 //!   azimuth, cos θ) for the edge-directed rays, over (edge coordinate, emitter choice, point
-//!   on the emitter) for the light-directed ones.
+//!   on the emitter) for the light-directed ones;
+//! - with guiding off, how often to draw each shape's edges, per strategy: a shape's share
+//!   of the edge table's probability P_s becomes q_s = (1 − α)·r_s / Σ_t r_t + α·P_s with
+//!   r_s = √(M_s / c_s). M_s is the second moment the shape's edges contribute per sample
+//!   (estimated as P_s/N · Σ over the pilot samples on its edges of Σ over their paths of
+//!   |contribution|²) and c_s the rays a sample on them costs (its own rays, counted, plus
+//!   the pilot's mean subpath rays per sample that reached the subpaths); r_s ∝ √(M_s/c_s)
+//!   minimises the variance of a sum over shapes times its cost, Σ_s M_s/q_s · Σ_s q_s c_s.
+//!   α = [`EDGE_PRIOR_SHARE`] keeps the table's own weights (length, silhouette fraction,
+//!   motion: `secondary.rs`) as a defensive part, so no shape's edges are starved. Within a
+//!   shape the edges keep their relative weights: a pilot of thousands of samples says
+//!   little about each of a mesh's thousands of edges, but much about which shapes' edges
+//!   matter.
 //!
 //! `samples` boundary samples stand for 2·samples strategy evaluations, split as above.
 
+use super::edge_sampler::EdgeSampler;
 use super::guiding::{GuideGrid, RESOLUTION, UNIFORM_MIX};
 use super::secondary::{BoundaryPath, LIGHT_STREAM, Prepared, Scratch, Secondary};
 use super::{BoundarySettings, SECONDARY_SEED};
@@ -30,6 +43,8 @@ const BANDS: usize = 8;
 const PILOT_STREAM: u64 = 0x7049_1A7B_0000_0001;
 /// Smallest share of the budget either strategy gets.
 const MIN_SHARE: f64 = 0.125;
+/// Share of the edge table's own weights in the pilot-fitted shape mixture (module docs).
+const EDGE_PRIOR_SHARE: f64 = 0.25;
 
 /// What the secondary-edge pass did.
 #[derive(Clone, Debug, Default, serde::Serialize, serde::Deserialize)]
@@ -53,6 +68,8 @@ struct Pilot {
     grid_light: GuideGrid,
     /// Share of the budget for the edge-directed strategy.
     share_a: f64,
+    /// Edge tables of the edge-directed and the light-directed strategy.
+    edges: [EdgeSampler; 2],
     rays: u64,
 }
 
@@ -95,41 +112,130 @@ impl Queue {
 }
 
 /// One strategy's pilot tallies over a chunk: per guiding cell Σ of each sample's total
-/// |contribution|, and Σ of its square. Paths arrive sample by sample.
+/// |contribution|, Σ of its square, and per shape of the sample's edge ([`ShapeTally`]).
+/// Paths arrive sample by sample.
 struct PilotTally {
     cells: Vec<f64>,
     m2: f64,
-    /// The sample whose paths are arriving: its id, cell and Σ so far.
-    open: Option<(u64, usize, f64)>,
+    shapes: Vec<ShapeTally>,
+    /// The sample whose paths are arriving: its id, cell, shape, and Σ and Σ of squares of
+    /// its paths' |contribution| so far.
+    open: Option<(u64, usize, usize, f64, f64)>,
 }
 
 impl PilotTally {
-    fn new(cells: usize) -> Self {
+    fn new(cells: usize, shapes: usize) -> Self {
         Self {
             cells: vec![0.0; cells],
             m2: 0.0,
+            shapes: vec![ShapeTally::default(); shapes],
             open: None,
         }
     }
 
-    fn add(&mut self, grid: &GuideGrid, p: &Prepared, mag: f64) {
+    /// A sample drawn on `edge` (None: no edge) whose preparation cast `rays` rays.
+    fn drawn(&mut self, edges: &EdgeSampler, edge: Option<usize>, rays: u64, prepared: bool) {
+        if let Some(e) = edge {
+            let t = &mut self.shapes[edges.edges[e].shape as usize];
+            t.drawn += 1;
+            t.own_rays += rays;
+            t.prepared += u64::from(prepared);
+        }
+    }
+
+    fn add(&mut self, grid: &GuideGrid, edges: &EdgeSampler, p: &Prepared, mag: f64) {
         match &mut self.open {
-            Some((id, _, sum)) if *id == p.segment.id => *sum += mag,
+            Some((id, _, _, sum, sq)) if *id == p.segment.id => {
+                *sum += mag;
+                *sq += mag * mag;
+            }
             _ => {
                 self.close();
-                self.open = Some((p.segment.id, grid.cell_of(p.u), mag));
+                let shape = edges.edges[edges.index_of(p.u[0])].shape as usize;
+                self.open = Some((p.segment.id, grid.cell_of(p.u), shape, mag, mag * mag));
             }
         }
     }
 
     fn close(&mut self) {
-        if let Some((_, cell, mag)) = self.open.take()
+        if let Some((_, cell, shape, mag, sq)) = self.open.take()
             && mag.is_finite()
         {
             self.cells[cell] += mag;
             self.m2 += mag * mag;
+            self.shapes[shape].m2 += sq;
         }
     }
+}
+
+/// A pilot's record of the samples drawn on one shape's edges.
+#[derive(Clone, Copy, Debug, Default)]
+struct ShapeTally {
+    /// Σ over samples of Σ over their paths of |contribution|²: the paths of a sample land in
+    /// different pixels and bins, so this, not the square of their sum, is what a sample adds
+    /// to the squared L2 error of the film.
+    m2: f64,
+    drawn: u64,
+    /// Of them, those that reached the subpaths.
+    prepared: u64,
+    /// Rays their preparation cast (the boundary segment's ends).
+    own_rays: u64,
+}
+
+impl ShapeTally {
+    fn merge(&mut self, o: &ShapeTally) {
+        self.m2 += o.m2;
+        self.drawn += o.drawn;
+        self.prepared += o.prepared;
+        self.own_rays += o.own_rays;
+    }
+}
+
+/// The edge table with each shape's share of its probability refitted to the pilot's
+/// `shapes` tallies over `samples` pilot samples drawn from `table`, whose subpaths cast
+/// `subpath_rays` rays: the mixture of the module docs. `table` itself when the pilot saw
+/// nothing.
+fn refit_shapes(table: &EdgeSampler, shapes: &[ShapeTally], samples: u64, subpath_rays: u64) -> EdgeSampler {
+    let mut prior = vec![0.0f64; shapes.len()];
+    for (i, r) in table.edges.iter().enumerate() {
+        prior[r.shape as usize] += table.edge_pmf(i) as f64;
+    }
+    let total = shapes.iter().fold(ShapeTally::default(), |mut a, t| {
+        a.merge(t);
+        a
+    });
+    // rays per sample: its own, plus the mean subpath rays of a prepared sample
+    let per_prepared = subpath_rays as f64 / total.prepared.max(1) as f64;
+    let cost = |t: &ShapeTally| {
+        let t = if t.drawn > 0 { t } else { &total };
+        ((t.own_rays as f64 + t.prepared as f64 * per_prepared) / t.drawn.max(1) as f64).max(1.0)
+    };
+    // √(M_s / c_s), M_s = P_s/N · Σ |X|² (X carries 1/P(edge), so this is the second moment
+    // per sample that the shape's edges would add if drawn with probability 1)
+    let root: Vec<f64> = prior
+        .iter()
+        .zip(shapes)
+        .map(|(&p, t)| (p * t.m2 / samples.max(1) as f64 / cost(t)).sqrt())
+        .collect();
+    let sum: f64 = root.iter().sum();
+    if !(sum > 0.0 && sum.is_finite()) {
+        return table.clone();
+    }
+    let factor: Vec<f64> = root
+        .iter()
+        .zip(&prior)
+        .map(|(&r, &p)| {
+            if p > 0.0 {
+                (1.0 - EDGE_PRIOR_SHARE) * r / (sum * p) + EDGE_PRIOR_SHARE
+            } else {
+                1.0
+            }
+        })
+        .collect();
+    let weights: Vec<f64> = (0..table.edges.len())
+        .map(|i| table.edge_pmf(i) as f64 * factor[table.edges[i].shape as usize])
+        .collect();
+    table.with_weights(&weights)
 }
 
 /// Σ_c |f_c| · Σ_k |weight_k| of one path.
@@ -143,44 +249,55 @@ impl Secondary<'_> {
     fn pilot(&self, samples: u64, seed: u64, guiding: bool, pool: &rayon::ThreadPool) -> Pilot {
         let uniform = GuideGrid::uniform(RESOLUTION);
         let cells = uniform.cells();
+        let shapes = self.edges.edges.iter().map(|r| r.shape as usize + 1).max().unwrap_or(0);
+        let table = &self.edges;
         let chunks: Vec<u64> = (0..samples.div_ceil(CHUNK)).collect();
-        let parts: Vec<([PilotTally; 2], [u64; 2])> = pool.install(|| {
+        let parts: Vec<([PilotTally; 2], [u64; 2], [u64; 2])> = pool.install(|| {
             chunks
                 .par_iter()
                 .map(|&c| {
-                    let mut tally = [PilotTally::new(cells), PilotTally::new(cells)];
+                    let mut tally = [PilotTally::new(cells, shapes), PilotTally::new(cells, shapes)];
                     let mut scratch = [Scratch::default(), Scratch::default()];
                     let mut queue = [Queue::new(seed), Queue::new(seed ^ LIGHT_STREAM)];
                     let params = self.params;
+                    let mut own_rays = [0u64; 2];
                     for id in c * CHUNK..((c + 1) * CHUNK).min(samples) {
                         for s in 0..2 {
+                            let before = scratch[s].rays();
                             let p = match s {
-                                0 => self.prepare(seed, id, &uniform, 1.0, &mut scratch[0]),
-                                _ => self.prepare_light(seed ^ LIGHT_STREAM, id, &uniform, 1.0, &mut scratch[1]),
+                                0 => self.prepare(seed, id, &uniform, table, 1.0, &mut scratch[0]),
+                                _ => self.prepare_light(seed ^ LIGHT_STREAM, id, &uniform, table, 1.0, &mut scratch[1]),
                             };
+                            let own = scratch[s].rays() - before;
+                            own_rays[s] += own;
                             let t = &mut tally[s];
-                            let mut emit = |p: &Prepared, bp: &BoundaryPath| t.add(&uniform, p, magnitude(bp, params));
+                            t.drawn(table, scratch[s].edge, own, p.is_some());
+                            let mut emit =
+                                |p: &Prepared, bp: &BoundaryPath| t.add(&uniform, table, p, magnitude(bp, params));
                             queue[s].push(self, p, &mut scratch[s], &mut emit);
                         }
                     }
                     for s in 0..2 {
                         let t = &mut tally[s];
                         queue[s].flush(self, &mut scratch[s], &mut |p, bp| {
-                            t.add(&uniform, p, magnitude(bp, params))
+                            t.add(&uniform, table, p, magnitude(bp, params))
                         });
                         t.close();
                     }
-                    (tally, [scratch[0].rays(), scratch[1].rays()])
+                    (tally, [scratch[0].rays(), scratch[1].rays()], own_rays)
                 })
                 .collect()
         });
         let mut sums = [vec![0.0f64; cells], vec![0.0f64; cells]];
-        let (mut m2, mut rays) = ([0.0f64; 2], [0u64; 2]);
-        for (t, r) in &parts {
+        let mut by_shape = [vec![ShapeTally::default(); shapes], vec![ShapeTally::default(); shapes]];
+        let (mut m2, mut rays, mut subpath_rays) = ([0.0f64; 2], [0u64; 2], [0u64; 2]);
+        for (t, r, own) in &parts {
             for s in 0..2 {
                 sums[s].iter_mut().zip(&t[s].cells).for_each(|(a, b)| *a += b);
+                by_shape[s].iter_mut().zip(&t[s].shapes).for_each(|(a, b)| a.merge(b));
                 m2[s] += t[s].m2;
                 rays[s] += r[s];
+                subpath_rays[s] += r[s] - own[s];
             }
         }
         let n = samples.max(1) as f64;
@@ -203,6 +320,12 @@ impl Secondary<'_> {
                 uniform
             },
             share_a,
+            // guiding grids read the edge coordinate of this table: they keep it
+            edges: if guiding {
+                [table.clone(), table.clone()]
+            } else {
+                [0, 1].map(|s| refit_shapes(table, &by_shape[s], samples, subpath_rays[s]))
+            },
             rays: rays[0] + rays[1],
         }
     }
@@ -323,12 +446,18 @@ impl Secondary<'_> {
                         let mut keep = |_: &Prepared, bp: &BoundaryPath| paths.push(*bp);
                         for id in (c * CHUNK).max(mine.start)..((c + 1) * CHUNK).min(mine.end) {
                             if id < n_a {
-                                let p = self.prepare(seed, id, &pl.grid, scale[0], &mut scratch);
+                                let p = self.prepare(seed, id, &pl.grid, &pl.edges[0], scale[0], &mut scratch);
                                 queue[0].push(self, p, &mut scratch, &mut keep);
                             }
                             if id < n_b {
-                                let p =
-                                    self.prepare_light(seed ^ LIGHT_STREAM, id, &pl.grid_light, scale[1], &mut scratch);
+                                let p = self.prepare_light(
+                                    seed ^ LIGHT_STREAM,
+                                    id,
+                                    &pl.grid_light,
+                                    &pl.edges[1],
+                                    scale[1],
+                                    &mut scratch,
+                                );
                                 queue[1].push(self, p, &mut scratch, &mut keep);
                             }
                         }
@@ -388,5 +517,94 @@ impl Secondary<'_> {
             );
         });
         true
+    }
+}
+
+#[cfg(test)]
+mod refit_tests {
+    use super::*;
+    use crate::scene::Scene;
+
+    fn shape_pmf(t: &EdgeSampler, shape: usize) -> f64 {
+        (0..t.edges.len())
+            .filter(|&i| t.edges[i].shape as usize == shape)
+            .map(|i| t.edge_pmf(i) as f64)
+            .sum()
+    }
+
+    /// The pilot-fitted mixture of the module docs: shape shares (1 − α)·r_s/Σr + α·P_s with
+    /// r_s = √(M_s/c_s), the edges of a shape keeping their relative weights; the table itself
+    /// when the pilot saw no contribution.
+    #[test]
+    fn shapes_are_drawn_by_root_second_moment_per_ray() {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/shadow_hidden_occluder.toml");
+        let scene = Scene::load(&path, &[]).unwrap();
+        let table = EdgeSampler::new(&scene.geometry);
+        let shapes = scene.shapes.len();
+        let occluder = scene.shapes.iter().position(|s| s.name == "occluder").unwrap();
+        let floor = scene.shapes.iter().position(|s| s.name == "floor").unwrap();
+        let prior: Vec<f64> = (0..shapes).map(|s| shape_pmf(&table, s)).collect();
+        assert!(prior[occluder] > 0.0 && prior[floor] > 0.0);
+        let n = 4096u64;
+        // every shape drawn in proportion to its prior, each sample casting 2 rays, half of
+        // them reaching subpaths of 6 rays each: 5 rays a sample everywhere
+        let mut tally: Vec<ShapeTally> = prior
+            .iter()
+            .map(|&p| {
+                let drawn = (p * n as f64).round() as u64;
+                ShapeTally {
+                    m2: 0.0,
+                    drawn,
+                    prepared: drawn / 2,
+                    own_rays: 2 * drawn,
+                }
+            })
+            .collect();
+        let subpath_rays = 6 * tally.iter().map(|t| t.prepared).sum::<u64>();
+        let same = refit_shapes(&table, &tally, n, subpath_rays);
+        for i in 0..table.edges.len() {
+            assert_eq!(same.edge_pmf(i), table.edge_pmf(i));
+        }
+        // only the occluder's edges contribute: it gets 1 − α of the draws besides its prior
+        // share of α; every other shape keeps α of its prior
+        tally[occluder].m2 = 3.0;
+        let fit = refit_shapes(&table, &tally, n, subpath_rays);
+        let a = EDGE_PRIOR_SHARE;
+        for s in 0..shapes {
+            let want = if s == occluder {
+                1.0 - a + a * prior[s]
+            } else {
+                a * prior[s]
+            };
+            assert!(
+                (shape_pmf(&fit, s) - want).abs() < 1e-5,
+                "shape {s}: {} vs {want}",
+                shape_pmf(&fit, s)
+            );
+        }
+        for i in 0..table.edges.len() {
+            let s = table.edges[i].shape as usize;
+            let ratio = fit.edge_pmf(i) as f64 / table.edge_pmf(i) as f64;
+            let want = shape_pmf(&fit, s) / prior[s];
+            assert!((ratio / want - 1.0).abs() < 1e-4, "edge {i}: {ratio} vs {want}");
+        }
+        // the floor too, with 4× the occluder's second moment per draw but samples 4× as
+        // costly: r ∝ √(M/c), so they split 1 − α as √(M_o P_o) : √(4 M_o P_f / 4)
+        tally[floor].m2 = 4.0 * tally[occluder].m2 * (tally[floor].drawn as f64 / tally[occluder].drawn as f64);
+        tally[floor].own_rays *= 4;
+        tally[floor].prepared *= 4;
+        let subpath_rays = 6 * tally.iter().map(|t| t.prepared).sum::<u64>();
+        let fit = refit_shapes(&table, &tally, n, subpath_rays);
+        // cost per sample: occluder 2 + ½·6 = 5 rays; floor 8 + 2·6 = 20 rays
+        let m = |s: usize| prior[s] * tally[s].m2 / n as f64;
+        let (r_o, r_f) = ((m(occluder) / 5.0).sqrt(), (m(floor) / 20.0).sqrt());
+        for (s, r) in [(occluder, r_o), (floor, r_f)] {
+            let want = (1.0 - a) * r / (r_o + r_f) + a * prior[s];
+            assert!(
+                (shape_pmf(&fit, s) - want).abs() < 1e-5,
+                "shape {s}: {} vs {want}",
+                shape_pmf(&fit, s)
+            );
+        }
     }
 }

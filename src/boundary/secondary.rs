@@ -178,6 +178,8 @@ pub(super) struct Scratch {
     /// Rays of the boundary rays and of the subpaths; subpath terms dropped as not finite.
     pub(super) counts: PathCounts,
     pub(super) valid: u64,
+    /// The edge the last prepared sample drew (None when it drew none).
+    pub(super) edge: Option<usize>,
 }
 
 impl Scratch {
@@ -351,7 +353,7 @@ impl<'a> Secondary<'a> {
     }
 
     /// Strategy A, boundary sample `id` of stream `seed`: a boundary ray drawn from `grid` and
-    /// the edge sampler, traced both ways; x_L's emission is left to strategy B (a partition
+    /// the edge table `edges` (this pass's, `pass.rs`), traced both ways; x_L's emission is left to strategy B (a partition
     /// of the integrand, so no MIS is needed), its reflected light is estimated by the source
     /// subpath ([`Secondary::complete`]). None when the sample adds nothing.
     pub(super) fn prepare(
@@ -359,6 +361,7 @@ impl<'a> Secondary<'a> {
         seed: u64,
         id: u64,
         grid: &GuideGrid,
+        edges: &EdgeSampler,
         scale: f32,
         scratch: &mut Scratch,
     ) -> Option<Prepared> {
@@ -367,8 +370,10 @@ impl<'a> Secondary<'a> {
         let pick = rng.next::<f32>();
         let inner = [rng.next::<f32>(), rng.next::<f32>(), rng.next::<f32>()];
         let (u, p_guide) = grid.sample(pick, inner);
-        let br = self.edges.sample(u[0], u[1], u[2])?;
-        let rec = &self.edges.edges[br.index];
+        scratch.edge = None;
+        let br = edges.sample(u[0], u[1], u[2])?;
+        scratch.edge = Some(br.index);
+        let rec = &edges.edges[br.index];
         let s_o = self.blocked_side(rec, br.omega)?;
         let rays = &mut scratch.counts.rays;
         let (mut x_l, mut x_s, rates, common, contact) = match segment_ends(self.ctx, rec, br.x_b, br.omega, s_o, rays)?
@@ -418,7 +423,7 @@ impl<'a> Secondary<'a> {
     }
 
     /// Strategy B, boundary sample `id` of stream `seed`: shadow edges of direct light. A
-    /// point x_B on an edge (same edge pmf) and a point y on an emitter (next-event sampling)
+    /// point x_B on an edge (drawn from `edges`, as in strategy A) and a point y on an emitter (next-event sampling)
     /// fix ω = (x_B − y)/t_L; x_L = y when nothing blocks y → x_B. The density of ω per
     /// steradian is pdf_A(y) · t_L² / |cos_L|, so the weight of strategy A becomes
     /// −s_o · (L_e / pdf_A) · |cos_L| / (t_L² (t_L + t_S) p_e); for a point light L_e/pdf_A · |cos_L|
@@ -430,6 +435,7 @@ impl<'a> Secondary<'a> {
         seed: u64,
         id: u64,
         grid: &GuideGrid,
+        edges: &EdgeSampler,
         scale: f32,
         scratch: &mut Scratch,
     ) -> Option<Prepared> {
@@ -440,8 +446,10 @@ impl<'a> Secondary<'a> {
         let (u, p_guide) = grid.sample(pick, inner);
         let e2 = rng.next::<f32>();
         let [u0, e0, e1] = u;
-        let br = self.edges.sample(u0, 0.5, 0.5)?;
-        let rec = &self.edges.edges[br.index];
+        scratch.edge = None;
+        let br = edges.sample(u0, 0.5, 0.5)?;
+        scratch.edge = Some(br.index);
+        let rec = &edges.edges[br.index];
         let ls = ctx.emitters.sample::<f32, 3>(ctx, e0, e1, e2, true);
         if !ls.valid {
             return None;
@@ -492,7 +500,7 @@ impl<'a> Secondary<'a> {
             prim: 0,
             t: t_l,
         };
-        let common = -s_o * scale * cos_l / (t_l * t_l * seg * self.edges.edge_pmf(br.index) * p_guide);
+        let common = -s_o * scale * cos_l / (t_l * t_l * seg * edges.edge_pmf(br.index) * p_guide);
         Some(Prepared {
             segment: SegmentSample {
                 id,
