@@ -16,7 +16,7 @@
 //!   |contribution|²) and c_s the rays a sample on them costs (its own rays, counted, plus
 //!   the pilot's mean subpath rays per sample that reached the subpaths); r_s ∝ √(M_s/c_s)
 //!   minimises the variance of a sum over shapes times its cost, Σ_s M_s/q_s · Σ_s q_s c_s.
-//!   α = [`EDGE_PRIOR_SHARE`] keeps the table's own weights (length, silhouette fraction,
+//!   α = `EDGE_PRIOR_SHARE` (0.25) keeps the table's own weights (length, silhouette fraction,
 //!   motion: `secondary.rs`) as a defensive part, so no shape's edges are starved. Within a
 //!   shape the edges keep their relative weights: a pilot of thousands of samples says
 //!   little about each of a mesh's thousands of edges, but much about which shapes' edges
