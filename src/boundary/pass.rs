@@ -192,10 +192,10 @@ impl ShapeTally {
 }
 
 /// The edge table with each shape's share of its probability refitted to the pilot's
-/// `shapes` tallies over `samples` pilot samples drawn from `table`, whose subpaths cast
-/// `subpath_rays` rays: the mixture of the module docs. `table` itself when the pilot saw
-/// nothing.
-fn refit_shapes(table: &EdgeSampler, shapes: &[ShapeTally], samples: u64, subpath_rays: u64) -> EdgeSampler {
+/// `shapes` tallies over `samples` pilot samples drawn from `table`, which cast `rays` rays
+/// in all (their own and their subpaths'): the mixture of the module docs. `table` itself
+/// when the pilot saw nothing.
+fn refit_shapes(table: &EdgeSampler, shapes: &[ShapeTally], samples: u64, rays: u64) -> EdgeSampler {
     let mut prior = vec![0.0f64; shapes.len()];
     for (i, r) in table.edges.iter().enumerate() {
         prior[r.shape as usize] += table.edge_pmf(i) as f64;
@@ -205,7 +205,7 @@ fn refit_shapes(table: &EdgeSampler, shapes: &[ShapeTally], samples: u64, subpat
         a
     });
     // rays per sample: its own, plus the mean subpath rays of a prepared sample
-    let per_prepared = subpath_rays as f64 / total.prepared.max(1) as f64;
+    let per_prepared = rays.saturating_sub(total.own_rays) as f64 / total.prepared.max(1) as f64;
     let cost = |t: &ShapeTally| {
         let t = if t.drawn > 0 { t } else { &total };
         ((t.own_rays as f64 + t.prepared as f64 * per_prepared) / t.drawn.max(1) as f64).max(1.0)
@@ -252,7 +252,7 @@ impl Secondary<'_> {
         let shapes = self.edges.edges.iter().map(|r| r.shape as usize + 1).max().unwrap_or(0);
         let table = &self.edges;
         let chunks: Vec<u64> = (0..samples.div_ceil(CHUNK)).collect();
-        let parts: Vec<([PilotTally; 2], [u64; 2], [u64; 2])> = pool.install(|| {
+        let parts: Vec<([PilotTally; 2], [u64; 2])> = pool.install(|| {
             chunks
                 .par_iter()
                 .map(|&c| {
@@ -260,7 +260,6 @@ impl Secondary<'_> {
                     let mut scratch = [Scratch::default(), Scratch::default()];
                     let mut queue = [Queue::new(seed), Queue::new(seed ^ LIGHT_STREAM)];
                     let params = self.params;
-                    let mut own_rays = [0u64; 2];
                     for id in c * CHUNK..((c + 1) * CHUNK).min(samples) {
                         for s in 0..2 {
                             let before = scratch[s].rays();
@@ -268,10 +267,8 @@ impl Secondary<'_> {
                                 0 => self.prepare(seed, id, &uniform, table, 1.0, &mut scratch[0]),
                                 _ => self.prepare_light(seed ^ LIGHT_STREAM, id, &uniform, table, 1.0, &mut scratch[1]),
                             };
-                            let own = scratch[s].rays() - before;
-                            own_rays[s] += own;
                             let t = &mut tally[s];
-                            t.drawn(table, scratch[s].edge, own, p.is_some());
+                            t.drawn(table, scratch[s].edge, scratch[s].rays() - before, p.is_some());
                             let mut emit =
                                 |p: &Prepared, bp: &BoundaryPath| t.add(&uniform, table, p, magnitude(bp, params));
                             queue[s].push(self, p, &mut scratch[s], &mut emit);
@@ -284,20 +281,19 @@ impl Secondary<'_> {
                         });
                         t.close();
                     }
-                    (tally, [scratch[0].rays(), scratch[1].rays()], own_rays)
+                    (tally, [scratch[0].rays(), scratch[1].rays()])
                 })
                 .collect()
         });
         let mut sums = [vec![0.0f64; cells], vec![0.0f64; cells]];
         let mut by_shape = [vec![ShapeTally::default(); shapes], vec![ShapeTally::default(); shapes]];
-        let (mut m2, mut rays, mut subpath_rays) = ([0.0f64; 2], [0u64; 2], [0u64; 2]);
-        for (t, r, own) in &parts {
+        let (mut m2, mut rays) = ([0.0f64; 2], [0u64; 2]);
+        for (t, r) in &parts {
             for s in 0..2 {
                 sums[s].iter_mut().zip(&t[s].cells).for_each(|(a, b)| *a += b);
                 by_shape[s].iter_mut().zip(&t[s].shapes).for_each(|(a, b)| a.merge(b));
                 m2[s] += t[s].m2;
                 rays[s] += r[s];
-                subpath_rays[s] += r[s] - own[s];
             }
         }
         let n = samples.max(1) as f64;
@@ -324,7 +320,7 @@ impl Secondary<'_> {
             edges: if guiding {
                 [table.clone(), table.clone()]
             } else {
-                [0, 1].map(|s| refit_shapes(table, &by_shape[s], samples, subpath_rays[s]))
+                [0, 1].map(|s| refit_shapes(table, &by_shape[s], samples, rays[s]))
             },
             rays: rays[0] + rays[1],
         }
@@ -560,15 +556,15 @@ mod refit_tests {
                 }
             })
             .collect();
-        let subpath_rays = 6 * tally.iter().map(|t| t.prepared).sum::<u64>();
-        let same = refit_shapes(&table, &tally, n, subpath_rays);
+        let rays = |tally: &[ShapeTally]| tally.iter().map(|t| t.own_rays + 6 * t.prepared).sum::<u64>();
+        let same = refit_shapes(&table, &tally, n, rays(&tally));
         for i in 0..table.edges.len() {
             assert_eq!(same.edge_pmf(i), table.edge_pmf(i));
         }
         // only the occluder's edges contribute: it gets 1 − α of the draws besides its prior
         // share of α; every other shape keeps α of its prior
         tally[occluder].m2 = 3.0;
-        let fit = refit_shapes(&table, &tally, n, subpath_rays);
+        let fit = refit_shapes(&table, &tally, n, rays(&tally));
         let a = EDGE_PRIOR_SHARE;
         for s in 0..shapes {
             let want = if s == occluder {
@@ -593,8 +589,7 @@ mod refit_tests {
         tally[floor].m2 = 4.0 * tally[occluder].m2 * (tally[floor].drawn as f64 / tally[occluder].drawn as f64);
         tally[floor].own_rays *= 4;
         tally[floor].prepared *= 4;
-        let subpath_rays = 6 * tally.iter().map(|t| t.prepared).sum::<u64>();
-        let fit = refit_shapes(&table, &tally, n, subpath_rays);
+        let fit = refit_shapes(&table, &tally, n, rays(&tally));
         // cost per sample: occluder 2 + ½·6 = 5 rays; floor 8 + 2·6 = 20 rays
         let m = |s: usize| prior[s] * tally[s].m2 / n as f64;
         let (r_o, r_f) = ((m(occluder) / 5.0).sqrt(), (m(floor) / 20.0).sqrt());
