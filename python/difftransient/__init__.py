@@ -74,9 +74,10 @@ class Scene:
         return Scene(self._native.with_params(_pairs(params)))
 
     def with_sampler(self, name: str) -> "Scene":
-        """The same scene drawing `name`'s numbers: "independent" (the default) or "sobol"
-        (Owen-scrambled Sobol points, stratified over each pixel's samples: several times less
-        error at the same cost; `dtr render --sampler`)."""
+        """The same scene drawing `name`'s numbers: "sobol" (the default: Owen-scrambled Sobol
+        points, stratified over each pixel's samples, several times less error at about the
+        same cost) or "independent" (independent numbers per path and dimension; `dtr render
+        --sampler`)."""
         return Scene(self._native.with_sampler(name))
 
     @property

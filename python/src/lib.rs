@@ -90,8 +90,8 @@ impl PyScene {
         Ok(Self { scene })
     }
 
-    /// The same scene drawing `name`'s numbers: "independent" or "sobol" (`[integrator]
-    /// sampler`, `dtr render --sampler`).
+    /// The same scene drawing `name`'s numbers: "sobol" (the default) or "independent"
+    /// (`[integrator] sampler`, `dtr render --sampler`).
     fn with_sampler(&self, name: &str) -> PyResult<Self> {
         let sampler = SampleSequence::from_name(name).map_err(PyValueError::new_err)?;
         let mut scene = self.scene.clone();

@@ -3,8 +3,9 @@
 //! Writes into a new (or empty) folder: `log.csv` (one row per iteration: loss, values,
 //! gradient, seconds; flushed as it goes), `best.json` (the lowest loss so far and its
 //! values), `recovered.toml` or `.json` (the scene with the recovered values: the best so
-//! far while running, the last iterate at the end), and the plots `loss.png` and
-//! `param_NAME.png`. An interrupted run (Ctrl-C) keeps the log and the best values so far.
+//! far while running, the last iterate at the end, or the mean of the last iterates with
+//! `--average`), and the plots `loss.png` and `param_NAME.png`. An interrupted run (Ctrl-C)
+//! keeps the log and the best values so far.
 
 use crate::film::Transient;
 use crate::optimize::{Problem, Step, loss::Loss};
@@ -37,6 +38,11 @@ pub struct OptimizeArgs {
     /// The learning rates decay geometrically to this fraction at the last iteration.
     #[arg(long = "lr-end", default_value_t = 0.1)]
     pub lr_end: f64,
+    /// Recover the mean of the iterates of the last fraction F of the run (Polyak averaging)
+    /// instead of the last iterate: with noisy gradients a steadier estimate. 0 = the last
+    /// iterate.
+    #[arg(long, default_value_t = 0.0, value_name = "F")]
+    pub average: f64,
     /// Bounds of one parameter (repeatable): --bound NAME=LO:HI.
     #[arg(long = "bound", value_name = "NAME=LO:HI")]
     pub bound: Vec<String>,
@@ -166,6 +172,12 @@ pub fn run(a: OptimizeArgs) -> anyhow::Result<()> {
     if !(a.lr.is_finite() && a.lr > 0.0) {
         bail!("--lr {}: expected a positive number", a.lr);
     }
+    if !(0.0..=1.0).contains(&a.average) {
+        bail!(
+            "--average {}: expected a fraction of the iterations in [0, 1]",
+            a.average
+        );
+    }
     let (start_sets, fixed): (Vec<_>, Vec<_>) = sets.into_iter().partition(|(n, _)| a.params.contains(n));
     let scene = Scene::load(&a.scene, &fixed)?;
     let target = read_target(&a.target, &scene)?;
@@ -263,16 +275,22 @@ pub fn run(a: OptimizeArgs) -> anyhow::Result<()> {
         return Err(e);
     }
     let last = steps.last().context("no iteration ran")?;
-    let values: Vec<(String, f64)> = a.params.iter().cloned().zip(last.values.iter().copied()).collect();
+    let result = crate::optimize::tail_average(&steps, a.average).context("no iteration ran")?;
+    let values: Vec<(String, f64)> = a.params.iter().cloned().zip(result.iter().copied()).collect();
     write_text(&recovered, &scene_with(&a.scene, &values)?)?;
     write_plots(&dir, &a.params, &steps)?;
     log::info!(
-        "{}: {} iterations, loss {:.3e} → {:.3e}; {}",
+        "{}: {} iterations, loss {:.3e} → {:.3e}; {}{}",
         dir.display(),
         steps.len(),
         steps[0].loss,
         last.loss,
-        pairs(&a.params, &last.values)
+        pairs(&a.params, &result),
+        if a.average > 0.0 {
+            " (mean of the last iterates, --average)"
+        } else {
+            ""
+        }
     );
     Ok(())
 }

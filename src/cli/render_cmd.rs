@@ -82,9 +82,9 @@ pub struct RenderArgs {
     /// shared edge may slip through, so light can leak out of closed objects now and then).
     #[arg(long = "fast-traversal")]
     pub fast_traversal: bool,
-    /// The numbers paths draw (overrides the scene's [integrator] sampler): `independent`
-    /// or `sobol` (Owen-scrambled Sobol points, stratified over each pixel's samples: lower
-    /// error per sample at about the same cost; see BENCHMARKS.md).
+    /// The numbers paths draw (overrides the scene's [integrator] sampler, whose default is
+    /// `sobol`): `sobol` (Owen-scrambled Sobol points, stratified over each pixel's samples:
+    /// lower error per sample at about the same cost; see BENCHMARKS.md) or `independent`.
     #[arg(long, value_name = "independent|sobol", value_parser = SampleSequence::from_name)]
     pub sampler: Option<SampleSequence>,
     /// What the steady image (PREFIX.steady.png, the JSON's energy) integrates: `window`

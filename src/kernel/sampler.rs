@@ -12,11 +12,12 @@ use super::sobol::sobol_pair;
 /// Which numbers the paths of a render draw (`[integrator] sampler`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum SampleSequence {
-    /// Independent uniform numbers for every path and dimension (the default).
-    #[default]
+    /// Independent uniform numbers for every path and dimension.
     Independent,
-    /// Owen-scrambled Sobol points: the samples of one pixel are stratified in every pair of
-    /// dimensions (a (0, 2)-sequence per pair, each pair scrambled and shuffled on its own).
+    /// Owen-scrambled Sobol points (the default): the samples of one pixel are stratified in
+    /// every pair of dimensions (a (0, 2)-sequence per pair, each pair scrambled and shuffled
+    /// on its own).
+    #[default]
     Sobol,
 }
 

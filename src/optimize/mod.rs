@@ -53,6 +53,27 @@ pub struct Step {
     pub seconds: f64,
 }
 
+/// Polyak–Ruppert averaging (Polyak & Juditsky 1992): the mean of the iterates (`values`) of
+/// the last `fraction` of `steps` (at least the last step; `fraction` in [0, 1], 0 = the last
+/// iterate alone). With noisy gradients the iterates wander around the answer with a spread
+/// that only the learning rate's decay narrows; their mean over the final stretch is a far
+/// steadier estimate of where they wander around. `None` for no steps or a fraction outside
+/// [0, 1].
+pub fn tail_average(steps: &[Step], fraction: f64) -> Option<Vec<f64>> {
+    if steps.is_empty() || !(0.0..=1.0).contains(&fraction) {
+        return None;
+    }
+    let n = ((steps.len() as f64 * fraction).round() as usize).clamp(1, steps.len());
+    let tail = &steps[steps.len() - n..];
+    let mut mean = vec![0.0; tail[0].values.len()];
+    for s in tail {
+        for (m, v) in mean.iter_mut().zip(&s.values) {
+            *m += v / n as f64;
+        }
+    }
+    Some(mean)
+}
+
 impl Problem {
     /// The scene with the parameters at `values`.
     pub fn scene_at(&self, values: &[f64]) -> Result<Scene, Error> {
@@ -178,5 +199,34 @@ impl Problem {
             adam.step(&mut x, &g, &self.bounds);
         }
         Ok(steps)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn steps(values: &[f64]) -> Vec<Step> {
+        values
+            .iter()
+            .enumerate()
+            .map(|(i, &v)| Step {
+                iteration: i,
+                loss: 0.0,
+                values: vec![v, -v],
+                grad: vec![0.0, 0.0],
+                seconds: 0.0,
+            })
+            .collect()
+    }
+
+    #[test]
+    fn tail_average_takes_the_mean_of_the_last_iterates() {
+        let s = steps(&[10.0, 8.0, 1.0, 2.0, 3.0, 6.0]);
+        assert_eq!(tail_average(&s, 0.5), Some(vec![11.0 / 3.0, -11.0 / 3.0]));
+        assert_eq!(tail_average(&s, 0.0), Some(vec![6.0, -6.0]), "the last iterate");
+        assert_eq!(tail_average(&s, 1.0), Some(vec![5.0, -5.0]));
+        assert_eq!(tail_average(&s, 1.5), None);
+        assert_eq!(tail_average(&[], 0.5), None);
     }
 }

@@ -46,8 +46,8 @@ pub struct IntegratorDesc {
 #[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq)]
 #[serde(rename_all = "lowercase")]
 pub enum SamplerName {
-    #[default]
     Independent,
+    #[default]
     Sobol,
 }
 
@@ -59,7 +59,7 @@ impl Default for IntegratorDesc {
             spp: 16,
             seed: 0,
             rr_depth: None,
-            sampler: SamplerName::Independent,
+            sampler: SamplerName::Sobol,
         }
     }
 }

@@ -135,6 +135,19 @@ impl Normal {
         Self { x, pdf, lower, upper }
     }
 
+    /// The standard normal truncated to [−c, c], at x: Φ and its tails at x clamped to [−c, c]
+    /// (`x` is the clamped value), so that Φ(b) − Φ(a) is the truncated density's mass on
+    /// [a, b], continuous in a and b; and its density, φ(x) inside [−c, c] and 0 outside, the
+    /// derivative of that mass in either end (the cut is a kink in the mass, not a jump).
+    #[inline]
+    pub fn truncated(x: f64, c: f64) -> Self {
+        let mut n = Self::at(x.clamp(-c, c));
+        if x.abs() > c {
+            n.pdf = 0.0;
+        }
+        n
+    }
+
     /// Φ(b) − Φ(a) for a = `self.x` ≤ b, from the side of the smaller tail (no cancellation).
     #[inline]
     pub fn mass_to(&self, b: &Normal) -> f64 {
