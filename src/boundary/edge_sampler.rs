@@ -160,7 +160,7 @@ impl EdgeSampler {
     }
 
     /// The edge that edge coordinate `u0` ∈ [0, 1) selects (as [`EdgeSampler::sample`] does).
-    pub fn index_of(&self, u0: f32) -> usize {
+    fn index_of(&self, u0: f32) -> usize {
         self.cdf
             .partition_point(|&c| c <= u0)
             .min(self.edges.len().saturating_sub(1))

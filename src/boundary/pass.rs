@@ -151,7 +151,7 @@ impl PilotTally {
             }
             _ => {
                 self.close();
-                let shape = edges.edges[edges.index_of(p.u[0])].shape as usize;
+                let shape = edges.edges[p.edge].shape as usize;
                 self.open = Some((p.segment.id, grid.cell_of(p.u), shape, mag, mag * mag));
             }
         }

@@ -197,6 +197,8 @@ pub(super) struct Prepared {
     common: f32,
     /// The point of the unit cube it was drawn from (the pilot's guiding cell).
     pub(super) u: [f32; 3],
+    /// The edge it was drawn on (its index in the pass's edge table).
+    pub(super) edge: usize,
 }
 
 /// The estimator's fixed inputs.
@@ -420,6 +422,7 @@ impl<'a> Secondary<'a> {
             rates,
             common: common * scale / (br.pdf_edge_dir * p_guide),
             u,
+            edge: br.index,
         })
     }
 
@@ -521,6 +524,7 @@ impl<'a> Secondary<'a> {
             rates,
             common,
             u,
+            edge: br.index,
         })
     }
 
