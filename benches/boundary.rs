@@ -10,11 +10,14 @@
 //!    reference, and the standard deviation of its image total over seeds;
 //! 3. the CPU time the full one-parameter gradient (interior + primary + secondary) needs to
 //!    reach a relative error, over the time the primal needs to reach the same: mean CPU
-//!    seconds × mean squared relative L2 error over seeds, at several (spp, spp_boundary),
-//!    here and on the Cornell box (d/d`tall_box_x`).
+//!    seconds × relative variance over seeds (the squared error of an unbiased estimator,
+//!    free of the reference's own noise; the rel. L2 against the reference is printed beside
+//!    it as a check of the mean), at several (spp, spp_boundary), here and on the Cornell box
+//!    (d/d`tall_box_x`).
 //!
 //! Run: `cargo bench --bench boundary` (DTR_BENCH_THREADS, DTR_BENCH_SEEDS (4),
-//! DTR_BENCH_ONLY_RATIO: section 3 on the shadow scene alone; about two minutes in all).
+//! DTR_BENCH_SAMPLER (sobol, the scenes' default, or independent), DTR_BENCH_ONLY_RATIO:
+//! section 3 on the shadow scene alone; about two minutes in all).
 
 mod common;
 use difftransient::{BoundaryMode, RenderOptions, Scene, Transient, render, render_diff};
@@ -96,12 +99,12 @@ fn main() {
     let res: u32 = env_or("DTR_BENCH_RES", 64);
     scene.film.width = res;
     scene.film.height = res;
-    // DTR_BENCH_SAMPLER=sobol: Sobol points for the interior and the boundary samples
-    let sobol = std::env::var("DTR_BENCH_SAMPLER").is_ok_and(|s| s == "sobol");
-    let sampler = if sobol {
-        difftransient::kernel::SampleSequence::Sobol
-    } else {
-        difftransient::kernel::SampleSequence::Independent
+    // the scene's sampler (Sobol points, the default); DTR_BENCH_SAMPLER=independent for
+    // independent numbers, for the interior and the boundary samples alike
+    let sampler = match std::env::var("DTR_BENCH_SAMPLER").as_deref() {
+        Ok("independent") => difftransient::kernel::SampleSequence::Independent,
+        Ok("sobol") | Err(_) => difftransient::kernel::SampleSequence::Sobol,
+        Ok(other) => panic!("DTR_BENCH_SAMPLER: expected sobol or independent, got {other:?}"),
     };
     scene.integrator.sampler = sampler;
     let threads: usize = env_or(
@@ -167,18 +170,34 @@ fn main() {
     }
 }
 
-/// Mean CPU seconds and mean squared relative L2 error of `seeds` renders.
+/// Mean CPU seconds, mean squared relative L2 error against the reference, and the
+/// reference-free squared relative error: the variance over seeds, Σ_i Σ_k (x_ki − x̄_i)² /
+/// (K − 1) over ‖reference‖² (for an unbiased estimator, its expected squared error; the
+/// reference's own noise, which the former includes, cannot inflate it).
 struct Cost {
     cpu: f64,
     mse: f64,
+    var: f64,
 }
 
 impl Cost {
-    /// CPU seconds × squared error: for unbiased estimators whose error falls as 1/√time,
-    /// the CPU time needed to reach a relative error of 1 (÷ E² for error E).
+    /// CPU seconds × squared error (the variance's): for unbiased estimators whose error falls
+    /// as 1/√time, the CPU time needed to reach a relative error of 1 (÷ E² for error E).
     fn work(&self) -> f64 {
-        self.cpu * self.mse
+        self.cpu * self.var
     }
+}
+
+/// Σ_i Σ_k (x_ki − x̄_i)² / (K − 1) / ‖reference‖²: the relative variance of one render.
+fn relative_variance(runs: &[Vec<f32>], reference: &[f32]) -> f64 {
+    let k = runs.len() as f64;
+    let norm: f64 = reference.iter().map(|&r| (r as f64).powi(2)).sum();
+    let mut sum = 0.0;
+    for i in 0..reference.len() {
+        let mean = runs.iter().map(|r| r[i] as f64).sum::<f64>() / k;
+        sum += runs.iter().map(|r| (r[i] as f64 - mean).powi(2)).sum::<f64>();
+    }
+    sum / (k - 1.0) / norm.max(f64::MIN_POSITIVE)
 }
 
 /// Section 3: the primal render at `primal_spp`, the full gradient (interior + primary +
@@ -186,7 +205,7 @@ impl Cost {
 /// (seeds 1..), relative L2 errors against converged references (primal at `refs.2` spp; the
 /// derivative as an interior render at `refs.0` spp plus a guided boundary-only render at
 /// `refs.1` samples per pixel, their own seeds). The time ratio at equal error is the gradient's
-/// CPU seconds × mean squared error over the primal's: the CPU time the gradient needs to reach
+/// CPU seconds × relative variance over the primal's: the CPU time the gradient needs to reach
 /// a given relative error over the time the primal needs to reach the same.
 #[allow(clippy::too_many_arguments)]
 fn equal_error_table(
@@ -226,66 +245,96 @@ fn equal_error_table(
     )
     .unwrap()
     .0;
-    let measure = |run: &dyn Fn(u64) -> (Vec<f32>, f64), reference: &[f32]| {
-        let (mut cpu, mut mse) = (0.0, 0.0);
-        for seed in 1..=seeds {
-            let (data, seconds) = run(seed);
-            cpu += seconds / seeds as f64;
-            mse += common::rel_l2(&data, reference).powi(2) / seeds as f64;
-        }
-        Cost { cpu, mse }
-    };
-    println!("3. {label}: CPU time at equal error, {seeds} seeds per row (mean CPU s, rms rel. L2)");
-    let mut primal = Vec::new();
-    for &spp in primal_spp {
-        let c = measure(
-            &|seed| {
-                let (t, s) = render(
-                    scene,
-                    &RenderOptions {
-                        spp: Some(spp),
-                        seed: Some(seed),
-                        ..base.clone()
-                    },
-                )
-                .unwrap();
-                (t.data, s.total_cpu_seconds)
-            },
-            &reference_p.data,
-        );
-        println!(
-            "   primal          spp {spp:>3}                 {:>8.4} s  rel. L2 {:.4}  CPU s × L2² {:.3e}",
-            c.cpu,
-            c.mse.sqrt(),
-            c.work()
-        );
-        primal.push(c);
+    // a row renders a seed and returns the derivative or transient and its CPU seconds
+    enum Row {
+        Primal(u32),
+        Gradient(u32, u32),
     }
-    // the primal's efficiency: the best of its rows (the larger spp amortises start-up)
-    let primal_work = primal.iter().map(Cost::work).fold(f64::MAX, f64::min);
-    for &(spp, spp_b) in configs {
-        let c = measure(
-            &|seed| {
-                let (d, s) = diff_of(
-                    scene,
-                    param,
-                    &RenderOptions {
-                        spp: Some(spp),
-                        spp_boundary: Some(spp_b),
-                        seed: Some(seed),
-                        ..base.clone()
-                    },
-                );
+    let run = |row: &Row, seed: u64| -> (Vec<f32>, f64) {
+        match *row {
+            Row::Primal(spp) => {
+                let o = RenderOptions {
+                    spp: Some(spp),
+                    seed: Some(seed),
+                    ..base.clone()
+                };
+                let (t, s) = render(scene, &o).unwrap();
+                (t.data, s.total_cpu_seconds)
+            }
+            Row::Gradient(spp, spp_b) => {
+                let o = RenderOptions {
+                    spp: Some(spp),
+                    spp_boundary: Some(spp_b),
+                    seed: Some(seed),
+                    ..base.clone()
+                };
+                let (d, s) = diff_of(scene, param, &o);
                 (d.data, s.total_cpu_seconds)
-            },
-            &reference_d,
-        );
-        println!(
-            "   gradient        spp {spp:>3}  spp_boundary {spp_b:>3}  {:>8.4} s  rel. L2 {:.4}  CPU s × L2² {:.3e}  time at equal error {:.2}× the primal",
-            c.cpu,
-            c.mse.sqrt(),
-            c.work(),
-            c.work() / primal_work
-        );
+            }
+        }
+    };
+    let rows: Vec<Row> = primal_spp
+        .iter()
+        .map(|&spp| Row::Primal(spp))
+        .chain(configs.iter().map(|&(spp, spp_b)| Row::Gradient(spp, spp_b)))
+        .collect();
+    // warm-up (first-use costs), then the rows interleaved seed by seed, so that a drift of
+    // the machine's speed weighs on every row alike
+    for row in &rows {
+        run(row, 0);
+    }
+    let mut runs: Vec<(Vec<Vec<f32>>, f64)> = rows.iter().map(|_| (Vec::new(), 0.0)).collect();
+    for seed in 1..=seeds {
+        for (row, (data, cpu)) in rows.iter().zip(runs.iter_mut()) {
+            let (d, seconds) = run(row, seed);
+            data.push(d);
+            *cpu += seconds / seeds as f64;
+        }
+    }
+    let costs: Vec<Cost> = rows
+        .iter()
+        .zip(&runs)
+        .map(|(row, (data, cpu))| {
+            let reference = match row {
+                Row::Primal(_) => &reference_p.data,
+                Row::Gradient(..) => &reference_d,
+            };
+            let mse = data.iter().map(|d| common::rel_l2(d, reference).powi(2)).sum::<f64>() / seeds as f64;
+            Cost {
+                cpu: *cpu,
+                mse,
+                var: relative_variance(data, reference),
+            }
+        })
+        .collect();
+    println!(
+        "3. {label}: CPU time at equal error, {seeds} seeds per row, rows interleaved (mean CPU s; rms rel. L2 \
+         against the reference, and without it: √ of the relative variance over seeds, which the time ratio uses)"
+    );
+    // the primal's efficiency: the best of its rows (the larger spp amortises start-up)
+    let primal_work = rows
+        .iter()
+        .zip(&costs)
+        .filter(|(r, _)| matches!(r, Row::Primal(_)))
+        .map(|(_, c)| c.work())
+        .fold(f64::MAX, f64::min);
+    for (row, c) in rows.iter().zip(&costs) {
+        match row {
+            Row::Primal(spp) => println!(
+                "   primal          spp {spp:>3}                 {:>8.4} s  rel. L2 {:.4} (sd {:.4})  CPU s × sd² {:.3e}",
+                c.cpu,
+                c.mse.sqrt(),
+                c.var.sqrt(),
+                c.work()
+            ),
+            Row::Gradient(spp, spp_b) => println!(
+                "   gradient        spp {spp:>3}  spp_boundary {spp_b:>3}  {:>8.4} s  rel. L2 {:.4} (sd {:.4})  CPU s × sd² {:.3e}  time at equal error {:.2}× the primal",
+                c.cpu,
+                c.mse.sqrt(),
+                c.var.sqrt(),
+                c.work(),
+                c.work() / primal_work
+            ),
+        }
     }
 }
