@@ -370,9 +370,7 @@ impl<'a> Secondary<'a> {
     ) -> Option<Prepared> {
         let ctx = self.ctx;
         let mut rng = boundary_numbers(ctx, seed, id);
-        let pick = rng.next::<f32>();
-        let inner = [rng.next::<f32>(), rng.next::<f32>(), rng.next::<f32>()];
-        let (u, p_guide) = grid.sample(pick, inner);
+        let (u, p_guide) = edge_numbers(&mut rng, grid);
         scratch.edge = None;
         let br = edges.sample(u[0], u[1], u[2])?;
         scratch.edge = Some(br.index);
@@ -445,9 +443,7 @@ impl<'a> Secondary<'a> {
     ) -> Option<Prepared> {
         let ctx = self.ctx;
         let mut rng = boundary_numbers(ctx, seed, id);
-        let pick = rng.next::<f32>();
-        let inner = [rng.next::<f32>(), rng.next::<f32>(), rng.next::<f32>()];
-        let (u, p_guide) = grid.sample(pick, inner);
+        let (u, p_guide) = edge_numbers(&mut rng, grid);
         let e2 = rng.next::<f32>();
         let [u0, e0, e1] = u;
         scratch.edge = None;
@@ -588,6 +584,21 @@ impl<'a> Secondary<'a> {
 /// it and the direction are stratified over the stage.
 fn boundary_numbers(ctx: &RenderContext, seed: u64, id: u64) -> PathSampler {
     PathSampler::with_sequence(ctx.scene.integrator.sampler, seed, &[id], u32::MAX)
+}
+
+/// A boundary sample's point u of the unit cube (strategy A: edge coordinate, azimuth,
+/// cos θ; strategy B: edge coordinate and the light sample's two numbers) and the guiding
+/// grid's density there. Where a sample lands on the film depends on all three at once (in
+/// strategy B the shadow point moves with the edge point and the light point together), so
+/// with Sobol points and no guiding u is one 3D net (`PathSampler::next3`), which stratifies
+/// how many samples reach each pixel; otherwise the grid's pick, then its cell's three numbers.
+fn edge_numbers(rng: &mut PathSampler, grid: &GuideGrid) -> ([f32; 3], f32) {
+    if rng.is_sobol() && grid.is_uniform() {
+        return (rng.next3(), 1.0);
+    }
+    let pick = rng.next::<f32>();
+    let inner = [rng.next::<f32>(), rng.next::<f32>(), rng.next::<f32>()];
+    grid.sample(pick, inner)
 }
 
 #[cfg(test)]

@@ -7,7 +7,7 @@
 //! Owen-scrambled Sobol points per pixel ([`super::sobol`]), stratified over a pixel's samples.
 
 use super::real::Real;
-use super::sobol::sobol_pair;
+use super::sobol::{sobol_pair, sobol_triple};
 
 /// Which numbers the paths of a render draw (`[integrator] sampler`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -151,6 +151,30 @@ impl PathSampler {
         }
         let a = self.next();
         (a, self.next())
+    }
+
+    /// Whether the numbers are Sobol points (else independent).
+    pub fn is_sobol(&self) -> bool {
+        self.sobol.is_some()
+    }
+
+    /// Three numbers; with Sobol points, the first three Sobol dimensions under a scramble of
+    /// their own (`sobol::sobol_triple`: the samples' triples form a (1, m, 3)-net, stratified
+    /// in 3D, not only pair by pair). Takes four dimensions (from an even one), so the next
+    /// 2D draw stays aligned.
+    pub fn next3<R: Real>(&mut self) -> [R; 3] {
+        let Some(sb) = &mut self.sobol else {
+            return [self.next(), self.next(), self.next()];
+        };
+        let d = self.dim + (self.dim & 1);
+        self.dim = d + 4;
+        let seeds = std::array::from_fn(|i| {
+            // a key no pair of this stream uses (pairs are keyed by d/2 < 2^62)
+            let k = stream_key(self.keys[i], (d >> 1) | (1 << 62));
+            (k ^ (k >> 32)) as u32
+        });
+        sb.cached = None;
+        sobol_triple(sb.index, seeds).map(|v| R::from_lanes(&v))
     }
 
     /// Skips to a fixed dimension, so that a strategy's numbers do not depend on earlier ones.

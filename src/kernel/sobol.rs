@@ -84,6 +84,60 @@ pub fn sobol_pair(index: [u32; 8], seed: [u32; 8]) -> ([f32; 8], [f32; 8]) {
     (to_unit(d0), to_unit(d1))
 }
 
+/// Generator matrix columns of Sobol dimension 2 (primitive polynomial x² + x + 1, initial
+/// direction numbers m₁ = 1, m₂ = 3, as in Joe and Kuo's table), most significant bit first:
+/// column `b` is the image of index bit `b`. The recurrence for degree 2 with a₁ = 1:
+/// m_k = 2·m_{k−1} ⊕ 4·m_{k−2} ⊕ m_{k−2}.
+const DIM2: [u32; 32] = {
+    let mut m = [0u64; 33];
+    m[1] = 1;
+    m[2] = 3;
+    let mut k = 3;
+    while k <= 32 {
+        m[k] = (2 * m[k - 1]) ^ (4 * m[k - 2]) ^ m[k - 2];
+        k += 1;
+    }
+    let mut v = [0u32; 32];
+    let mut b = 0;
+    while b < 32 {
+        // v_k = m_k / 2^k as a 32-bit fraction
+        v[b] = (m[b + 1] << (31 - b)) as u32;
+        b += 1;
+    }
+    v
+};
+
+#[inline(always)]
+fn sobol2(i: u32x8) -> u32x8 {
+    let idx = i.to_array();
+    u32x8::from(idx.map(|i| {
+        let mut d = 0u32;
+        let mut bits = i;
+        while bits != 0 {
+            let b = bits.trailing_zeros();
+            d ^= DIM2[b as usize];
+            bits &= bits - 1;
+        }
+        d
+    }))
+}
+
+/// Point `index` of the first three Sobol dimensions scrambled with `seed`, per lane: three
+/// numbers in [0, 1) whose first 2^m points (for any m) form a (1, m, 3)-net, so a region of
+/// the cube that no pair of coordinates describes (a slab across all three) is still
+/// stratified. Each dimension gets its own Owen scramble and the index one shared shuffle,
+/// as in [`sobol_pair`].
+#[inline]
+pub fn sobol_triple(index: [u32; 8], seed: [u32; 8]) -> [[f32; 8]; 3] {
+    let seed = hash(u32x8::from(seed) ^ u32x8::splat(0x5bd1_e995));
+    let i = owen_scramble(u32x8::from(index), seed);
+    let s = [0x9e37_79b9u32, 0x7f4a_7c15, 0x94d0_49bb].map(|k| hash(seed ^ u32x8::splat(k)));
+    let d0 = reverse_bits(lk_permute(i, s[0]));
+    let d1 = reverse_bits(lk_permute(sobol1_reversed(i), s[1]));
+    let d2 = owen_scramble(sobol2(i), s[2]);
+    [to_unit(d0), to_unit(d1), to_unit(d2)]
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -185,6 +239,85 @@ mod tests {
             assert!((sx / n - 0.5).abs() < 5.0 * se, "k {k} mean x {}", sx / n);
             assert!((sy / n - 0.5).abs() < 5.0 * se, "k {k} mean y {}", sy / n);
             assert!((sxy / n).abs() < 5.0 / 12.0 / n.sqrt(), "k {k} cov {}", sxy / n);
+        }
+    }
+
+    fn triples(n: u32, seed: u32) -> Vec<[f32; 3]> {
+        let mut out = Vec::new();
+        for base in (0..n).step_by(8) {
+            let idx = std::array::from_fn(|k| base + k as u32);
+            let t = sobol_triple(idx, [seed; 8]);
+            out.extend((0..8).map(|k| [t[0][k], t[1][k], t[2][k]]));
+        }
+        out.truncate(n as usize);
+        out
+    }
+
+    /// The unscrambled third dimension, in index (not Gray-code) order: direction numbers
+    /// v_k = m_k/2^k with m = 1, 3, 3, 9 (the recurrence), so indices 1..8 give v₁, v₂, v₁⊕v₂,
+    /// v₃, v₁⊕v₃, v₂⊕v₃, v₁⊕v₂⊕v₃, v₄.
+    #[test]
+    fn third_dimension_is_sobol() {
+        let got: Vec<f64> = (1..=8u32)
+            .map(|i| sobol2(u32x8::splat(i)).to_array()[0] as f64 / 2f64.powi(32))
+            .collect();
+        assert_eq!(got, [0.5, 0.75, 0.25, 0.375, 0.875, 0.625, 0.125, 0.5625]);
+    }
+
+    /// (1, m, 3)-net: every elementary box of volume 2^(1−m) holds exactly two of the first
+    /// 2^m points, for every shape and several seeds.
+    #[test]
+    fn first_power_of_two_triples_form_a_net() {
+        for seed in [0u32, 1, 77, 0xdead_beef] {
+            for m in [4u32, 6, 8] {
+                let pts = triples(1 << m, seed);
+                let k = m - 1;
+                for a in 0..=k {
+                    for b in 0..=k - a {
+                        let c = k - a - b;
+                        let mut seen = vec![0u32; 1 << k];
+                        for p in &pts {
+                            assert!(p.iter().all(|v| (0.0..1.0).contains(v)));
+                            let ia = (p[0] * (1u32 << a) as f32) as usize;
+                            let ib = (p[1] * (1u32 << b) as f32) as usize;
+                            let ic = (p[2] * (1u32 << c) as f32) as usize;
+                            seen[(ia << (b + c)) | (ib << c) | ic] += 1;
+                        }
+                        assert!(
+                            seen.iter().all(|&n| n == 2),
+                            "seed {seed} m {m} ({a}, {b}, {c}): {seen:?}"
+                        );
+                    }
+                }
+            }
+        }
+    }
+
+    /// Over many seeds each triple is uniform: means 1/2 and no correlation between any two
+    /// coordinates (within 5 standard errors).
+    #[test]
+    fn scrambled_triples_are_uniform_over_seeds() {
+        let seeds = 4096;
+        for k in [0u32, 1, 5, 13] {
+            let (mut sum, mut cross) = ([0.0f64; 3], [0.0f64; 3]);
+            for s in 0..seeds {
+                let t = sobol_triple([k; 8], [s; 8]);
+                let p = [t[0][0] as f64, t[1][0] as f64, t[2][0] as f64];
+                for d in 0..3 {
+                    sum[d] += p[d];
+                    cross[d] += (p[d] - 0.5) * (p[(d + 1) % 3] - 0.5);
+                }
+            }
+            let n = seeds as f64;
+            let se = (1.0 / 12.0 / n).sqrt();
+            for d in 0..3 {
+                assert!((sum[d] / n - 0.5).abs() < 5.0 * se, "k {k} dim {d} mean {}", sum[d] / n);
+                assert!(
+                    (cross[d] / n).abs() < 5.0 / 12.0 / n.sqrt(),
+                    "k {k} dims {d} cov {}",
+                    cross[d] / n
+                );
+            }
         }
     }
 
