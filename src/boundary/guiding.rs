@@ -69,14 +69,14 @@ impl GuideGrid {
         (i(0) * self.res[1] + i(1)) * self.res[2] + i(2)
     }
 
-    /// Draws a cell with `pick` and a point inside it with `inner`; returns the point and its
-    /// density on the unit cube (P_c · cells).
     /// Whether every cell is equally likely (guiding off): [`GuideGrid::sample`] then returns
     /// `inner` itself, with density 1.
     pub fn is_uniform(&self) -> bool {
         self.uniform
     }
 
+    /// Draws a cell with `pick` and a point inside it with `inner`; returns the point and its
+    /// density on the unit cube (P_c · cells).
     pub fn sample(&self, pick: f32, inner: [f32; 3]) -> ([f32; 3], f32) {
         if self.uniform {
             return (inner, 1.0);

@@ -426,8 +426,9 @@ impl<'a> Secondary<'a> {
 
     /// Strategy B, boundary sample `id` of stream `seed`: shadow edges of direct light. A
     /// point x_B on an edge (drawn from `edges`, as in strategy A) and a point y on an
-    /// emitter (next-event sampling) fix ω = (x_B − y)/t_L; x_L = y when nothing blocks y → x_B. The density of ω per
-    /// steradian is pdf_A(y) · t_L² / |cos_L|, so the weight of strategy A becomes
+    /// emitter (next-event sampling) fix ω = (x_B − y)/t_L; x_L = y when nothing blocks
+    /// y → x_B. The density of ω per steradian is pdf_A(y) · t_L² / |cos_L|, so the weight of
+    /// strategy A becomes
     /// −s_o · (L_e / pdf_A) · |cos_L| / (t_L² (t_L + t_S) p_e); for a point light L_e/pdf_A · |cos_L|
     /// is I / p_select (the density is a delta in ω); a laser spot is such a point source with
     /// intensity ∝ cos_L, moving along the beam (ray form). The inputs (edge coordinate,
@@ -591,7 +592,9 @@ fn boundary_numbers(ctx: &RenderContext, seed: u64, id: u64) -> PathSampler {
 /// grid's density there. Where a sample lands on the film depends on all three at once (in
 /// strategy B the shadow point moves with the edge point and the light point together), so
 /// with Sobol points and no guiding u is one 3D net (`PathSampler::next3`), which stratifies
-/// how many samples reach each pixel; otherwise the grid's pick, then its cell's three numbers.
+/// how many samples reach each pixel; otherwise the grid's pick, then its cell's three numbers
+/// (independent numbers keep the dimensions they have always drawn, so their renders do not
+/// change).
 fn edge_numbers(rng: &mut PathSampler, grid: &GuideGrid) -> ([f32; 3], f32) {
     if rng.is_sobol() && grid.is_uniform() {
         return (rng.next3(), 1.0);

@@ -158,10 +158,10 @@ impl PathSampler {
         self.sobol.is_some()
     }
 
-    /// Three numbers; with Sobol points, the first three Sobol dimensions under a scramble of
-    /// their own (`sobol::sobol_triple`: the samples' triples form a (1, m, 3)-net, stratified
-    /// in 3D, not only pair by pair). Takes four dimensions (from an even one), so the next
-    /// 2D draw stays aligned.
+    /// Three numbers. Independent numbers: the next three dimensions. Sobol points: the first
+    /// three Sobol dimensions under a scramble of their own (`sobol::sobol_triple`: the
+    /// samples' triples form a (1, m, 3)-net, stratified in 3D, not only pair by pair); they
+    /// take four dimensions (from an even one), so the next 2D draw stays aligned.
     pub fn next3<R: Real>(&mut self) -> [R; 3] {
         let Some(sb) = &mut self.sobol else {
             return [self.next(), self.next(), self.next()];
@@ -173,7 +173,6 @@ impl PathSampler {
             let k = stream_key(self.keys[i], (d >> 1) | (1 << 62));
             (k ^ (k >> 32)) as u32
         });
-        sb.cached = None;
         sobol_triple(sb.index, seeds).map(|v| R::from_lanes(&v))
     }
 
