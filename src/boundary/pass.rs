@@ -493,8 +493,9 @@ impl Secondary<'_> {
         let zeros = [0.0f32; 3];
         let ddot = [0.0f32; MAX_PARAMS];
         let mut fdot = [0.0f32; MAX_PARAMS * 3];
-        ctx.camera.for_each_pixel(bp.fx, bp.fy, |px, py, hw| {
-            if hw == 0.0 || !rows.contains(&(py as usize)) {
+        let band = rows.start as u32..rows.end as u32;
+        ctx.camera.for_each_pixel_in_rows(bp.fx, bp.fy, band, |px, py, hw| {
+            if hw == 0.0 {
                 return;
             }
             for k in 0..p {

@@ -211,15 +211,28 @@ impl CameraSampler {
     /// Calls `f(px, py, h)` for every pixel whose filter reaches film point (fx, fy), with the
     /// separable filter weight h = h(fx − px − ½)·h(fy − py − ½). The weights of one point
     /// sum to 1 over the film's interior.
-    pub fn for_each_pixel(&self, fx: f32, fy: f32, mut f: impl FnMut(u32, u32, f32)) {
+    pub fn for_each_pixel(&self, fx: f32, fy: f32, f: impl FnMut(u32, u32, f32)) {
+        self.for_each_pixel_in_rows(fx, fy, 0..self.height as u32, f);
+    }
+
+    /// [`for_each_pixel`](Self::for_each_pixel) for the pixels of film rows `rows` only (a
+    /// band of the film that one worker bins): a point whose filter misses them costs two
+    /// comparisons.
+    pub fn for_each_pixel_in_rows(
+        &self,
+        fx: f32,
+        fy: f32,
+        rows: std::ops::Range<u32>,
+        mut f: impl FnMut(u32, u32, f32),
+    ) {
         let r = self.filter.radius;
         let (x0, x1) = (
             (fx - 0.5 - r).floor().max(0.0),
             (fx - 0.5 + r).ceil().min(self.width - 1.0),
         );
         let (y0, y1) = (
-            (fy - 0.5 - r).floor().max(0.0),
-            (fy - 0.5 + r).ceil().min(self.height - 1.0),
+            (fy - 0.5 - r).floor().max(rows.start as f32),
+            (fy - 0.5 + r).ceil().min(self.height.min(rows.end as f32) - 1.0),
         );
         let mut py = y0;
         while py <= y1 {

@@ -107,18 +107,34 @@ const DIM2: [u32; 32] = {
     v
 };
 
+/// [`DIM2`] as four tables of 256 entries, one per byte of the index: entry `v` of table `k`
+/// is the XOR of the columns of the bits set in `v << 8k`. The generator matrix is linear over
+/// GF(2), so the image of an index is the XOR of its four bytes' entries.
+const DIM2_BYTES: [[u32; 256]; 4] = {
+    let mut t = [[0u32; 256]; 4];
+    let mut k = 0;
+    while k < 4 {
+        let mut v = 1;
+        while v < 256 {
+            // v's lowest bit's column, XOR the entry of v without that bit
+            let low = v & (v - 1);
+            t[k][v] = t[k][low] ^ DIM2[8 * k + (v ^ low).trailing_zeros() as usize];
+            v += 1;
+        }
+        k += 1;
+    }
+    t
+};
+
 #[inline(always)]
 fn sobol2(i: u32x8) -> u32x8 {
     let idx = i.to_array();
     u32x8::from(idx.map(|i| {
-        let mut d = 0u32;
-        let mut bits = i;
-        while bits != 0 {
-            let b = bits.trailing_zeros();
-            d ^= DIM2[b as usize];
-            bits &= bits - 1;
-        }
-        d
+        let b = i.to_le_bytes();
+        DIM2_BYTES[0][b[0] as usize]
+            ^ DIM2_BYTES[1][b[1] as usize]
+            ^ DIM2_BYTES[2][b[2] as usize]
+            ^ DIM2_BYTES[3][b[3] as usize]
     }))
 }
 
@@ -180,6 +196,25 @@ mod tests {
             let fast = reverse_bits(sobol1_reversed(u32x8::splat(x))).to_array()[0];
             assert_eq!(fast, by_matrix, "index {x:#x}");
         }
+    }
+
+    /// Dimension 2's byte tables give the generator matrix's product column by column, for
+    /// indices with any bits set (the top byte included).
+    #[test]
+    fn byte_tables_equal_the_generator_matrix() {
+        let mut x = 0x9abc_def0u32;
+        for n in 0..4000 {
+            x = x.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            let i = if n < 32 { 1u32 << n } else { x };
+            let mut by_matrix = 0u32;
+            for (b, c) in DIM2.iter().enumerate() {
+                if i >> b & 1 == 1 {
+                    by_matrix ^= c;
+                }
+            }
+            assert_eq!(sobol2(u32x8::splat(i)).to_array()[0], by_matrix, "index {i:#x}");
+        }
+        assert_eq!(sobol2(u32x8::splat(0)).to_array()[0], 0);
     }
 
     #[test]
