@@ -7,8 +7,8 @@
 //!   sample's total |contribution|, c_s: rays per sample); each strategy keeps at least 1/8 of
 //!   the budget, so neither is ever starved (any n_s ≥ 1 keeps the sum unbiased);
 //! - with guiding on, a grid of `guiding.rs` for each strategy: over (edge coordinate,
-//!   azimuth, cos θ) for the edge-directed rays, over (edge coordinate, emitter choice, point
-//!   on the emitter) for the light-directed ones;
+//!   azimuth, cos θ) for the edge-directed rays, over (edge coordinate, the two numbers of the
+//!   point on the emitter) for the light-directed ones;
 //! - with guiding off, how often to draw each shape's edges, per strategy: a shape's share
 //!   of the edge table's probability P_s becomes q_s = (1 − α)·r_s / Σ_t r_t + α·P_s with
 //!   r_s = √(M_s / c_s). M_s is the second moment the shape's edges contribute per sample

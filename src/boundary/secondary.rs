@@ -432,7 +432,8 @@ impl<'a> Secondary<'a> {
     /// −s_o · (L_e / pdf_A) · |cos_L| / (t_L² (t_L + t_S) p_e); for a point light L_e/pdf_A · |cos_L|
     /// is I / p_select (the density is a delta in ω); a laser spot is such a point source with
     /// intensity ∝ cos_L, moving along the beam (ray form). The inputs (edge coordinate,
-    /// emitter choice, point on the emitter) come from `grid`.
+    /// the two numbers of the point on the emitter) come from `grid`, the emitter choice from
+    /// a fourth number.
     pub(super) fn prepare_light(
         &self,
         seed: u64,
@@ -445,13 +446,15 @@ impl<'a> Secondary<'a> {
         let ctx = self.ctx;
         let mut rng = boundary_numbers(ctx, seed, id);
         let (u, p_guide) = edge_numbers(&mut rng, grid);
-        let e2 = rng.next::<f32>();
+        // the point on the emitter from the cube's last two numbers (it covers the whole
+        // emitter, `EmitterTable::sample`), the emitter choice from a fourth
+        let select = rng.next::<f32>();
         let [u0, e0, e1] = u;
         scratch.edge = None;
         let br = edges.sample(u0, 0.5, 0.5)?;
         scratch.edge = Some(br.index);
         let rec = &edges.edges[br.index];
-        let ls = ctx.emitters.sample::<f32, 3>(ctx, e0, e1, e2, true);
+        let ls = ctx.emitters.sample::<f32, 3>(ctx, select, e0, e1, true);
         if !ls.valid {
             return None;
         }

@@ -32,17 +32,39 @@ pub struct LightSample<R: Real, const C: usize> {
     pub pre64: [f64; 8],
 }
 
+/// Largest area emitter (in triangles) whose triangle is picked by the first number of the
+/// point it samples ([`EmitterTable::sample`]): its rescaled remainder keeps at least 14 of
+/// the number's 24 bits for the point on a triangle of average area.
+pub const REUSE_MAX_TRIANGLES: usize = 1024;
+
+/// The index of the cdf entry (cumulative shares, last ≈ 1) that `u` ∈ [0, 1) falls in, and
+/// `u` rescaled to [0, 1) within it.
+fn pick_and_rescale(cdf: &[f32], u: f32) -> (usize, f32) {
+    let k = cdf.partition_point(|&c| c <= u).min(cdf.len() - 1);
+    let lo = if k == 0 { 0.0 } else { cdf[k - 1] };
+    let share = cdf[k] - lo;
+    let rest = if share > 0.0 { (u - lo) / share } else { 0.5 };
+    (k, rest.clamp(0.0, 1.0 - f32::EPSILON))
+}
+
 impl EmitterTable {
-    /// Samples one emitter point per lane from three uniform numbers.
+    /// Samples one emitter point per lane: `select` picks the emitter, and the 2D point
+    /// (`u0`, `u1`) the point on it. An area emitter of at most [`REUSE_MAX_TRIANGLES`]
+    /// triangles maps the whole 2D point onto its surface: `u0` picks the triangle by area and
+    /// is then rescaled within that triangle's share (as Mitsuba's `sample_reuse`), so a
+    /// stratified 2D point set (a pixel's Sobol pair) stays stratified over the whole emitter,
+    /// not only within whichever triangle each point happened to pick. A larger emitter mesh
+    /// picks its triangle with the rest of `select` (after the emitter choice), since rescaling
+    /// would leave `u0` too few of its 24 bits.
     pub fn sample<R: Real, const C: usize>(
         &self,
         ctx: &RenderContext,
+        select: R::Value,
         u0: R::Value,
         u1: R::Value,
-        u2: R::Value,
         active: R::Mask,
     ) -> LightSample<R, C> {
-        self.sample_with(ctx, u0, u1, u2, active, None)
+        self.sample_with(ctx, select, u0, u1, active, None)
     }
 
     /// The laser spots `scan.spots[points[i]]` of laser `scan.laser`, one per lane (an NLOS
@@ -62,9 +84,9 @@ impl EmitterTable {
     fn sample_with<R: Real, const C: usize>(
         &self,
         ctx: &RenderContext,
+        select: R::Value,
         u0: R::Value,
         u1: R::Value,
-        u2: R::Value,
         active: R::Mask,
         scan: Option<(&super::nlos::NlosSensor, &[u32; 8])>,
     ) -> LightSample<R, C> {
@@ -89,7 +111,7 @@ impl EmitterTable {
             if !active.bit(i) || n_e == 0 {
                 continue;
             }
-            let sel = u0.lane(i) * n_e as f32;
+            let sel = select.lane(i) * n_e as f32;
             let mut e = (sel as usize).min(n_e - 1);
             let mut p_sel = 1.0 / n_e as f32;
             let scanned;
@@ -115,10 +137,14 @@ impl EmitterTable {
                     if *area <= 0.0 {
                         continue;
                     }
-                    // reuse the fractional part of the selection number for the triangle
-                    let ut = (sel - e as f32).clamp(0.0, 1.0 - f32::EPSILON);
-                    let k = cdf.partition_point(|&c| c <= ut).min(tris.len() - 1);
-                    let (s1, s2) = (u1.lane(i).sqrt(), u2.lane(i));
+                    let (k, ua) = if tris.len() <= REUSE_MAX_TRIANGLES {
+                        pick_and_rescale(cdf, u0.lane(i))
+                    } else {
+                        // the fractional part of the selection number
+                        let ut = (sel - e as f32).clamp(0.0, 1.0 - f32::EPSILON);
+                        (pick_and_rescale(cdf, ut).0, u0.lane(i))
+                    };
+                    let (s1, s2) = (ua.sqrt(), u1.lane(i));
                     prim[i] = tris[k];
                     bu[i] = s1 * (1.0 - s2);
                     bv[i] = s1 * s2;

@@ -325,11 +325,13 @@ pub fn trace_packet_from<R: Real, const C: usize, S: Sink<C>>(
             Some(_) => Spectrum::zero(),
         };
         let not_delta = lobes.as_ref().map_or(R::Mask::splat(true), |l| !l.delta);
+        // the point on the emitter from one 2D pair (stratified per pixel), the emitter
+        // choice from a third number
         let (u0, u1) = sampler.next2::<V<R>>();
-        let u2 = sampler.next::<V<R>>();
+        let select = sampler.next::<V<R>>();
         for target in 0..nlos.map_or(1, |n| n.laser_points()) {
             let (ls, to_lanes, spad_leg) = match nlos {
-                None => (ctx.emitters.sample::<R, C>(ctx, u0, u1, u2, active), *lanes, None),
+                None => (ctx.emitters.sample::<R, C>(ctx, select, u0, u1, active), *lanes, None),
                 Some(n) => {
                     let points: [u32; 8] =
                         std::array::from_fn(|i| if n.exhaustive { target as u32 } else { sensor[i] as u32 });
