@@ -172,15 +172,26 @@ impl EdgeSampler {
         self.cdf[i] - lo
     }
 
-    /// Maps (u0, u1, u2) ∈ [0, 1)³ to a boundary ray. None when there are no edges.
-    pub fn sample(&self, u0: f32, u1: f32, u2: f32) -> Option<BoundaryRay> {
+    /// The edge that edge coordinate `u0` ∈ [0, 1) selects and the position s ∈ [0, 1] on it
+    /// (x_B = v0 + s·(v1 − v0)): `u0` rescaled within the edge's share. None when there are
+    /// no edges.
+    pub fn point(&self, u0: f32) -> Option<(usize, f32)> {
         if self.edges.is_empty() {
             return None;
         }
         let i = self.index_of(u0);
         let lo = if i == 0 { 0.0 } else { self.cdf[i - 1] };
         let pmf = self.cdf[i] - lo;
-        let s = ((u0 - lo) / pmf.max(f32::MIN_POSITIVE)).clamp(0.0, 1.0);
+        Some((i, ((u0 - lo) / pmf.max(f32::MIN_POSITIVE)).clamp(0.0, 1.0)))
+    }
+
+    /// Maps (u0, u1, u2) ∈ [0, 1)³ to a boundary ray. None when there are no edges.
+    pub fn sample(&self, u0: f32, u1: f32, u2: f32) -> Option<BoundaryRay> {
+        if self.edges.is_empty() {
+            return None;
+        }
+        let (i, s) = self.point(u0)?;
+        let pmf = self.edge_pmf(i);
         let r = &self.edges[i];
         let x_b = r.v0 + (r.v1 - r.v0) * s;
         let t = (r.v1 - r.v0).normalize();

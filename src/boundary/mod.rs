@@ -36,6 +36,16 @@ use crate::film::Transient;
 use crate::integrator::context::RenderContext;
 use std::time::Instant;
 
+/// For unit tests: scenes/shadow_hidden_occluder.toml (light at height 2, a square occluder
+/// at 1, the floor at 0) and the index of its shape named `shape`.
+#[cfg(test)]
+pub(crate) fn shadow_scene(shape: &str) -> (crate::scene::Scene, u32) {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/shadow_hidden_occluder.toml");
+    let scene = crate::scene::Scene::load(&path, &[]).unwrap();
+    let index = scene.shapes.iter().position(|s| s.name == shape).unwrap() as u32;
+    (scene, index)
+}
+
 /// Seed streams of the boundary estimators, derived from the render seed: independent of
 /// the interior's stream and of each other.
 pub const PRIMARY_SEED: u64 = 0x9E1A_0001_B0DA_0001;

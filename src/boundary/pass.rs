@@ -70,6 +70,10 @@ struct Pilot {
     share_a: f64,
     /// Edge tables of the edge-directed and the light-directed strategy.
     edges: [EdgeSampler; 2],
+    /// Per edge, the mean share t_S/(t_L + t_S) of the light-directed samples that found a
+    /// segment on it (0: none), for `secondary::shadow_aligned`; empty with guiding on (its
+    /// grids are fitted to the pilot's unrotated samples).
+    shadow_shares: Vec<f32>,
     rays: u64,
 }
 
@@ -252,20 +256,40 @@ impl Secondary<'_> {
         let shapes = self.edges.edges.iter().map(|r| r.shape as usize + 1).max().unwrap_or(0);
         let table = &self.edges;
         let chunks: Vec<u64> = (0..samples.div_ceil(CHUNK)).collect();
-        let parts: Vec<([PilotTally; 2], [u64; 2])> = pool.install(|| {
+        let parts: Vec<([PilotTally; 2], [u64; 2], Vec<(f64, u64)>)> = pool.install(|| {
             chunks
                 .par_iter()
                 .map(|&c| {
                     let mut tally = [PilotTally::new(cells, shapes), PilotTally::new(cells, shapes)];
                     let mut scratch = [Scratch::default(), Scratch::default()];
                     let mut queue = [Queue::new(seed), Queue::new(seed ^ LIGHT_STREAM)];
+                    let mut shares = vec![(0.0f64, 0u64); table.edges.len()];
                     let params = self.params;
                     for id in c * CHUNK..((c + 1) * CHUNK).min(samples) {
                         for s in 0..2 {
                             let before = scratch[s].rays();
                             let p = match s {
                                 0 => self.prepare(seed, id, &uniform, table, 1.0, &mut scratch[0]),
-                                _ => self.prepare_light(seed ^ LIGHT_STREAM, id, &uniform, table, 1.0, &mut scratch[1]),
+                                _ => {
+                                    let p = self.prepare_light(
+                                        seed ^ LIGHT_STREAM,
+                                        id,
+                                        &uniform,
+                                        table,
+                                        &[],
+                                        1.0,
+                                        &mut scratch[1],
+                                    );
+                                    if let Some(p) = &p {
+                                        let (t_l, t_s) = (p.segment.x_l.t as f64, p.segment.x_s.t as f64);
+                                        let q = t_s / (t_l + t_s);
+                                        if q.is_finite() {
+                                            shares[p.edge].0 += q;
+                                            shares[p.edge].1 += 1;
+                                        }
+                                    }
+                                    p
+                                }
                             };
                             let t = &mut tally[s];
                             t.drawn(table, scratch[s].edge, scratch[s].rays() - before, p.is_some());
@@ -281,14 +305,19 @@ impl Secondary<'_> {
                         });
                         t.close();
                     }
-                    (tally, [scratch[0].rays(), scratch[1].rays()])
+                    (tally, [scratch[0].rays(), scratch[1].rays()], shares)
                 })
                 .collect()
         });
+        let mut shares = vec![(0.0f64, 0u64); table.edges.len()];
         let mut sums = [vec![0.0f64; cells], vec![0.0f64; cells]];
         let mut by_shape = [vec![ShapeTally::default(); shapes], vec![ShapeTally::default(); shapes]];
         let (mut m2, mut rays) = ([0.0f64; 2], [0u64; 2]);
-        for (t, r) in &parts {
+        for (t, r, q) in &parts {
+            shares.iter_mut().zip(q).for_each(|(a, b)| {
+                a.0 += b.0;
+                a.1 += b.1;
+            });
             for s in 0..2 {
                 sums[s].iter_mut().zip(&t[s].cells).for_each(|(a, b)| *a += b);
                 by_shape[s].iter_mut().zip(&t[s].shapes).for_each(|(a, b)| a.merge(b));
@@ -321,6 +350,14 @@ impl Secondary<'_> {
                 [table.clone(), table.clone()]
             } else {
                 [0, 1].map(|s| refit_shapes(table, &by_shape[s], samples, rays[s]))
+            },
+            shadow_shares: if guiding {
+                Vec::new()
+            } else {
+                shares
+                    .iter()
+                    .map(|&(sum, n)| if n > 0 { (sum / n as f64) as f32 } else { 0.0 })
+                    .collect()
             },
             rays: rays[0] + rays[1],
         }
@@ -451,6 +488,7 @@ impl Secondary<'_> {
                                     id,
                                     &pl.grid_light,
                                     &pl.edges[1],
+                                    &pl.shadow_shares,
                                     scale[1],
                                     &mut scratch,
                                 );
@@ -520,7 +558,6 @@ impl Secondary<'_> {
 #[cfg(test)]
 mod refit_tests {
     use super::*;
-    use crate::scene::Scene;
 
     fn shape_pmf(t: &EdgeSampler, shape: usize) -> f64 {
         (0..t.edges.len())
@@ -534,11 +571,10 @@ mod refit_tests {
     /// when the pilot saw no contribution.
     #[test]
     fn shapes_are_drawn_by_root_second_moment_per_ray() {
-        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/shadow_hidden_occluder.toml");
-        let scene = Scene::load(&path, &[]).unwrap();
+        let (scene, occluder) = crate::boundary::shadow_scene("occluder");
+        let occluder = occluder as usize;
         let table = EdgeSampler::new(&scene.geometry);
         let shapes = scene.shapes.len();
-        let occluder = scene.shapes.iter().position(|s| s.name == "occluder").unwrap();
         let floor = scene.shapes.iter().position(|s| s.name == "floor").unwrap();
         let prior: Vec<f64> = (0..shapes).map(|s| shape_pmf(&table, s)).collect();
         assert!(prior[occluder] > 0.0 && prior[floor] > 0.0);
@@ -602,5 +638,43 @@ mod refit_tests {
                 shape_pmf(&fit, s)
             );
         }
+    }
+}
+
+#[cfg(test)]
+mod shadow_share_tests {
+    use super::*;
+    use crate::accel::Device;
+    use crate::integrator::context::RenderContext;
+    use crate::params::lanes::Motion;
+
+    /// The pilot's share q = t_S/(t_L + t_S) per edge (for `secondary::shadow_aligned`): ½ on
+    /// the edges of the occluder in scenes/shadow_hidden_occluder.toml that `occluder_x`
+    /// moves across themselves (light at height 2, occluder at 1, floor at 0: t_S = t_L on
+    /// every light-directed segment), 0 on the floor's edges (their segments find nothing
+    /// beyond the floor); none with guiding on.
+    #[test]
+    fn the_pilot_measures_each_edges_shadow_share() {
+        let (scene, occluder) = crate::boundary::shadow_scene("occluder");
+        let device = Device::new("").unwrap();
+        let mut ctx = RenderContext::new(&scene, &device).unwrap();
+        ctx.motion = Motion::build(&scene, &["occluder_x".to_string()]).unwrap();
+        let sec = Secondary::new(&ctx);
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
+        let floor = scene.shapes.iter().position(|s| s.name == "floor").unwrap() as u32;
+        let pilot = sec.pilot(4096, 11, false, &pool);
+        assert_eq!(pilot.shadow_shares.len(), sec.edges.edges.len());
+        let mut across = 0;
+        for (rec, &q) in sec.edges.edges.iter().zip(&pilot.shadow_shares) {
+            let along_z = (rec.v1 - rec.v0).normalize().x.abs() < 1e-3;
+            if rec.shape == occluder && along_z {
+                assert!((q - 0.5).abs() < 1e-3, "occluder edge: q = {q}");
+                across += 1;
+            } else if rec.shape == floor {
+                assert_eq!(q, 0.0);
+            }
+        }
+        assert_eq!(across, 2);
+        assert!(sec.pilot(4096, 11, true, &pool).shadow_shares.is_empty());
     }
 }

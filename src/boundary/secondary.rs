@@ -434,12 +434,17 @@ impl<'a> Secondary<'a> {
     /// intensity ∝ cos_L, moving along the beam (ray form). The inputs (edge coordinate,
     /// the two numbers of the point on the emitter) come from `grid`, the emitter choice from
     /// a fourth number.
+    ///
+    /// `shadow_shares` holds, per edge of `edges`, the share q = t_S/(t_L + t_S) the shadow
+    /// point's rotation ([`shadow_aligned`]) uses (none: an empty slice, or 0 for an edge).
+    #[allow(clippy::too_many_arguments)]
     pub(super) fn prepare_light(
         &self,
         seed: u64,
         id: u64,
         grid: &GuideGrid,
         edges: &EdgeSampler,
+        shadow_shares: &[f32],
         scale: f32,
         scratch: &mut Scratch,
     ) -> Option<Prepared> {
@@ -451,9 +456,9 @@ impl<'a> Secondary<'a> {
         let select = rng.next::<f32>();
         let [u0, e0, e1] = u;
         scratch.edge = None;
-        let br = edges.sample(u0, 0.5, 0.5)?;
-        scratch.edge = Some(br.index);
-        let rec = &edges.edges[br.index];
+        let (edge, s) = edges.point(u0)?;
+        scratch.edge = Some(edge);
+        let rec = &edges.edges[edge];
         let ls = ctx.emitters.sample::<f32, 3>(ctx, select, e0, e1, true);
         if !ls.valid {
             return None;
@@ -465,7 +470,8 @@ impl<'a> Secondary<'a> {
             EmitterKind::Laser { .. } => self.laser_spots[e]?,
         };
         let y = ls.p.lane(0);
-        let to = br.x_b - y;
+        let x_b = shadow_aligned(rec, s, y, shadow_shares.get(edge).copied().unwrap_or(0.0));
+        let to = x_b - y;
         let t_l = to.length();
         if !(t_l > 0.0) {
             return None;
@@ -479,7 +485,7 @@ impl<'a> Secondary<'a> {
         // y → x_B must be free (a hit short of y, ε from its surface, blocks it); a contact
         // edge has x_L = x_B, never y (contact.rs)
         let Some(SegmentEnds::Open { mut x_s, x_l }) =
-            segment_ends(self.ctx, rec, br.x_b, omega, s_o, &mut scratch.counts.rays)
+            segment_ends(self.ctx, rec, x_b, omega, s_o, &mut scratch.counts.rays)
         else {
             return None;
         };
@@ -494,8 +500,8 @@ impl<'a> Secondary<'a> {
             return None;
         }
         let y64 = ls.p64[0];
-        self.on_boundary_line(rec, br.x_b, |x_b64| (x_b64 - y64).normalize(), None, &mut x_s);
-        let eta = self.segment_eta(None, &x_s, br.x_b, omega, &mut scratch.counts.rays);
+        self.on_boundary_line(rec, x_b, |x_b64| (x_b64 - y64).normalize(), None, &mut x_s);
+        let eta = self.segment_eta(None, &x_s, x_b, omega, &mut scratch.counts.rays);
         let d_b = eta as f64 * segment(ctx, y64, x_s.p64, seg);
         let x_l = SurfaceHit {
             p: y,
@@ -504,7 +510,7 @@ impl<'a> Secondary<'a> {
             prim: 0,
             t: t_l,
         };
-        let common = -s_o * scale * cos_l / (t_l * t_l * seg * edges.edge_pmf(br.index) * p_guide);
+        let common = -s_o * scale * cos_l / (t_l * t_l * seg * edges.edge_pmf(edge) * p_guide);
         Some(Prepared {
             segment: SegmentSample {
                 id,
@@ -524,7 +530,7 @@ impl<'a> Secondary<'a> {
             rates,
             common,
             u,
-            edge: br.index,
+            edge,
         })
     }
 
@@ -583,6 +589,32 @@ impl<'a> Secondary<'a> {
     }
 }
 
+/// Strategy B's point x_B on edge `rec` at position `s` ∈ [0, 1] for the light point `y`:
+/// s rotated (mod 1) by c = q · ((y − v0)·d)/ℓ_e, d the edge's unit direction, ℓ_e its length
+/// and q the share t_S/(t_L + t_S) typical of the edge (the pilot's mean, `pass.rs`).
+///
+/// For each y the rotation maps a uniform s to a uniform s', so x_B keeps its density and the
+/// sample its weight (the estimator stays unbiased for any q). What changes is where the
+/// shadow point lands: x_S = x_B + (t_S/t_L)(x_B − y) moves along the edge's shadow as
+/// ℓ_e·s'/(1 − q) − (y·d)·q/(1 − q) + const, in which y's part cancels when q is the sample's
+/// own share. A pixel's samples then fill a box of (edge coordinate, light point across the
+/// edge), which the first two dimensions of the 3D Sobol net stratify (`edge_numbers`),
+/// instead of a slab across all three: how many samples a pixel receives, which is most of
+/// the boundary estimate's variance, then varies far less. The rotation is taken in f64, so a
+/// light far from a short edge (c in the thousands) does not quantise s.
+fn shadow_aligned(rec: &EdgeRecord, s: f32, y: Vec3, q: f32) -> Vec3 {
+    let e = rec.v1 - rec.v0;
+    let len = e.length();
+    let s = if q > 0.0 && q < 1.0 && len > 0.0 {
+        let c = q as f64 * (y - rec.v0).as_dvec3().dot(e.as_dvec3()) / (len as f64 * len as f64);
+        let r = (s as f64 + c).rem_euclid(1.0) as f32;
+        if r < 1.0 { r } else { 0.0 }
+    } else {
+        s
+    };
+    rec.v0 + e * s
+}
+
 /// The numbers of boundary sample `id` of a stream: with Sobol points, the samples of the whole
 /// stage are one sequence (one "pixel" whose sample index is `id`), so the edge, the point on
 /// it and the direction are stratified over the stage.
@@ -612,7 +644,6 @@ mod edge_weight_tests {
     use super::*;
     use crate::accel::Device;
     use crate::params::lanes::Motion;
-    use crate::scene::Scene;
 
     /// scenes/shadow_hidden_occluder.toml, d/d`occluder_x`: the occluder's two edges along z
     /// (moved across themselves at full speed) are drawn 8 times as often per metre as a static
@@ -620,12 +651,10 @@ mod edge_weight_tests {
     /// every static edge once.
     #[test]
     fn edges_are_weighted_by_their_speed_across_themselves() {
-        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/shadow_hidden_occluder.toml");
-        let scene = Scene::load(&path, &[]).unwrap();
+        let (scene, occluder) = crate::boundary::shadow_scene("occluder");
         let device = Device::new("").unwrap();
         let mut ctx = RenderContext::new(&scene, &device).unwrap();
         ctx.motion = Motion::build(&scene, &["occluder_x".to_string()]).unwrap();
-        let occluder = scene.shapes.iter().position(|s| s.name == "occluder").unwrap() as u32;
         let table = edge_sampler(&ctx);
         let static_table = EdgeSampler::new(&scene.geometry);
         assert_eq!(table.edges.len(), static_table.edges.len());
@@ -649,5 +678,64 @@ mod edge_weight_tests {
             }
         }
         assert_eq!((across, along), (2, 2));
+    }
+}
+
+#[cfg(test)]
+mod shadow_alignment_tests {
+    use super::*;
+
+    /// scenes/shadow_hidden_occluder.toml: light at height 2, the occluder's edges at 1, the
+    /// floor at 0, so every shadow point is x_S = 2·x_B − y and q = t_S/(t_L + t_S) = ½. With
+    /// that q the rotated x_B puts x_S at the same place along the edge's shadow whatever the
+    /// light point y; without the rotation it moves by up to the light's width.
+    #[test]
+    fn the_rotation_removes_the_light_points_part_of_the_shadow_position() {
+        let (scene, occluder) = crate::boundary::shadow_scene("occluder");
+        let table = EdgeSampler::new(&scene.geometry);
+        let mut checked = 0;
+        for rec in table.edges.iter().filter(|r| r.shape == occluder) {
+            let d = (rec.v1 - rec.v0).normalize();
+            for s in [0.1f32, 0.3, 0.55, 0.8] {
+                let along = |q: f32| -> Vec<f32> {
+                    let mut out = Vec::new();
+                    for i in 0..5 {
+                        for j in 0..5 {
+                            let y = Vec3::new(-0.2 + 0.1 * i as f32, 2.0, -0.2 + 0.1 * j as f32);
+                            let x_b = shadow_aligned(rec, s, y, q);
+                            // x_B stays on the edge
+                            let t = (x_b - rec.v0).dot(d) / (rec.v1 - rec.v0).length();
+                            assert!(
+                                (-1e-6..=1.0 + 1e-6).contains(&t)
+                                    && (rec.v0 + (rec.v1 - rec.v0) * t - x_b).length() < 1e-5
+                            );
+                            out.push((2.0 * x_b - y).dot(d));
+                        }
+                    }
+                    out
+                };
+                let spread = |v: Vec<f32>| {
+                    let (lo, hi) = v.iter().fold((f32::MAX, f32::MIN), |(a, b), &x| (a.min(x), b.max(x)));
+                    hi - lo
+                };
+                let aligned = along(0.5);
+                // s + c wraps past the edge's end for some y at large s: those land at the
+                // other end, 2·ℓ_e away along the shadow
+                let len = (rec.v1 - rec.v0).length();
+                let first = aligned[0];
+                assert!(
+                    aligned
+                        .iter()
+                        .all(|&a| (a - first).abs() < 1e-4 || ((a - first).abs() - 2.0 * len).abs() < 1e-4),
+                    "s {s}: {aligned:?}"
+                );
+                assert!(
+                    spread(along(0.0)) > 0.3,
+                    "without the rotation the light point moves x_S"
+                );
+                checked += 1;
+            }
+        }
+        assert_eq!(checked, 16);
     }
 }
