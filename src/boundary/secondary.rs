@@ -623,13 +623,12 @@ fn boundary_numbers(ctx: &RenderContext, seed: u64, id: u64) -> PathSampler {
 }
 
 /// A boundary sample's point u of the unit cube (strategy A: edge coordinate, azimuth,
-/// cos θ; strategy B: edge coordinate and the light sample's two numbers) and the guiding
-/// grid's density there. Where a sample lands on the film depends on all three at once (in
-/// strategy B the shadow point moves with the edge point and the light point together), so
-/// with Sobol points and no guiding u is one 3D net (`PathSampler::next3`), which stratifies
-/// how many samples reach each pixel; otherwise the grid's pick, then its cell's three numbers
-/// (independent numbers keep the dimensions they have always drawn, so their renders do not
-/// change).
+/// cos θ; strategy B: edge coordinate and the two numbers of the point on the emitter) and
+/// the guiding grid's density there. Where a sample lands on the film depends on all three
+/// at once (in strategy B the shadow point moves with the edge point and the light point
+/// together, less so once [`shadow_aligned`] has rotated the edge point), so with Sobol
+/// points and no guiding u is one 3D net (`PathSampler::next3`), which stratifies how many
+/// samples reach each pixel; otherwise the grid's pick, then its cell's three numbers.
 fn edge_numbers(rng: &mut PathSampler, grid: &GuideGrid) -> ([f32; 3], f32) {
     if rng.is_sobol() && grid.is_uniform() {
         return (rng.next3(), 1.0);
