@@ -187,9 +187,6 @@ impl EdgeSampler {
 
     /// Maps (u0, u1, u2) ∈ [0, 1)³ to a boundary ray. None when there are no edges.
     pub fn sample(&self, u0: f32, u1: f32, u2: f32) -> Option<BoundaryRay> {
-        if self.edges.is_empty() {
-            return None;
-        }
         let (i, s) = self.point(u0)?;
         let pmf = self.edge_pmf(i);
         let r = &self.edges[i];

@@ -172,6 +172,40 @@ impl PilotTally {
     }
 }
 
+/// Per edge, Σ of the share t_S/(t_L + t_S) over the light-directed pilot samples that found
+/// a segment on it, and their count (for `Pilot::shadow_shares`).
+struct ShareTally(Vec<(f64, u64)>);
+
+impl ShareTally {
+    fn new(edges: usize) -> Self {
+        Self(vec![(0.0, 0); edges])
+    }
+
+    fn add(&mut self, p: &Prepared) {
+        let (t_l, t_s) = (p.segment.x_l.t as f64, p.segment.x_s.t as f64);
+        let q = t_s / (t_l + t_s);
+        if q.is_finite() {
+            self.0[p.edge].0 += q;
+            self.0[p.edge].1 += 1;
+        }
+    }
+
+    fn merge(&mut self, o: &ShareTally) {
+        for (a, b) in self.0.iter_mut().zip(&o.0) {
+            a.0 += b.0;
+            a.1 += b.1;
+        }
+    }
+
+    /// The mean share per edge, 0 where no sample found a segment.
+    fn means(&self) -> Vec<f32> {
+        self.0
+            .iter()
+            .map(|&(sum, n)| if n > 0 { (sum / n as f64) as f32 } else { 0.0 })
+            .collect()
+    }
+}
+
 /// A pilot's record of the samples drawn on one shape's edges.
 #[derive(Clone, Copy, Debug, Default)]
 struct ShapeTally {
@@ -256,41 +290,35 @@ impl Secondary<'_> {
         let shapes = self.edges.edges.iter().map(|r| r.shape as usize + 1).max().unwrap_or(0);
         let table = &self.edges;
         let chunks: Vec<u64> = (0..samples.div_ceil(CHUNK)).collect();
-        let parts: Vec<([PilotTally; 2], [u64; 2], Vec<(f64, u64)>)> = pool.install(|| {
+        let parts: Vec<([PilotTally; 2], [u64; 2], ShareTally)> = pool.install(|| {
             chunks
                 .par_iter()
                 .map(|&c| {
                     let mut tally = [PilotTally::new(cells, shapes), PilotTally::new(cells, shapes)];
                     let mut scratch = [Scratch::default(), Scratch::default()];
                     let mut queue = [Queue::new(seed), Queue::new(seed ^ LIGHT_STREAM)];
-                    let mut shares = vec![(0.0f64, 0u64); table.edges.len()];
+                    let mut shares = ShareTally::new(table.edges.len());
                     let params = self.params;
                     for id in c * CHUNK..((c + 1) * CHUNK).min(samples) {
                         for s in 0..2 {
                             let before = scratch[s].rays();
                             let p = match s {
                                 0 => self.prepare(seed, id, &uniform, table, 1.0, &mut scratch[0]),
-                                _ => {
-                                    let p = self.prepare_light(
-                                        seed ^ LIGHT_STREAM,
-                                        id,
-                                        &uniform,
-                                        table,
-                                        &[],
-                                        1.0,
-                                        &mut scratch[1],
-                                    );
-                                    if let Some(p) = &p {
-                                        let (t_l, t_s) = (p.segment.x_l.t as f64, p.segment.x_s.t as f64);
-                                        let q = t_s / (t_l + t_s);
-                                        if q.is_finite() {
-                                            shares[p.edge].0 += q;
-                                            shares[p.edge].1 += 1;
-                                        }
-                                    }
-                                    p
-                                }
+                                _ => self.prepare_light(
+                                    seed ^ LIGHT_STREAM,
+                                    id,
+                                    &uniform,
+                                    table,
+                                    &[],
+                                    1.0,
+                                    &mut scratch[1],
+                                ),
                             };
+                            if s == 1
+                                && let Some(p) = &p
+                            {
+                                shares.add(p);
+                            }
                             let t = &mut tally[s];
                             t.drawn(table, scratch[s].edge, scratch[s].rays() - before, p.is_some());
                             let mut emit =
@@ -309,15 +337,12 @@ impl Secondary<'_> {
                 })
                 .collect()
         });
-        let mut shares = vec![(0.0f64, 0u64); table.edges.len()];
+        let mut shares = ShareTally::new(table.edges.len());
         let mut sums = [vec![0.0f64; cells], vec![0.0f64; cells]];
         let mut by_shape = [vec![ShapeTally::default(); shapes], vec![ShapeTally::default(); shapes]];
         let (mut m2, mut rays) = ([0.0f64; 2], [0u64; 2]);
         for (t, r, q) in &parts {
-            shares.iter_mut().zip(q).for_each(|(a, b)| {
-                a.0 += b.0;
-                a.1 += b.1;
-            });
+            shares.merge(q);
             for s in 0..2 {
                 sums[s].iter_mut().zip(&t[s].cells).for_each(|(a, b)| *a += b);
                 by_shape[s].iter_mut().zip(&t[s].shapes).for_each(|(a, b)| a.merge(b));
@@ -351,14 +376,7 @@ impl Secondary<'_> {
             } else {
                 [0, 1].map(|s| refit_shapes(table, &by_shape[s], samples, rays[s]))
             },
-            shadow_shares: if guiding {
-                Vec::new()
-            } else {
-                shares
-                    .iter()
-                    .map(|&(sum, n)| if n > 0 { (sum / n as f64) as f32 } else { 0.0 })
-                    .collect()
-            },
+            shadow_shares: if guiding { Vec::new() } else { shares.means() },
             rays: rays[0] + rays[1],
         }
     }
