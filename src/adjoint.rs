@@ -71,6 +71,22 @@ impl Accumulate for AdjointFilm<'_> {
             }
         });
     }
+
+    #[inline]
+    fn add_time_term(&mut self, x: usize, y: usize, corr: &Correlation, d: f64, f: &[f32], ddot: &[f32]) {
+        let a = self.adjoint;
+        let c_n = a.channels;
+        let base = a.index(x, y, 0, 0);
+        let n_k = ddot.len().min(MAX_PARAMS);
+        let grad = &mut self.grad;
+        corr.for_each(d, |bin, _, ds| {
+            let adj = &a.data[base + bin * c_n..base + (bin + 1) * c_n];
+            let g: f64 = (0..c_n).map(|c| adj[c] as f64 * f[c] as f64).sum::<f64>() * ds;
+            for k in 0..n_k {
+                grad[k] += g * ddot[k] as f64;
+            }
+        });
+    }
 }
 
 impl<const C: usize> crate::integrator::sink::Sink<C> for AdjointFilm<'_> {

@@ -179,6 +179,9 @@ pub trait Accumulate {
         fdot: &[f32],
         ddot: &[f32],
     );
+    /// `İ_k += f·Ṡ_e(d)·ḋ_k` at pixel (x, y), and nothing else: the time term of a path whose
+    /// value and ḟ another estimator counts (`integrator::time_edge_nee`).
+    fn add_time_term(&mut self, x: usize, y: usize, corr: &Correlation, d: f64, f: &[f32], ddot: &[f32]);
 }
 
 /// A tile film bins each path through S_e into its own pixels.
@@ -257,6 +260,33 @@ impl Accumulate for TileFilm {
                 for c in 0..c_n {
                     let v = fdot[k * c_n + c] as f64 * s + f[c] as f64 * dd;
                     data.add(ik + c, v);
+                    if !full {
+                        steady[sblock * (1 + k) + p * c_n + c] += v;
+                    }
+                }
+            }
+        });
+    }
+
+    /// The derivative bins, and their steady image when it integrates the window (over all
+    /// time Ṡ_e integrates to zero, so a `Full` steady image takes nothing).
+    #[inline]
+    fn add_time_term(&mut self, x: usize, y: usize, corr: &Correlation, d: f64, f: &[f32], ddot: &[f32]) {
+        let p = (y - self.y0) * self.w + (x - self.x0);
+        let c_n = self.channels;
+        let n_k = ddot.len().min(self.derivs);
+        let sblock = self.w * self.h * c_n;
+        let full = self.steady_mode == SteadyMode::Full;
+        let block = self.block();
+        let base = p * self.bins * c_n;
+        let (data, steady) = (&mut self.data, &mut self.steady);
+        corr.for_each(d, |bin, _, ds| {
+            let i = base + bin * c_n;
+            for k in 0..n_k {
+                let dd = ds * ddot[k] as f64;
+                for c in 0..c_n {
+                    let v = f[c] as f64 * dd;
+                    data.add(block * (1 + k) + i + c, v);
                     if !full {
                         steady[sblock * (1 + k) + p * c_n + c] += v;
                     }

@@ -105,6 +105,23 @@ pub struct RenderOptions {
     /// Write checkpoints (and resume from one): `dtr render --checkpoint SECONDS --resume`
     /// ([`crate::checkpoint`]). Not with per-strategy films.
     pub checkpoint: Option<std::sync::Arc<crate::checkpoint::Checkpointing>>,
+    /// Whether the path tracer estimates its time term f·Ṡ_e·ḋ from light points drawn on
+    /// the time edges (`integrator::time_edges`; default: wherever they apply) or from its
+    /// ordinary contributions (`dtr render --time-edges off`).
+    pub time_edges: TimeEdgeMode,
+}
+
+/// How the path tracer estimates the time term f·Ṡ_e·ḋ of a derivative (Algorithm 1).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum TimeEdgeMode {
+    /// Light points drawn where a connection's OPL crosses a bin edge, wherever they apply
+    /// (box gate, area emitters with Gaussian or box pulses, no NLOS capture); the ordinary
+    /// contributions elsewhere.
+    #[default]
+    Auto,
+    /// The ordinary contributions only (next-event estimation and emission hits).
+    Off,
 }
 
 /// Which parts of the gradient `render_diff` estimates. Tests use the parts to show that the
@@ -178,6 +195,9 @@ pub struct RenderStats {
     pub deriv_energy: Vec<DerivWindowEnergy>,
     /// Whether paths carried f64 OPLs, and the film time scale and f32 step that decided it.
     pub opl: crate::integrator::opl::OplPrecision,
+    /// Whether the path tracer drew its derivatives' time term on the time edges
+    /// ([`TimeEdgeMode`]).
+    pub time_edges: bool,
 }
 
 /// CPU seconds of the interior pass split by phase, apportioned by the tiles' tick counts.
@@ -752,6 +772,9 @@ impl<'s> Run<'s> {
         let robust = derivs > 0 || !opts.fast_traversal;
         let mut ctx = RenderContext::with_traversal(scene, &device, robust)?;
         ctx.motion = motion;
+        if opts.time_edges == TimeEdgeMode::Auto {
+            ctx.use_time_edges();
+        }
         ctx.cut_to_window(opts.steady);
         Ok(Self {
             ctx,
@@ -1089,6 +1112,7 @@ impl<'s> Run<'s> {
             steady: self.ctx.steady,
             opl_cut: self.ctx.opl_budget,
             opl: self.ctx.opl,
+            time_edges: self.ctx.time_edges.is_some() && self.kind == IntegratorKind::Path,
             ..Default::default()
         };
         let mut ticks = (0u64, 0u64, 0u64);

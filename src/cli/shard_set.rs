@@ -53,6 +53,7 @@ pub fn identity(
         "guiding": opts.guiding,
         "fast_traversal": opts.fast_traversal,
         "steady": opts.steady,
+        "time_edges": opts.time_edges,
         "lanes": format!("{:?}", opts.lanes),
         "version": env!("CARGO_PKG_VERSION"),
     }))

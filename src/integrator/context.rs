@@ -38,6 +38,9 @@ pub struct RenderContext<'a> {
     /// Whether every material is Lambertian (`Scene::diffuse_only`): the kernels then keep
     /// their diffuse-only path.
     pub diffuse_only: bool,
+    /// Draws on the time edges for the path tracer's time term (`super::time_edges`), when
+    /// the render asked for them and they apply; set with [`Self::use_time_edges`].
+    pub time_edges: Option<super::time_edges::TimeEdges>,
 }
 
 impl<'a> RenderContext<'a> {
@@ -93,7 +96,14 @@ impl<'a> RenderContext<'a> {
             opl_budget: None,
             nlos,
             diffuse_only: scene.diffuse_only(),
+            time_edges: None,
         })
+    }
+
+    /// Draws the path tracer's time term on the time edges where they apply to this
+    /// render's parameters ([`Self::motion`], set first) and emitters.
+    pub fn use_time_edges(&mut self) {
+        self.time_edges = super::time_edges::TimeEdges::build(self.scene, &self.motion, &self.correlations);
     }
 
     /// Steady images integrate the time window and paths end where they leave it

@@ -25,6 +25,9 @@ pub struct LaneContribution<const C: usize> {
     pub fdot: [f32; MAX_PARAMS * 3],
     pub ddot: [f32; MAX_PARAMS],
     pub n_k: usize,
+    /// Only the time term f·Ṡ_e·ḋ_k goes to the film (a draw on the time edges,
+    /// `super::time_edge_nee`): no value, no ḟ.
+    pub time_only: bool,
 }
 
 impl<const C: usize> LaneContribution<C> {
@@ -65,6 +68,7 @@ impl<const C: usize> LaneContribution<C> {
             fdot,
             ddot,
             n_k,
+            time_only: false,
         })
     }
 
@@ -74,10 +78,14 @@ impl<const C: usize> LaneContribution<C> {
     }
 
     /// Adds h·f to pixel (x, y) of `film`, and h·ḟ_k to derivative k (the pixel weight h is a
-    /// constant: film points never move).
+    /// constant: film points never move); a time-only contribution adds h·f·Ṡ_e·ḋ_k alone.
     pub fn add_to<A: Accumulate>(&self, ctx: &RenderContext, film: &mut A, x: usize, y: usize, h: f32) {
         let corr = &ctx.correlations[self.emitter as usize];
         let f: [f32; C] = self.f.map(|v| v * h);
+        if self.time_only {
+            film.add_time_term(x, y, corr, self.d, &f, &self.ddot[..self.n_k]);
+            return;
+        }
         if self.n_k == 0 {
             film.add(x, y, corr, self.d, &f);
             return;

@@ -29,6 +29,8 @@ pub mod sink;
 pub mod surface;
 #[cfg(test)]
 pub(crate) mod testutil;
+pub mod time_edge_nee;
+pub mod time_edges;
 pub mod trace;
 pub mod transport;
 pub mod window;

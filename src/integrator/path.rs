@@ -202,6 +202,21 @@ pub fn trace_packet_from<R: Real, const C: usize, S: Sink<C>>(
         prev64 = st.p64;
     }
     let mut x64 = prev64;
+    // The time term f·Ṡ_e·ḋ from draws on the time edges where they apply
+    // (`super::time_edge_nee`): then the ordinary contributions they replace drop it.
+    let time_edges = ctx
+        .time_edges
+        .as_ref()
+        .filter(|_| R::DERIVS > 0 && nlos.is_none() && surface.is_none());
+    let mut edge_sampler = time_edges.map(|_| {
+        PathSampler::with_sequence(
+            scene.integrator.sampler,
+            seed ^ super::time_edge_nee::SEED,
+            &lanes.ids[..lanes.count.max(1)],
+            lanes.spp,
+        )
+    });
+    let no_lanes = R::Mask::splat(false);
     if let Some(s) = surface {
         opl = R::from_lanes(&s.opl.map(|d| d as f32)[..R::LANES]);
         opl64 = s.opl;
@@ -297,6 +312,11 @@ pub fn trace_packet_from<R: Real, const C: usize, S: Sink<C>>(
                         V::<R>::select(no_mis, V::<R>::one(), power_heuristic(prev_pdf, p_l))
                     };
                     let contrib = (beta * hits.radiance).scale(R::from_value(w));
+                    // after a vertex with next-event estimation, the draws carry the time term
+                    let drop_time = match time_edges {
+                        Some(_) if depth > 1 => !no_mis,
+                        _ => no_lanes,
+                    };
                     splat(
                         ctx,
                         sink,
@@ -306,7 +326,7 @@ pub fn trace_packet_from<R: Real, const C: usize, S: Sink<C>>(
                         opl,
                         exact.then_some(&opl64),
                         &contrib,
-                        emits,
+                        (emits, drop_time),
                         counts,
                     );
                 }
@@ -406,6 +426,7 @@ pub fn trace_packet_from<R: Real, const C: usize, S: Sink<C>>(
                                 + eta.value().lane(i) as f64 * free;
                         }
                     }
+                    let drop_time = if time_edges.is_some() { lit } else { no_lanes };
                     splat(
                         ctx,
                         sink,
@@ -415,11 +436,36 @@ pub fn trace_packet_from<R: Real, const C: usize, S: Sink<C>>(
                         d,
                         exact.then_some(&d64),
                         &contrib,
-                        lit,
+                        (lit, drop_time),
                         counts,
                     );
                 }
             }
+        }
+        if let (Some(te), Some(es)) = (time_edges, edge_sampler.as_mut()) {
+            let vertex = super::time_edge_nee::Vertex {
+                x: &x,
+                x64: &x64,
+                w_in: &w_in,
+                ray_d: &ray_d,
+                beta: &beta,
+                lobes: lobes.as_ref(),
+                f_diffuse: &f,
+                opl,
+                opl64: &opl64,
+                eta: eta_med,
+            };
+            super::time_edge_nee::connect::<R, C, S>(
+                ctx,
+                te,
+                es,
+                depth,
+                &vertex,
+                active & not_delta,
+                (&lanes.px, &lanes.py),
+                sink,
+                counts,
+            );
         }
 
         // Continue by sampling the BSDF.
@@ -482,8 +528,9 @@ fn start_point<R: Real>(s: &SurfaceStarts) -> super::surface::SurfacePoint<R> {
     }
 }
 
-/// Hands each lane's contribution (and its derivatives) to `sink` at its pixel, for
-/// `strategy`, with OPL `d` (the value from `exact` when given, f64 per lane).
+/// Hands each lane of `mask` its contribution (and its derivatives) to `sink` at its pixel,
+/// for `strategy`, with OPL `d` (the value from `exact` when given, f64 per lane); lanes of
+/// `drop_time` without their time term f·Ṡ_e·ḋ (`super::time_edge_nee` estimates it).
 #[allow(clippy::too_many_arguments)]
 fn splat<R: Real, const C: usize, S: Sink<C>>(
     ctx: &RenderContext,
@@ -494,11 +541,18 @@ fn splat<R: Real, const C: usize, S: Sink<C>>(
     d: R,
     exact: Option<&[f64; 8]>,
     contrib: &Spectrum<R, C>,
-    mask: R::Mask,
+    (mask, drop_time): (R::Mask, R::Mask),
     counts: &mut PathCounts,
 ) {
     for_each_lane(ctx, emitter, d, exact, contrib, mask, counts, |i, lc| {
-        sink.add(ctx, strategy, lanes.px[i] as usize, lanes.py[i] as usize, lc, 1.0);
+        let (x, y) = (lanes.px[i] as usize, lanes.py[i] as usize);
+        if drop_time.bit(i) {
+            let mut lc = *lc;
+            lc.ddot = [0.0; crate::params::MAX_PARAMS];
+            sink.add(ctx, strategy, x, y, &lc, 1.0);
+        } else {
+            sink.add(ctx, strategy, x, y, lc, 1.0);
+        }
     });
 }
 

@@ -1,0 +1,564 @@
+//! Light points on the time edges: where next-event estimation samples the interior's time
+//! term f·Ṡ_e·ḋ (Algorithm 1) under a narrow pulse. This file is the part a render context
+//! holds (the emitters as flat polygons, the film's bin edges); `time_edge_nee.rs` is the
+//! kernel step that traces and deposits.
+//!
+//! With a box gate, ∂S_e(l, d)/∂d = p(a_l − u) − p(b_l − u) with u = d + τ
+//! (`crate::temporal`): the pulse density p centred on the bin's two edges. A path adds to
+//! the time term only where its OPL lies within the pulse's width of a bin edge, and there by
+//! ±f·ḋ·p, about f·ḋ/(2.5σ) for a Gaussian pulse of σ. Light points chosen uniformly on an
+//! emitter land there rarely: the estimate's variance grows as the bin width over σ, and a
+//! bin's derivative, the difference of its two edges' terms, is a small difference of two
+//! noisy ones.
+//!
+//! For a vertex x with prefix OPL d_p in a medium of index η, a light point y gives the OPL
+//! D = d_p + η·|x − y|, constant on spheres around x. On a flat emitter polygon at height h
+//! below x, the sphere of radius r meets the plane in a circle of radius ρ = √(r² − h²)
+//! around the foot point of x, and dA = ρ dρ dφ = r dr dφ. So a light point is drawn as
+//! (r, φ):
+//! - D from a mixture with one component per film edge E_j within reach of the OPLs the
+//!   polygon allows: a logistic density of scale σ·√3/π centred on E_j and cut at the
+//!   Gaussian's own cut (a heavier tail than the Gaussian, so p/q stays below 1.2), or the
+//!   pulse's own uniform density for a box pulse;
+//! - K = ⌈M⌉ draws (M the components' total mass within the polygon's OPLs, at most
+//!   [`MAX_SLOTS`]), stratified over the components laid end to end, so that every edge the
+//!   polygon reaches gets about one draw per unit of its mass;
+//! - φ uniform on the arcs of that circle inside the polygon (total angle Θ).
+//!
+//! The area density is q(D)·η/(r·Θ) times the emitter and polygon choice. Each draw hands
+//! the film f/(K·density) as a time-only contribution: the film evaluates Ṡ_e at the draw's
+//! exact OPL, so every bin edge is estimated from draws aimed at it.
+//!
+//! The kernel uses this only where next-event estimation covers every path it replaces: the
+//! box gate, area emitters only (a point or a laser spot leaves no r to aim), Gaussian or box
+//! pulses, and no NLOS capture. `time_edge_nee.rs` says how the other estimators' time terms
+//! are left out so that nothing is counted twice.
+
+use crate::params::lanes::Motion;
+use crate::scene::{EmitterKind, Scene};
+use crate::temporal::{Correlation, GAUSSIAN_CUTOFF_SIGMAS, Gate, Pulse};
+use glam::{DVec2, DVec3};
+
+/// Most draws per vertex and lane (the strata of the edge mixture).
+pub const MAX_SLOTS: usize = 16;
+
+/// Random dimensions a vertex may take (2 for the emitter and polygon, 2 per draw), with room.
+pub const DIMS_PER_VERTEX: u64 = 64;
+
+/// Most sides of a polygon kept whole; an emitter whose triangles form a larger one is
+/// sampled triangle by triangle.
+const MAX_SIDES: usize = 12;
+
+/// A flat convex emitter polygon: its plane, its corners in the plane's frame (counter-
+/// clockwise about the emitting normal) and its sides as half-planes m·q ≤ k.
+#[derive(Clone, Debug)]
+pub struct Polygon {
+    origin: DVec3,
+    /// The emitting side's unit normal.
+    pub normal: DVec3,
+    e1: DVec3,
+    e2: DVec3,
+    corners: Vec<DVec2>,
+    sides: Vec<(DVec2, f64)>,
+    area: f64,
+}
+
+impl Polygon {
+    /// The polygon through `corners` (3D, in order around `normal`), or `None` if degenerate.
+    fn new(corners3: &[DVec3], normal: DVec3) -> Option<Self> {
+        let origin = corners3[0];
+        let e1 = (corners3[1] - origin).try_normalize()?;
+        let e2 = normal.cross(e1);
+        let corners: Vec<DVec2> = corners3
+            .iter()
+            .map(|&p| DVec2::new((p - origin).dot(e1), (p - origin).dot(e2)))
+            .collect();
+        let n = corners.len();
+        let mut area = 0.0;
+        let mut sides = Vec::with_capacity(n);
+        for i in 0..n {
+            let (a, b) = (corners[i], corners[(i + 1) % n]);
+            area += 0.5 * a.perp_dot(b);
+            // outward normal of a counter-clockwise side: its direction turned clockwise
+            let m = DVec2::new(b.y - a.y, a.x - b.x).try_normalize()?;
+            sides.push((m, m.dot(a)));
+        }
+        (area > 0.0).then_some(Self {
+            origin,
+            normal,
+            e1,
+            e2,
+            corners,
+            sides,
+            area,
+        })
+    }
+
+    /// The point at in-plane coordinates `q`.
+    fn point(&self, q: DVec2) -> DVec3 {
+        self.origin + self.e1 * q.x + self.e2 * q.y
+    }
+
+    /// (Nearest, farthest) in-plane distance from `c` to the polygon.
+    fn distance_range(&self, c: DVec2) -> (f64, f64) {
+        let far = self.corners.iter().map(|&v| (v - c).length()).fold(0.0, f64::max);
+        if self.sides.iter().all(|&(m, k)| m.dot(c) <= k) {
+            return (0.0, far);
+        }
+        let n = self.corners.len();
+        let near = (0..n)
+            .map(|i| {
+                let (a, b) = (self.corners[i], self.corners[(i + 1) % n]);
+                let t = ((c - a).dot(b - a) / (b - a).length_squared()).clamp(0.0, 1.0);
+                (a + (b - a) * t - c).length()
+            })
+            .fold(f64::INFINITY, f64::min);
+        (near, far)
+    }
+
+    /// The arcs of the circle of radius `rho` around `c` that lie inside the polygon, as
+    /// angle intervals in [0, 2π) (at most `MAX_SIDES` of them), and their total angle.
+    fn arcs(&self, c: DVec2, rho: f64, out: &mut [(f64, f64); MAX_SIDES]) -> (usize, f64) {
+        use std::f64::consts::TAU;
+        // the angles each side forbids: |φ − α| < β where cos(φ − α) > s
+        let mut cut = [(0.0f64, 0.0f64); 2 * MAX_SIDES];
+        let mut n_cut = 0;
+        for &(m, k) in &self.sides {
+            let s = (k - m.dot(c)) / rho;
+            if s >= 1.0 {
+                continue;
+            }
+            if s <= -1.0 {
+                return (0, 0.0);
+            }
+            let (alpha, beta) = (m.y.atan2(m.x).rem_euclid(TAU), s.acos());
+            let (lo, hi) = (alpha - beta, alpha + beta);
+            if lo < 0.0 {
+                cut[n_cut] = (lo + TAU, TAU);
+                cut[n_cut + 1] = (0.0, hi);
+                n_cut += 2;
+            } else if hi > TAU {
+                cut[n_cut] = (lo, TAU);
+                cut[n_cut + 1] = (0.0, hi - TAU);
+                n_cut += 2;
+            } else {
+                cut[n_cut] = (lo, hi);
+                n_cut += 1;
+            }
+        }
+        let cut = &mut cut[..n_cut];
+        cut.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
+        // the complement of the forbidden intervals' union
+        let (mut n, mut total, mut from) = (0, 0.0, 0.0);
+        for &(lo, hi) in cut.iter() {
+            if lo > from && n < MAX_SIDES {
+                out[n] = (from, lo);
+                total += lo - from;
+                n += 1;
+            }
+            from = from.max(hi);
+        }
+        if from < TAU && n < MAX_SIDES {
+            out[n] = (from, TAU);
+            total += TAU - from;
+            n += 1;
+        }
+        (n, total)
+    }
+}
+
+/// The pulse's spread around a bin edge, as the draws' density in OPL.
+#[derive(Clone, Copy, Debug)]
+enum Spread {
+    /// Logistic of scale `s`, cut at ±`cut` (a Gaussian pulse: s = σ·√3/π, cut at
+    /// `GAUSSIAN_CUTOFF_SIGMAS`·σ, where the film's ∂S_e/∂d ends too).
+    Logistic { s: f64, cut: f64 },
+    /// Uniform on ±`half` (a box pulse: ∂S_e/∂d is ±1/width there).
+    Uniform { half: f64 },
+}
+
+impl Spread {
+    /// The draws' spread for `pulse` (`None` for a delta, which has no width to aim at).
+    fn of(pulse: Pulse) -> Option<Self> {
+        match pulse {
+            Pulse::Gaussian { sigma_opl } => {
+                let s = sigma_opl as f64;
+                Some(Spread::Logistic {
+                    s: s * 3f64.sqrt() / std::f64::consts::PI,
+                    cut: GAUSSIAN_CUTOFF_SIGMAS * s,
+                })
+            }
+            Pulse::Box { width_opl } => Some(Spread::Uniform {
+                half: 0.5 * width_opl as f64,
+            }),
+            Pulse::Delta => None,
+        }
+    }
+
+    fn reach(self) -> f64 {
+        match self {
+            Spread::Logistic { cut, .. } => cut,
+            Spread::Uniform { half } => half,
+        }
+    }
+
+    /// The distribution function at `t` (in its own units: logistic or uniform mass).
+    fn cdf(self, t: f64) -> f64 {
+        match self {
+            Spread::Logistic { s, .. } => 1.0 / (1.0 + (-t / s).exp()),
+            Spread::Uniform { half } => (t + half) / (2.0 * half),
+        }
+    }
+
+    fn inverse_cdf(self, p: f64) -> f64 {
+        match self {
+            Spread::Logistic { s, .. } => s * (p / (1.0 - p)).ln(),
+            Spread::Uniform { half } => p * 2.0 * half - half,
+        }
+    }
+
+    /// The density at `t` inside the cut (the caller keeps |t| within reach).
+    fn pdf(self, t: f64) -> f64 {
+        match self {
+            Spread::Logistic { s, .. } => {
+                let e = (-t.abs() / s).exp();
+                e / (s * (1.0 + e) * (1.0 + e))
+            }
+            Spread::Uniform { half } => 0.5 / half,
+        }
+    }
+}
+
+/// One emitter's polygons with their area shares.
+#[derive(Clone, Debug)]
+struct EmitterPolygons {
+    shape: usize,
+    polygons: Vec<Polygon>,
+    /// Cumulative area shares (last = 1).
+    cdf: Vec<f64>,
+    radiance: [f32; 3],
+}
+
+impl EmitterPolygons {
+    /// `polygons` of emitter shape `shape`, chosen by area; `None` if they have no area.
+    fn new(shape: usize, polygons: Vec<Polygon>, radiance: [f32; 3]) -> Option<Self> {
+        let total: f64 = polygons.iter().map(|p| p.area).sum();
+        if polygons.is_empty() || !(total > 0.0) {
+            return None;
+        }
+        let mut acc = 0.0;
+        let cdf = polygons
+            .iter()
+            .map(|p| {
+                acc += p.area / total;
+                acc
+            })
+            .collect();
+        Some(Self {
+            shape,
+            polygons,
+            cdf,
+            radiance,
+        })
+    }
+}
+
+/// What the time-edge draws need of a render, built once ([`TimeEdges::build`]).
+#[derive(Clone, Debug)]
+pub struct TimeEdges {
+    emitters: Vec<EmitterPolygons>,
+    spreads: Vec<Spread>,
+    /// OPL of film edge 0 less each emitter's offset τ (the edges then lie at `first + j·w`).
+    first: Vec<f64>,
+    width: f64,
+    /// Film edges: bins + 1.
+    edges: usize,
+    /// Every lane's OPL may move whatever its vertices do: a pulse-offset parameter, or an
+    /// emitter that moves.
+    pub always: bool,
+}
+
+/// A vertex's draws: the polygon and the OPL components it reaches.
+#[derive(Clone, Copy, Debug)]
+pub struct Plan {
+    pub emitter: u32,
+    polygon: u32,
+    /// Emitter and polygon choice probability.
+    p_choice: f64,
+    /// Foot point of x in the polygon's plane, and the height of x above it.
+    foot: DVec2,
+    h: f64,
+    d_p: f64,
+    eta: f64,
+    /// OPL range the polygon allows.
+    d_lo: f64,
+    d_hi: f64,
+    /// Film edges reached: j0..j1.
+    j0: usize,
+    j1: usize,
+    /// Total mixture mass, and draws.
+    mass: f64,
+    pub slots: usize,
+}
+
+/// One light point drawn for a vertex: the point and 1/(K·density) (area, choice included).
+#[derive(Clone, Copy, Debug)]
+pub struct Draw {
+    pub y: DVec3,
+    pub weight: f64,
+}
+
+impl TimeEdges {
+    /// The draws' data when every emitter is an area emitter with a Gaussian or box pulse, the
+    /// film's gate is a box, and some parameter shifts paths in time; `None` otherwise (the
+    /// kernel then keeps the time term in its ordinary contributions).
+    pub fn build(scene: &Scene, motion: &Motion, correlations: &[Correlation]) -> Option<Self> {
+        if scene.nlos.is_some() || scene.film.gate != Gate::Box || scene.emitters.is_empty() {
+            return None;
+        }
+        if !(0..motion.len()).any(|k| motion.shifts_time(k)) {
+            return None;
+        }
+        let geo = &scene.geometry;
+        let mut emitters = Vec::new();
+        let mut spreads = Vec::new();
+        let mut first = Vec::new();
+        let mut always = motion.pulse_offset.iter().any(Option::is_some);
+        for (e, corr) in scene.emitters.iter().zip(correlations) {
+            let EmitterKind::Area { shape, radiance } = e.kind else {
+                return None;
+            };
+            spreads.push(Spread::of(e.pulse)?);
+            first.push(corr.axis().start_opl - e.offset_opl);
+            always |= motion
+                .fields
+                .iter()
+                .any(|f| f.iter().any(|(s, _)| *s == shape as usize));
+            let s = &scene.shapes[shape as usize];
+            let tris: Vec<[DVec3; 3]> = (s.first_tri..s.first_tri + s.tri_count)
+                .map(|t| geo.indices[t as usize].map(|i| geo.positions[i as usize].as_dvec3()))
+                .collect();
+            emitters.push(EmitterPolygons::new(shape as usize, polygons(&tris), radiance)?);
+        }
+        Some(Self {
+            emitters,
+            spreads,
+            first,
+            width: scene.film.axis.bin_width_opl,
+            edges: scene.film.axis.bins + 1,
+            always,
+        })
+    }
+
+    /// The shape emitter `e` covers (its light points move with it).
+    pub fn shape(&self, e: u32) -> usize {
+        self.emitters[e as usize].shape
+    }
+
+    pub fn radiance(&self, e: u32) -> [f32; 3] {
+        self.emitters[e as usize].radiance
+    }
+
+    /// The emitting normal of the plan's polygon.
+    pub fn normal(&self, plan: &Plan) -> DVec3 {
+        self.emitters[plan.emitter as usize].polygons[plan.polygon as usize].normal
+    }
+
+    /// The draws for vertex `x` (prefix OPL `d_p`, medium index `eta`): the emitter from
+    /// `u_e`, its polygon from `u_p`, and how many draws the edges it reaches need. `None`
+    /// when x is behind the polygon or no film edge is within reach.
+    pub fn plan(&self, x: DVec3, d_p: f64, eta: f64, u_e: f64, u_p: f64) -> Option<Plan> {
+        let n_e = self.emitters.len();
+        let e = ((u_e * n_e as f64) as usize).min(n_e - 1);
+        let em = &self.emitters[e];
+        let k = em.cdf.partition_point(|&c| c <= u_p).min(em.cdf.len() - 1);
+        let p_poly = em.cdf[k] - if k == 0 { 0.0 } else { em.cdf[k - 1] };
+        let poly = &em.polygons[k];
+        let h = (x - poly.origin).dot(poly.normal);
+        if !(h > 0.0) || !(eta > 0.0) {
+            return None;
+        }
+        let rel = x - poly.origin;
+        let foot = DVec2::new(rel.dot(poly.e1), rel.dot(poly.e2));
+        let (near, far) = poly.distance_range(foot);
+        let d_lo = d_p + eta * (h * h + near * near).sqrt();
+        let d_hi = d_p + eta * (h * h + far * far).sqrt();
+        let spread = self.spreads[e];
+        let reach = spread.reach();
+        let (first, w) = (self.first[e], self.width);
+        let j0 = ((d_lo - reach - first) / w).ceil().max(0.0);
+        let j1 = ((d_hi + reach - first) / w).floor() + 1.0;
+        let j1 = j1.min(self.edges as f64);
+        if !(j0 < j1) {
+            return None;
+        }
+        let (j0, j1) = (j0 as usize, j1 as usize);
+        let mass: f64 = (j0..j1).map(|j| self.mass(e, j, d_lo, d_hi)).sum();
+        if !(mass > 0.0) {
+            return None;
+        }
+        Some(Plan {
+            emitter: e as u32,
+            polygon: k as u32,
+            p_choice: p_poly / n_e as f64,
+            foot,
+            h,
+            d_p,
+            eta,
+            d_lo,
+            d_hi,
+            j0,
+            j1,
+            mass,
+            slots: (mass.ceil() as usize).clamp(1, MAX_SLOTS),
+        })
+    }
+
+    /// The bounds (in the spread's t = E_j − D) of edge j's component over [d_lo, d_hi].
+    fn window(&self, e: usize, j: usize, d_lo: f64, d_hi: f64) -> (f64, f64) {
+        let edge = self.first[e] + j as f64 * self.width;
+        let reach = self.spreads[e].reach();
+        ((edge - d_hi).max(-reach), (edge - d_lo).min(reach))
+    }
+
+    fn mass(&self, e: usize, j: usize, d_lo: f64, d_hi: f64) -> f64 {
+        let (a, b) = self.window(e, j, d_lo, d_hi);
+        if a >= b {
+            return 0.0;
+        }
+        let s = self.spreads[e];
+        s.cdf(b) - s.cdf(a)
+    }
+
+    /// Draw `slot` of `plan` from the numbers `xi` (position in its stratum) and `v` (angle):
+    /// the light point and its weight 1/(K·density), or `None` where the circle misses the
+    /// polygon (only at its rim, in rounding).
+    pub fn draw(&self, plan: &Plan, slot: usize, xi: f64, v: f64) -> Option<Draw> {
+        let e = plan.emitter as usize;
+        let spread = self.spreads[e];
+        // the stratum's point of the components laid end to end
+        let mut u = (slot as f64 + xi.clamp(0.0, 1.0)) / plan.slots as f64 * plan.mass;
+        let mut t = None;
+        for j in plan.j0..plan.j1 {
+            let (a, b) = self.window(e, j, plan.d_lo, plan.d_hi);
+            if a >= b {
+                continue;
+            }
+            let (ca, cb) = (spread.cdf(a), spread.cdf(b));
+            if u < cb - ca || j + 1 == plan.j1 {
+                let p = (ca + u).clamp(ca, cb);
+                let edge = self.first[e] + j as f64 * self.width;
+                t = Some(edge - spread.inverse_cdf(p).clamp(a, b));
+                break;
+            }
+            u -= cb - ca;
+        }
+        let d = t?.clamp(plan.d_lo, plan.d_hi);
+        // the mixture's density in D at d: every component whose window holds d
+        let reach = spread.reach();
+        let (first, w) = (self.first[e], self.width);
+        let lo = ((d - reach - first) / w).ceil().max(plan.j0 as f64) as usize;
+        let hi = (((d + reach - first) / w).floor() + 1.0).min(plan.j1 as f64) as usize;
+        let q: f64 = (lo..hi.max(lo))
+            .map(|j| {
+                let tj = first + j as f64 * w - d;
+                if tj.abs() <= reach { spread.pdf(tj) } else { 0.0 }
+            })
+            .sum::<f64>()
+            / plan.mass;
+        let r = (d - plan.d_p) / plan.eta;
+        let rho = (r * r - plan.h * plan.h).max(0.0).sqrt();
+        let poly = &self.emitters[e].polygons[plan.polygon as usize];
+        let mut arcs = [(0.0, 0.0); MAX_SIDES];
+        let (n, theta) = poly.arcs(plan.foot, rho, &mut arcs);
+        if !(theta > 0.0) || !(q > 0.0) {
+            return None;
+        }
+        let mut along = v.clamp(0.0, 1.0) * theta;
+        let mut phi = arcs[n - 1].1;
+        for &(a, b) in &arcs[..n] {
+            if along < b - a {
+                phi = a + along;
+                break;
+            }
+            along -= b - a;
+        }
+        let y = poly.point(plan.foot + DVec2::new(phi.cos(), phi.sin()) * rho);
+        // area density: q(D)·η per unit r, over r·Θ per unit area, times the choice
+        let density = q * plan.eta / (r * theta) * plan.p_choice;
+        Some(Draw {
+            y,
+            weight: 1.0 / (plan.slots as f64 * density),
+        })
+    }
+}
+
+/// An emitter's triangles as convex polygons: one when they are coplanar, face the same way
+/// and their union is convex (a quad light's two triangles), else one per triangle.
+fn polygons(tris: &[[DVec3; 3]]) -> Vec<Polygon> {
+    let normal_of = |t: &[DVec3; 3]| (t[1] - t[0]).cross(t[2] - t[0]);
+    let per_triangle = || {
+        tris.iter()
+            .filter_map(|t| Polygon::new(t, normal_of(t).try_normalize()?))
+            .collect::<Vec<_>>()
+    };
+    let Some(n) = tris.first().and_then(|t| normal_of(t).try_normalize()) else {
+        return Vec::new();
+    };
+    let o = tris[0][0];
+    let scale = tris.iter().flatten().map(|p| (*p - o).length()).fold(0.0, f64::max);
+    let flat = tris.iter().all(|t| {
+        normal_of(t).try_normalize().is_some_and(|m| m.dot(n) > 1.0 - 1e-9)
+            && t.iter().all(|p| (*p - o).dot(n).abs() <= 1e-6 * scale.max(1e-30))
+    });
+    if tris.len() == 1 || !flat {
+        return per_triangle();
+    }
+    // the convex hull of the corners in the plane (monotone chain), kept if it has the
+    // triangles' area (their union is then that convex polygon)
+    let e1 = (tris[0][1] - o).normalize();
+    let e2 = n.cross(e1);
+    let mut pts: Vec<DVec2> = tris
+        .iter()
+        .flatten()
+        .map(|p| DVec2::new((*p - o).dot(e1), (*p - o).dot(e2)))
+        .collect();
+    pts.sort_unstable_by(|a, b| a.x.total_cmp(&b.x).then(a.y.total_cmp(&b.y)));
+    pts.dedup_by(|a, b| (*a - *b).length() <= 1e-9 * scale);
+    let hull = convex_hull(&pts);
+    let tri_area: f64 = tris.iter().map(|t| 0.5 * normal_of(t).length()).sum();
+    let corners: Vec<DVec3> = hull.iter().map(|q| o + e1 * q.x + e2 * q.y).collect();
+    match Polygon::new(&corners, n) {
+        Some(p) if hull.len() <= MAX_SIDES && (p.area - tri_area).abs() <= 1e-6 * tri_area => vec![p],
+        _ => per_triangle(),
+    }
+}
+
+/// Counter-clockwise convex hull of points sorted by (x, y).
+fn convex_hull(pts: &[DVec2]) -> Vec<DVec2> {
+    if pts.len() < 3 {
+        return pts.to_vec();
+    }
+    let turn = |o: DVec2, a: DVec2, b: DVec2| (a - o).perp_dot(b - o);
+    let mut hull: Vec<DVec2> = Vec::with_capacity(2 * pts.len());
+    for pass in 0..2 {
+        let start = hull.len();
+        let iter: Box<dyn Iterator<Item = &DVec2>> = if pass == 0 {
+            Box::new(pts.iter())
+        } else {
+            Box::new(pts.iter().rev())
+        };
+        for &p in iter {
+            while hull.len() >= start + 2 && turn(hull[hull.len() - 2], hull[hull.len() - 1], p) <= 0.0 {
+                hull.pop();
+            }
+            hull.push(p);
+        }
+        hull.pop();
+    }
+    hull
+}
+
+#[cfg(test)]
+#[path = "time_edges_tests.rs"]
+mod tests;
