@@ -121,7 +121,7 @@ pub fn connect<R: Real, const C: usize, S: Sink<C>>(
             std::array::from_fn(|i| if valid[i] { te.radiance(emitter[i]) } else { [0.0; 3] });
         // the light point moves with its emitter (material form)
         let mut y = V3::<R>::from_lane_vecs(&y_lanes[..R::LANES]);
-        for k in 0..n_k {
+        for k in (0..n_k).filter(|_| te.emitters_move) {
             let vel: [Vec3; 8] = std::array::from_fn(|i| {
                 if valid[i] {
                     ctx.motion.velocity(k, te.shape(emitter[i]), y_lanes[i])

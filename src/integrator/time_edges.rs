@@ -22,7 +22,8 @@
 //!   pulse's own uniform density for a box pulse;
 //! - K = ⌈M⌉ draws (M the components' total mass within the polygon's OPLs, at most
 //!   [`MAX_SLOTS`]), stratified over the components laid end to end, so that every edge the
-//!   polygon reaches gets about one draw per unit of its mass;
+//!   polygon reaches gets about one draw per unit of its mass; with M < 1, one draw made
+//!   with probability M (Russian roulette on the line of length 1 the mass lies on);
 //! - φ uniform on the arcs of that circle inside the polygon (total angle Θ).
 //!
 //! The area density is q(D)·η/(r·Θ) times the emitter and polygon choice. Each draw hands
@@ -45,6 +46,9 @@ pub const MAX_SLOTS: usize = 16;
 /// Random dimensions a vertex may take (2 for the emitter and polygon, 2 per draw), with room.
 pub const DIMS_PER_VERTEX: u64 = 64;
 
+/// Film edges a plan keeps the cumulative masses of (a vertex reaching more walks them).
+const CACHED_EDGES: usize = 24;
+
 /// Most sides of a polygon kept whole; an emitter whose triangles form a larger one is
 /// sampled triangle by triangle.
 const MAX_SIDES: usize = 12;
@@ -60,6 +64,8 @@ pub struct Polygon {
     e2: DVec3,
     corners: Vec<DVec2>,
     sides: Vec<(DVec2, f64)>,
+    /// Direction angle of each side's outward normal, in [0, 2π).
+    angles: Vec<f64>,
     area: f64,
 }
 
@@ -83,6 +89,10 @@ impl Polygon {
             let m = DVec2::new(b.y - a.y, a.x - b.x).try_normalize()?;
             sides.push((m, m.dot(a)));
         }
+        let angles = sides
+            .iter()
+            .map(|(m, _)| m.y.atan2(m.x).rem_euclid(std::f64::consts::TAU))
+            .collect();
         (area > 0.0).then_some(Self {
             origin,
             normal,
@@ -90,6 +100,7 @@ impl Polygon {
             e2,
             corners,
             sides,
+            angles,
             area,
         })
     }
@@ -123,7 +134,7 @@ impl Polygon {
         // the angles each side forbids: |φ − α| < β where cos(φ − α) > s
         let mut cut = [(0.0f64, 0.0f64); 2 * MAX_SIDES];
         let mut n_cut = 0;
-        for &(m, k) in &self.sides {
+        for (&(m, k), &alpha) in self.sides.iter().zip(&self.angles) {
             let s = (k - m.dot(c)) / rho;
             if s >= 1.0 {
                 continue;
@@ -131,7 +142,7 @@ impl Polygon {
             if s <= -1.0 {
                 return (0, 0.0);
             }
-            let (alpha, beta) = (m.y.atan2(m.x).rem_euclid(TAU), s.acos());
+            let beta = s.acos();
             let (lo, hi) = (alpha - beta, alpha + beta);
             if lo < 0.0 {
                 cut[n_cut] = (lo + TAU, TAU);
@@ -276,6 +287,8 @@ pub struct TimeEdges {
     /// Every lane's OPL may move whatever its vertices do: a pulse-offset parameter, or an
     /// emitter that moves.
     pub always: bool,
+    /// Some parameter moves an emitter (its light points then carry velocities).
+    pub emitters_move: bool,
 }
 
 /// A vertex's draws: the polygon and the OPL components it reaches.
@@ -296,8 +309,12 @@ pub struct Plan {
     /// Film edges reached: j0..j1.
     j0: usize,
     j1: usize,
-    /// Total mixture mass, and draws.
+    /// Cumulative masses of edges j0.. (when j1 − j0 ≤ `CACHED_EDGES`).
+    cum: [f64; CACHED_EDGES],
+    /// Total mixture mass, the length of the line the draws stratify (max(mass, 1): with
+    /// less mass than one draw, a draw past the mass is not made), and draws.
     mass: f64,
+    line: f64,
     pub slots: usize,
 }
 
@@ -323,14 +340,14 @@ impl TimeEdges {
         let mut emitters = Vec::new();
         let mut spreads = Vec::new();
         let mut first = Vec::new();
-        let mut always = motion.pulse_offset.iter().any(Option::is_some);
+        let mut emitters_move = false;
         for (e, corr) in scene.emitters.iter().zip(correlations) {
             let EmitterKind::Area { shape, radiance } = e.kind else {
                 return None;
             };
             spreads.push(Spread::of(e.pulse)?);
             first.push(corr.axis().start_opl - e.offset_opl);
-            always |= motion
+            emitters_move |= motion
                 .fields
                 .iter()
                 .any(|f| f.iter().any(|(s, _)| *s == shape as usize));
@@ -346,7 +363,8 @@ impl TimeEdges {
             first,
             width: scene.film.axis.bin_width_opl,
             edges: scene.film.axis.bins + 1,
-            always,
+            always: emitters_move || motion.pulse_offset.iter().any(Option::is_some),
+            emitters_move,
         })
     }
 
@@ -393,7 +411,14 @@ impl TimeEdges {
             return None;
         }
         let (j0, j1) = (j0 as usize, j1 as usize);
-        let mass: f64 = (j0..j1).map(|j| self.mass(e, j, d_lo, d_hi)).sum();
+        let mut cum = [0.0; CACHED_EDGES];
+        let mut mass = 0.0;
+        for (i, j) in (j0..j1).enumerate() {
+            mass += self.mass(e, j, d_lo, d_hi);
+            if i < CACHED_EDGES {
+                cum[i] = mass;
+            }
+        }
         if !(mass > 0.0) {
             return None;
         }
@@ -409,7 +434,9 @@ impl TimeEdges {
             d_hi,
             j0,
             j1,
+            cum,
             mass,
+            line: mass.max(1.0),
             slots: (mass.ceil() as usize).clamp(1, MAX_SLOTS),
         })
     }
@@ -431,15 +458,29 @@ impl TimeEdges {
     }
 
     /// Draw `slot` of `plan` from the numbers `xi` (position in its stratum) and `v` (angle):
-    /// the light point and its weight 1/(K·density), or `None` where the circle misses the
-    /// polygon (only at its rim, in rounding).
+    /// the light point and its weight 1/(K·density), or `None` past the mass (Russian
+    /// roulette when it is under one draw's worth) or where the circle misses the polygon
+    /// (only at its rim, in rounding).
     pub fn draw(&self, plan: &Plan, slot: usize, xi: f64, v: f64) -> Option<Draw> {
         let e = plan.emitter as usize;
         let spread = self.spreads[e];
         // the stratum's point of the components laid end to end
-        let mut u = (slot as f64 + xi.clamp(0.0, 1.0)) / plan.slots as f64 * plan.mass;
+        let mut u = (slot as f64 + xi.clamp(0.0, 1.0)) / plan.slots as f64 * plan.line;
+        if u >= plan.mass {
+            return None;
+        }
         let mut t = None;
-        for j in plan.j0..plan.j1 {
+        // the edge the point falls on (found from the cumulative masses when the plan kept
+        // them, else by walking the edges) and the point's mass within it
+        let n = plan.j1 - plan.j0;
+        let start = if n <= CACHED_EDGES {
+            let i = plan.cum[..n].partition_point(|&c| c <= u).min(n - 1);
+            u -= if i == 0 { 0.0 } else { plan.cum[i - 1] };
+            plan.j0 + i
+        } else {
+            plan.j0
+        };
+        for j in start..plan.j1 {
             let (a, b) = self.window(e, j, plan.d_lo, plan.d_hi);
             if a >= b {
                 continue;
@@ -465,7 +506,7 @@ impl TimeEdges {
                 if tj.abs() <= reach { spread.pdf(tj) } else { 0.0 }
             })
             .sum::<f64>()
-            / plan.mass;
+            / plan.line;
         let r = (d - plan.d_p) / plan.eta;
         let rho = (r * r - plan.h * plan.h).max(0.0).sqrt();
         let poly = &self.emitters[e].polygons[plan.polygon as usize];

@@ -18,6 +18,7 @@ fn edges_for(polygons: Vec<Polygon>, pulse: Pulse, axis: TimeAxis, offset: f64) 
         width: axis.bin_width_opl,
         edges: axis.bins + 1,
         always: false,
+        emitters_move: false,
     }
 }
 
