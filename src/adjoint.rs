@@ -87,6 +87,25 @@ impl Accumulate for AdjointFilm<'_> {
             }
         });
     }
+
+    #[inline]
+    fn add_edge_term(&mut self, x: usize, y: usize, edge: usize, f: &[f32], ddot: &[f32]) {
+        let a = self.adjoint;
+        let c_n = a.channels;
+        let bins = a.axis.bins;
+        let base = a.index(x, y, 0, 0);
+        let bin = |l: usize| -> f64 { (0..c_n).map(|c| a.data[base + l * c_n + c] as f64 * f[c] as f64).sum() };
+        let mut g = 0.0;
+        if edge < bins {
+            g += bin(edge);
+        }
+        if edge >= 1 && edge - 1 < bins {
+            g -= bin(edge - 1);
+        }
+        for k in 0..ddot.len().min(MAX_PARAMS) {
+            self.grad[k] += g * ddot[k] as f64;
+        }
+    }
 }
 
 impl<const C: usize> crate::integrator::sink::Sink<C> for AdjointFilm<'_> {
@@ -219,7 +238,7 @@ fn render_adjoint_group(
             motion.len()
         )));
     }
-    motion.check_time_derivatives(scene, params)?;
+    motion.check_time_derivatives(scene, params, crate::render::delta_draws(scene, &motion, opts))?;
     let t0 = std::time::Instant::now();
     // no derivative film is stored: the memory check counts the primal's alone
     let run = Run::with_films(scene, motion, opts, false, false)?;

@@ -182,6 +182,10 @@ pub trait Accumulate {
     /// `İ_k += f·Ṡ_e(d)·ḋ_k` at pixel (x, y), and nothing else: the time term of a path whose
     /// value and ḟ another estimator counts (`integrator::time_edge_nee`).
     fn add_time_term(&mut self, x: usize, y: usize, corr: &Correlation, d: f64, f: &[f32], ddot: &[f32]);
+    /// `İ_k += f·ḋ_k` in bin `edge` and `İ_k −= f·ḋ_k` in bin `edge − 1` (those of them on the
+    /// film) at pixel (x, y): the time term of a delta pulse's path on that bin edge
+    /// (Ṡ_e is a Dirac there), drawn by `integrator::time_edge_nee`.
+    fn add_edge_term(&mut self, x: usize, y: usize, edge: usize, f: &[f32], ddot: &[f32]);
 }
 
 /// A tile film bins each path through S_e into its own pixels.
@@ -293,6 +297,38 @@ impl Accumulate for TileFilm {
                 }
             }
         });
+    }
+
+    #[inline]
+    fn add_edge_term(&mut self, x: usize, y: usize, edge: usize, f: &[f32], ddot: &[f32]) {
+        if edge < self.bins {
+            self.add_deriv_bin(x, y, edge, 1.0, f, ddot);
+        }
+        if edge >= 1 && edge - 1 < self.bins {
+            self.add_deriv_bin(x, y, edge - 1, -1.0, f, ddot);
+        }
+    }
+}
+
+impl TileFilm {
+    /// `sign`·f·ḋ_k into bin `bin` of pixel (x, y)'s derivative films (and their steady image
+    /// when it integrates the window).
+    fn add_deriv_bin(&mut self, x: usize, y: usize, bin: usize, sign: f64, f: &[f32], ddot: &[f32]) {
+        let p = (y - self.y0) * self.w + (x - self.x0);
+        let c_n = self.channels;
+        let n_k = ddot.len().min(self.derivs);
+        let sblock = self.w * self.h * c_n;
+        let full = self.steady_mode == SteadyMode::Full;
+        let i = self.block() + (p * self.bins + bin) * c_n;
+        for k in 0..n_k {
+            for c in 0..c_n {
+                let v = sign * f[c] as f64 * ddot[k] as f64;
+                self.data.add(self.block() * k + i + c, v);
+                if !full {
+                    self.steady[sblock * (1 + k) + p * c_n + c] += v;
+                }
+            }
+        }
     }
 }
 

@@ -111,6 +111,13 @@ pub struct RenderOptions {
     pub time_edges: TimeEdgeMode,
 }
 
+/// Whether the render's draws on the time edges take a delta pulse's time term
+/// (`integrator::time_edges::TimeEdges::cover_delta`), or why not.
+pub(crate) fn delta_draws(scene: &Scene, motion: &Motion, opts: &RenderOptions) -> Result<(), String> {
+    let path = opts.integrator.unwrap_or(scene.integrator.kind) == IntegratorKind::Path;
+    crate::integrator::time_edges::TimeEdges::cover_delta(scene, motion, path && opts.time_edges == TimeEdgeMode::Auto)
+}
+
 /// How the path tracer estimates the time term f·Ṡ_e·ḋ of a derivative (Algorithm 1).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default, serde::Serialize)]
 #[serde(rename_all = "lowercase")]
@@ -337,7 +344,7 @@ pub fn render_diff_parts(scene: &Scene, params: &[String], opts: &RenderOptions)
             motion.len()
         )));
     }
-    motion.check_time_derivatives(scene, params)?;
+    motion.check_time_derivatives(scene, params, delta_draws(scene, &motion, opts))?;
     let mut run = Run::new(scene, motion, opts, false)?;
     let mut interior = run.interior(opts, false);
     let boundary = run.boundary(opts);

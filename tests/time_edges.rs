@@ -4,6 +4,8 @@
 //!
 //! - The derivative (interior and boundary) against central finite differences with common
 //!   random numbers (tests/common/fd.rs): the box's translation and the pulse offset.
+//! - A delta pulse (Ṡ_e a Dirac on the bin edges): the draws alone give its time term; the
+//!   box's translation against finite differences, and refusals where the draws miss paths.
 //! - The draws against the ordinary contributions (`--time-edges off`) on the same paths:
 //!   the same mean (their per-seed difference vanishes within its standard error), and a
 //!   several times lower variance of the per-bin derivative.
@@ -11,19 +13,29 @@
 mod common;
 
 use difftransient::render::{BoundaryMode, TimeEdgeMode};
-use difftransient::{RenderOptions, Transient, render_diff};
+use difftransient::scene::IntegratorKind;
+use difftransient::temporal::Pulse;
+use difftransient::{RenderOptions, Scene, Transient, render_diff};
 
 fn fd_check(name: &str, value: f32, h: f32) {
+    fd_check_with(name, value, h, |_| {});
+}
+
+fn fd_check_with(name: &str, value: f32, h: f32, edit: fn(&mut Scene)) {
     common::fd::FdCheck {
         scene: "narrow_pulse_box.toml",
         k: 12,
         spp: 4,
         integrator: None,
-        edit: |_| {},
+        edit,
         require_signal: true,
         boundary: BoundaryMode::Full,
     }
     .check(name, value, h);
+}
+
+fn delta(s: &mut Scene) {
+    s.emitters[0].pulse = Pulse::Delta;
 }
 
 #[test]
@@ -34,6 +46,85 @@ fn pulse_offset_matches_finite_differences() {
 #[test]
 fn box_translation_matches_finite_differences() {
     fd_check("tall_box_x", -0.33, 0.002);
+}
+
+/// A delta pulse: Ṡ_e is a Dirac on each bin edge, which only the draws estimate (one per edge
+/// in reach, on its circle); the finite differences see paths cross bin edges.
+#[test]
+fn delta_pulse_box_translation_matches_finite_differences() {
+    fd_check_with("tall_box_x", -0.33, 0.002, delta);
+}
+
+/// The same paths with a delta pulse and with a Gaussian pulse of σ = 0.5 mm (a hundredth of a
+/// bin: the two transients differ by O(σ²)): the delta's draws on the edges and the
+/// Gaussian's draws around them must give the same derivative. Paired over seeds, since the
+/// paths are the same and only the draws differ.
+#[test]
+fn delta_pulse_is_the_narrow_gaussian_limit() {
+    let mut sharp = common::load("narrow_pulse_box.toml");
+    delta(&mut sharp);
+    let mut narrow = common::load("narrow_pulse_box.toml");
+    narrow.emitters[0].pulse = Pulse::Gaussian { sigma_opl: 0.0005 };
+    let k = 12usize;
+    let render = |scene: &Scene, seed: u64| -> Vec<f64> {
+        let opts = RenderOptions {
+            spp: Some(4),
+            seed: Some(seed),
+            threads: Some(2),
+            boundary: BoundaryMode::InteriorOnly,
+            ..Default::default()
+        };
+        let (_, d, _) = render_diff(scene, &["tall_box_x".to_string()], &opts).unwrap();
+        aggregates(&d[0])
+    };
+    let pairs: Vec<(Vec<f64>, Vec<f64>)> = (0..k as u64).map(|s| (render(&sharp, s), render(&narrow, s))).collect();
+    let (mut chi2, mut zmax, mut used, mut signal) = (0.0, 0.0f64, 0, 0.0f64);
+    for i in 0..pairs[0].0.len() {
+        let diff: Vec<f64> = pairs.iter().map(|(a, b)| a[i] - b[i]).collect();
+        let (m, se) = common::mean_se(&diff);
+        let (ma, sea) = common::mean_se(&pairs.iter().map(|(a, _)| a[i]).collect::<Vec<_>>());
+        signal = signal.max(ma.abs() / (sea + 1e-30));
+        if se == 0.0 {
+            continue;
+        }
+        chi2 += (m / se) * (m / se);
+        zmax = zmax.max((m / se).abs());
+        used += 1;
+    }
+    let (mean, sd) = common::t2_sum_moments(used as f64, (k - 1) as f64);
+    eprintln!(
+        "delta − narrow Gaussian: Σz² = {chi2:.1} (expect {mean:.1} ± {sd:.1}) over {used}, max |z| {zmax:.2}, signal {signal:.1} se"
+    );
+    assert!(used > 100 && signal > 5.0, "{used} entries, signal {signal:.1} se");
+    assert!(
+        chi2 <= mean + 5.0 * sd,
+        "the delta's draws differ from the narrow Gaussian's: Σz² = {chi2:.1}"
+    );
+    assert!(zmax <= 8.0, "an entry is {zmax:.1} standard errors off");
+}
+
+#[test]
+fn delta_pulse_derivatives_are_refused_where_the_draws_miss_paths() {
+    let mut scene = common::load("narrow_pulse_box.toml");
+    delta(&mut scene);
+    let opts = |mode: TimeEdgeMode, integrator: Option<IntegratorKind>| RenderOptions {
+        spp: Some(1),
+        threads: Some(1),
+        integrator,
+        time_edges: mode,
+        ..Default::default()
+    };
+    let refused =
+        |param: &str, o: RenderOptions| render_diff(&scene, &[param.to_string()], &o).unwrap_err().to_string();
+    let e = refused("tall_box_x", opts(TimeEdgeMode::Off, None));
+    assert!(e.contains("delta pulse") && e.contains("--time-edges"), "{e}");
+    let e = refused("tall_box_x", opts(TimeEdgeMode::Auto, Some(IntegratorKind::Bdpt)));
+    assert!(e.contains("path tracer"), "{e}");
+    // the camera sees the light: its pulse offset moves those paths' OPL too
+    let e = refused("light_offset", opts(TimeEdgeMode::Auto, None));
+    assert!(e.contains("pulse offset"), "{e}");
+    // and where they cover every path, the derivative renders
+    assert!(render_diff(&scene, &["tall_box_x".to_string()], &opts(TimeEdgeMode::Auto, None)).is_ok());
 }
 
 /// Per-bin totals and 4×4-pixel blocks × 10-bin groups of a derivative film.

@@ -103,7 +103,7 @@ impl<'a> RenderContext<'a> {
     /// Draws the path tracer's time term on the time edges where they apply to this
     /// render's parameters ([`Self::motion`], set first) and emitters.
     pub fn use_time_edges(&mut self) {
-        self.time_edges = super::time_edges::TimeEdges::build(self.scene, &self.motion, &self.correlations);
+        self.time_edges = super::time_edges::TimeEdges::build(self.scene, &self.motion);
     }
 
     /// Steady images integrate the time window and paths end where they leave it

@@ -28,6 +28,9 @@ pub struct LaneContribution<const C: usize> {
     /// Only the time term f·Ṡ_e·ḋ_k goes to the film (a draw on the time edges,
     /// `super::time_edge_nee`): no value, no ḟ.
     pub time_only: bool,
+    /// For a time-only draw of a delta pulse: the film edge it lies on (Ṡ_e is a Dirac
+    /// there: +f·ḋ_k to the bin after the edge, −f·ḋ_k to the bin before).
+    pub edge: Option<u32>,
 }
 
 impl<const C: usize> LaneContribution<C> {
@@ -69,6 +72,7 @@ impl<const C: usize> LaneContribution<C> {
             ddot,
             n_k,
             time_only: false,
+            edge: None,
         })
     }
 
@@ -83,7 +87,10 @@ impl<const C: usize> LaneContribution<C> {
         let corr = &ctx.correlations[self.emitter as usize];
         let f: [f32; C] = self.f.map(|v| v * h);
         if self.time_only {
-            film.add_time_term(x, y, corr, self.d, &f, &self.ddot[..self.n_k]);
+            match self.edge {
+                Some(j) => film.add_edge_term(x, y, j as usize, &f, &self.ddot[..self.n_k]),
+                None => film.add_time_term(x, y, corr, self.d, &f, &self.ddot[..self.n_k]),
+            }
             return;
         }
         if self.n_k == 0 {

@@ -192,6 +192,7 @@ pub fn connect<R: Real, const C: usize, S: Sink<C>>(
             |i, lc| {
                 let mut lc = *lc;
                 lc.time_only = true;
+                lc.edge = draws[i].and_then(|d| d.edge);
                 sink.add(ctx, (1, depth as usize + 1), px[i] as usize, py[i] as usize, &lc, 1.0);
             },
         );

@@ -30,14 +30,19 @@
 //! the film f/(K·density) as a time-only contribution: the film evaluates Ṡ_e at the draw's
 //! exact OPL, so every bin edge is estimated from draws aimed at it.
 //!
+//! A delta pulse's Ṡ_e is a Dirac on each edge (supplemental Lemma 2.5), which no sampled
+//! OPL meets: its draws put one point on each reached edge's circle, and the film adds f·ḋ to
+//! the bin after that edge and takes it from the bin before ([`Draw::edge`]).
+//!
 //! The kernel uses this only where next-event estimation covers every path it replaces: the
-//! box gate, area emitters only (a point or a laser spot leaves no r to aim), Gaussian or box
-//! pulses, and no NLOS capture. `time_edge_nee.rs` says how the other estimators' time terms
-//! are left out so that nothing is counted twice.
+//! box gate, area emitters only (a point or a laser spot leaves no r to aim), and no NLOS
+//! capture. `time_edge_nee.rs` says how the other estimators' time terms are left out so
+//! that nothing is counted twice; [`TimeEdges::cover_delta`] when a delta pulse's derivative
+//! may be taken from the draws alone.
 
 use crate::params::lanes::Motion;
 use crate::scene::{EmitterKind, Scene};
-use crate::temporal::{Correlation, GAUSSIAN_CUTOFF_SIGMAS, Gate, Pulse};
+use crate::temporal::{GAUSSIAN_CUTOFF_SIGMAS, Gate, Pulse};
 use glam::{DVec2, DVec3};
 
 /// Most draws per vertex and lane (the strata of the edge mixture).
@@ -186,23 +191,26 @@ enum Spread {
     Logistic { s: f64, cut: f64 },
     /// Uniform on ±`half` (a box pulse: ∂S_e/∂d is ±1/width there).
     Uniform { half: f64 },
+    /// The edge itself (a delta pulse: ∂S_e/∂d is a Dirac on each edge, supplemental
+    /// Lemma 2.5). Each edge the polygon reaches gets one draw on its circle, r = (E_j − d_p)/η.
+    Delta,
 }
 
 impl Spread {
-    /// The draws' spread for `pulse` (`None` for a delta, which has no width to aim at).
-    fn of(pulse: Pulse) -> Option<Self> {
+    /// The draws' spread for `pulse`.
+    fn of(pulse: Pulse) -> Self {
         match pulse {
             Pulse::Gaussian { sigma_opl } => {
                 let s = sigma_opl as f64;
-                Some(Spread::Logistic {
+                Spread::Logistic {
                     s: s * 3f64.sqrt() / std::f64::consts::PI,
                     cut: GAUSSIAN_CUTOFF_SIGMAS * s,
-                })
+                }
             }
-            Pulse::Box { width_opl } => Some(Spread::Uniform {
+            Pulse::Box { width_opl } => Spread::Uniform {
                 half: 0.5 * width_opl as f64,
-            }),
-            Pulse::Delta => None,
+            },
+            Pulse::Delta => Spread::Delta,
         }
     }
 
@@ -210,6 +218,7 @@ impl Spread {
         match self {
             Spread::Logistic { cut, .. } => cut,
             Spread::Uniform { half } => half,
+            Spread::Delta => 0.0,
         }
     }
 
@@ -218,6 +227,8 @@ impl Spread {
         match self {
             Spread::Logistic { s, .. } => 1.0 / (1.0 + (-t / s).exp()),
             Spread::Uniform { half } => (t + half) / (2.0 * half),
+            // a unit mass at t = 0 (the callers' windows hold it or not)
+            Spread::Delta => (t >= 0.0) as u8 as f64,
         }
     }
 
@@ -225,6 +236,7 @@ impl Spread {
         match self {
             Spread::Logistic { s, .. } => s * (p / (1.0 - p)).ln(),
             Spread::Uniform { half } => p * 2.0 * half - half,
+            Spread::Delta => 0.0,
         }
     }
 
@@ -236,6 +248,8 @@ impl Spread {
                 e / (s * (1.0 + e) * (1.0 + e))
             }
             Spread::Uniform { half } => 0.5 / half,
+            // not a density: the delta's draws take their weight without it (`TimeEdges::draw`)
+            Spread::Delta => 1.0,
         }
     }
 }
@@ -318,18 +332,22 @@ pub struct Plan {
     pub slots: usize,
 }
 
-/// One light point drawn for a vertex: the point and 1/(K·density) (area, choice included).
+/// One light point drawn for a vertex: the point and 1/(K·density) (area, choice included);
+/// for a delta pulse, the film edge it lies on, and 1/(K·density) of the edge's circle
+/// (dℓ(edge) = r·dφ·dr = r·dφ·dD/η).
 #[derive(Clone, Copy, Debug)]
 pub struct Draw {
     pub y: DVec3,
     pub weight: f64,
+    pub edge: Option<u32>,
 }
 
 impl TimeEdges {
-    /// The draws' data when every emitter is an area emitter with a Gaussian or box pulse, the
-    /// film's gate is a box, and some parameter shifts paths in time; `None` otherwise (the
-    /// kernel then keeps the time term in its ordinary contributions).
-    pub fn build(scene: &Scene, motion: &Motion, correlations: &[Correlation]) -> Option<Self> {
+    /// The draws' data when every emitter is an area emitter (Gaussian, box or delta pulse),
+    /// the film's gate is a box, there is no NLOS capture and some parameter shifts paths in
+    /// time; `None` otherwise (the kernel then keeps the time term in its ordinary
+    /// contributions; a delta pulse's is then refused, [`Self::cover_delta`]).
+    pub fn build(scene: &Scene, motion: &Motion) -> Option<Self> {
         if scene.nlos.is_some() || scene.film.gate != Gate::Box || scene.emitters.is_empty() {
             return None;
         }
@@ -341,12 +359,12 @@ impl TimeEdges {
         let mut spreads = Vec::new();
         let mut first = Vec::new();
         let mut emitters_move = false;
-        for (e, corr) in scene.emitters.iter().zip(correlations) {
+        for e in &scene.emitters {
             let EmitterKind::Area { shape, radiance } = e.kind else {
                 return None;
             };
-            spreads.push(Spread::of(e.pulse)?);
-            first.push(corr.axis().start_opl - e.offset_opl);
+            spreads.push(Spread::of(e.pulse));
+            first.push(scene.film.axis.start_opl - e.offset_opl);
             emitters_move |= motion
                 .fields
                 .iter()
@@ -366,6 +384,61 @@ impl TimeEdges {
             always: emitters_move || motion.pulse_offset.iter().any(Option::is_some),
             emitters_move,
         })
+    }
+
+    /// Whether the draws take the whole time term of a delta pulse's paths, whose Ṡ_e is a
+    /// Dirac on each bin edge that no ordinary contribution can estimate (supplemental Lemma
+    /// 2.5): `Ok` when the path tracer draws (`path_draws`: its kernel, the draws on), every
+    /// emitter is an area emitter, no material has a Dirac lobe or transmits (a path whose
+    /// last vertex before the light is such would reach it without a draw), and no parameter
+    /// shifts the paths that see an emitter from the camera (the pulse offset of a delta
+    /// emitter, the medium's index, an emitter's motion). Else why not.
+    pub fn cover_delta(scene: &Scene, motion: &Motion, path_draws: bool) -> Result<(), String> {
+        if !path_draws {
+            return Err("the draws on the time edges (path tracer, --time-edges auto) are off".into());
+        }
+        if scene.nlos.is_some() {
+            return Err("an NLOS capture's laser spots leave no light point to draw".into());
+        }
+        if let Some(e) = scene
+            .emitters
+            .iter()
+            .find(|e| !matches!(e.kind, EmitterKind::Area { .. }))
+        {
+            return Err(format!(
+                "emitter {:?} is not an area emitter (no light point to draw)",
+                e.name
+            ));
+        }
+        if let Some(m) = scene
+            .materials
+            .iter()
+            .find(|m| m.material.is_delta() || matches!(m.material, crate::scene::Material::Dielectric { .. }))
+        {
+            return Err(format!(
+                "material {:?} (type {}) reaches the light along paths the draws do not make (a Dirac lobe or a refraction)",
+                m.name,
+                m.material.type_name()
+            ));
+        }
+        for k in 0..motion.len() {
+            let delta_offset = motion.pulse_offset[k].is_some_and(|e| scene.emitters[e].pulse == Pulse::Delta);
+            let moves_emitter = scene.emitters.iter().any(|e| match e.kind {
+                EmitterKind::Area { shape, .. } => motion.fields[k].iter().any(|(s, _)| *s == shape as usize),
+                _ => false,
+            });
+            if delta_offset || motion.eta[k] || moves_emitter {
+                return Err(
+                    "a parameter shifts the emitter seen from the camera in time (a delta emitter's pulse offset, the medium's index, an emitter's motion)"
+                        .into(),
+                );
+            }
+        }
+        match Self::build(scene, motion) {
+            Some(_) => Ok(()),
+            None if scene.film.gate != Gate::Box => Ok(()),
+            None => Err("an emitter has no area to draw light points on".into()),
+        }
     }
 
     /// The shape emitter `e` covers (its light points move with it).
@@ -450,6 +523,9 @@ impl TimeEdges {
 
     fn mass(&self, e: usize, j: usize, d_lo: f64, d_hi: f64) -> f64 {
         let (a, b) = self.window(e, j, d_lo, d_hi);
+        if let Spread::Delta = self.spreads[e] {
+            return (a <= b) as u8 as f64;
+        }
         if a >= b {
             return 0.0;
         }
@@ -468,6 +544,17 @@ impl TimeEdges {
         let mut u = (slot as f64 + xi.clamp(0.0, 1.0)) / plan.slots as f64 * plan.line;
         if u >= plan.mass {
             return None;
+        }
+        if let Spread::Delta = spread {
+            // one unit of mass per edge in reach, in order: the point's edge, on its circle
+            let j = (plan.j0 + u as usize).min(plan.j1 - 1);
+            let d = self.first[e] + j as f64 * self.width;
+            let (y, r_theta) = self.on_circle(plan, d, v)?;
+            return Some(Draw {
+                y,
+                weight: plan.line / plan.slots as f64 * r_theta / (plan.eta * plan.p_choice),
+                edge: Some(j as u32),
+            });
         }
         let mut t = None;
         // the edge the point falls on (found from the cumulative masses when the plan kept
@@ -507,12 +594,28 @@ impl TimeEdges {
             })
             .sum::<f64>()
             / plan.line;
+        if !(q > 0.0) {
+            return None;
+        }
+        let (y, r_theta) = self.on_circle(plan, d, v)?;
+        // area density: q(D)·η per unit r, over r·Θ per unit area, times the choice
+        let density = q * plan.eta / r_theta * plan.p_choice;
+        Some(Draw {
+            y,
+            weight: 1.0 / (plan.slots as f64 * density),
+            edge: None,
+        })
+    }
+
+    /// The light point at angle number `v` on the circle of the plan's polygon where the OPL
+    /// is `d`, and r·Θ (the circle's radius r around x times its angle inside the polygon).
+    fn on_circle(&self, plan: &Plan, d: f64, v: f64) -> Option<(DVec3, f64)> {
         let r = (d - plan.d_p) / plan.eta;
         let rho = (r * r - plan.h * plan.h).max(0.0).sqrt();
-        let poly = &self.emitters[e].polygons[plan.polygon as usize];
+        let poly = &self.emitters[plan.emitter as usize].polygons[plan.polygon as usize];
         let mut arcs = [(0.0, 0.0); MAX_SIDES];
         let (n, theta) = poly.arcs(plan.foot, rho, &mut arcs);
-        if !(theta > 0.0) || !(q > 0.0) {
+        if !(theta > 0.0) {
             return None;
         }
         let mut along = v.clamp(0.0, 1.0) * theta;
@@ -524,13 +627,10 @@ impl TimeEdges {
             }
             along -= b - a;
         }
-        let y = poly.point(plan.foot + DVec2::new(phi.cos(), phi.sin()) * rho);
-        // area density: q(D)·η per unit r, over r·Θ per unit area, times the choice
-        let density = q * plan.eta / (r * theta) * plan.p_choice;
-        Some(Draw {
-            y,
-            weight: 1.0 / (plan.slots as f64 * density),
-        })
+        Some((
+            poly.point(plan.foot + DVec2::new(phi.cos(), phi.sin()) * rho),
+            r * theta,
+        ))
     }
 }
 
