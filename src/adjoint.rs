@@ -138,6 +138,9 @@ pub struct AdjointStats {
     pub boundary: Option<crate::boundary::BoundaryStats>,
     /// Wall-clock time of the render(s), seconds.
     pub wall_seconds: f64,
+    /// Whether the path tracer drew the time term on the time edges
+    /// (`crate::render::TimeEdgeMode`).
+    pub time_edges: bool,
 }
 
 /// dL/dθ_k = Σ ⟨∂L/∂I, İ_k⟩ for each parameter in `params`, where `adjoint` is ∂L/∂I: a
@@ -305,6 +308,7 @@ fn render_adjoint_group(
         } else {
             0
         },
+        time_edges: interior && ctx.time_edges.is_some() && run.kind == crate::scene::IntegratorKind::Path,
         ..Default::default()
     };
     for (g, c) in &parts {

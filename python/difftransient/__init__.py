@@ -157,24 +157,27 @@ def render(scene: Scene, *, spp: Optional[int] = None, seed: Optional[int] = Non
 
 def render_diff(scene: Scene, params: Sequence[str], *, spp: Optional[int] = None, seed: Optional[int] = None,
                 threads: Optional[int] = None, spp_boundary: Optional[int] = None,
-                estimators: str = "full") -> DiffRender:
+                estimators: str = "full", time_edges: str = "auto") -> DiffRender:
     """Renders the transient and dI/dθ for each name in `params`: the interior (Algorithm 1)
     plus, when a parameter moves geometry, the boundary terms (Algorithm 2). `estimators`:
-    "full", "interior" or "boundary"."""
+    "full", "interior" or "boundary". `time_edges`: "auto" (the path tracer draws the time
+    term f·dS_e/dd·ḋ on the bin edges where that applies; what makes delta pulses
+    differentiable) or "off" (`dtr render --time-edges`)."""
     params = list(params)
-    t, d, stats = _render_diff(scene._native, params, spp, seed, threads, spp_boundary, estimators)
+    t, d, stats = _render_diff(scene._native, params, spp, seed, threads, spp_boundary, estimators, time_edges)
     return DiffRender(t, dict(zip(params, d)), scene.bin_centres, json.loads(stats))
 
 
 def gradient(scene: Scene, params: Sequence[str], adjoint: np.ndarray, *, spp: Optional[int] = None,
              seed: Optional[int] = None, threads: Optional[int] = None, spp_boundary: Optional[int] = None,
-             estimators: str = "full"):
+             estimators: str = "full", time_edges: str = "auto"):
     """dL/dθ = Σ ⟨∂L/∂I, dI/dθ⟩ for each name in `params`, given `adjoint` = ∂L/∂I shaped like
     the film [H, W, T, C], without holding one derivative volume per parameter (any number of
     parameters). With the same options it uses the same samples as `render_diff`.
     Returns (gradient as a float64 array, stats)."""
     a = np.ascontiguousarray(adjoint, dtype=np.float32)
-    g, stats = _render_adjoint(scene._native, list(params), a, spp, seed, threads, spp_boundary, estimators)
+    g, stats = _render_adjoint(scene._native, list(params), a, spp, seed, threads, spp_boundary, estimators,
+                               time_edges)
     return g, json.loads(stats)
 
 

@@ -10,6 +10,7 @@
 //!   (anything a render refuses) with the library's messages.
 
 use difftransient::kernel::SampleSequence;
+use difftransient::render::TimeEdgeMode;
 use difftransient::scene::Format;
 use difftransient::{BoundaryMode, RenderOptions, Scene, Transient};
 use numpy::ndarray::{Array1, Array4};
@@ -177,7 +178,17 @@ fn options(
     threads: Option<usize>,
     spp_boundary: Option<u32>,
     estimators: &str,
+    time_edges: &str,
 ) -> PyResult<RenderOptions> {
+    let time_edges = match time_edges {
+        "auto" => TimeEdgeMode::Auto,
+        "off" => TimeEdgeMode::Off,
+        other => {
+            return Err(RenderError::new_err(format!(
+                "time_edges must be \"auto\" or \"off\" (got {other:?})"
+            )));
+        }
+    };
     let boundary = match estimators {
         "full" => BoundaryMode::Full,
         "interior" => BoundaryMode::InteriorOnly,
@@ -194,6 +205,7 @@ fn options(
         threads,
         spp_boundary,
         boundary,
+        time_edges,
         ..Default::default()
     })
 }
@@ -227,7 +239,7 @@ fn render<'py>(
     seed: Option<u64>,
     threads: Option<usize>,
 ) -> PyResult<(Film<'py>, Bound<'py, PyArray3<f32>>, String)> {
-    let opts = options(spp, seed, threads, None, "full")?;
+    let opts = options(spp, seed, threads, None, "full", "auto")?;
     let (mut t, stats) = py
         .detach(|| difftransient::render(&scene.scene, &opts))
         .map_err(render_err)?;
@@ -243,7 +255,7 @@ fn render<'py>(
 /// Renders the transient and its derivative with respect to each of `params`:
 /// (transient, [derivative per parameter], stats as JSON text).
 #[pyfunction]
-#[pyo3(signature = (scene, params, spp = None, seed = None, threads = None, spp_boundary = None, estimators = "full"))]
+#[pyo3(signature = (scene, params, spp = None, seed = None, threads = None, spp_boundary = None, estimators = "full", time_edges = "auto"))]
 #[allow(clippy::too_many_arguments)]
 fn render_diff<'py>(
     py: Python<'py>,
@@ -254,8 +266,9 @@ fn render_diff<'py>(
     threads: Option<usize>,
     spp_boundary: Option<u32>,
     estimators: &str,
+    time_edges: &str,
 ) -> PyResult<(Film<'py>, Vec<Film<'py>>, String)> {
-    let opts = options(spp, seed, threads, spp_boundary, estimators)?;
+    let opts = options(spp, seed, threads, spp_boundary, estimators, time_edges)?;
     let (t, d, stats) = py
         .detach(|| difftransient::render_diff(&scene.scene, &params, &opts))
         .map_err(render_err)?;
@@ -267,7 +280,7 @@ fn render_diff<'py>(
 /// film): (gradient as float64 array, stats as JSON text). Same samples as `render_diff`
 /// with the same options.
 #[pyfunction]
-#[pyo3(signature = (scene, params, adjoint, spp = None, seed = None, threads = None, spp_boundary = None, estimators = "full"))]
+#[pyo3(signature = (scene, params, adjoint, spp = None, seed = None, threads = None, spp_boundary = None, estimators = "full", time_edges = "auto"))]
 #[allow(clippy::too_many_arguments)]
 fn render_adjoint<'py>(
     py: Python<'py>,
@@ -279,8 +292,9 @@ fn render_adjoint<'py>(
     threads: Option<usize>,
     spp_boundary: Option<u32>,
     estimators: &str,
+    time_edges: &str,
 ) -> PyResult<(Bound<'py, PyArray1<f64>>, String)> {
-    let opts = options(spp, seed, threads, spp_boundary, estimators)?;
+    let opts = options(spp, seed, threads, spp_boundary, estimators, time_edges)?;
     let f = &scene.scene.film;
     let want = [f.height as usize, f.width as usize, f.axis.bins, f.channels];
     let view = adjoint.as_array();

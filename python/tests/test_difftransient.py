@@ -261,3 +261,20 @@ def test_torch_adapter_passes_estimators_to_the_backward_pass():
     image.sum().backward()
     g, _ = dt.gradient(s, ["slab_ior"], np.ones(s.shape, np.float32), spp=2, seed=4, estimators="interior")
     np.testing.assert_allclose(theta.grad.numpy(), g, rtol=1e-6)
+
+
+def test_time_edges_option_reaches_the_renderer():
+    """`time_edges` switches the path tracer's draws on the bin edges (the default where they
+    apply) in render_diff and gradient."""
+    s = scene("narrow_pulse_box.toml")
+    on = dt.render_diff(s, ["tall_box_x"], spp=1, seed=2, estimators="interior")
+    off = dt.render_diff(s, ["tall_box_x"], spp=1, seed=2, estimators="interior", time_edges="off")
+    assert on.stats["time_edges"] is True and off.stats["time_edges"] is False
+    # same paths: the primal is the same bytes, the derivative differs (its time term is drawn)
+    assert np.array_equal(on.transient, off.transient)
+    assert not np.array_equal(on.derivatives["tall_box_x"], off.derivatives["tall_box_x"])
+    g, stats = dt.gradient(s, ["tall_box_x"], np.ones(s.shape, np.float32), spp=1, seed=2,
+                           estimators="interior", time_edges="off")
+    assert stats["time_edges"] is False
+    with pytest.raises(dt.RenderError, match="time_edges"):
+        dt.render_diff(s, ["tall_box_x"], spp=1, time_edges="sometimes")
