@@ -73,35 +73,11 @@ impl Accumulate for AdjointFilm<'_> {
     }
 
     #[inline]
-    fn add_time_term(&mut self, x: usize, y: usize, corr: &Correlation, d: f64, f: &[f32], ddot: &[f32]) {
+    fn add_time_bin(&mut self, x: usize, y: usize, bin: usize, s: f64, f: &[f32], ddot: &[f32]) {
         let a = self.adjoint;
         let c_n = a.channels;
-        let base = a.index(x, y, 0, 0);
-        let n_k = ddot.len().min(MAX_PARAMS);
-        let grad = &mut self.grad;
-        corr.for_each(d, |bin, _, ds| {
-            let adj = &a.data[base + bin * c_n..base + (bin + 1) * c_n];
-            let g: f64 = (0..c_n).map(|c| adj[c] as f64 * f[c] as f64).sum::<f64>() * ds;
-            for k in 0..n_k {
-                grad[k] += g * ddot[k] as f64;
-            }
-        });
-    }
-
-    #[inline]
-    fn add_edge_term(&mut self, x: usize, y: usize, edge: usize, f: &[f32], ddot: &[f32]) {
-        let a = self.adjoint;
-        let c_n = a.channels;
-        let bins = a.axis.bins;
-        let base = a.index(x, y, 0, 0);
-        let bin = |l: usize| -> f64 { (0..c_n).map(|c| a.data[base + l * c_n + c] as f64 * f[c] as f64).sum() };
-        let mut g = 0.0;
-        if edge < bins {
-            g += bin(edge);
-        }
-        if edge >= 1 && edge - 1 < bins {
-            g -= bin(edge - 1);
-        }
+        let base = a.index(x, y, bin, 0);
+        let g: f64 = s * (0..c_n).map(|c| a.data[base + c] as f64 * f[c] as f64).sum::<f64>();
         for k in 0..ddot.len().min(MAX_PARAMS) {
             self.grad[k] += g * ddot[k] as f64;
         }

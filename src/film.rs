@@ -179,13 +179,27 @@ pub trait Accumulate {
         fdot: &[f32],
         ddot: &[f32],
     );
+    /// `İ_k += s·f·ḋ_k` in bin `bin` (on the film) of pixel (x, y), and nothing else: one bin
+    /// of a time term whose value and ḟ another estimator counts.
+    fn add_time_bin(&mut self, x: usize, y: usize, bin: usize, s: f64, f: &[f32], ddot: &[f32]);
+
     /// `İ_k += f·Ṡ_e(d)·ḋ_k` at pixel (x, y), and nothing else: the time term of a path whose
     /// value and ḟ another estimator counts (`integrator::time_edge_nee`).
-    fn add_time_term(&mut self, x: usize, y: usize, corr: &Correlation, d: f64, f: &[f32], ddot: &[f32]);
+    fn add_time_term(&mut self, x: usize, y: usize, corr: &Correlation, d: f64, f: &[f32], ddot: &[f32]) {
+        corr.for_each(d, |bin, _, ds| self.add_time_bin(x, y, bin, ds, f, ddot));
+    }
+
     /// `İ_k += f·ḋ_k` in bin `edge` and `İ_k −= f·ḋ_k` in bin `edge − 1` (those of them on the
     /// film) at pixel (x, y): the time term of a delta pulse's path on that bin edge
     /// (Ṡ_e is a Dirac there), drawn by `integrator::time_edge_nee`.
-    fn add_edge_term(&mut self, x: usize, y: usize, edge: usize, f: &[f32], ddot: &[f32]);
+    fn add_edge_term(&mut self, x: usize, y: usize, edge: usize, bins: usize, f: &[f32], ddot: &[f32]) {
+        if edge < bins {
+            self.add_time_bin(x, y, edge, 1.0, f, ddot);
+        }
+        if (1..=bins).contains(&edge) {
+            self.add_time_bin(x, y, edge - 1, -1.0, f, ddot);
+        }
+    }
 }
 
 /// A tile film bins each path through S_e into its own pixels.
@@ -272,58 +286,21 @@ impl Accumulate for TileFilm {
         });
     }
 
-    /// The derivative bins, and their steady image when it integrates the window (over all
-    /// time Ṡ_e integrates to zero, so a `Full` steady image takes nothing).
+    /// Into the derivative bins, and their steady image when it integrates the window (over
+    /// all time Ṡ_e integrates to zero, so a `Full` steady image takes nothing).
     #[inline]
-    fn add_time_term(&mut self, x: usize, y: usize, corr: &Correlation, d: f64, f: &[f32], ddot: &[f32]) {
+    fn add_time_bin(&mut self, x: usize, y: usize, bin: usize, s: f64, f: &[f32], ddot: &[f32]) {
         let p = (y - self.y0) * self.w + (x - self.x0);
         let c_n = self.channels;
         let n_k = ddot.len().min(self.derivs);
         let sblock = self.w * self.h * c_n;
         let full = self.steady_mode == SteadyMode::Full;
         let block = self.block();
-        let base = p * self.bins * c_n;
-        let (data, steady) = (&mut self.data, &mut self.steady);
-        corr.for_each(d, |bin, _, ds| {
-            let i = base + bin * c_n;
-            for k in 0..n_k {
-                let dd = ds * ddot[k] as f64;
-                for c in 0..c_n {
-                    let v = f[c] as f64 * dd;
-                    data.add(block * (1 + k) + i + c, v);
-                    if !full {
-                        steady[sblock * (1 + k) + p * c_n + c] += v;
-                    }
-                }
-            }
-        });
-    }
-
-    #[inline]
-    fn add_edge_term(&mut self, x: usize, y: usize, edge: usize, f: &[f32], ddot: &[f32]) {
-        if edge < self.bins {
-            self.add_deriv_bin(x, y, edge, 1.0, f, ddot);
-        }
-        if edge >= 1 && edge - 1 < self.bins {
-            self.add_deriv_bin(x, y, edge - 1, -1.0, f, ddot);
-        }
-    }
-}
-
-impl TileFilm {
-    /// `sign`·f·ḋ_k into bin `bin` of pixel (x, y)'s derivative films (and their steady image
-    /// when it integrates the window).
-    fn add_deriv_bin(&mut self, x: usize, y: usize, bin: usize, sign: f64, f: &[f32], ddot: &[f32]) {
-        let p = (y - self.y0) * self.w + (x - self.x0);
-        let c_n = self.channels;
-        let n_k = ddot.len().min(self.derivs);
-        let sblock = self.w * self.h * c_n;
-        let full = self.steady_mode == SteadyMode::Full;
-        let i = self.block() + (p * self.bins + bin) * c_n;
+        let i = (p * self.bins + bin) * c_n;
         for k in 0..n_k {
             for c in 0..c_n {
-                let v = sign * f[c] as f64 * ddot[k] as f64;
-                self.data.add(self.block() * k + i + c, v);
+                let v = f[c] as f64 * (s * ddot[k] as f64);
+                self.data.add(block * (1 + k) + i + c, v);
                 if !full {
                     self.steady[sblock * (1 + k) + p * c_n + c] += v;
                 }

@@ -88,7 +88,7 @@ impl<const C: usize> LaneContribution<C> {
         let f: [f32; C] = self.f.map(|v| v * h);
         if self.time_only {
             match self.edge {
-                Some(j) => film.add_edge_term(x, y, j as usize, &f, &self.ddot[..self.n_k]),
+                Some(j) => film.add_edge_term(x, y, j as usize, corr.axis().bins, &f, &self.ddot[..self.n_k]),
                 None => film.add_time_term(x, y, corr, self.d, &f, &self.ddot[..self.n_k]),
             }
             return;
