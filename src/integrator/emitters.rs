@@ -39,7 +39,7 @@ pub const REUSE_MAX_TRIANGLES: usize = 1024;
 
 /// The index of the cdf entry (cumulative shares, last ≈ 1) that `u` ∈ [0, 1) falls in, and
 /// `u` rescaled to [0, 1) within it.
-fn pick_and_rescale(cdf: &[f32], u: f32) -> (usize, f32) {
+pub(super) fn pick_and_rescale(cdf: &[f32], u: f32) -> (usize, f32) {
     let k = cdf.partition_point(|&c| c <= u).min(cdf.len() - 1);
     let lo = if k == 0 { 0.0 } else { cdf[k - 1] };
     let share = cdf[k] - lo;

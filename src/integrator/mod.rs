@@ -21,6 +21,7 @@ mod emitters_tests;
 pub mod importance;
 pub mod medium;
 pub mod nlos;
+pub mod nlos_aim;
 pub mod nlos_start;
 pub mod opl;
 pub mod opl_precision;

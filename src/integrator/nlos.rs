@@ -5,7 +5,8 @@
 //! L_o(s → SPAD) = ∫ f_r(s) L_i(s, ω) |cos θ| dω with the wall's diffuse f_r = ρ_s/π: its
 //! importance is f_r × cos, a delta in position at s. The kernel starts each lane's path at its
 //! sensor point with a cosine-sampled direction about the wall's normal, so the path's weight
-//! starts at f_r·cos/pdf = ρ_s (`nlos_start.rs`); it ends by next-event estimation at
+//! starts at f_r·cos/pdf = ρ_s (`nlos_start.rs`), or, for a share of the paths, with a
+//! direction aimed at a point on the hidden shapes (`nlos_aim.rs`); it ends by next-event estimation at
 //! the laser spots: the lane's own spot (confocal) or every laser point in turn (exhaustive),
 //! each a point source I(θ) = Φ·ρ/π·cos θ (`emitter_table::laser_spot`). One traced path thus
 //! serves every laser point of an exhaustive scan.
@@ -90,6 +91,8 @@ pub struct NlosSensor {
     pub spots: Vec<Option<LaserSpot>>,
     /// Whether the laser-to-spot length counts in the time of flight.
     pub laser_leg: bool,
+    /// The hidden shapes the first segments aim at (`super::nlos_aim`), if any.
+    pub hidden: Option<super::nlos_aim::HiddenTargets>,
 }
 
 impl NlosSensor {
@@ -139,6 +142,7 @@ impl NlosSensor {
             spad_leg,
             spots,
             laser_leg: included,
+            hidden: super::nlos_aim::HiddenTargets::new(scene, &spec.hidden, &spec.sensors.points),
         })
     }
 

@@ -190,6 +190,7 @@ pub fn trace_packet_from<R: Real, const C: usize, S: Sink<C>>(
     // (`super::nlos`): the first vertex is then an ordinary (material-form) vertex.
     let nlos = ctx.nlos.as_ref().filter(|_| matches!(start, PathStart::Camera));
     let mut sensor = [0usize; 8];
+    let mut aim = None;
     if let Some(n) = nlos {
         let mut seen = [false; 8];
         for i in 0..lanes.count.min(R::LANES) {
@@ -200,6 +201,8 @@ pub fn trace_packet_from<R: Real, const C: usize, S: Sink<C>>(
         let st = super::nlos_start::start::<R, C>(ctx, n, &sensor, f1, f2);
         (ray_o, ray_d, prev_p, prev_n, prev_pdf, beta) = (st.o, st.d, st.p, st.n, st.pdf, st.beta);
         prev64 = st.p64;
+        active = active & st.alive;
+        aim = st.aim;
     }
     let mut x64 = prev64;
     // The time term f·Ṡ_e·ḋ from draws on the time edges where they apply
@@ -269,6 +272,25 @@ pub fn trace_packet_from<R: Real, const C: usize, S: Sink<C>>(
                 let r = r2.sqrt();
                 let w_in = seg * R::safe_div(R::one(), r);
                 let cos_i = x.n.dot(w_in).abs();
+                if let Some((a, t)) = aim
+                    .as_ref()
+                    .zip(nlos.and_then(|n| n.hidden.as_ref()))
+                    .filter(|_| depth == 1)
+                {
+                    // the first segment's two strategies (`super::nlos_aim`)
+                    let (scale, pdf, keep) = super::nlos_aim::weigh_first_hit::<R>(
+                        t,
+                        a,
+                        &hit.prim,
+                        &prev_n.value(),
+                        &ray_d,
+                        r2.value(),
+                        cos_i.value(),
+                    );
+                    active = active & keep;
+                    beta = beta.scale(R::from_value(scale));
+                    prev_pdf = pdf;
+                }
                 if R::DERIVS > 0 && !from_camera {
                     // G·J (dual) over its value: the derivative of the geometry of this segment.
                     let cos_prev = prev_n.dot(w_in).abs();

@@ -566,6 +566,11 @@ pub struct NlosDesc {
     #[serde(default)]
     pub relay_legs: RelayLegs,
     pub noise: Option<NoiseDesc>,
+    /// Share of the paths whose first segment is aimed at a point drawn on the hidden shapes
+    /// (the rest cosine-sample it), in [0, 1); 0 turns aiming off. Default 0.5.
+    pub hidden_sampling: Option<f64>,
+    /// The shapes aimed at (default: every shape but the wall).
+    pub hidden_shapes: Option<Vec<String>>,
 }
 
 /// Photon noise of a synthetic capture, applied to a copy of the transient.

@@ -414,7 +414,7 @@ impl fmt::Display for Scene {
         if let Some(n) = &self.nlos {
             writeln!(
                 out,
-                "  nlos: {} scan on shape {:?}: {} sensor point(s) ({}), {} laser point(s) of laser {:?}; the SPAD is the camera position; relay legs {} the time of flight{}",
+                "  nlos: {} scan on shape {:?}: {} sensor point(s) ({}), {} laser point(s) of laser {:?}; the SPAD is the camera position; relay legs {} the time of flight; {}{}",
                 if n.exhaustive() { "exhaustive" } else { "confocal" },
                 self.shapes[n.wall as usize].name,
                 n.sensors.len(),
@@ -429,6 +429,19 @@ impl fmt::Display for Scene {
                     "in"
                 } else {
                     "out of"
+                },
+                if n.hidden.probability > 0.0 {
+                    format!(
+                        "{:.0}% of paths aimed at {:?}",
+                        100.0 * n.hidden.probability,
+                        n.hidden
+                            .shapes
+                            .iter()
+                            .map(|&s| self.shapes[s as usize].name.as_str())
+                            .collect::<Vec<_>>()
+                    )
+                } else {
+                    "no paths aimed at hidden shapes".to_string()
                 },
                 n.noise.map_or(String::new(), |z| format!(
                     ", noise: Poisson({} photons per unit + {} dark counts), seed {}",

@@ -89,7 +89,24 @@ pub struct NlosSpec {
     pub frame: [Vec3; 3],
     /// Photon noise to add to the capture (`[nlos.noise]`), if any.
     pub noise: Option<NoiseSpec>,
+    /// Paths aimed at the hidden shapes (`hidden_sampling`, `hidden_shapes`).
+    pub hidden: HiddenSampling,
 }
+
+/// Where the capture's paths aim their first segment (`integrator::nlos_aim`): with
+/// probability `probability` at a point drawn by area on `shapes`, else cosine-sampled about
+/// the wall's normal. A small hidden object then draws paths in proportion to the aiming,
+/// not to the solid angle it covers from the wall.
+#[derive(Clone, Debug, PartialEq)]
+pub struct HiddenSampling {
+    /// Share of the paths aimed, in [0, 1); 0 when there is nothing to aim at.
+    pub probability: f32,
+    /// Shape indices aimed at (every one has area when `probability` > 0).
+    pub shapes: Vec<u32>,
+}
+
+/// Default share of the paths aimed at the hidden shapes.
+pub const DEFAULT_HIDDEN_SAMPLING: f64 = 0.5;
 
 impl NlosSpec {
     /// Whether the scan is exhaustive (laser points × sensor points).
@@ -159,7 +176,7 @@ pub(super) fn resolve(
             ),
         ));
     }
-    let tris = wall_triangles(&shapes[wall], geometry);
+    let tris = shape_triangles(&shapes[wall], geometry);
     let frame = wall_frame(&tris, spad).ok_or_else(|| {
         ctx.invalid(
             at("wall"),
@@ -226,6 +243,7 @@ pub(super) fn resolve(
             })
         }
     };
+    let hidden = hidden_sampling(d, names, shapes, geometry, wall, ctx)?;
     Ok(Some(NlosSpec {
         wall: wall as u32,
         laser: laser as u32,
@@ -235,11 +253,78 @@ pub(super) fn resolve(
         lasers,
         frame,
         noise,
+        hidden,
     }))
 }
 
-/// The wall's world triangles with their indices in the scene.
-fn wall_triangles(shape: &Shape, geo: &Geometry) -> Vec<(u32, [DVec3; 3])> {
+/// `hidden_sampling` and `hidden_shapes`: the share of aimed paths (default
+/// [`DEFAULT_HIDDEN_SAMPLING`]) and the shapes they aim at (default every shape but the wall).
+fn hidden_sampling(
+    d: &super::desc::NlosDesc,
+    names: &Names,
+    shapes: &[Shape],
+    geometry: &Geometry,
+    wall: usize,
+    ctx: &Ctx,
+) -> Result<HiddenSampling, SceneError> {
+    let at = |f: &str| table_field("nlos", f);
+    let probability = d.hidden_sampling.unwrap_or(DEFAULT_HIDDEN_SAMPLING);
+    if !(probability.is_finite() && (0.0..1.0).contains(&probability)) {
+        return Err(ctx.invalid(
+            at("hidden_sampling"),
+            format!(
+                "must be a number in [0, 1): the share of paths aimed at the hidden shapes, 0 for none (got {probability}); \
+                 1 would leave the rest of the scene unsampled"
+            ),
+        ));
+    }
+    let chosen: Vec<u32> = match &d.hidden_shapes {
+        None => (0..shapes.len() as u32).filter(|&s| s as usize != wall).collect(),
+        Some(list) => {
+            let mut out = Vec::with_capacity(list.len());
+            for name in list {
+                let Some(s) = names.shape(name) else {
+                    return Err(ctx.invalid(at("hidden_shapes"), no_such("shape", "shapes", name, &names.shapes)));
+                };
+                if s == wall {
+                    return Err(ctx.invalid(
+                        at("hidden_shapes"),
+                        format!("shape {name:?} is the relay wall: aim at the hidden scene, not at the wall"),
+                    ));
+                }
+                if !out.contains(&(s as u32)) {
+                    out.push(s as u32);
+                }
+            }
+            out
+        }
+    };
+    let area: f64 = chosen
+        .iter()
+        .flat_map(|&s| shape_triangles(&shapes[s as usize], geometry))
+        .map(|(_, [a, b, c])| 0.5 * (b - a).cross(c - a).length())
+        .sum();
+    if !(area > 0.0) {
+        if d.hidden_shapes.is_some() && probability > 0.0 {
+            return Err(ctx.invalid(
+                at("hidden_shapes"),
+                "the shapes named have no area to aim at: name shapes with triangles, or set hidden_sampling = 0",
+            ));
+        }
+        // nothing but the wall: every path is cosine-sampled
+        return Ok(HiddenSampling {
+            probability: 0.0,
+            shapes: Vec::new(),
+        });
+    }
+    Ok(HiddenSampling {
+        probability: probability as f32,
+        shapes: chosen,
+    })
+}
+
+/// A shape's world triangles with their indices in the scene (the wall's, the hidden shapes').
+fn shape_triangles(shape: &Shape, geo: &Geometry) -> Vec<(u32, [DVec3; 3])> {
     (shape.first_tri..shape.first_tri + shape.tri_count)
         .map(|t| (t, geo.indices[t as usize].map(|i| geo.positions[i as usize].as_dvec3())))
         .collect()
@@ -433,5 +518,6 @@ pub fn describe(spec: &NlosSpec) -> serde_json::Value {
         "sensor_grid": [spec.sensors.nx, spec.sensors.ny],
         "laser_grid": [spec.lasers.nx, spec.lasers.ny],
         "noise": spec.noise,
+        "hidden_sampling": spec.hidden.probability,
     })
 }

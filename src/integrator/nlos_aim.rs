@@ -1,0 +1,220 @@
+//! Aiming the first segment of an NLOS path at the hidden scene (`[nlos] hidden_sampling`,
+//! `hidden_shapes`; `crate::scene::nlos::HiddenSampling`).
+//!
+//! From a sensor point s on the relay wall, a cosine-sampled direction finds a small hidden
+//! object only in proportion to the solid angle it covers: a 30 cm box a metre from the wall
+//! takes a few percent of the paths, and the rest light the capture only through the rest of
+//! the scene. So the first vertex x₁ is drawn by one of two strategies, picked per path
+//! (Veach's one-sample model, 1997 §9.2.4, with the balance heuristic):
+//! - with probability 1 − α, a cosine-weighted direction about the wall's normal: density
+//!   cos θ_s / π per steradian;
+//! - with probability α, a point y drawn on the hidden shapes with density p_A(y) per unit
+//!   area (triangles by weight, [`HiddenTargets::new`], uniform within each), the ray cast
+//!   from s towards it. The draw counts only where y is the first surface that ray meets, so
+//!   in area measure this strategy has density p_A at a point of the hidden shapes that s
+//!   sees, and 0 elsewhere.
+//!
+//! Both in solid angle at the first hit x₁ at distance r:
+//! p(ω) = (1 − α)·cos θ_s/π + α·p_A(x₁)·r²/|cos θ₁|, and the path's weight is
+//! f_r·cos θ_s / p(ω) = ρ_s · (cos θ_s/π) / p(ω), which [`weigh_first_hit`] makes of the
+//! cosine strategy's ρ_s. The density is a plain number: in the area-measure form of
+//! Algorithm 1 (`super::path`), the derivative is that of f and of G·J along the path the
+//! strategies sampled, whichever strategy it was.
+
+use super::emitters::pick_and_rescale;
+use crate::kernel::{Mask, Real, V3};
+use crate::scene::Scene;
+use crate::scene::nlos::{HiddenSampling, WallPoint};
+use glam::{DVec3, Vec3};
+
+/// The hidden shapes' triangles, each drawn with a weight, a point uniformly within it.
+#[derive(Clone, Debug)]
+pub struct HiddenTargets {
+    /// Share of the paths aimed (α), in (0, 1).
+    pub probability: f32,
+    /// Triangle indices of the hidden shapes with a weight > 0.
+    tris: Vec<u32>,
+    /// Their cumulative weights (last ≈ 1).
+    cdf: Vec<f32>,
+    /// Density per unit area of the aimed points on each scene triangle (0 off the hidden
+    /// shapes): the triangle's share of the weight over its area.
+    pdf_area: Vec<f32>,
+}
+
+/// One path's aim, for the check at its first hit.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Aim {
+    /// The lanes aimed (the rest were cosine-sampled).
+    pub aimed: [bool; 8],
+    /// Triangle of the aimed point.
+    pub prim: [u32; 8],
+    /// Distance from the sensor point to the aimed point.
+    pub dist: [f32; 8],
+}
+
+/// Sensor points the triangle weights average over, at most.
+const WEIGHT_SENSORS: usize = 64;
+
+impl HiddenTargets {
+    /// `None` when no path is aimed (α = 0, or nothing to aim at).
+    ///
+    /// A triangle's weight is its area times the mean over (up to [`WEIGHT_SENSORS`] of) the
+    /// sensor points of G(s, c)², G = cos θ_s·cos θ_c / r² from sensor point s to the
+    /// triangle's centroid c. The light a hidden point returns to a confocal scan goes out and
+    /// back over the same segment, so it scales as G², and cosine sampling already draws
+    /// points in proportion to G alone: the aimed paths go where the second factor is large
+    /// (near, facing surfaces), not to large shapes seen at grazing angles. Triangles no
+    /// sensor point faces get no aimed paths (the cosine-sampled ones still find them).
+    pub fn new(scene: &Scene, hidden: &HiddenSampling, sensors: &[WallPoint]) -> Option<Self> {
+        if hidden.probability <= 0.0 || sensors.is_empty() {
+            return None;
+        }
+        let geo = &scene.geometry;
+        let step = sensors.len().div_ceil(WEIGHT_SENSORS);
+        let from: Vec<(DVec3, DVec3)> = sensors
+            .iter()
+            .step_by(step)
+            .map(|s| (s.p.as_dvec3(), s.n.as_dvec3()))
+            .collect();
+        let mut tris = Vec::new();
+        let mut weights = Vec::new();
+        for &s in &hidden.shapes {
+            let shape = &scene.shapes[s as usize];
+            for t in shape.first_tri..shape.first_tri + shape.tri_count {
+                let [a, b, c] = geo.indices[t as usize].map(|i| geo.positions[i as usize].as_dvec3());
+                let cross = (b - a).cross(c - a);
+                let area = 0.5 * cross.length();
+                if !(area > 0.0) {
+                    continue;
+                }
+                let (n_t, centre) = (cross / (2.0 * area), (a + b + c) / 3.0);
+                let g2: f64 = from
+                    .iter()
+                    .map(|(p, n)| {
+                        let d = centre - *p;
+                        let r2 = d.length_squared();
+                        let w = d / r2.sqrt();
+                        let g = n.dot(w).max(0.0) * n_t.dot(w).abs() / r2;
+                        if g.is_finite() { g * g } else { 0.0 }
+                    })
+                    .sum::<f64>()
+                    / from.len() as f64;
+                if area * g2 > 0.0 {
+                    tris.push(t);
+                    weights.push((area * g2, area));
+                }
+            }
+        }
+        let total: f64 = weights.iter().map(|w| w.0).sum();
+        if !(total > 0.0 && total.is_finite()) {
+            return None;
+        }
+        let mut pdf_area = vec![0.0f32; geo.indices.len()];
+        let mut acc = 0.0;
+        let mut cdf = Vec::with_capacity(tris.len());
+        for (&t, &(w, area)) in tris.iter().zip(&weights) {
+            acc += w;
+            cdf.push((acc / total) as f32);
+            pdf_area[t as usize] = (w / total / area) as f32;
+        }
+        Some(Self {
+            probability: hidden.probability,
+            tris,
+            cdf,
+            pdf_area,
+        })
+    }
+
+    /// A point from two numbers in [0, 1): `u0` picks the triangle by weight and is rescaled
+    /// within its share, then the point is uniform on it. Returns (triangle, barycentrics).
+    pub fn draw(&self, u0: f32, u1: f32) -> (u32, f32, f32) {
+        let (k, ua) = pick_and_rescale(&self.cdf, u0);
+        let s = ua.sqrt();
+        (self.tris[k], s * (1.0 - u1), s * u1)
+    }
+}
+
+/// The first segment's directions: cosine-sampled from (`u1`, `u2`) in the lanes that
+/// `u1 ≥ α` picks (with `u1` rescaled to [0, 1)), aimed at a point drawn on the hidden shapes
+/// in the others. Returns the directions, the aim and the lanes whose aimed point lies
+/// behind the wall (f_r = 0 there: those paths carry nothing).
+pub fn first_directions<R: Real>(
+    ctx: &super::context::RenderContext,
+    targets: &HiddenTargets,
+    p: &[Vec3; 8],
+    n: &V3<R::Value>,
+    u1: R::Value,
+    u2: R::Value,
+) -> (V3<R::Value>, Aim, R::Mask) {
+    let alpha = targets.probability;
+    let mut aim = Aim::default();
+    let mut u_cos = [0.0f32; 8];
+    let mut to = [Vec3::Z; 8];
+    let mut alive = [true; 8];
+    for i in 0..R::LANES {
+        let u = u1.lane(i);
+        if u < alpha {
+            let (prim, bu, bv) = targets.draw(u / alpha, u2.lane(i));
+            let [a, b, c] = ctx.tri_verts[prim as usize];
+            let y = a + (b - a) * bu + (c - a) * bv;
+            let d = y - p[i];
+            let dist = d.length();
+            let dir = d / dist;
+            aim.aimed[i] = true;
+            aim.prim[i] = prim;
+            aim.dist[i] = dist;
+            to[i] = dir;
+            alive[i] = dist > 0.0 && dir.dot(n.lane(i)) > 0.0;
+        } else {
+            u_cos[i] = ((u - alpha) / (1.0 - alpha)).min(1.0 - f32::EPSILON);
+        }
+    }
+    let (cos_dir, _) = super::bsdf::sample_cosine(n, n, R::Value::from_lanes(&u_cos[..R::LANES]), u2);
+    let aimed = <R::Value as Real>::Mask::from_bools(&aim.aimed[..R::LANES]);
+    let d = V3::select(aimed, V3::from_lane_vecs(&to[..R::LANES]), cos_dir);
+    (d, aim, R::Mask::from_bools(&alive[..R::LANES]))
+}
+
+/// At the first hit (triangle `prim`, distance² `r2`, |cos θ₁| `cos_1`, reached along unit
+/// `dir` from the sensor point with normal `n`): the factor that turns the cosine strategy's
+/// weight ρ_s into ρ_s·(cos θ_s/π)/p(ω), the mixture's density p(ω), and the lanes that count
+/// (an aimed lane whose ray met another surface before its point carries nothing).
+pub fn weigh_first_hit<R: Real>(
+    targets: &HiddenTargets,
+    aim: &Aim,
+    prim: &[u32; 8],
+    n: &V3<R::Value>,
+    dir: &V3<R::Value>,
+    r2: R::Value,
+    cos_1: R::Value,
+) -> (R::Value, R::Value, R::Mask) {
+    let alpha = targets.probability;
+    let cos_s = n.dot(*dir);
+    let mut scale = [0.0f32; 8];
+    let mut pdf = [0.0f32; 8];
+    let mut keep = [false; 8];
+    for i in 0..R::LANES {
+        let (r2, c1, cs) = (r2.lane(i), cos_1.lane(i), cos_s.lane(i));
+        let t = prim[i];
+        if aim.aimed[i] {
+            let same = t == aim.prim[i] || (r2.sqrt() - aim.dist[i]).abs() <= 1e-4 * aim.dist[i];
+            if !same {
+                continue;
+            }
+        }
+        let p_cos = cs.max(0.0) * std::f32::consts::FRAC_1_PI;
+        let p_a = targets.pdf_area.get(t as usize).copied().unwrap_or(0.0);
+        let p_aim = if p_a > 0.0 && c1 > 0.0 { p_a * r2 / c1 } else { 0.0 };
+        let p = (1.0 - alpha) * p_cos + alpha * p_aim;
+        if p > 0.0 && p.is_finite() && p_cos > 0.0 {
+            scale[i] = p_cos / p;
+            pdf[i] = p;
+            keep[i] = true;
+        }
+    }
+    (
+        R::Value::from_lanes(&scale[..R::LANES]),
+        R::Value::from_lanes(&pdf[..R::LANES]),
+        R::Mask::from_bools(&keep[..R::LANES]),
+    )
+}
