@@ -193,3 +193,13 @@ impl EmitterTable {
         }
     }
 }
+
+/// The index of the cdf entry (cumulative shares, last ≈ 1) that `u` ∈ [0, 1) falls in, and
+/// `u` rescaled to [0, 1) within it.
+pub(super) fn pick_and_rescale(cdf: &[f32], u: f32) -> (usize, f32) {
+    let k = cdf.partition_point(|&c| c <= u).min(cdf.len() - 1);
+    let lo = if k == 0 { 0.0 } else { cdf[k - 1] };
+    let share = cdf[k] - lo;
+    let rest = if share > 0.0 { (u - lo) / share } else { 0.5 };
+    (k, rest.clamp(0.0, 1.0 - f32::EPSILON))
+}

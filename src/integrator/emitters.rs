@@ -4,6 +4,7 @@
 //! points, the laser spot in ray form, derivative lanes of the emission).
 
 use super::context::RenderContext;
+use super::emitter_table::pick_and_rescale;
 use super::emitter_table::{EmitterTable, Entry};
 use super::path::ray_plane_point;
 use super::surface::{SurfacePoint, surface_at};
@@ -36,16 +37,6 @@ pub struct LightSample<R: Real, const C: usize> {
 /// point it samples ([`EmitterTable::sample`]): its rescaled remainder keeps at least 14 of
 /// the number's 24 bits for the point on a triangle of average area.
 pub const REUSE_MAX_TRIANGLES: usize = 1024;
-
-/// The index of the cdf entry (cumulative shares, last ≈ 1) that `u` ∈ [0, 1) falls in, and
-/// `u` rescaled to [0, 1) within it.
-pub(super) fn pick_and_rescale(cdf: &[f32], u: f32) -> (usize, f32) {
-    let k = cdf.partition_point(|&c| c <= u).min(cdf.len() - 1);
-    let lo = if k == 0 { 0.0 } else { cdf[k - 1] };
-    let share = cdf[k] - lo;
-    let rest = if share > 0.0 { (u - lo) / share } else { 0.5 };
-    (k, rest.clamp(0.0, 1.0 - f32::EPSILON))
-}
 
 impl EmitterTable {
     /// Samples one emitter point per lane: `select` picks the emitter, and the 2D point

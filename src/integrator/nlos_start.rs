@@ -5,7 +5,7 @@
 use super::bsdf::{albedo, cosine_pdf, sample_cosine};
 use super::context::RenderContext;
 use super::nlos::NlosSensor;
-use super::nlos_aim::{Aim, first_directions};
+use super::nlos_aim::{Aim, HiddenTargets};
 use super::trace::spawn_point;
 use crate::kernel::{Mask, Real, Spectrum, V3};
 use glam::Vec3;
@@ -64,4 +64,89 @@ pub fn start<R: Real, const C: usize>(
         aim,
         alive,
     }
+}
+
+/// The first segment's directions: cosine-sampled from (`u1`, `u2`) in the lanes that
+/// `u1 ≥ α` picks (with `u1` rescaled to [0, 1)), aimed at a point drawn on the hidden shapes
+/// in the others. Returns the directions, the aim and the lanes whose aimed point lies
+/// behind the wall (f_r = 0 there: those paths carry nothing).
+pub fn first_directions<R: Real>(
+    ctx: &RenderContext,
+    targets: &HiddenTargets,
+    p: &[Vec3; 8],
+    n: &V3<R::Value>,
+    u1: R::Value,
+    u2: R::Value,
+) -> (V3<R::Value>, Aim, R::Mask) {
+    let alpha = targets.probability;
+    let mut aim = Aim::default();
+    let mut u_cos = [0.0f32; 8];
+    let mut to = [Vec3::Z; 8];
+    let mut alive = [true; 8];
+    for i in 0..R::LANES {
+        let u = u1.lane(i);
+        if u < alpha {
+            let (prim, bu, bv) = targets.draw(u / alpha, u2.lane(i));
+            let [a, b, c] = ctx.tri_verts[prim as usize];
+            let y = a + (b - a) * bu + (c - a) * bv;
+            let d = y - p[i];
+            let dist = d.length();
+            let dir = d / dist;
+            aim.aimed[i] = true;
+            aim.prim[i] = prim;
+            aim.dist[i] = dist;
+            to[i] = dir;
+            alive[i] = dist > 0.0 && dir.dot(n.lane(i)) > 0.0;
+        } else {
+            u_cos[i] = ((u - alpha) / (1.0 - alpha)).min(1.0 - f32::EPSILON);
+        }
+    }
+    let (cos_dir, _) = sample_cosine(n, n, R::Value::from_lanes(&u_cos[..R::LANES]), u2);
+    let aimed = <R::Value as Real>::Mask::from_bools(&aim.aimed[..R::LANES]);
+    let d = V3::select(aimed, V3::from_lane_vecs(&to[..R::LANES]), cos_dir);
+    (d, aim, R::Mask::from_bools(&alive[..R::LANES]))
+}
+
+/// At the first hit (triangle `prim`, distance² `r2`, |cos θ₁| `cos_1`, reached along unit
+/// `dir` from the sensor point with normal `n`): the factor that turns the cosine strategy's
+/// weight ρ_s into ρ_s·(cos θ_s/π)/p(ω), the mixture's density p(ω), and the lanes that count
+/// (an aimed lane whose ray met another surface before its point carries nothing).
+pub fn weigh_first_hit<R: Real>(
+    targets: &HiddenTargets,
+    aim: &Aim,
+    prim: &[u32; 8],
+    n: &V3<R::Value>,
+    dir: &V3<R::Value>,
+    r2: R::Value,
+    cos_1: R::Value,
+) -> (R::Value, R::Value, R::Mask) {
+    let alpha = targets.probability;
+    let cos_s = n.dot(*dir);
+    let mut scale = [0.0f32; 8];
+    let mut pdf = [0.0f32; 8];
+    let mut keep = [false; 8];
+    for i in 0..R::LANES {
+        let (r2, c1, cs) = (r2.lane(i), cos_1.lane(i), cos_s.lane(i));
+        let t = prim[i];
+        if aim.aimed[i] {
+            let same = t == aim.prim[i] || (r2.sqrt() - aim.dist[i]).abs() <= 1e-4 * aim.dist[i];
+            if !same {
+                continue;
+            }
+        }
+        let p_cos = cs.max(0.0) * std::f32::consts::FRAC_1_PI;
+        let p_a = targets.pdf_area(t);
+        let p_aim = if p_a > 0.0 && c1 > 0.0 { p_a * r2 / c1 } else { 0.0 };
+        let p = (1.0 - alpha) * p_cos + alpha * p_aim;
+        if p > 0.0 && p.is_finite() && p_cos > 0.0 {
+            scale[i] = p_cos / p;
+            pdf[i] = p;
+            keep[i] = true;
+        }
+    }
+    (
+        R::Value::from_lanes(&scale[..R::LANES]),
+        R::Value::from_lanes(&pdf[..R::LANES]),
+        R::Mask::from_bools(&keep[..R::LANES]),
+    )
 }

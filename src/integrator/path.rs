@@ -278,7 +278,7 @@ pub fn trace_packet_from<R: Real, const C: usize, S: Sink<C>>(
                     .filter(|_| depth == 1)
                 {
                     // the first segment's two strategies (`super::nlos_aim`)
-                    let (scale, pdf, keep) = super::nlos_aim::weigh_first_hit::<R>(
+                    let (scale, pdf, keep) = super::nlos_start::weigh_first_hit::<R>(
                         t,
                         a,
                         &hit.prim,
