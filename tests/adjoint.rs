@@ -4,7 +4,7 @@
 //! films (each part summed in f64, stored as f32, the parts added in f32), not Monte Carlo
 //! noise: a missing term, a wrong scale or another sample stream fails it by far.
 
-mod common;
+use crate::common;
 use difftransient::render::{DiffParts, render_diff_parts};
 use difftransient::scene::IntegratorKind;
 use difftransient::{RenderOptions, Transient, render_adjoint};

@@ -6,7 +6,7 @@
 //! OPL is 2 η r. The pixel value is L averaged over the pixel footprint (box filter),
 //! integrated here by Gauss–Legendre quadrature.
 
-mod common;
+use crate::common;
 use difftransient::integrator::camera::CameraSampler;
 use difftransient::scene::{EmitterKind, Material, PixelFilter};
 

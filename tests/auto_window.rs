@@ -1,7 +1,7 @@
 //! `dtr render --auto-window` (issue 15, src/auto_window.rs): the pilot's OPL bounds hold
 //! every path, and the chosen window holds the light's arrival and decay.
 
-mod common;
+use crate::common;
 
 use difftransient::auto_window::{choose_window, opl_bounds};
 use difftransient::film::SteadyMode;

@@ -11,7 +11,7 @@
 //! Also: laser_room.toml, where the laser spot (the first light vertex) has intensity Φ·ρ/π,
 //! for BDPT and the path tracer; and splat_plane.toml, where t = 1 carries most of the image.
 
-mod common;
+use crate::common;
 use common::fd::FdCheck;
 use difftransient::scene::{IntegratorKind, PixelFilter};
 

@@ -10,7 +10,7 @@
 //! rough_dielectric.toml and cornell_gold.toml made smooth. Also: the per-strategy transients sum to the transient, and
 //! the hard cases stay finite under BDPT.
 
-mod common;
+use crate::common;
 use difftransient::render::render_strategies;
 use difftransient::scene::{IntegratorKind, PixelFilter};
 use difftransient::{RenderOptions, Scene, Transient, render};

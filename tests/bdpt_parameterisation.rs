@@ -16,7 +16,7 @@
 //! at 4 standard errors (a 1-pixel test at 4 spp does not: the old bias sat at z = 55 only
 //! over 8 seeds at 512 spp).
 
-mod common;
+use crate::common;
 use common::fd::FdCheck;
 use difftransient::scene::{IntegratorKind, PixelFilter, Scene};
 

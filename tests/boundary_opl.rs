@@ -24,7 +24,7 @@
 //! boundary path's S_e is 1 wherever its d lands (these paths carry no ḋ), so only the bin by
 //! bin profile checks the OPLs themselves.
 
-mod common;
+use crate::common;
 use difftransient::temporal::Correlation;
 use difftransient::{BoundaryMode, RenderOptions, Scene, render_diff};
 

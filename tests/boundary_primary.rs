@@ -16,7 +16,7 @@
 //! exactly, the mean of the derivative over [θ − h, θ + h], by Simpson's rule on derivative
 //! renders across the interval.
 
-mod common;
+use crate::common;
 use difftransient::accel::Device;
 use difftransient::boundary::primary::render_primary;
 use difftransient::integrator::RenderContext;

@@ -4,7 +4,7 @@
 //! render that was never interrupted: path tracer, BDPT, and a derivative render whose
 //! boundary stage runs after the resume.
 
-mod common;
+use crate::common;
 use common::dtr;
 use std::path::Path;
 use std::process::{Child, Command, Stdio};

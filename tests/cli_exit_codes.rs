@@ -2,7 +2,7 @@
 //! from success (0); an interrupted render exits with 128 + the signal (tests/cli_output_safety.rs,
 //! tests/cli_checkpoint.rs).
 
-mod common;
+use crate::common;
 use std::path::Path;
 
 fn code(args: &[&str], cwd: &Path) -> (Option<i32>, String) {

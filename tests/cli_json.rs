@@ -1,6 +1,6 @@
 //! What the run JSON says about how the render ran.
 
-mod common;
+use crate::common;
 use common::dtr;
 
 /// `--scalar --diff` runs the 8-wide Dual8 kernel (there is no scalar derivative kernel),

@@ -1,7 +1,7 @@
 //! `--quiet` / `--verbose` (issue 15): what `dtr` prints on stderr at each level, through the
 //! `log` facade (`cli::logging`), and `DTR_LOG` overriding the flags.
 
-mod common;
+use crate::common;
 
 use std::process::{Command, Output};
 

@@ -1,7 +1,7 @@
 //! `dtr optimize` (src/cli/optimize_cmd.rs): the pose demo from the command line, its files
 //! (log, best values, recovered scene, plots), and the refusals that come before any render.
 
-mod common;
+use crate::common;
 use common::dtr;
 
 const SCENE: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/pose_plate.toml");

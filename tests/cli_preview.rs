@@ -2,7 +2,7 @@
 //! per bin in the film's display mapping, the streak image is the chosen row against time,
 //! derivative previews carry the derivative's sign, and the HDR steady image is the time sum.
 
-mod common;
+use crate::common;
 use image::AnimationDecoder;
 use image::codecs::gif::GifDecoder;
 use std::path::Path;

@@ -1,7 +1,7 @@
 //! `--set PATH=VALUE` sets any number of the description (issue 15): the render equals the
 //! render of a file that says the same, and a bad path or value is refused like a bad file.
 
-mod common;
+use crate::common;
 
 #[test]
 fn a_field_set_on_the_command_line_equals_the_same_field_in_the_file() {

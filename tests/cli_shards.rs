@@ -3,7 +3,7 @@
 //! plumbing: files, derivatives, JSON), and shards that do not belong together are refused
 //! before anything is written.
 
-mod common;
+use crate::common;
 use common::dtr;
 use std::path::Path;
 use std::process::Output;

@@ -1,7 +1,7 @@
 //! The line `dtr render` prints at the end reports the whole run (issue 15): the total time
 //! (the JSON's total_wall_seconds), the interior pass, and the boundary stage when it ran.
 
-mod common;
+use crate::common;
 
 fn numbers_after(line: &str, key: &str) -> f64 {
     let rest = &line[line.find(key).unwrap_or_else(|| panic!("{key:?} not in {line:?}")) + key.len()..];

@@ -11,7 +11,7 @@
 //! ```sh
 //! PROBE_SCENE=scenes/glass_pose.toml PROBE_PARAM=glass_x PROBE_VALUE=0.1 PROBE_H=0.01 \
 //!   PROBE_SEEDS=64 PROBE_SPP=512 PROBE_SPPB=2048 PROBE_SPPFD=2048 PROBE_INT=bdpt PROBE_PIXELS=1 \
-//!   cargo test --release --test derivative_bias -- --ignored --nocapture
+//!   cargo test --release --test integration derivative_bias:: -- --ignored --nocapture
 //! ```
 //!
 //! It asserts nothing and is ignored: a measurement to run by hand, kept beside the tests it
@@ -21,7 +21,7 @@
 //! PROBE_GUIDE (guided boundary rays), PROBE_VERBOSE (every aggregate; with PROBE_PIXELS the
 //! pixels beyond 3.5 standard errors are always listed).
 
-mod common;
+use crate::common;
 use difftransient::scene::IntegratorKind;
 use difftransient::{BoundaryMode, RenderOptions, Scene, render, render_diff_parts};
 

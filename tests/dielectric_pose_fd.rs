@@ -24,7 +24,7 @@
 //! (`relative_bias`) and resolves 4 %: the full derivative × 0.96 and × 1.04 fail.
 //! `FD_DEBUG=1` prints the statistics of scaled derivatives, `FD_DEBUG=2` every aggregate.
 
-mod common;
+use crate::common;
 use difftransient::scene::IntegratorKind;
 use difftransient::{BoundaryMode, RenderOptions, Scene, render, render_diff_parts};
 

@@ -2,7 +2,7 @@
 //! primary and secondary boundary films, each from its own estimator and samples. Each part
 //! equals what the estimator modes render on their own, and the parts sum to `render_diff`.
 
-mod common;
+use crate::common;
 use difftransient::render::{BoundaryMode, render_diff_parts};
 use difftransient::{RenderOptions, render_diff};
 

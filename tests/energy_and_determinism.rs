@@ -1,7 +1,7 @@
 //! Time-integrated energy equals the steady-state estimate; renders are reproducible; the
 //! 8-wide kernel equals the scalar one on the same random numbers.
 
-mod common;
+use crate::common;
 use difftransient::{Lanes, RenderOptions, render};
 
 /// A Cornell box whose time axis holds every path (OPL < 40 m at 4 bounces).

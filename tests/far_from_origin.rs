@@ -7,7 +7,7 @@
 //! Before the render origin, coordinates were f32 from the parser on (6 cm steps at 10⁶ m)
 //! and the self-intersection offset (2⁻¹⁸ of the coordinates) skipped the cube at 10⁵ m.
 
-mod common;
+use crate::common;
 use difftransient::scene::Format;
 use difftransient::{Scene, Transient};
 use std::path::Path;

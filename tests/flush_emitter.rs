@@ -4,7 +4,7 @@
 //! emitting face wins (src/scene/flush.rs); before, Embree returned either coplanar triangle
 //! and about 20% of the light was lost, differently per seed.
 
-mod common;
+use crate::common;
 use difftransient::scene::{Format, IntegratorKind};
 use difftransient::{RenderOptions, Scene, Transient};
 use std::path::Path;

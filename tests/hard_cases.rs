@@ -2,7 +2,7 @@
 //! self-intersection leaks, no lost energy; more in far_from_origin.rs), and degenerate/tiny triangles never produce
 //! NaN or Inf.
 
-mod common;
+use crate::common;
 use glam::Vec3;
 
 fn small_cornell() -> difftransient::Scene {

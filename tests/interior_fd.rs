@@ -5,7 +5,7 @@
 //! The statistics (Student-t z of AD − FD over seeds, widened by the finite difference's own
 //! error) are in tests/common/fd.rs, shared with the BDPT tests (tests/bdpt_fd.rs).
 
-mod common;
+use crate::common;
 
 /// The path tracer on diff_room.toml: 12 seeds of 4 samples per pixel.
 fn check_param(name: &str, value: f32, h: f32) {

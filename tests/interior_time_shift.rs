@@ -3,7 +3,7 @@
 //! number of bins, and the η-derivative predicts the move. Also: a time-shifting parameter
 //! with a delta pulse and box gate is refused, and unknown names list the parameters.
 
-mod common;
+use crate::common;
 use difftransient::scene::IntegratorKind;
 use difftransient::temporal::Pulse;
 use difftransient::{RenderOptions, Scene, Transient, render, render_diff};

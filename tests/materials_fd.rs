@@ -7,7 +7,7 @@
 //! (every pixel's time-summed derivative and every bin's total, `FdCheck::check`) and on coarse aggregates, which must
 //! resolve a bias of 4 % (`FdCheck::check_aggregates`).
 
-mod common;
+use crate::common;
 
 use difftransient::scene::IntegratorKind;
 

@@ -10,7 +10,7 @@
 //! after a delta or refracting vertex; any of these wrong moves energy or time. The same
 //! comparison with the glass at 1.5 must fail (the test can see a slab).
 
-mod common;
+use crate::common;
 
 use common::fd::coarse_aggregates;
 use difftransient::scene::Material;

@@ -5,7 +5,7 @@
 //! outside the subset, each refused naming the file, the element and its line; and the CLI
 //! (`dtr render x.xml`, `dtr import`).
 
-mod common;
+use crate::common;
 use difftransient::scene::{EmitterKind, Material};
 use difftransient::{RenderOptions, Scene, render};
 use glam::{DMat4, DVec3, Vec3};

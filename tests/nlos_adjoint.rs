@@ -3,7 +3,7 @@
 //! every laser row), several non-geometric parameters at once; and geometric parameters are
 //! refused by the adjoint too (no boundary term at the sensor points yet).
 
-mod common;
+use crate::common;
 use difftransient::{RenderOptions, Scene, Transient, render_adjoint, render_diff};
 
 const U: f64 = 1.0 / 16_777_216.0;

@@ -9,7 +9,7 @@
 //!   (`confocal_patch_matches_closed_form`, at several shares of aimed paths).
 //! - Bad `hidden_sampling` and `hidden_shapes` values are refused, naming the field.
 
-mod common;
+use crate::common;
 
 use difftransient::scene::Format;
 use difftransient::{RenderOptions, Scene, Transient, render};

@@ -2,7 +2,7 @@
 //! HDF5 in y-tal's layout read back here), the JSON's `nlos` block, and bad `[nlos]` input
 //! refused with the file and the field named, no panic and no output.
 
-mod common;
+use crate::common;
 use std::path::{Path, PathBuf};
 
 fn scene_text(name: &str) -> String {

@@ -6,7 +6,7 @@
 //! (with the relay legs both left out and counted). Geometric parameters are refused
 //! (tests/nlos_cli.rs).
 
-mod common;
+use crate::common;
 use difftransient::scene::RelayLegs;
 use difftransient::temporal::{Gate, Pulse};
 

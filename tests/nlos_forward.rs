@@ -8,7 +8,7 @@
 //! are z / r, so L(s) = Φ ρ_w² ρ_h / π³ ∫_patch z⁴ / r⁸ dA, arriving at OPL 2r (relay legs
 //! excluded). The test integrates it per bin by a fine midpoint rule.
 
-mod common;
+use crate::common;
 use difftransient::scene::{EmitterKind, Material};
 use difftransient::{RenderOptions, Scene, Transient, render};
 

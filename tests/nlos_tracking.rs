@@ -9,7 +9,7 @@
 //! numbers, on coarse aggregates, strong enough to see a few percent of bias. The second
 //! recovers the position from a perturbed start.
 
-mod common;
+use crate::common;
 use difftransient::optimize::{Problem, loss::Loss};
 use difftransient::{BoundaryMode, RenderOptions, Scene, render, render_diff};
 

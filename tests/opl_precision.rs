@@ -7,7 +7,7 @@
 //! 200 bins whose profile is known in closed form. The plane is 2 cm wide, so that Embree's
 //! f32 barycentrics place hit points to ~10⁻⁹ m.
 
-mod common;
+use crate::common;
 use difftransient::scene::IntegratorKind;
 use difftransient::temporal::Correlation;
 use difftransient::{BoundaryMode, RenderOptions, Scene, render, render_diff};

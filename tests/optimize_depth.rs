@@ -4,7 +4,7 @@
 //! stays far from the answer, while a loss on the transient (the wall's light arrives 2·Δz
 //! of OPL earlier or later) recovers both from the same start.
 
-mod common;
+use crate::common;
 use difftransient::optimize::loss::Loss;
 
 fn run(loss: Loss) -> Vec<f64> {

@@ -18,7 +18,7 @@
 //! of 0.09–0.22 against half the transient's, 0.34–0.42). A gradient of the wrong sign
 //! fails both sides. About 11 s.
 
-mod common;
+use crate::common;
 use difftransient::optimize::loss::Loss;
 
 /// The fraction of `seeds` gradients dL/dη at `eta` that are positive, from seed stream

@@ -4,7 +4,7 @@
 //! in-plane motion is zero (only the silhouette moves), so the same run with the interior
 //! alone ends where it started.
 
-mod common;
+use crate::common;
 use difftransient::RenderOptions;
 use difftransient::optimize::{Problem, loss::Loss};
 use difftransient::render::BoundaryMode;

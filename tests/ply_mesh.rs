@@ -2,7 +2,7 @@
 //! same bytes, derivatives included, and a broken PLY is refused naming the scene, the field
 //! and the file.
 
-mod common;
+use crate::common;
 use difftransient::{RenderOptions, Scene, render_diff};
 
 #[test]

@@ -2,7 +2,7 @@
 //! box renders the same bytes as scenes/cornell_box.toml), and bad input gets the messages a
 //! scene file gets.
 
-mod common;
+use crate::common;
 use difftransient::{Entry, RenderOptions, Scene, SceneBuilder, render};
 
 /// scenes/cornell_box.toml, in code.

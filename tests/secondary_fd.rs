@@ -19,7 +19,7 @@
 //! every |z| against a family-wise bound, the image total within 3 standard errors. The
 //! interior alone must miss: it fails the same test (Σz² above its bound, or an |z| above 8).
 
-mod common;
+use crate::common;
 use difftransient::{BoundaryMode, RenderOptions, Scene, Transient, render, render_diff};
 
 const K: u64 = 16;

@@ -2,7 +2,7 @@
 //! `Scene::load(path, overrides)` gives, so its renders (transient and derivative) are the same
 //! bytes; bad names and values are refused by name and leave the scene as it was.
 
-mod common;
+use crate::common;
 use difftransient::{BoundaryMode, RenderOptions, Scene, render_diff};
 
 fn opts() -> RenderOptions {

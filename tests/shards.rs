@@ -6,7 +6,7 @@
 //! a shard that traced one wrong path, or normalised by its own count, fails them by orders
 //! of magnitude.
 
-mod common;
+use crate::common;
 use difftransient::kernel::SampleSequence;
 use difftransient::render::{DiffParts, render_diff_parts};
 use difftransient::scene::IntegratorKind;

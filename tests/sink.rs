@@ -2,7 +2,7 @@
 //! outside the crate receives each path with its film point and (s, t) strategy, and
 //! replaying what it received into a film gives the film sink's bytes.
 
-mod common;
+use crate::common;
 use difftransient::accel::Device;
 use difftransient::film::TileFilm;
 use difftransient::integrator::RenderContext;

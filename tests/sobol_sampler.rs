@@ -5,7 +5,7 @@
 //! samples lowers the error per sample (checked against a converged reference). Shards with
 //! Sobol points add up to the whole render (tests/shards.rs).
 
-mod common;
+use crate::common;
 use difftransient::kernel::SampleSequence;
 use difftransient::scene::IntegratorKind;
 use difftransient::{RenderOptions, Scene, Transient, render};

@@ -10,7 +10,7 @@
 //!   the same mean (their per-seed difference vanishes within its standard error), and a
 //!   several times lower variance of the per-bin derivative.
 
-mod common;
+use crate::common;
 
 use difftransient::render::{BoundaryMode, TimeEdgeMode};
 use difftransient::scene::IntegratorKind;

@@ -3,7 +3,7 @@
 //! the cut off (`SteadyMode::Full`), for any seed, while fewer rays are traced; the steady
 //! image then integrates the window (the time sum of the transient).
 
-mod common;
+use crate::common;
 use difftransient::film::SteadyMode;
 use difftransient::integrator::bdpt;
 use difftransient::render::{Lanes, RenderStats};

@@ -2,7 +2,7 @@
 //! before, inside and after the window adds up to the whole image, and matches the bins of a
 //! render whose window holds every path (same seed, so the same paths).
 
-mod common;
+use crate::common;
 use difftransient::film::SteadyMode;
 use difftransient::temporal::{Gate, Pulse};
 use difftransient::{RenderOptions, Scene, render};
