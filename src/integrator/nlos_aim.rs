@@ -16,7 +16,7 @@
 //!
 //! Both in solid angle at the first hit x₁ at distance r:
 //! p(ω) = (1 − α)·cos θ_s/π + α·p_A(x₁)·r²/|cos θ₁|, and the path's weight is
-//! f_r·cos θ_s / p(ω) = ρ_s · (cos θ_s/π) / p(ω), which [`weigh_first_hit`] makes of the
+//! f_r·cos θ_s / p(ω) = ρ_s · (cos θ_s/π) / p(ω), which [`super::nlos_start::weigh_first_hit`] makes of the
 //! cosine strategy's ρ_s. The density is a plain number: in the area-measure form of
 //! Algorithm 1 (`super::path`), the derivative is that of f and of G·J along the path the
 //! strategies sampled, whichever strategy it was. The kernel's side (the directions and the

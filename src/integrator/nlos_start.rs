@@ -21,7 +21,7 @@ pub struct SensorStart<R: Real, const C: usize> {
     pub beta: Spectrum<R, C>,
     pub p64: [glam::DVec3; 8],
     /// Which lanes were aimed at the hidden shapes, and where (`None` without aiming): the
-    /// first hit then sets the weight ([`super::nlos_aim::weigh_first_hit`]).
+    /// first hit then sets the weight ([`weigh_first_hit`]).
     pub aim: Option<Aim>,
     /// Lanes with a path to trace (an aimed point behind the wall gives none).
     pub alive: R::Mask,
