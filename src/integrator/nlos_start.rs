@@ -95,8 +95,9 @@ pub fn first_directions<R: Real>(
             aim.aimed[i] = true;
             aim.prim[i] = prim;
             aim.dist[i] = dist;
-            to[i] = dir;
             alive[i] = dist > 0.0 && dir.dot(n.lane(i)) > 0.0;
+            // a dead lane keeps a finite direction (its ray is masked out)
+            to[i] = if alive[i] { dir } else { n.lane(i) };
         } else {
             u_cos[i] = ((u - alpha) / (1.0 - alpha)).min(1.0 - f32::EPSILON);
         }
