@@ -203,3 +203,10 @@ pub(super) fn pick_and_rescale(cdf: &[f32], u: f32) -> (usize, f32) {
     let rest = if share > 0.0 { (u - lo) / share } else { 0.5 };
     (k, rest.clamp(0.0, 1.0 - f32::EPSILON))
 }
+
+/// Barycentrics (u, v) of a point uniform on a triangle, from two numbers in [0, 1) (the
+/// square-root warp: u0 sets the distance from the first vertex, u1 the side).
+pub(super) fn uniform_in_triangle(u0: f32, u1: f32) -> (f32, f32) {
+    let s = u0.sqrt();
+    (s * (1.0 - u1), s * u1)
+}

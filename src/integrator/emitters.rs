@@ -4,8 +4,8 @@
 //! points, the laser spot in ray form, derivative lanes of the emission).
 
 use super::context::RenderContext;
-use super::emitter_table::pick_and_rescale;
 use super::emitter_table::{EmitterTable, Entry};
+use super::emitter_table::{pick_and_rescale, uniform_in_triangle};
 use super::path::ray_plane_point;
 use super::surface::{SurfacePoint, surface_at};
 use crate::kernel::{Mask, Real, Spectrum, V3};
@@ -135,10 +135,8 @@ impl EmitterTable {
                         let ut = (sel - e as f32).clamp(0.0, 1.0 - f32::EPSILON);
                         (pick_and_rescale(cdf, ut).0, u0.lane(i))
                     };
-                    let (s1, s2) = (ua.sqrt(), u1.lane(i));
                     prim[i] = tris[k];
-                    bu[i] = s1 * (1.0 - s2);
-                    bv[i] = s1 * s2;
+                    (bu[i], bv[i]) = uniform_in_triangle(ua, u1.lane(i));
                     pdf[i] = p_sel / area;
                     radiance_rgb[i] = *radiance;
                     inv_pdf[i] = 1.0 / pdf[i];

@@ -22,7 +22,7 @@
 //! strategies sampled, whichever strategy it was. The kernel's side (the directions and the
 //! weight at the first hit) is in `super::nlos_start`.
 
-use super::emitter_table::pick_and_rescale;
+use super::emitter_table::{pick_and_rescale, uniform_in_triangle};
 use crate::scene::Scene;
 use crate::scene::nlos::{HiddenSampling, WallPoint};
 use glam::DVec3;
@@ -129,8 +129,8 @@ impl HiddenTargets {
     /// within its share, then the point is uniform on it. Returns (triangle, barycentrics).
     pub fn draw(&self, u0: f32, u1: f32) -> (u32, f32, f32) {
         let (k, ua) = pick_and_rescale(&self.cdf, u0);
-        let s = ua.sqrt();
-        (self.tris[k], s * (1.0 - u1), s * u1)
+        let (u, v) = uniform_in_triangle(ua, u1);
+        (self.tris[k], u, v)
     }
 
     /// Density per unit area of the aimed points on scene triangle `t` (0 off the hidden
