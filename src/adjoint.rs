@@ -226,9 +226,9 @@ fn render_adjoint_group(
     let (w, h) = (f.width as usize, f.height as usize);
     let channels = f.channels;
     let interior = opts.boundary != BoundaryMode::BoundaryOnly;
-    // Per tile (path tracer: `render::tile_rects`) or per fixed chunk of tiles (BDPT, as many
-    // as a render's most: there is no chunk film to bound), summed in order: the same
-    // gradient for any thread count.
+    // Per tile (path tracer: `render::tile_rects`; BDPT: `render::tiles`, whose splats onto
+    // other pixels need no film here), summed in order: the same gradient for any thread
+    // count.
     enum Unit {
         Tile((usize, usize, usize, usize)),
         Chunk(Vec<(usize, usize)>),
@@ -236,13 +236,10 @@ fn render_adjoint_group(
     let units: Vec<Unit> = match (interior, run.kind) {
         (false, _) => Vec::new(),
         (true, IntegratorKind::Path) => crate::render::tile_rects(scene).into_iter().map(Unit::Tile).collect(),
-        (true, IntegratorKind::Bdpt) => {
-            let tiles = crate::render::tiles(w, h);
-            tiles
-                .chunks(tiles.len().div_ceil(crate::render::BDPT_CHUNKS).max(1))
-                .map(|c| Unit::Chunk(c.to_vec()))
-                .collect()
-        }
+        (true, IntegratorKind::Bdpt) => crate::render::tiles(w, h)
+            .into_iter()
+            .map(|t| Unit::Chunk(vec![t]))
+            .collect(),
     };
     let parts: Vec<([f64; MAX_PARAMS], PathCounts)> = run.pool.install(|| {
         units

@@ -5,8 +5,9 @@
 //!
 //! The unit is what the render driver already merges whole: a tile of the path tracer (its
 //! sums land in pixels no other tile touches, so a film holding the finished tiles is the
-//! uninterrupted film with zeros elsewhere), a chunk of BDPT (merged in chunk order after
-//! all chunks end, so each finished chunk's own film is kept), and the boundary stage as a
+//! uninterrupted film with zeros elsewhere), a wave of BDPT units (added to the frame's rows
+//! in unit order when the wave ends, so the rows after a wave are those of the uninterrupted
+//! render at that point; `crate::integrator::bdpt::units`), and the boundary stage as a
 //! whole. Each path's random numbers depend only on its pixel and sample index, so the
 //! units still to run trace exactly the paths they would have traced. The checkpoint holds
 //! the sums, per-unit tallies (rays, energy), the render's identity (input hashes,
@@ -37,14 +38,14 @@ pub type Tally = (PathCounts, [f64; 2], Vec<f64>);
 /// What a render has finished, as saved in (or read from) a checkpoint.
 #[derive(Clone, Debug, Default)]
 pub struct Saved {
-    /// Units of the interior pass: tiles (path tracer) or chunks (BDPT).
+    /// Units of the interior pass: tiles (path tracer) or waves (BDPT).
     pub units: usize,
     pub done: Vec<bool>,
     pub tallies: Vec<Option<Tally>>,
     /// Path tracer: the films (primal, then derivatives), not yet divided by spp, holding
     /// the finished tiles' sums.
     pub frame: Vec<Transient>,
-    /// BDPT: each finished chunk's film.
+    /// BDPT: the frame's rows (one film per row) after the finished waves.
     pub chunks: Vec<Option<TileSums>>,
     /// The boundary stage's films and record, once it has run.
     pub boundary: Option<(Vec<Transient>, Vec<Transient>, BoundaryStats)>,
@@ -116,7 +117,7 @@ struct Header {
     tallies: Vec<Option<Tally>>,
     /// Shapes of the path tracer's films: (width, height, time axis, channels) each.
     frame: Vec<(usize, usize, crate::temporal::TimeAxis, usize)>,
-    /// BDPT: the finished chunks, with the tails of each.
+    /// BDPT: the frame's rows, with the tails of each.
     chunks: Vec<Option<[f64; 2]>>,
     boundary: Option<(usize, (usize, usize, crate::temporal::TimeAxis, usize), BoundaryStats)>,
     blobs: Vec<Blob>,

@@ -152,11 +152,32 @@ impl Bins {
             Bins::F64(v) => v[i] += x,
         }
     }
+    /// Adds `len` values of `other` from `src` on into this one from `dst` on (the same kind).
+    fn add_from(&mut self, dst: usize, other: &Bins, src: usize, len: usize) {
+        match (self, other) {
+            (Bins::F32(a), Bins::F32(b)) => add_nonzero(&mut a[dst..dst + len], &b[src..src + len]),
+            (Bins::F64(a), Bins::F64(b)) => add_nonzero(&mut a[dst..dst + len], &b[src..src + len]),
+            _ => unreachable!("films of one render accumulate in one precision"),
+        }
+    }
     /// Adds `dst.len()` values from `src` on into `dst`.
     fn add_into(&self, dst: &mut [f32], src: usize) {
         match self {
             Bins::F32(v) => dst.iter_mut().zip(&v[src..]).for_each(|(d, s)| *d += *s),
             Bins::F64(v) => dst.iter_mut().zip(&v[src..]).for_each(|(d, s)| *d += *s as f32),
+        }
+    }
+}
+
+/// `dst += src`, skipping runs of 16 zeros in `src`: a transient is sparse in time, and pages
+/// of `dst` that only zeros would reach stay untouched (x + 0 = x, so the sums are the same).
+fn add_nonzero<T: Copy + Default + PartialEq + std::ops::AddAssign>(dst: &mut [T], src: &[T]) {
+    let zero = T::default();
+    let mut d = dst.chunks_mut(16);
+    for s in src.chunks(16) {
+        let d = d.next().expect("as long as src");
+        if s.iter().any(|&v| v != zero) {
+            d.iter_mut().zip(s).for_each(|(d, &s)| *d += s);
         }
     }
 }
@@ -395,23 +416,39 @@ impl TileFilm {
     /// Puts back sums taken by [`TileFilm::sums`] from a film of the same shape; refuses
     /// sums of another shape or precision.
     pub fn restore(&mut self, s: TileSums) -> Result<(), String> {
+        let n = self.w * self.h * self.bins * self.channels * (1 + self.derivs);
         let ok = match &mut self.data {
-            Bins::F32(v) if v.len() == s.data32.len() && s.data64.is_empty() => {
+            Bins::F32(v) if n == s.data32.len() && s.data64.is_empty() => {
                 *v = s.data32;
                 true
             }
-            Bins::F64(v) if v.len() == s.data64.len() && s.data32.is_empty() => {
+            Bins::F64(v) if n == s.data64.len() && s.data32.is_empty() => {
                 *v = s.data64;
                 true
             }
             _ => false,
         };
-        if !ok || s.steady.len() != self.steady.len() {
+        if !ok || s.steady.len() != self.w * self.h * self.channels * (1 + self.derivs) {
             return Err("the saved film has another shape or precision".into());
         }
         self.steady = s.steady;
         self.tails = s.tails;
         Ok(())
+    }
+
+    /// Moves the film's running sums out (no copy), leaving it empty until [`Self::restore`]
+    /// moves them (or others of its shape) back.
+    pub fn take_sums(&mut self) -> TileSums {
+        let (data32, data64) = match &mut self.data {
+            Bins::F32(v) => (std::mem::take(v), Vec::new()),
+            Bins::F64(v) => (Vec::new(), std::mem::take(v)),
+        };
+        TileSums {
+            data32,
+            data64,
+            steady: std::mem::take(&mut self.steady),
+            tails: std::mem::take(&mut self.tails),
+        }
     }
 
     /// Primal energy (summed over pixels and channels, not yet divided by spp) that fell
@@ -447,6 +484,32 @@ impl TileFilm {
     #[inline]
     fn block(&self) -> usize {
         self.w * self.h * self.bins * self.channels
+    }
+
+    /// Adds the sums of `other` (same time axis, channels and derivative blocks) where its
+    /// rectangle overlaps this one's; tails are not carried over (the caller tallies
+    /// `other`'s own). BDPT adds each unit's tile into the full-frame rows this way.
+    pub fn add_film(&mut self, other: &TileFilm) {
+        debug_assert!(self.bins == other.bins && self.channels == other.channels && self.derivs == other.derivs);
+        let (x0, x1) = (self.x0.max(other.x0), (self.x0 + self.w).min(other.x0 + other.w));
+        let (y0, y1) = (self.y0.max(other.y0), (self.y0 + self.h).min(other.y0 + other.h));
+        if x0 >= x1 || y0 >= y1 {
+            return;
+        }
+        let (bc, c) = (self.bins * self.channels, self.channels);
+        let len = (x1 - x0) * bc;
+        for k in 0..1 + self.derivs {
+            for y in y0..y1 {
+                let dst = k * self.block() + ((y - self.y0) * self.w + (x0 - self.x0)) * bc;
+                let src = k * other.block() + ((y - other.y0) * other.w + (x0 - other.x0)) * bc;
+                self.data.add_from(dst, &other.data, src, len);
+                let sdst = k * self.w * self.h * c + ((y - self.y0) * self.w + (x0 - self.x0)) * c;
+                let ssrc = k * other.w * other.h * c + ((y - other.y0) * other.w + (x0 - other.x0)) * c;
+                for i in 0..(x1 - x0) * c {
+                    self.steady[sdst + i] += other.steady[ssrc + i];
+                }
+            }
+        }
     }
 
     /// Copies this tile into the full films (primal first, then derivatives).

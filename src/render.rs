@@ -399,28 +399,17 @@ pub fn render_strategies(
     ))
 }
 
-/// Most chunks a BDPT render is split into: each owns a full-frame film (splats land
-/// anywhere), and chunks are merged in order, so the bytes do not depend on threads.
-pub(crate) const BDPT_CHUNKS: usize = 8;
-
-/// Memory the chunk films of a BDPT render may take together.
+/// Memory the full-frame films of a BDPT render may take together (`--strategies` keeps one
+/// per strategy).
 const BDPT_FILM_BUDGET_BYTES: usize = 2 << 30;
-
-/// How many chunks a BDPT render uses: up to [`BDPT_CHUNKS`], fewer when that many
-/// full-frame films (`frame_floats` values of `bytes` each: films with derivatives accumulate
-/// in f64) would exceed [`BDPT_FILM_BUDGET_BYTES`] (then the
-/// render runs on fewer threads). Depends only on the scene, never on the thread count.
-fn bdpt_chunks(frame_floats: usize, bytes: usize) -> usize {
-    (BDPT_FILM_BUDGET_BYTES / (frame_floats * bytes).max(1)).clamp(1, BDPT_CHUNKS)
-}
 
 /// Bytes the films of a render hold at once: the output transients and steady images (one
 /// per derivative too), plus per worker one tile film (path tracer; its bins span the whole
-/// time axis), or the full-frame chunk films (BDPT), plus the boundary stage's derivative
+/// time axis), or the full-frame rows and a wave of unit films (BDPT), plus the boundary stage's derivative
 /// film. Films that carry derivatives accumulate in f64. In u128: 16384² pixels × 2²⁴ bins
 /// must not overflow.
 /// With `checkpointing`, a snapshot of the films is taken while they are written (path
-/// tracer: the frame; BDPT: every finished chunk film is kept), so those count twice.
+/// tracer: the frame; BDPT: the rows), so those count twice.
 fn film_bytes(
     scene: &Scene,
     derivs: usize,
@@ -452,9 +441,15 @@ fn film_bytes(
             } else {
                 0
             };
-            let floats = frame * (1 + d + strategies);
-            let chunks = (BDPT_FILM_BUDGET_BYTES as u128 / (floats * acc).max(1)).clamp(1, BDPT_CHUNKS as u128);
-            chunks * floats * acc
+            // the full-frame rows, and a wave of unit films with their splats onto other
+            // pixels at their worst (`bdpt::units`)
+            let rows = frame * ((1 + d) * acc + strategies * 4);
+            let tile_floats = (TILE * TILE) as u128 * (bins * c + c);
+            let unit = tile_floats * ((1 + d) * acc + strategies * 4)
+                + (bdpt::units::SPLATS_PER_UNIT * bdpt::units::splat_bytes(derivs, f.channels)) as u128;
+            let wave = (bdpt::units::WAVE_BYTES as u128 / unit.max(1))
+                .clamp(bdpt::units::MIN_WAVE as u128, bdpt::units::MAX_WAVE as u128);
+            rows + wave * unit
         }
     };
     let copies = if checkpointing { 2 } else { 1 };
@@ -853,7 +848,7 @@ impl<'s> Run<'s> {
     }
 
     /// The interior estimator (Algorithm 1) over every pixel: the path tracer over tiles or
-    /// BDPT over fixed chunks of tiles; films averaged over spp.
+    /// BDPT over waves of units (a tile, a block of samples); films averaged over spp.
     fn interior(&self, opts: &RenderOptions, per_strategy: bool) -> Interior {
         let (ctx, spp, seed, derivs) = (&self.ctx, self.spp, self.seed, self.derivs);
         let samples = &self.samples;
@@ -862,7 +857,6 @@ impl<'s> Run<'s> {
         let axis = scene.film.axis;
         let channels = scene.film.channels;
         let ran = opts.boundary != BoundaryMode::BoundaryOnly || derivs == 0;
-        let tiles = if ran { tiles(w, h) } else { Vec::new() };
         let rects = if ran { tile_rects(scene) } else { Vec::new() };
         let bar = progress_bar(
             opts.progress,
@@ -935,82 +929,126 @@ impl<'s> Run<'s> {
                 st.tallies.into_iter().map(|t| t.expect("every tile ran")).collect()
             }
             IntegratorKind::Bdpt => {
+                // Units (a tile, a block of samples) run in waves; after each wave every
+                // unit's tile and splats onto other pixels are added to the full-frame rows,
+                // row by row in parallel, unit by unit in order (`bdpt::units`). The rows
+                // live in the state as the checkpoint's films between waves (moved, not
+                // copied), so a checkpoint or a signal always sees whole waves.
                 let strategies = if per_strategy {
                     bdpt::film::strategy_list(scene.integrator.max_bounces).len()
                 } else {
                     0
                 };
-                let frame_floats = w * h * (axis.bins * channels + channels) * (1 + derivs + strategies);
-                let bytes = if derivs > 0 { 8 } else { 4 };
-                let per_chunk = tiles.len().div_ceil(bdpt_chunks(frame_floats, bytes));
-                let chunks: Vec<&[(usize, usize)]> = tiles.chunks(per_chunk.max(1)).collect();
-                let units = chunks.len();
-                let keep = self.checkpointing().is_some();
+                let tile_floats = TILE * TILE * (axis.bins * channels + channels);
+                let acc = if derivs > 0 { 8 } else { 4 };
+                let unit_bytes = tile_floats * ((1 + derivs) * acc + strategies * 4)
+                    + bdpt::units::SPLATS_PER_UNIT * bdpt::units::splat_bytes(derivs, channels);
+                let units = if ran {
+                    bdpt::units::Units::new(scene, TILE, samples, unit_bytes)
+                } else {
+                    bdpt::units::Units::new(scene, TILE, &(0..0), unit_bytes)
+                };
+                let waves = units.waves();
+                bar.set_length(units.len() as u64);
+                let mut rows: Vec<BdptFilm> = (0..h)
+                    .map(|y| BdptFilm::new(ctx, (0, y, w, 1), derivs, per_strategy, false))
+                    .collect();
                 let mut state = Saved {
-                    units,
-                    done: vec![false; units],
-                    tallies: vec![None; units],
-                    chunks: vec![None; units],
+                    units: waves.len(),
+                    done: vec![false; waves.len()],
+                    tallies: vec![None; waves.len()],
+                    chunks: rows.iter_mut().map(|r| Some(r.film.take_sums())).collect(),
                     ..Default::default()
                 };
-                if let Some(saved) = self.resumed(units) {
+                if let Some(saved) = self.resumed(waves.len()) {
                     state = saved;
+                }
+                for (done, wave) in state.done.iter().zip(&waves) {
+                    if *done {
+                        bar.inc(wave.len() as u64);
+                    }
                 }
                 let state = std::sync::Arc::new(std::sync::Mutex::new(state));
                 self.watch(&state);
-                let results: Vec<(BdptFilm, PathCounts)> = self.pool.install(|| {
-                    chunks
-                        .par_iter()
-                        .enumerate()
-                        .map(|(c, chunk)| {
-                            let mut film = BdptFilm::new(ctx, derivs, per_strategy);
-                            let saved = {
-                                let st = lock(&state);
-                                st.done[c].then(|| (st.chunks[c].clone(), st.tallies[c].clone()))
-                            };
-                            if let Some((Some(sums), Some(tally))) = saved {
-                                film.film
-                                    .restore(sums)
-                                    .expect("a checkpoint of this render's chunk films");
-                                bar.inc(chunk.len() as u64);
-                                return (film, tally.0);
-                            }
-                            let mut counts = PathCounts::default();
-                            let tick0 = crate::timing::ticks();
-                            let (f, cn) = (&mut film, &mut counts);
-                            dispatch!(
-                                derivs,
-                                opts.lanes,
-                                channels,
-                                bdpt_tiles(ctx, seed, spp, samples, chunk, TILE, f, cn)
-                            );
-                            counts.total_ticks = crate::timing::ticks() - tick0;
-                            if keep {
-                                let tally = (counts, film.film.tails(), film.film.block_sums());
-                                let mut st = lock(&state);
-                                st.chunks[c] = Some(film.film.sums());
-                                st.done[c] = true;
-                                st.tallies[c] = Some(tally);
-                            }
-                            self.checkpoint_if_due(&state);
-                            bar.inc(chunk.len() as u64);
-                            (film, counts)
-                        })
-                        .collect()
-                });
-                self.finish_pass(state);
-                let list_len = results.first().map_or(0, |r| r.0.strategies.len());
+                let mut films: Vec<BdptFilm> = Vec::new();
+                for (k, wave) in waves.iter().enumerate() {
+                    if lock(&state).done[k] {
+                        continue;
+                    }
+                    while films.len() < wave.len() {
+                        films.push(BdptFilm::new(ctx, (0, 0, TILE, TILE), derivs, per_strategy, true));
+                    }
+                    let films = &mut films[..wave.len()];
+                    let counts: Vec<PathCounts> = self.pool.install(|| {
+                        films
+                            .par_iter_mut()
+                            .zip(wave.clone())
+                            .map(|(film, u)| {
+                                let (rect, block) = units.unit(u);
+                                film.reset(rect);
+                                let mut counts = PathCounts::default();
+                                let tick0 = crate::timing::ticks();
+                                let (f, cn, tile) = (&mut *film, &mut counts, [(rect.0, rect.1)]);
+                                dispatch!(
+                                    derivs,
+                                    opts.lanes,
+                                    channels,
+                                    bdpt_tiles(ctx, seed, spp, &block, &tile, TILE, f, cn)
+                                );
+                                counts.total_ticks = crate::timing::ticks() - tick0;
+                                bar.inc(1);
+                                counts
+                            })
+                            .collect()
+                    });
+                    let mut tally: crate::checkpoint::Tally = (PathCounts::default(), [0.0; 2], Vec::new());
+                    for (c, f) in counts.iter().zip(films.iter()) {
+                        tally.0.add(c);
+                        let t = f.film.tails();
+                        tally.1[0] += t[0];
+                        tally.1[1] += t[1];
+                    }
+                    {
+                        let mut st = lock(&state);
+                        let films = &*films;
+                        let chunks = &mut st.chunks;
+                        self.pool.install(|| {
+                            rows.par_iter_mut().zip(chunks.par_iter_mut()).for_each(|(row, sums)| {
+                                row.film
+                                    .restore(sums.take().expect("every row's sums sit in the state"))
+                                    .expect("a row's own sums");
+                                for unit in films {
+                                    match channels {
+                                        1 => row.add_unit::<1>(ctx, unit),
+                                        _ => row.add_unit::<3>(ctx, unit),
+                                    }
+                                }
+                                *sums = Some(row.film.take_sums());
+                            })
+                        });
+                        st.done[k] = true;
+                        st.tallies[k] = Some(tally);
+                    }
+                    self.checkpoint_if_due(&state);
+                }
+                let mut st = self.finish_pass(state);
+                let mut tallies: Vec<crate::checkpoint::Tally> =
+                    st.tallies.drain(..).map(|t| t.expect("every wave ran")).collect();
+                let list_len = rows.first().map_or(0, |r| r.strategies.len());
                 strategy_out = vec![Transient::zeros(w, h, axis, channels); list_len];
-                for (chunk, _) in &results {
-                    chunk.film.merge_into(&mut out);
-                    for (k, f) in chunk.strategies.iter().enumerate() {
+                for (row, sums) in rows.iter_mut().zip(st.chunks.drain(..)) {
+                    row.film
+                        .restore(sums.expect("every row's sums sit in the state"))
+                        .expect("a row's own sums");
+                    row.film.merge_into(&mut out);
+                    for (k, f) in row.strategies.iter().enumerate() {
                         f.merge_into(&mut strategy_out[k..k + 1]);
                     }
+                    // the rows' tails are those of the splats onto other pixels (the units'
+                    // own are in the waves' tallies); their block sums cover everything
+                    tallies.push((PathCounts::default(), row.film.tails(), row.film.block_sums()));
                 }
-                results
-                    .into_iter()
-                    .map(|(f, c)| (c, f.film.tails(), f.film.block_sums()))
-                    .collect()
+                tallies
             }
         };
         let wall = t0.elapsed().as_secs_f64();

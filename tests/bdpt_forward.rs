@@ -274,7 +274,8 @@ fn strategies_sum_to_the_transient() {
     assert!(render_strategies(&scene, &opts(IntegratorKind::Path, 1, 0)).is_err());
 }
 
-/// Same seed, same bytes, for any thread count (splats cross chunks, chunks merge in order).
+/// Same seed, same bytes, for any thread count (splats cross tiles; units are added to the
+/// frame in order after each wave).
 #[test]
 fn bdpt_is_deterministic_across_thread_counts() {
     let scene = small_cornell();

@@ -53,7 +53,7 @@ fn path_tracer_and_bdpt_contributions_reach_any_sink_with_their_strategy() {
     let ctx = RenderContext::new(&scene, &device).unwrap();
     let (mut rec, mut rec_b) = (Recorder::default(), Recorder::default());
     let mut film = ctx.tile_film(0, 0, 8, 8, 0);
-    let mut bfilm = BdptFilm::new(&ctx, 0, false);
+    let mut bfilm = BdptFilm::new(&ctx, (0, 0, 8, 8), 0, false, true);
     let mut counts = PathCounts::default();
     let mut scratch = bdpt::Scratch::<f32x8, 3>::default();
     for s in 0..4 {
@@ -95,4 +95,49 @@ fn path_tracer_and_bdpt_contributions_reach_any_sink_with_their_strategy() {
     let mut again_b = ctx.tile_film(0, 0, 8, 8, 0);
     replay(&ctx, &rec_b, &mut again_b);
     assert_eq!(bits(&again_b, &ctx), bits(&bfilm.film, &ctx));
+}
+
+/// A BDPT unit (one tile) keeps its light-tracing splats onto other pixels and adds them, with
+/// its tile's film, to the frame's rows (`bdpt::film`): the frame then holds the bytes of a
+/// full-frame film that took the same contributions directly (each pixel receives either the
+/// tile's own sums or splats, in the order they were made).
+#[test]
+fn a_bdpt_unit_and_its_splats_add_up_to_a_full_frame_film() {
+    let mut scene = common::load("cornell_box.toml");
+    scene.film.width = 16;
+    scene.film.height = 16;
+    scene.integrator.max_bounces = 4;
+    let device = Device::new("").unwrap();
+    let ctx = RenderContext::new(&scene, &device).unwrap();
+    let mut full = BdptFilm::new(&ctx, (0, 0, 16, 16), 0, false, false);
+    let mut unit = BdptFilm::new(&ctx, (8, 0, 8, 8), 0, false, true);
+    let mut counts = PathCounts::default();
+    let mut scratch = bdpt::Scratch::<f32x8, 3>::default();
+    for s in 0..4 {
+        for y in 0..8 {
+            let lanes = PacketLanes::row(8, y, 8, 16, 4, s);
+            bdpt::trace_packet::<f32x8, 3, _>(&ctx, 7, &lanes, &mut full, &mut counts, &mut scratch);
+            bdpt::trace_packet::<f32x8, 3, _>(&ctx, 7, &lanes, &mut unit, &mut counts, &mut scratch);
+        }
+    }
+    assert!(
+        unit.outside_splats() > 100,
+        "{} splats onto other tiles",
+        unit.outside_splats()
+    );
+    let f = &scene.film;
+    let frame = || vec![difftransient::Transient::zeros(16, 16, f.axis, f.channels)];
+    let mut from_rows = frame();
+    for y in 0..16 {
+        let mut row = BdptFilm::new(&ctx, (0, y, 16, 1), 0, false, false);
+        row.add_unit::<3>(&ctx, &unit);
+        row.film.merge_into(&mut from_rows);
+    }
+    let mut direct = frame();
+    full.film.merge_into(&mut direct);
+    let bits = |t: &[difftransient::Transient]| -> Vec<u32> {
+        t[0].data.iter().chain(&t[0].steady).map(|v| v.to_bits()).collect()
+    };
+    assert!(direct[0].data.iter().any(|&v| v > 0.0));
+    assert_eq!(bits(&from_rows), bits(&direct));
 }

@@ -117,6 +117,18 @@ pub struct PathCounts {
     pub total_ticks: u64,
 }
 
+impl PathCounts {
+    /// Adds another unit's tallies.
+    pub fn add(&mut self, o: &PathCounts) {
+        self.rays.intersect += o.rays.intersect;
+        self.rays.occluded += o.rays.occluded;
+        self.rays.trace_ticks += o.rays.trace_ticks;
+        self.non_finite += o.non_finite;
+        self.film_ticks += o.film_ticks;
+        self.total_ticks += o.total_ticks;
+    }
+}
+
 /// Pulls every lane of `mask` with an emitter out of (`d` or `exact`, `contrib`) and hands the finite,
 /// non-empty ones to `add(lane, contribution)`; non-finite lanes are counted in `counts` and
 /// dropped. The time spent is counted as film time.

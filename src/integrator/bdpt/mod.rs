@@ -29,6 +29,7 @@ pub mod connect;
 pub mod film;
 pub mod mis;
 pub mod splat;
+pub mod units;
 pub mod vertex;
 pub mod walk;
 
@@ -150,8 +151,8 @@ pub fn trace_packet<R: Real, const C: usize, S: Sink<C>>(
 }
 
 /// The samples `samples` (of `spp` per pixel) of the tiles `tiles` (x0, y0 of each
-/// `tile`-sized tile), in order, into one chunk film: the BDPT counterpart of the path
-/// tracer's per-tile loop.
+/// `tile`-sized tile), in order, into one sink (a unit's films, `film::BdptFilm`, or the
+/// adjoint's): the BDPT counterpart of the path tracer's per-tile loop.
 #[allow(clippy::too_many_arguments)]
 pub fn render_tiles<R: Real, const C: usize, S: Sink<C>>(
     ctx: &RenderContext,

@@ -1,6 +1,7 @@
 //! The t = 1 strategy (light tracing): the light subpath's vertex s − 1 joined to the
 //! pinhole. It lands on whichever pixels the filter around its film point reaches, so it
-//! is splatted into the chunk's full-frame film.
+//! goes to the unit's sink, which keeps what lands outside its tile for the driver
+//! (`super::film`).
 //!
 //! Contribution to pixel j: β_L · f(q_s) · |cos θ_q| / r² · W_j / N, with the importance
 //! W_j = h_j(u) / (a cos³θ) (`CameraProjection`) and N pixels (one light subpath per camera
