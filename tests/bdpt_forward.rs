@@ -284,6 +284,9 @@ fn bdpt_is_deterministic_across_thread_counts() {
     o.threads = Some(1);
     let (b, _) = render(&scene, &o).unwrap();
     assert!(a.data == b.data && a.steady == b.steady);
+    o.threads = Some(5);
+    let (c, _) = render(&scene, &o).unwrap();
+    assert!(a.data == c.data && a.steady == c.steady);
 }
 
 /// A derivative render runs the same strategies with the same weights as the plain render

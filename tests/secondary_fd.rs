@@ -351,7 +351,8 @@ fn obj_scale_point_light_shadow_matches_finite_differences() {
 }
 
 /// The same seed gives the same bytes for any thread count (boundary chunks are merged in a
-/// fixed order), and the boundary stage runs only when a requested parameter moves geometry.
+/// fixed order, whatever the batches and bands the threads set), and the boundary stage runs
+/// only when a requested parameter moves geometry.
 #[test]
 fn boundary_is_deterministic_and_runs_only_for_geometry() {
     let scene = load("shadow_hidden_occluder.toml", "occluder_x", None);
@@ -365,8 +366,11 @@ fn boundary_is_deterministic_and_runs_only_for_geometry() {
     };
     let (_, d1, s1) = run(1);
     let (_, d2, _) = run(2);
+    // 12 threads trace 48 work units per batch and bin in 12 bands of rows, against 8 and 8
+    let (_, d12, _) = run(12);
     assert!(s1.boundary_samples > 0 && s1.boundary.is_some());
     assert_eq!(d1[0].data, d2[0].data, "thread count changed the derivative");
+    assert_eq!(d1[0].data, d12[0].data, "batch or band count changed the derivative");
     assert!(d1[0].data.iter().any(|&v| v != 0.0));
 
     let room = Scene::load(&common::scene_path("diff_room.toml"), &[]).unwrap();

@@ -35,10 +35,13 @@ use std::time::Instant;
 
 /// Strategy evaluations per work unit (fixed, so results do not depend on the thread count).
 const CHUNK: u64 = 4096;
-/// Work units traced at once; their paths are binned in order before the next batch.
-const BATCH: u64 = 8;
-/// Bands of film rows that bin paths in parallel.
-const BANDS: usize = 8;
+/// Work units traced at once, per thread of the pool (at least 8 in all); their paths are
+/// binned in chunk order before the next batch, so the batch's size changes no byte.
+const BATCH_PER_THREAD: u64 = 4;
+/// Fewest bands of film rows that bin paths in parallel (one per thread when there are more
+/// threads, at most one per row); every band bins every path in chunk order, so their number
+/// changes no byte.
+const MIN_BANDS: usize = 8;
 /// Stream of the pilot pass, relative to the pass's seed.
 const PILOT_STREAM: u64 = 0x7049_1A7B_0000_0001;
 /// Smallest share of the budget either strategy gets.
@@ -392,7 +395,7 @@ impl Secondary<'_> {
         // Bands of film rows bin each batch's paths in parallel, each band every path in
         // chunk order, so the bytes do not depend on the thread count, and memory stays one
         // film plus a batch of path lists.
-        let bands = h.clamp(1, BANDS);
+        let bands = h.clamp(1, MIN_BANDS.max(pool.current_num_threads()));
         let mut tiles: Vec<TileFilm> = (0..bands)
             .map(|b| {
                 let (y0, y1) = (b * h / bands, (b + 1) * h / bands);
@@ -485,8 +488,9 @@ impl Secondary<'_> {
         let mut batch0 = mine.start / CHUNK;
         let my_chunks = (mine.end.div_ceil(CHUNK).min(chunks)).saturating_sub(batch0);
         settings.progress.set_length(my_chunks);
+        let batch_len = (BATCH_PER_THREAD * pool.current_num_threads() as u64).max(8);
         while batch0 < chunks && batch0 * CHUNK < mine.end {
-            let batch: Vec<u64> = (batch0..(batch0 + BATCH).min(chunks)).collect();
+            let batch: Vec<u64> = (batch0..(batch0 + batch_len).min(chunks)).collect();
             let parts: Vec<(Vec<BoundaryPath>, Scratch)> = pool.install(|| {
                 batch
                     .par_iter()
@@ -528,7 +532,7 @@ impl Secondary<'_> {
             settings
                 .progress
                 .inc(batch.iter().filter(|&&c| c * CHUNK < mine.end).count() as u64);
-            batch0 += BATCH;
+            batch0 += batch_len;
         }
         stats.seconds = t0.elapsed().as_secs_f64();
         (stats, samples)
