@@ -51,6 +51,13 @@ pub(crate) fn shadow_scene(shape: &str) -> (crate::scene::Scene, u32) {
 pub const PRIMARY_SEED: u64 = 0x9E1A_0001_B0DA_0001;
 pub const SECONDARY_SEED: u64 = 0x5EC0_0002_B0DA_0002;
 
+/// Bands of film rows that bin boundary paths in parallel: one per thread of `pool`, at
+/// least 8, at most one per row. Each band bins every path in sample order and a pixel lies
+/// in one band, so the number changes no byte.
+pub(crate) fn row_bands(rows: usize, pool: &rayon::ThreadPool) -> usize {
+    rows.clamp(1, pool.current_num_threads().max(8))
+}
+
 /// How the boundary stage samples.
 #[derive(Clone, Debug)]
 pub struct BoundarySettings {

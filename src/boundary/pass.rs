@@ -38,10 +38,6 @@ const CHUNK: u64 = 4096;
 /// Work units traced at once, per thread of the pool (at least 8 in all); their paths are
 /// binned in chunk order before the next batch, so the batch's size changes no byte.
 const BATCH_PER_THREAD: u64 = 4;
-/// Fewest bands of film rows that bin paths in parallel (one per thread when there are more
-/// threads, at most one per row); every band bins every path in chunk order, so their number
-/// changes no byte.
-const MIN_BANDS: usize = 8;
 /// Stream of the pilot pass, relative to the pass's seed.
 const PILOT_STREAM: u64 = 0x7049_1A7B_0000_0001;
 /// Smallest share of the budget either strategy gets.
@@ -395,7 +391,7 @@ impl Secondary<'_> {
         // Bands of film rows bin each batch's paths in parallel, each band every path in
         // chunk order, so the bytes do not depend on the thread count, and memory stays one
         // film plus a batch of path lists.
-        let bands = h.clamp(1, MIN_BANDS.max(pool.current_num_threads()));
+        let bands = super::row_bands(h, pool);
         let mut tiles: Vec<TileFilm> = (0..bands)
             .map(|b| {
                 let (y0, y1) = (b * h / bands, (b + 1) * h / bands);

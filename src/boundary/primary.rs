@@ -96,9 +96,25 @@ pub fn render_primary_with_stats(
     let (w, h) = (scene.film.width as usize, scene.film.height as usize);
     let blank = Transient::zeros(w, h, scene.film.axis, scene.film.channels);
     let mut out = vec![blank; ctx.motion.len().min(MAX_PARAMS)];
-    let mut sums: Vec<SumFilm> = out.iter().map(SumFilm::new).collect();
-    let stats = for_each_jump(ctx, spp_boundary, seed, shard, pool, |jump| jump.splat(ctx, &mut sums));
-    sums.iter().zip(out.iter_mut()).for_each(|(s, t)| s.store(t));
+    // Bands of rows add each wave's jumps in parallel, each band every jump in sample order:
+    // a pixel lies in one band, so neither the band count nor the thread count changes a byte.
+    let bands = super::row_bands(h, pool);
+    let mut sums: Vec<Vec<SumFilm>> = (0..bands)
+        .map(|b| {
+            let rows = b * h / bands..(b + 1) * h / bands;
+            out.iter().map(|t| SumFilm::new(t, rows.clone())).collect()
+        })
+        .collect();
+    let stats = for_each_wave(ctx, spp_boundary, seed, shard, pool, |wave| {
+        pool.install(|| {
+            sums.par_iter_mut().for_each(|band| {
+                wave.iter().flatten().for_each(|jump| jump.splat(ctx, band));
+            })
+        })
+    });
+    for band in &sums {
+        band.iter().zip(out.iter_mut()).for_each(|(s, t)| s.store(t));
+    }
     (out, stats)
 }
 
@@ -113,21 +129,23 @@ pub fn primary_adjoint(
     adjoint: &Transient,
 ) -> ([f64; MAX_PARAMS], PrimaryStats) {
     let mut grad = [0.0f64; MAX_PARAMS];
-    let stats = for_each_jump(ctx, spp_boundary, seed, shard, pool, |jump| {
-        jump.contract(ctx, adjoint, &mut grad)
+    let stats = for_each_wave(ctx, spp_boundary, seed, shard, pool, |wave| {
+        wave.iter()
+            .flatten()
+            .for_each(|jump| jump.contract(ctx, adjoint, &mut grad))
     });
     (grad, stats)
 }
 
-/// Draws the primary-edge samples of `shard` and hands their jumps to `consume` in sample
-/// order (the same order for any thread count).
-fn for_each_jump(
+/// Draws the primary-edge samples of `shard` and hands their jumps to `consume`, a wave at a
+/// time: each wave's chunks in sample order (the same order for any thread count).
+fn for_each_wave(
     ctx: &RenderContext,
     spp_boundary: u32,
     seed: u64,
     shard: Shard,
     pool: &rayon::ThreadPool,
-    mut consume: impl FnMut(&Jump),
+    mut consume: impl FnMut(&[Vec<Jump>]),
 ) -> PrimaryStats {
     let scene = ctx.scene;
     let (w, h) = (scene.film.width as usize, scene.film.height as usize);
@@ -173,8 +191,9 @@ fn for_each_jump(
                 })
                 .collect()
         });
-        for (jumps, s) in &done {
-            jumps.iter().for_each(&mut consume);
+        let (jumps, tallies): (Vec<Vec<Jump>>, Vec<PrimaryStats>) = done.into_iter().unzip();
+        consume(&jumps);
+        for s in &tallies {
             stats.samples += s.samples;
             stats.traced += s.traced;
             stats.non_finite += s.non_finite;
@@ -194,17 +213,21 @@ struct Jump {
 }
 
 impl Jump {
-    /// Adds h_j · weight_k · (L⁻ − L⁺) to every pixel j the filter reaches, in film k.
+    /// Adds h_j · weight_k · (L⁻ − L⁺) to every pixel j of the films' rows that the filter
+    /// reaches, in film k.
     fn splat(&self, ctx: &RenderContext, films: &mut [SumFilm]) {
         let c_n = ctx.scene.film.channels;
         let (fx, fy) = (self.film.x as f32, self.film.y as f32);
-        ctx.camera.for_each_pixel(fx, fy, |px, py, hj| {
+        let Some(rows) = films.first().map(|f| f.rows.start as u32..f.rows.end as u32) else {
+            return;
+        };
+        ctx.camera.for_each_pixel_in_rows(fx, fy, rows, |px, py, hj| {
             for (film, &wk) in films.iter_mut().zip(&self.weight) {
                 let w = (hj * wk) as f64;
                 if w == 0.0 {
                     continue;
                 }
-                let pixel = py as usize * film.width + px as usize;
+                let pixel = (py as usize - film.rows.start) * film.width + px as usize;
                 let base = (pixel * film.bins + self.lo) * c_n;
                 let bins = &mut film.data[base..base + self.delta.len()];
                 bins.iter_mut().zip(&self.delta).for_each(|(d, &v)| *d += w * v as f64);
@@ -237,27 +260,40 @@ impl Jump {
     }
 }
 
-/// A derivative film while the jumps are added: f64, like the interior's derivative tiles,
-/// so that ± jumps cancel without f32 rounding of the running sums.
+/// Rows of a derivative film while the jumps are added: f64, like the interior's derivative
+/// tiles, so that ± jumps cancel without f32 rounding of the running sums.
 struct SumFilm {
     width: usize,
     bins: usize,
+    rows: std::ops::Range<usize>,
     data: Vec<f64>,
     steady: Vec<f64>,
 }
 
 impl SumFilm {
-    fn new(t: &Transient) -> Self {
+    /// Rows `rows` of a film shaped like `t`.
+    fn new(t: &Transient, rows: std::ops::Range<usize>) -> Self {
+        let (per_row, steady_row) = (t.data.len() / t.height.max(1), t.steady.len() / t.height.max(1));
         Self {
             width: t.width,
             bins: t.axis.bins,
-            data: vec![0.0; t.data.len()],
-            steady: vec![0.0; t.steady.len()],
+            data: vec![0.0; per_row * rows.len()],
+            steady: vec![0.0; steady_row * rows.len()],
+            rows,
         }
     }
+    /// Writes these rows into `t`.
     fn store(&self, t: &mut Transient) {
-        t.data.iter_mut().zip(&self.data).for_each(|(o, &v)| *o = v as f32);
-        t.steady.iter_mut().zip(&self.steady).for_each(|(o, &v)| *o = v as f32);
+        let (per_row, steady_row) = (t.data.len() / t.height.max(1), t.steady.len() / t.height.max(1));
+        let (d, s) = (self.rows.start * per_row, self.rows.start * steady_row);
+        t.data[d..d + self.data.len()]
+            .iter_mut()
+            .zip(&self.data)
+            .for_each(|(o, &v)| *o = v as f32);
+        t.steady[s..s + self.steady.len()]
+            .iter_mut()
+            .zip(&self.steady)
+            .for_each(|(o, &v)| *o = v as f32);
     }
 }
 
