@@ -177,6 +177,20 @@ fn resume_refuses_what_is_not_this_render() {
         let e = String::from_utf8_lossy(&o.stderr);
         assert!(e.contains("checkpoint of another render") && e.contains(field), "{e}");
     }
+    // a checkpoint whose units are cut another way (an earlier dtr's: BDPT chunks) is refused
+    // by that field, never resumed into the wrong units
+    let bytes = std::fs::read(&ck).unwrap();
+    let (from, to) = (&b"\"checkpoint_units\":2"[..], &b"\"checkpoint_units\":1"[..]);
+    let at = bytes
+        .windows(from.len())
+        .position(|w| w == from)
+        .expect("the identity names its units' cut");
+    let mut older = bytes.clone();
+    older[at..at + from.len()].copy_from_slice(to);
+    std::fs::write(&ck, &older).unwrap();
+    let o = dtr(&["render", CORNELL, "--spp", "1024", "-o", "r", "--resume"], dir);
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && e.contains("checkpoint_units"), "{e}");
     std::fs::write(&ck, b"not a checkpoint").unwrap();
     let o = dtr(&["render", CORNELL, "--spp", "1024", "-o", "r", "--resume"], dir);
     assert!(String::from_utf8_lossy(&o.stderr).contains("not a usable dtr checkpoint"));

@@ -12,15 +12,22 @@ use std::time::Duration;
 /// How often a resumed render checkpoints when `--checkpoint` is not given.
 const DEFAULT_SECONDS: f64 = 300.0;
 
+/// How a checkpoint's units are cut, kept in its identity so that a checkpoint of another
+/// cut (an earlier dtr's) is refused by name rather than resumed into the wrong units. 2:
+/// BDPT's units are waves of (tile, sample block) units and its films the frame's rows
+/// (`integrator::bdpt::units`); 1 (no field) had up to 8 chunks of tiles.
+const UNITS_LAYOUT: u32 = 2;
+
 /// The checkpointing of a render to `set`'s prefix: every `seconds`, resuming from the
 /// checkpoint there when `resume` (refused when there is none, or it is another render's).
 pub fn prepare(
     set: &OutputSet,
     scene: &Scene,
-    identity: serde_json::Value,
+    mut identity: serde_json::Value,
     seconds: Option<f64>,
     resume: bool,
 ) -> anyhow::Result<Arc<Checkpointing>> {
+    identity["checkpoint_units"] = serde_json::json!(UNITS_LAYOUT);
     let path = with_suffix(set.prefix(), "checkpoint");
     for input in &scene.inputs {
         if std::fs::canonicalize(input).ok() == std::fs::canonicalize(&path).ok().filter(|_| path.exists()) {
