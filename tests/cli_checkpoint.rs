@@ -190,7 +190,10 @@ fn resume_refuses_what_is_not_this_render() {
     std::fs::write(&ck, &older).unwrap();
     let o = dtr(&["render", CORNELL, "--spp", "1024", "-o", "r", "--resume"], dir);
     let e = String::from_utf8_lossy(&o.stderr);
-    assert!(!o.status.success() && e.contains("checkpoint_units"), "{e}");
+    assert!(
+        !o.status.success() && e.contains("checkpoint_units was 1 there, is 2 now"),
+        "{e}"
+    );
     std::fs::write(&ck, b"not a checkpoint").unwrap();
     let o = dtr(&["render", CORNELL, "--spp", "1024", "-o", "r", "--resume"], dir);
     assert!(String::from_utf8_lossy(&o.stderr).contains("not a usable dtr checkpoint"));

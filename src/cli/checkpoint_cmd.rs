@@ -55,11 +55,12 @@ pub fn prepare(
                         .cloned()
                 })
                 .unwrap_or_else(|| "identity".into());
+            let shown = |v: Option<&serde_json::Value>| v.map_or("absent".to_string(), |v| v.to_string());
             bail!(
                 "--resume: {} is the checkpoint of another render: {key} was {} there, is {} now",
                 path.display(),
-                theirs.get(&key).unwrap_or(&theirs),
-                identity.get(&key).unwrap_or(&identity)
+                shown(theirs.get(&key)),
+                shown(identity.get(&key))
             );
         }
         log::info!(
