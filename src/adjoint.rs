@@ -231,15 +231,13 @@ fn render_adjoint_group(
     // count.
     enum Unit {
         Tile((usize, usize, usize, usize)),
-        Chunk(Vec<(usize, usize)>),
+        /// A BDPT tile's origin.
+        BdptTile((usize, usize)),
     }
     let units: Vec<Unit> = match (interior, run.kind) {
         (false, _) => Vec::new(),
         (true, IntegratorKind::Path) => crate::render::tile_rects(scene).into_iter().map(Unit::Tile).collect(),
-        (true, IntegratorKind::Bdpt) => crate::render::tiles(w, h)
-            .into_iter()
-            .map(|t| Unit::Chunk(vec![t]))
-            .collect(),
+        (true, IntegratorKind::Bdpt) => crate::render::tiles(w, h).into_iter().map(Unit::BdptTile).collect(),
     };
     let parts: Vec<([f64; MAX_PARAMS], PathCounts)> = run.pool.install(|| {
         units
@@ -258,13 +256,14 @@ fn render_adjoint_group(
                             render_tile(ctx, seed, spp, samples, w, rect, a, c)
                         );
                     }
-                    Unit::Chunk(chunk) => {
+                    Unit::BdptTile(origin) => {
                         use crate::integrator::bdpt::render_tiles;
+                        let tile = [*origin];
                         dispatch!(
                             derivs,
                             opts.lanes,
                             channels,
-                            render_tiles(ctx, seed, spp, samples, chunk, TILE, a, c)
+                            render_tiles(ctx, seed, spp, samples, &tile, TILE, a, c)
                         );
                     }
                 }

@@ -444,12 +444,8 @@ fn film_bytes(
             // the full-frame rows, and a wave of unit films with their splats onto other
             // pixels at their worst (`bdpt::units`)
             let rows = frame * ((1 + d) * acc + strategies * 4);
-            let tile_floats = (TILE * TILE) as u128 * (bins * c + c);
-            let unit = tile_floats * ((1 + d) * acc + strategies * 4)
-                + (bdpt::units::SPLATS_PER_UNIT * bdpt::units::splat_bytes(derivs, f.channels)) as u128;
-            let wave = (bdpt::units::WAVE_BYTES as u128 / unit.max(1))
-                .clamp(bdpt::units::MIN_WAVE as u128, bdpt::units::MAX_WAVE as u128);
-            rows + wave * unit
+            let unit = bdpt::units::unit_bytes(scene, TILE, derivs, per_strategy);
+            rows + (bdpt::units::wave_len(unit) * unit) as u128
         }
     };
     let copies = if checkpointing { 2 } else { 1 };
@@ -934,20 +930,8 @@ impl<'s> Run<'s> {
                 // row by row in parallel, unit by unit in order (`bdpt::units`). The rows
                 // live in the state as the checkpoint's films between waves (moved, not
                 // copied), so a checkpoint or a signal always sees whole waves.
-                let strategies = if per_strategy {
-                    bdpt::film::strategy_list(scene.integrator.max_bounces).len()
-                } else {
-                    0
-                };
-                let tile_floats = TILE * TILE * (axis.bins * channels + channels);
-                let acc = if derivs > 0 { 8 } else { 4 };
-                let unit_bytes = tile_floats * ((1 + derivs) * acc + strategies * 4)
-                    + bdpt::units::SPLATS_PER_UNIT * bdpt::units::splat_bytes(derivs, channels);
-                let units = if ran {
-                    bdpt::units::Units::new(scene, TILE, samples, unit_bytes)
-                } else {
-                    bdpt::units::Units::new(scene, TILE, &(0..0), unit_bytes)
-                };
+                let unit_bytes = bdpt::units::unit_bytes(scene, TILE, derivs, per_strategy);
+                let units = bdpt::units::Units::new(scene, TILE, if ran { samples } else { &(0..0) }, unit_bytes);
                 let waves = units.waves();
                 bar.set_length(units.len() as u64);
                 let mut rows: Vec<BdptFilm> = (0..h)

@@ -76,6 +76,26 @@ fn barycentrics(tri: [DVec3; 3], p: DVec3) -> (f64, f64, f64) {
     (u, v, (q - e1 * u - e2 * v).length())
 }
 
+/// Index and barycentrics (u, v) of the triangle of `tris` that holds `p`: in its plane and
+/// inside it (within 10⁻⁵), the most interior one where triangles share an edge. Panics,
+/// naming `what`, when none does.
+fn triangle_holding(tris: impl Iterator<Item = [DVec3; 3]>, p: DVec3, what: &str) -> (usize, f64, f64) {
+    let (k, (u, v, dist)) = tris
+        .enumerate()
+        .map(|(k, t)| (k, barycentrics(t, p)))
+        .filter(|(_, b)| b.2 < 1e-5)
+        .max_by(|a, b| {
+            let m = |b: &(f64, f64, f64)| b.0.min(b.1).min(1.0 - b.0 - b.1);
+            m(&a.1).total_cmp(&m(&b.1))
+        })
+        .unwrap_or_else(|| panic!("{what}: sample {p} on no triangle of its shape"));
+    assert!(
+        u.min(v).min(1.0 - u - v) > -1e-5 && dist < 1e-5,
+        "{what}: {p}: ({u}, {v}), {dist}"
+    );
+    (k, u, v)
+}
+
 /// The cell (of 2N² slots, N² of them real) holding barycentrics (u, v).
 fn cell(u: f64, v: f64) -> usize {
     let n = N as f64;
@@ -160,24 +180,11 @@ fn emitter_samples_follow_the_reported_densities() {
                         let w = radiance[c] / pdf;
                         assert!((weight[c] - w).abs() <= 1e-6 * w, "emitter {e}: weight {weight:?}");
                     }
-                    // the triangle of the shape holding p: in its plane, barycentrics inside
                     let s = &scene.shapes[shape as usize];
-                    let (k, (u, v, dist)) = (0..s.tri_count as usize)
-                        .map(|k| {
-                            (
-                                k,
-                                barycentrics(triangle(&scene, s.first_tri as usize + k), p.as_dvec3()),
-                            )
-                        })
-                        .filter(|(_, b)| b.2 < 1e-5)
-                        .max_by(|a, b| {
-                            let m = |b: &(f64, f64, f64)| b.0.min(b.1).min(1.0 - b.0 - b.1);
-                            m(&a.1).total_cmp(&m(&b.1))
-                        })
-                        .unwrap_or_else(|| panic!("emitter {e}: sample {p} on no triangle of its shape"));
-                    assert!(
-                        u.min(v).min(1.0 - u - v) > -1e-5 && dist < 1e-5,
-                        "{p}: ({u}, {v}), {dist}"
+                    let (k, u, v) = triangle_holding(
+                        (0..s.tri_count as usize).map(|k| triangle(&scene, s.first_tri as usize + k)),
+                        p.as_dvec3(),
+                        &format!("emitter {e}"),
                     );
                     observed[offset[e] + k * 2 * N * N + cell(u, v)] += 1;
                 }
@@ -325,21 +332,7 @@ fn a_large_emitter_mesh_picks_its_triangles_by_area() {
             let pdf = ls.pdf_area.lane(i);
             assert_eq!(*reported.get_or_insert(pdf), pdf, "the bulb's pdf varies");
             let p = ls.p.lane(i).as_dvec3();
-            // the triangle holding p: in its plane, barycentrics inside
-            let (k, (u, v, dist)) = tris
-                .iter()
-                .enumerate()
-                .map(|(k, t)| (k, barycentrics(*t, p)))
-                .filter(|(_, b)| b.2 < 1e-5)
-                .max_by(|a, b| {
-                    let m = |b: &(f64, f64, f64)| b.0.min(b.1).min(1.0 - b.0 - b.1);
-                    m(&a.1).total_cmp(&m(&b.1))
-                })
-                .unwrap_or_else(|| panic!("sample {p} on no triangle of the bulb"));
-            assert!(
-                u.min(v).min(1.0 - u - v) > -1e-5 && dist < 1e-5,
-                "{p}: ({u}, {v}), {dist}"
-            );
+            let (k, u, v) = triangle_holding(tris.iter().copied(), p, "the bulb");
             observed[k] += 1;
             observed[n_t + group(k) * 2 * N * N + cell(u, v)] += 1;
         }

@@ -26,6 +26,26 @@ pub fn splat_bytes(derivs: usize, channels: usize) -> usize {
 /// Memory one wave's units may take together: their tile films and worst-case splats.
 pub const WAVE_BYTES: usize = 256 << 20;
 
+/// Bytes one unit of `scene`'s render takes at most: its `tile`² films (primal and `derivs`
+/// derivative blocks, f64 with derivatives and f32 without, one f32 film per strategy when
+/// `per_strategy`; each with its steady image) and [`SPLATS_PER_UNIT`] splats.
+pub fn unit_bytes(scene: &Scene, tile: usize, derivs: usize, per_strategy: bool) -> usize {
+    let f = &scene.film;
+    let strategies = if per_strategy {
+        super::film::strategy_list(scene.integrator.max_bounces).len()
+    } else {
+        0
+    };
+    let acc = if derivs > 0 { 8 } else { 4 };
+    let tile_floats = tile * tile * (f.axis.bins * f.channels + f.channels);
+    tile_floats * ((1 + derivs) * acc + strategies * 4) + SPLATS_PER_UNIT * splat_bytes(derivs, f.channels)
+}
+
+/// Units in a wave of units that take `unit_bytes` each.
+pub fn wave_len(unit_bytes: usize) -> usize {
+    (WAVE_BYTES / unit_bytes.max(1)).clamp(MIN_WAVE, MAX_WAVE)
+}
+
 /// Most and fewest units in a wave (fewer than `MAX_WAVE` only when the units' memory asks
 /// it, and never fewer than `MIN_WAVE`, whatever the memory).
 pub const MAX_WAVE: usize = 256;
@@ -71,8 +91,11 @@ impl Units {
         let blocks = (0..count)
             .map(|b| samples.start + b * n / count..samples.start + (b + 1) * n / count)
             .collect();
-        let wave = (WAVE_BYTES / unit_bytes.max(1)).clamp(MIN_WAVE, MAX_WAVE);
-        Self { rects, blocks, wave }
+        Self {
+            rects,
+            blocks,
+            wave: wave_len(unit_bytes),
+        }
     }
 
     pub fn len(&self) -> usize {
