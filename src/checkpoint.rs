@@ -290,6 +290,7 @@ pub fn read(path: &Path) -> Result<(serde_json::Value, Saved), Error> {
                 )?;
                 Some(TileSums {
                     data32,
+                    written: Vec::new(),
                     data64: f64s(&format!("chunk{c}.data64"))?,
                     steady: f64s(&format!("chunk{c}.steady"))?,
                     tails: *tails,

@@ -6,6 +6,9 @@
 //! add `ḟ_c · S_e(l, d) + f_c · Ṡ_e(l, d) · ḋ` (Algorithm 1, last loop).
 
 use crate::temporal::{Correlation, TimeAxis};
+use bins::Bins;
+
+mod bins;
 
 /// A finished transient: `data` is `[height, width, bins, channels]`, row-major, averaged
 /// over samples. `steady` is the time-integrated image `[height, width, channels]` of the
@@ -112,74 +115,6 @@ pub enum SteadyMode {
     /// All time: every path's f, in or out of the window (`dtr render --steady full`). No
     /// path is cut, so the render also measures the energy after the window exactly.
     Full,
-}
-
-/// A tile's bins while it accumulates. f64 when the film has derivative blocks: a narrow
-/// pulse's derivative adds ±lobes of f·∂S_e/∂d·ḋ (∂S_e/∂d is about 0.24/σ per metre: 8·10⁷
-/// for σ = 3 nm) that cancel over time only if no f32 rounding of the running sums breaks
-/// them. f32 for a film without derivatives (a primal has no lobes; half the memory keeps the
-/// forward renderer's tile in cache). The finished film is f32 either way.
-#[derive(Clone, Debug)]
-enum Bins {
-    F32(Vec<f32>),
-    F64(Vec<f64>),
-}
-
-impl Bins {
-    fn new(n: usize, derivs: usize) -> Self {
-        if derivs == 0 {
-            Bins::F32(vec![0.0; n])
-        } else {
-            Bins::F64(vec![0.0; n])
-        }
-    }
-    fn reset(&mut self, n: usize) {
-        match self {
-            Bins::F32(v) => {
-                v.clear();
-                v.resize(n, 0.0)
-            }
-            Bins::F64(v) => {
-                v.clear();
-                v.resize(n, 0.0)
-            }
-        }
-    }
-    #[inline(always)]
-    fn add(&mut self, i: usize, x: f64) {
-        match self {
-            Bins::F32(v) => v[i] += x as f32,
-            Bins::F64(v) => v[i] += x,
-        }
-    }
-    /// Adds `len` values of `other` from `src` on into this one from `dst` on (the same kind).
-    fn add_from(&mut self, dst: usize, other: &Bins, src: usize, len: usize) {
-        match (self, other) {
-            (Bins::F32(a), Bins::F32(b)) => add_nonzero(&mut a[dst..dst + len], &b[src..src + len]),
-            (Bins::F64(a), Bins::F64(b)) => add_nonzero(&mut a[dst..dst + len], &b[src..src + len]),
-            _ => unreachable!("films of one render accumulate in one precision"),
-        }
-    }
-    /// Adds `dst.len()` values from `src` on into `dst`.
-    fn add_into(&self, dst: &mut [f32], src: usize) {
-        match self {
-            Bins::F32(v) => dst.iter_mut().zip(&v[src..]).for_each(|(d, s)| *d += *s),
-            Bins::F64(v) => dst.iter_mut().zip(&v[src..]).for_each(|(d, s)| *d += *s as f32),
-        }
-    }
-}
-
-/// `dst += src`, skipping runs of 16 zeros in `src`: a transient is sparse in time, and pages
-/// of `dst` that only zeros would reach stay untouched (x + 0 = x, so the sums are the same).
-fn add_nonzero<T: Copy + Default + PartialEq + std::ops::AddAssign>(dst: &mut [T], src: &[T]) {
-    let zero = T::default();
-    let mut d = dst.chunks_mut(16);
-    for s in src.chunks(16) {
-        let d = d.next().expect("as long as src");
-        if s.iter().any(|&v| v != zero) {
-            d.iter_mut().zip(s).for_each(|(d, &s)| *d += s);
-        }
-    }
 }
 
 /// What estimators add path contributions to: a tile's bins ([`TileFilm`]), or the adjoint
@@ -336,12 +271,15 @@ impl Accumulate for TileFilm {
 pub struct TileSums {
     pub data32: Vec<f32>,
     pub data64: Vec<f64>,
+    /// Which runs of the bins were written (`film::bins`); empty when not known (sums read
+    /// from a checkpoint), and then found from the values.
+    pub written: Vec<u64>,
     pub steady: Vec<f64>,
     pub tails: [f64; 2],
 }
 
-/// A rectangle of pixels accumulated by one worker; merged into a [`Transient`] in a fixed
-/// order, so results do not depend on the thread count or scheduling.
+/// A rectangle of pixels accumulated by one worker, then stored into a [`Transient`]
+/// ([`TileFilm::store_into`]), so results do not depend on the thread count or scheduling.
 #[derive(Clone, Debug)]
 #[doc(hidden)]
 pub struct TileFilm {
@@ -401,13 +339,11 @@ impl TileFilm {
 
     /// The film's running sums as they stand (for a checkpoint, `crate::checkpoint`).
     pub fn sums(&self) -> TileSums {
-        let (data32, data64) = match &self.data {
-            Bins::F32(v) => (v.clone(), Vec::new()),
-            Bins::F64(v) => (Vec::new(), v.clone()),
-        };
+        let (data32, data64, written) = self.data.to_parts();
         TileSums {
             data32,
             data64,
+            written,
             steady: self.steady.clone(),
             tails: self.tails,
         }
@@ -417,19 +353,12 @@ impl TileFilm {
     /// sums of another shape or precision.
     pub fn restore(&mut self, s: TileSums) -> Result<(), String> {
         let n = self.w * self.h * self.bins * self.channels * (1 + self.derivs);
-        let ok = match &mut self.data {
-            Bins::F32(v) if n == s.data32.len() && s.data64.is_empty() => {
-                *v = s.data32;
-                true
-            }
-            Bins::F64(v) if n == s.data64.len() && s.data32.is_empty() => {
-                *v = s.data64;
-                true
-            }
-            _ => false,
-        };
-        if !ok || s.steady.len() != self.w * self.h * self.channels * (1 + self.derivs) {
-            return Err("the saved film has another shape or precision".into());
+        let refused = || Err("the saved film has another shape or precision".into());
+        if s.steady.len() != self.w * self.h * self.channels * (1 + self.derivs) {
+            return refused();
+        }
+        if !self.data.restore(n, s.data32, s.data64, s.written) {
+            return refused();
         }
         self.steady = s.steady;
         self.tails = s.tails;
@@ -439,13 +368,11 @@ impl TileFilm {
     /// Moves the film's running sums out (no copy), leaving it empty until [`Self::restore`]
     /// moves them (or others of its shape) back.
     pub fn take_sums(&mut self) -> TileSums {
-        let (data32, data64) = match &mut self.data {
-            Bins::F32(v) => (std::mem::take(v), Vec::new()),
-            Bins::F64(v) => (Vec::new(), std::mem::take(v)),
-        };
+        let (data32, data64, written) = self.data.take_parts();
         TileSums {
             data32,
             data64,
+            written,
             steady: std::mem::take(&mut self.steady),
             tails: std::mem::take(&mut self.tails),
         }
@@ -462,14 +389,7 @@ impl TileFilm {
     /// its time integral, more than f32 bins can cancel, so the run report takes the time
     /// integral from here.
     pub fn block_sums(&self) -> Vec<f64> {
-        let block = self.block().max(1);
-        match &self.data {
-            Bins::F32(v) => v
-                .chunks_exact(block)
-                .map(|b| b.iter().map(|&x| x as f64).sum())
-                .collect(),
-            Bins::F64(v) => v.chunks_exact(block).map(|b| b.iter().sum()).collect(),
-        }
+        self.data.block_sums(self.block().max(1))
     }
 
     #[inline]
@@ -512,8 +432,12 @@ impl TileFilm {
         }
     }
 
-    /// Copies this tile into the full films (primal first, then derivatives).
-    pub fn merge_into(&self, films: &mut [Transient]) {
+    /// Writes this tile into the full films (primal first, then derivatives), whose pixels
+    /// under the tile hold zeros: every caller stores disjoint tiles, bands or rows into
+    /// fresh films (a film resumed from a checkpoint holds zeros where its tiles did not
+    /// finish). The bytes are those of adding the tile to the zeros (`0 + x`), but the
+    /// films are only written ([`Bins::store_into`]).
+    pub fn store_into(&self, films: &mut [Transient]) {
         let row = self.w * self.bins * self.channels;
         let srow = self.w * self.channels;
         for (k, film) in films.iter_mut().enumerate().take(1 + self.derivs) {
@@ -522,14 +446,18 @@ impl TileFilm {
             for ty in 0..self.h {
                 let dst = film.index(self.x0, self.y0 + ty, 0, 0);
                 let src = off + ty * row;
-                self.data.add_into(&mut film.data[dst..dst + row], src);
+                debug_assert!(
+                    film.data[dst..dst + row].iter().all(|&v| v == 0.0),
+                    "a tile is stored only where the film holds zeros"
+                );
+                self.data.store_into(&mut film.data[dst..dst + row], src);
                 let sdst = ((self.y0 + ty) * film.width + self.x0) * self.channels;
                 let ssrc = soff + ty * srow;
                 for (d, s) in film.steady[sdst..sdst + srow]
                     .iter_mut()
                     .zip(&self.steady[ssrc..ssrc + srow])
                 {
-                    *d += *s as f32;
+                    *d = 0.0 + *s as f32;
                 }
             }
         }

@@ -866,8 +866,8 @@ impl<'s> Run<'s> {
         let tallies: Vec<(PathCounts, [f64; 2], Vec<f64>)> = match self.kind {
             IntegratorKind::Path => {
                 // Tiles cover disjoint pixels and `out` starts at zero, so each pixel receives
-                // exactly one tile's sums (0 + x = x): merging as tiles finish gives the same
-                // bytes for any order and thread count, and a checkpoint's films (the
+                // exactly one tile's sums (0 + x = x): storing tiles as they finish gives the
+                // same bytes for any order and thread count, and a checkpoint's films (the
                 // finished tiles, zero elsewhere) resume to the same bytes. Each worker reuses
                 // one film across its tiles.
                 let units = rects.len();
@@ -910,7 +910,7 @@ impl<'s> Run<'s> {
                             let tally = (counts, film.tails(), film.block_sums());
                             {
                                 let mut st = lock(&state);
-                                film.merge_into(&mut st.frame);
+                                film.store_into(&mut st.frame);
                                 st.done[i] = true;
                                 st.tallies[i] = Some(tally);
                             }
@@ -1024,9 +1024,9 @@ impl<'s> Run<'s> {
                     row.film
                         .restore(sums.expect("every row's sums sit in the state"))
                         .expect("a row's own sums");
-                    row.film.merge_into(&mut out);
+                    row.film.store_into(&mut out);
                     for (k, f) in row.strategies.iter().enumerate() {
-                        f.merge_into(&mut strategy_out[k..k + 1]);
+                        f.store_into(&mut strategy_out[k..k + 1]);
                     }
                     // the rows' tails are those of the splats onto other pixels (the units'
                     // own are in the waves' tallies); their block sums cover everything

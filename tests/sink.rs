@@ -38,7 +38,7 @@ fn bits(film: &TileFilm, ctx: &RenderContext) -> Vec<u32> {
         f.axis,
         f.channels,
     )];
-    film.merge_into(&mut t);
+    film.store_into(&mut t);
     t[0].data.iter().chain(&t[0].steady).map(|v| v.to_bits()).collect()
 }
 
@@ -131,10 +131,10 @@ fn a_bdpt_unit_and_its_splats_add_up_to_a_full_frame_film() {
     for y in 0..16 {
         let mut row = BdptFilm::new(&ctx, (0, y, 16, 1), 0, false, false);
         row.add_unit::<3>(&ctx, &unit);
-        row.film.merge_into(&mut from_rows);
+        row.film.store_into(&mut from_rows);
     }
     let mut direct = frame();
-    full.film.merge_into(&mut direct);
+    full.film.store_into(&mut direct);
     let bits = |t: &[difftransient::Transient]| -> Vec<u32> {
         t[0].data.iter().chain(&t[0].steady).map(|v| v.to_bits()).collect()
     };

@@ -414,7 +414,7 @@ impl Secondary<'_> {
             dropped[0]
         });
         for tile in &tiles {
-            tile.merge_into(&mut out);
+            tile.store_into(&mut out);
         }
         out.remove(0);
         out.iter_mut().for_each(|t| t.scale(1.0 / samples.max(1) as f32));

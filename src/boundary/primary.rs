@@ -465,7 +465,7 @@ impl Estimator<'_> {
             &mut counts,
         );
         let mut sides = [Transient::zeros(8, 1, axis, C)];
-        scratch.merge_into(&mut sides);
+        scratch.store_into(&mut sides);
         let sides = &sides[0];
         let block = axis.bins * C;
         for (i, s) in batch.iter().enumerate() {

@@ -131,7 +131,7 @@ fn derivative_bins_match_central_differences_of_the_primal_binning() {
             }
             // merged: block k lands in film k, at the tile's pixels
             let mut films = vec![Transient::zeros(6, 7, axis, C); 3];
-            film.merge_into(&mut films);
+            film.store_into(&mut films);
             for (k, t) in films.iter().enumerate() {
                 for (px, x) in [3, 4].into_iter().enumerate() {
                     for l in 0..axis.bins {
@@ -193,4 +193,64 @@ fn narrow_pulse_derivative_lobes_cancel_over_time() {
     );
     // the all-time steady derivative is Σḟ, exactly
     assert_eq!(film.sums().steady[1], want);
+}
+
+/// `store_into` writes the bytes that adding the tile to the film's zeros would (−0 becomes
+/// +0, runs of zeros stay zero), at the tile's pixels only, for both precisions.
+#[test]
+fn storing_a_tile_writes_what_adding_it_to_zeros_would() {
+    let axis = TimeAxis {
+        start_opl: 0.0,
+        bin_width_opl: 0.1,
+        bins: 37,
+    };
+    let (x0, y0, w, h, c) = (1, 2, 3, 2, 2);
+    for derivs in [0, 1] {
+        let n = w * h * axis.bins * c * (1 + derivs);
+        // sparse values, a few of them −0, with runs of zeros longer than 16
+        let value = |i: usize| match i % 41 {
+            0 | 7 => -0.0,
+            1..=4 => i as f64 * 0.25 - 30.0,
+            _ => 0.0,
+        };
+        let mut film = TileFilm::new(x0, y0, w, h, &axis, c, derivs);
+        let (data32, data64) = if derivs == 0 {
+            ((0..n).map(|i| value(i) as f32).collect(), Vec::new())
+        } else {
+            (Vec::new(), (0..n).map(value).collect())
+        };
+        let steady: Vec<f64> = (0..w * h * c * (1 + derivs)).map(|i| value(i + 3)).collect();
+        film.restore(TileSums {
+            data32,
+            data64,
+            written: Vec::new(),
+            steady: steady.clone(),
+            tails: [0.0; 2],
+        })
+        .unwrap();
+        let mut got = vec![Transient::zeros(5, 4, axis, c); 1 + derivs];
+        film.store_into(&mut got);
+        for (k, t) in got.iter().enumerate() {
+            let mut want = Transient::zeros(5, 4, axis, c);
+            for ty in 0..h {
+                for tx in 0..w {
+                    for l in 0..axis.bins {
+                        for ch in 0..c {
+                            let i = k * (n / (1 + derivs)) + ((ty * w + tx) * axis.bins + l) * c + ch;
+                            let j = want.index(x0 + tx, y0 + ty, l, ch);
+                            want.data[j] += value(i) as f32;
+                        }
+                    }
+                    for ch in 0..c {
+                        let s = steady[k * w * h * c + (ty * w + tx) * c + ch] as f32;
+                        want.steady[((y0 + ty) * 5 + x0 + tx) * c + ch] += s;
+                    }
+                }
+            }
+            let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(&t.data), bits(&want.data), "derivs {derivs}, film {k}");
+            assert_eq!(bits(&t.steady), bits(&want.steady), "derivs {derivs}, film {k} steady");
+            assert!(t.data.iter().any(|&v| v != 0.0));
+        }
+    }
 }
