@@ -98,9 +98,18 @@ impl Transient {
     pub fn non_finite_count(&self) -> usize {
         self.data.iter().chain(&self.steady).filter(|v| !v.is_finite()).count()
     }
-    /// Multiplies every value of the transient and the steady image by `s`.
+    /// Multiplies every value of the transient and the steady image by `s`. For a positive,
+    /// finite `s` (an average over samples) runs of 16 zeros are left unwritten, since they
+    /// would stay the same zeros: the pages of a sparse transient that no path reached are
+    /// then only read, never copied from the kernel's zero page.
     pub fn scale(&mut self, s: f32) {
-        self.data.iter_mut().chain(self.steady.iter_mut()).for_each(|v| *v *= s);
+        let keep_zeros = s > 0.0 && s.is_finite();
+        for run in self.data.chunks_mut(16).chain(self.steady.chunks_mut(16)) {
+            // ±0 have no bits but the sign's
+            if !(keep_zeros && run.iter().fold(0, |bits, v| bits | v.to_bits() << 1) == 0) {
+                run.iter_mut().for_each(|v| *v *= s);
+            }
+        }
     }
 }
 

@@ -254,3 +254,35 @@ fn storing_a_tile_writes_what_adding_it_to_zeros_would() {
         }
     }
 }
+
+/// `Transient::scale` gives the bits of multiplying every value, though it leaves runs of
+/// zeros unwritten for a positive factor (and a negative one still turns +0 into −0).
+#[test]
+fn scaling_skips_zero_runs_without_changing_a_bit() {
+    let axis = TimeAxis {
+        start_opl: 0.0,
+        bin_width_opl: 0.1,
+        bins: 50,
+    };
+    let mut t = Transient::zeros(3, 2, axis, 3);
+    for (i, v) in t.data.iter_mut().enumerate() {
+        *v = match i % 97 {
+            0 => -0.0,
+            1..=6 => i as f32 * 0.37 - 20.0,
+            _ => 0.0,
+        };
+    }
+    t.steady
+        .iter_mut()
+        .enumerate()
+        .for_each(|(i, v)| *v = (i % 3) as f32 - 1.0);
+    for s in [0.25f32, 1.0 / 3.0, -2.0] {
+        let mut got = t.clone();
+        got.scale(s);
+        let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        let want: Vec<f32> = t.data.iter().map(|v| v * s).collect();
+        let want_steady: Vec<f32> = t.steady.iter().map(|v| v * s).collect();
+        assert_eq!(bits(&got.data), bits(&want), "factor {s}");
+        assert_eq!(bits(&got.steady), bits(&want_steady), "factor {s}");
+    }
+}
