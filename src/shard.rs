@@ -79,25 +79,61 @@ impl std::fmt::Display for Shard {
 /// f32 per value): `dtr merge`. Refuses films of different shapes or time axes.
 pub fn add_films(films: &[&crate::film::Transient]) -> Result<crate::film::Transient, Error> {
     let first = films.first().ok_or_else(|| Error::Invalid("no films to add".into()))?;
-    let mut data = vec![0.0f64; first.data.len()];
-    let mut steady = vec![0.0f64; first.steady.len()];
+    let mut sum = FilmSum::like(first);
     for (i, f) in films.iter().enumerate() {
-        if f.shape() != first.shape() || f.axis != first.axis || f.steady.len() != first.steady.len() {
+        sum.add(i, f)?;
+    }
+    Ok(sum.finish())
+}
+
+/// A running sum of shard films, film by film in the order they come, in f64: the bytes of
+/// [`add_films`] with one film in memory at a time (`dtr merge` reads each shard, adds it and
+/// lets it go, so merging N shards of a 1.5 GB film needs one film's memory, not N).
+pub struct FilmSum {
+    data: Vec<f64>,
+    steady: Vec<f64>,
+    shape: [usize; 4],
+    axis: crate::temporal::TimeAxis,
+}
+
+impl FilmSum {
+    /// Zero, for films of `first`'s shape and time axis.
+    pub fn like(first: &crate::film::Transient) -> Self {
+        Self {
+            data: vec![0.0; first.data.len()],
+            steady: vec![0.0; first.steady.len()],
+            shape: first.shape(),
+            axis: first.axis,
+        }
+    }
+
+    /// Adds film number `i` (for the message), refusing one of another shape or time axis.
+    pub fn add(&mut self, i: usize, f: &crate::film::Transient) -> Result<(), Error> {
+        if f.shape() != self.shape || f.axis != self.axis || f.steady.len() != self.steady.len() {
             return Err(Error::Invalid(format!(
                 "film {i} has shape {:?} (time axis {:?}), film 0 has {:?} ({:?}): not shards of one render",
                 f.shape(),
                 f.axis,
-                first.shape(),
-                first.axis
+                self.shape,
+                self.axis
             )));
         }
-        data.iter_mut().zip(&f.data).for_each(|(a, &b)| *a += b as f64);
-        steady.iter_mut().zip(&f.steady).for_each(|(a, &b)| *a += b as f64);
+        self.data.iter_mut().zip(&f.data).for_each(|(a, &b)| *a += b as f64);
+        self.steady.iter_mut().zip(&f.steady).for_each(|(a, &b)| *a += b as f64);
+        Ok(())
     }
-    let mut out = crate::film::Transient::zeros(first.width, first.height, first.axis, first.channels);
-    out.data.iter_mut().zip(&data).for_each(|(o, &v)| *o = v as f32);
-    out.steady.iter_mut().zip(&steady).for_each(|(o, &v)| *o = v as f32);
-    Ok(out)
+
+    /// The sum, rounded to f32.
+    pub fn finish(self) -> crate::film::Transient {
+        let [h, w, _, c] = self.shape;
+        let mut out = crate::film::Transient::zeros(w, h, self.axis, c);
+        out.data.iter_mut().zip(&self.data).for_each(|(o, &v)| *o = v as f32);
+        out.steady
+            .iter_mut()
+            .zip(&self.steady)
+            .for_each(|(o, &v)| *o = v as f32);
+        out
+    }
 }
 
 #[cfg(test)]

@@ -13,6 +13,7 @@ use super::output_set::{OutputSet, with_suffix};
 use crate::film::Transient;
 use crate::render::RenderOptions;
 use crate::scene::Scene;
+use crate::shard::FilmSum;
 use crate::shard::Shard;
 use anyhow::{Context, bail};
 use serde_json::{Value, json};
@@ -248,18 +249,20 @@ pub fn run(a: MergeArgs) -> anyhow::Result<()> {
         planned.extend(super::render_cmd::PREVIEWS.map(String::from));
     }
     let mut set = OutputSet::prepare(&a.output, &inputs, &scene_path, &planned)?;
-    let mut films = Vec::new();
-    let mut derivs: Vec<Vec<Transient>> = vec![Vec::new(); diff.len()];
-    for s in &shards {
+    // one shard's films in memory at a time, added in shard order (`shard::FilmSum`)
+    let mut sums: Option<(FilmSum, Vec<FilmSum>)> = None;
+    for (i, s) in shards.iter().enumerate() {
         let (f, d) = read_films(s, &diff)?;
-        films.push(f);
-        d.into_iter().zip(derivs.iter_mut()).for_each(|(d, all)| all.push(d));
+        let (film_sum, deriv_sums) =
+            sums.get_or_insert_with(|| (FilmSum::like(&f), d.iter().map(FilmSum::like).collect()));
+        film_sum.add(i, &f)?;
+        for (sum, d) in deriv_sums.iter_mut().zip(&d) {
+            sum.add(i, d)?;
+        }
     }
-    let film = crate::shard::add_films(&films.iter().collect::<Vec<_>>())?;
-    let derivs = derivs
-        .iter()
-        .map(|all| crate::shard::add_films(&all.iter().collect::<Vec<_>>()))
-        .collect::<Result<Vec<_>, _>>()?;
+    let (film_sum, deriv_sums) = sums.context("no shards to merge")?;
+    let film = film_sum.finish();
+    let derivs: Vec<Transient> = deriv_sums.into_iter().map(FilmSum::finish).collect();
     crate::output::write_npy(&set.stage("npy")?, &film.shape(), &film.data)?;
     for (name, d) in diff.iter().zip(&derivs) {
         crate::output::write_npy(&set.stage(&format!("d_{name}.npy"))?, &d.shape(), &d.data)?;
