@@ -112,20 +112,32 @@ impl Bins {
     /// Adds `len` values of `other` from `src` on into these from `dst` on (the same
     /// precision), `other`'s written runs only (x + 0 = x: the sums are those of adding all).
     pub(super) fn add_from(&mut self, dst: usize, other: &Bins, src: usize, len: usize) {
+        // into a run not yet written (all +0) the values are stored, 0 + y, not added: a
+        // fresh film's pages are then first touched by a write (see `store_into`)
+        fn add<T: Copy + std::ops::Add<Output = T> + Default>(x: &mut [T], y: &[T], fresh: bool) {
+            if fresh {
+                x.iter_mut().zip(y).for_each(|(x, &y)| *x = T::default() + y);
+            } else {
+                x.iter_mut().zip(y).for_each(|(x, &y)| *x = *x + y);
+            }
+        }
         let written = &mut self.written;
         other.for_each_written(src, src + len, |a, b| {
             let to = dst + (a - src);
-            match (&mut self.values, &other.values) {
-                (Values::F32(x), Values::F32(y)) => {
-                    x[to..to + b - a].iter_mut().zip(&y[a..b]).for_each(|(x, y)| *x += y)
+            // the part of [to, to + b − a) in each destination run
+            let mut at = to;
+            while at < to + b - a {
+                let r = at / RUN;
+                let end = ((r + 1) * RUN).min(to + b - a);
+                let fresh = written[r / 64] & (1 << (r % 64)) == 0;
+                let from = a + (at - to);
+                match (&mut self.values, &other.values) {
+                    (Values::F32(x), Values::F32(y)) => add(&mut x[at..end], &y[from..from + end - at], fresh),
+                    (Values::F64(x), Values::F64(y)) => add(&mut x[at..end], &y[from..from + end - at], fresh),
+                    _ => unreachable!("films of one render accumulate in one precision"),
                 }
-                (Values::F64(x), Values::F64(y)) => {
-                    x[to..to + b - a].iter_mut().zip(&y[a..b]).for_each(|(x, y)| *x += y)
-                }
-                _ => unreachable!("films of one render accumulate in one precision"),
-            }
-            for r in to / RUN..=(to + b - a - 1) / RUN {
                 written[r / 64] |= 1 << (r % 64);
+                at = end;
             }
         });
     }
