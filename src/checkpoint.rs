@@ -200,8 +200,8 @@ fn write(path: &Path, identity: &serde_json::Value, s: &Saved) -> Result<(), Err
         w.write_all(&text).map_err(io)?;
         for (_, d) in &blobs {
             match d {
-                Data::F32(v) => v.iter().try_for_each(|x| w.write_all(&x.to_le_bytes())).map_err(io)?,
-                Data::F64(v) => v.iter().try_for_each(|x| w.write_all(&x.to_le_bytes())).map_err(io)?,
+                Data::F32(v) => crate::output::write_le(w, v).map_err(io)?,
+                Data::F64(v) => crate::output::write_le(w, v).map_err(io)?,
             }
         }
         Ok(())

@@ -17,6 +17,7 @@ mod flight;
 mod font;
 mod json;
 mod label;
+mod le_bytes;
 #[cfg(feature = "hdf5")]
 mod nlos_h5;
 mod npy;
@@ -40,6 +41,8 @@ pub use npy::write_npy;
 pub use plot::write_time_plot;
 pub use preview::{MAX_SHEET_FRAMES, SheetStyle, write_contact_sheet, write_steady_png};
 pub use xy_plot::{write_line_plot, write_loglog_plot};
+
+pub(crate) use le_bytes::write_le;
 
 use std::path::Path;
 

@@ -3,7 +3,6 @@
 use super::atomic::write_atomic;
 use super::{OutputError, check_data};
 use npyz::WriterBuilder;
-use std::io::Write;
 use std::path::Path;
 
 /// Writes `data` with the given `shape` as a float32 (`<f4`), C-order `.npy` file, atomically.
@@ -50,28 +49,9 @@ pub fn write_npy(path: &Path, shape: &[usize], data: &[f32]) -> Result<(), Outpu
             .writer(&mut *w)
             .write_header_only()
             .map_err(io)?;
-        write_le(w, data).map_err(io)
+        super::write_le(w, data).map_err(io)
     })
 }
-
-/// `data` as little-endian f32 bytes: as they lie in memory on a little-endian machine (one
-/// write, no copy: npyz's element-wise writer spent more time on a 1.5 GB film than
-/// rendering it), else converted a megabyte at a time.
-fn write_le(w: &mut impl Write, data: &[f32]) -> std::io::Result<()> {
-    if cfg!(target_endian = "little") {
-        return w.write_all(bytemuck::cast_slice(data));
-    }
-    let mut bytes = Vec::with_capacity(VALUES_PER_WRITE * 4);
-    for chunk in data.chunks(VALUES_PER_WRITE) {
-        bytes.clear();
-        chunk.iter().for_each(|v| bytes.extend_from_slice(&v.to_le_bytes()));
-        w.write_all(&bytes)?;
-    }
-    Ok(())
-}
-
-/// Values converted and written per call.
-const VALUES_PER_WRITE: usize = 1 << 18;
 
 #[cfg(test)]
 mod tests {
