@@ -118,6 +118,19 @@ fn triangle(scene: &Scene, t: usize) -> [DVec3; 3] {
     scene.geometry.indices[t].map(|i| scene.geometry.positions[i as usize].as_dvec3())
 }
 
+/// The index of the area emitter called `name` and the triangles of the shape it covers.
+fn area_emitter(scene: &Scene, name: &str) -> (usize, Vec<[DVec3; 3]>) {
+    let e = scene.emitters.iter().position(|e| e.name == name).unwrap();
+    let EmitterKind::Area { shape, .. } = scene.emitters[e].kind else {
+        panic!("{name} is not an area emitter")
+    };
+    let s = &scene.shapes[shape as usize];
+    let tris = (0..s.tri_count as usize)
+        .map(|k| triangle(scene, s.first_tri as usize + k))
+        .collect();
+    (e, tris)
+}
+
 /// 800 000 samples of `EmitterTable::sample` (8-wide, as the renderer calls it), counted per
 /// emitter, per triangle of an area emitter and per cell of the triangle, against the
 /// probability the sampler reports: pdf_area (with emitter selection) × the cell's area for
@@ -229,17 +242,11 @@ fn a_pixels_points_are_stratified_over_the_whole_emitter() {
     let scene = load(LIGHTS, &[]);
     let device = Device::new("").unwrap();
     let ctx = RenderContext::new(&scene, &device).unwrap();
-    let panel = scene.emitters.iter().position(|e| e.name == "panel_light").unwrap();
-    let EmitterKind::Area { shape, .. } = scene.emitters[panel].kind else {
-        unreachable!()
-    };
-    let s = &scene.shapes[shape as usize];
-    assert_eq!(s.tri_count, 2);
-    let areas: Vec<f64> = (0..2)
-        .map(|k| {
-            let [a, b, c] = triangle(&scene, s.first_tri as usize + k);
-            0.5 * (b - a).cross(c - a).length()
-        })
+    let (panel, tris) = area_emitter(&scene, "panel_light");
+    assert_eq!(tris.len(), 2);
+    let areas: Vec<f64> = tris
+        .iter()
+        .map(|[a, b, c]| 0.5 * (*b - *a).cross(*c - *a).length())
         .collect();
     assert!((areas[0] / areas[1] - 1.0).abs() < 1e-5);
     // the selection number of the panel: the middle of its third of [0, 1)
@@ -255,14 +262,7 @@ fn a_pixels_points_are_stratified_over_the_whole_emitter() {
             for i in 0..8 {
                 assert_eq!(ls.emitter[i] as usize, panel);
                 let p = ls.p.lane(i).as_dvec3();
-                let (k, (b1, b2, _)) = (0..2)
-                    .map(|k| (k, barycentrics(triangle(&scene, s.first_tri as usize + k), p)))
-                    .filter(|(_, b)| b.2 < 1e-5)
-                    .max_by(|a, b| {
-                        let m = |b: &(f64, f64, f64)| b.0.min(b.1).min(1.0 - b.0 - b.1);
-                        m(&a.1).total_cmp(&m(&b.1))
-                    })
-                    .unwrap();
+                let (k, b1, b2) = triangle_holding(tris.iter().copied(), p, "the panel");
                 let u = (b1 + b2).powi(2);
                 bands[k][((u * 16.0) as usize).min(15)] += 1;
             }
@@ -294,14 +294,9 @@ fn a_large_emitter_mesh_picks_its_triangles_by_area() {
     let scene = load(&text, &[]);
     let device = Device::new("").unwrap();
     let ctx = RenderContext::new(&scene, &device).unwrap();
-    let bulb = scene.emitters.iter().position(|e| e.name == "bulb_light").unwrap();
-    let EmitterKind::Area { shape, .. } = scene.emitters[bulb].kind else {
-        unreachable!()
-    };
-    let s = &scene.shapes[shape as usize];
-    let n_t = s.tri_count as usize;
+    let (bulb, tris) = area_emitter(&scene, "bulb_light");
+    let n_t = tris.len();
     assert!(n_t > super::emitters::REUSE_MAX_TRIANGLES, "{n_t} triangles");
-    let tris: Vec<[DVec3; 3]> = (0..n_t).map(|k| triangle(&scene, s.first_tri as usize + k)).collect();
     let areas: Vec<f64> = tris
         .iter()
         .map(|[a, b, c]| 0.5 * (*b - *a).cross(*c - *a).length())
