@@ -95,84 +95,138 @@ fn z_stats(diffs: &[Vec<f64>], ads: &[Vec<f64>], fd_err: &[f64]) -> (f64, f64, u
     (chi2, zmax, used, signal)
 }
 
-impl FdCheck {
-    /// Checks ∂I/∂`name` at `value` against central differences with step `h`.
-    pub fn check(&self, name: &str, value: f32, h: f32) {
-        let k_seeds = self.k;
-        let base = self.load_with(name, None);
-        let plus = self.load_with(name, Some(value + h));
-        let minus = self.load_with(name, Some(value - h));
-        let plus2 = self.load_with(name, Some(value + 2.0 * h));
-        let minus2 = self.load_with(name, Some(value - 2.0 * h));
-        let mut d_img = Vec::new();
-        let mut d_bin = Vec::new();
-        let mut a_img = Vec::new();
-        let mut a_bin = Vec::new();
-        let mut totals = Vec::new();
-        let mut rich_img = Vec::new();
-        let mut rich_bin = Vec::new();
-        let mut round_img = vec![0.0f64; 0];
-        let mut round_bin = vec![0.0f64; 0];
-        for seed in 0..k_seeds {
-            let (_, d, _) = render_diff(&base, &[name.to_string()], &self.opts(seed)).unwrap();
-            let ad = &d[0];
-            let p = self.primal(&plus, seed);
-            let m = self.primal(&minus, seed);
-            let fd_img: Vec<f64> = image(&p)
-                .iter()
-                .zip(image(&m))
-                .map(|(a, b)| (a - b) / (2.0 * h as f64))
-                .collect();
-            let fd_bin: Vec<f64> = bins(&p)
-                .iter()
-                .zip(bins(&m))
-                .map(|(a, b)| (a - b) / (2.0 * h as f64))
-                .collect();
-            let p2 = self.primal(&plus2, seed);
-            let m2 = self.primal(&minus2, seed);
-            let fd2_img: Vec<f64> = image(&p2)
-                .iter()
-                .zip(image(&m2))
-                .map(|(a, b)| (a - b) / (4.0 * h as f64))
-                .collect();
-            let fd2_bin: Vec<f64> = bins(&p2)
-                .iter()
-                .zip(bins(&m2))
-                .map(|(a, b)| (a - b) / (4.0 * h as f64))
-                .collect();
-            rich_img.push(
-                fd2_img
-                    .iter()
-                    .zip(&fd_img)
-                    .map(|(a, b)| (a - b) / 3.0)
-                    .collect::<Vec<_>>(),
-            );
-            rich_bin.push(
-                fd2_bin
-                    .iter()
-                    .zip(&fd_bin)
-                    .map(|(a, b)| (a - b) / 3.0)
-                    .collect::<Vec<_>>(),
-            );
-            let eps = f32::EPSILON as f64;
-            let rnd = |a: Vec<f64>, b: Vec<f64>| -> Vec<f64> {
-                a.iter()
-                    .zip(&b)
-                    .map(|(x, y)| 4.0 * eps * (x.abs() + y.abs()) / (2.0 * h as f64))
-                    .collect()
-            };
-            round_img = rnd(image(&p), image(&m));
-            round_bin = rnd(bins(&p), bins(&m));
-            let (ai, ab) = (image(ad), bins(ad));
-            d_img.push(ai.iter().zip(&fd_img).map(|(a, f)| a - f).collect::<Vec<_>>());
-            d_bin.push(ab.iter().zip(&fd_bin).map(|(a, f)| a - f).collect::<Vec<_>>());
-            totals.push(ab.iter().sum::<f64>() - fd_bin.iter().sum::<f64>());
-            a_img.push(ai);
-            a_bin.push(ab);
+/// The three views the checks judge of one transient: the time-summed image, the bin totals
+/// and the [`coarse_aggregates`].
+struct Views {
+    image: Vec<f64>,
+    bins: Vec<f64>,
+    coarse: Vec<f64>,
+}
+
+impl Views {
+    fn of(t: &Transient) -> Self {
+        Views {
+            image: image(t),
+            bins: bins(t),
+            coarse: coarse_aggregates(t).into_iter().map(|(_, v)| v).collect(),
         }
+    }
+}
+
+/// One check's renders, reduced to [`Views`]: per seed, the derivative at the value and the
+/// primals at value + h, − h, + 2h and − 2h (common random numbers: one seed for all five).
+/// The per-entry check and the coarse aggregates judge the same renders, so a test that runs
+/// both renders once.
+struct Runs {
+    h: f64,
+    ad: Vec<Views>,
+    primals: Vec<[Views; 4]>,
+    labels: Vec<String>,
+}
+
+impl Runs {
+    /// Per seed, the central difference of `view` at step h (`wide` false) or 2h (true).
+    fn fd(&self, view: fn(&Views) -> &Vec<f64>, wide: bool) -> Vec<Vec<f64>> {
+        let (a, b, step) = if wide { (2, 3, 2.0 * self.h) } else { (0, 1, self.h) };
+        self.primals
+            .iter()
+            .map(|p| {
+                view(&p[a])
+                    .iter()
+                    .zip(view(&p[b]))
+                    .map(|(x, y)| (x - y) / (2.0 * step))
+                    .collect()
+            })
+            .collect()
+    }
+
+    /// Per seed, Richardson's estimate of the step-h difference's truncation error,
+    /// (FD_2h − FD_h) / 3.
+    fn richardson(&self, view: fn(&Views) -> &Vec<f64>) -> Vec<Vec<f64>> {
+        let (fd, fd2) = (self.fd(view, false), self.fd(view, true));
+        fd2.iter()
+            .zip(&fd)
+            .map(|(w, n)| w.iter().zip(n).map(|(a, b)| (a - b) / 3.0).collect())
+            .collect()
+    }
+
+    /// Per seed, a bound on f32 rounding of the film in the step-h difference:
+    /// 4ε(|I₊| + |I₋|) / 2h.
+    fn rounding(&self, view: fn(&Views) -> &Vec<f64>) -> Vec<Vec<f64>> {
+        let eps = f32::EPSILON as f64;
+        self.primals
+            .iter()
+            .map(|p| {
+                view(&p[0])
+                    .iter()
+                    .zip(view(&p[1]))
+                    .map(|(x, y)| 4.0 * eps * (x.abs() + y.abs()) / (2.0 * self.h))
+                    .collect()
+            })
+            .collect()
+    }
+
+    /// Per seed, the derivative's `view`.
+    fn ads(&self, view: fn(&Views) -> &Vec<f64>) -> Vec<Vec<f64>> {
+        self.ad.iter().map(|v| view(v).clone()).collect()
+    }
+
+    /// Per seed, AD − FD (step h) on `view`.
+    fn diffs(&self, view: fn(&Views) -> &Vec<f64>) -> Vec<Vec<f64>> {
+        self.ads(view)
+            .iter()
+            .zip(self.fd(view, false))
+            .map(|(a, f)| a.iter().zip(&f).map(|(a, f)| a - f).collect())
+            .collect()
+    }
+}
+
+impl FdCheck {
+    /// Renders the derivative and the four primals of every seed.
+    fn runs(&self, name: &str, value: f32, h: f32) -> Runs {
+        let base = self.load_with(name, None);
+        let steps = [h, -h, 2.0 * h, -2.0 * h].map(|s| self.load_with(name, Some(value + s)));
+        let mut runs = Runs {
+            h: h as f64,
+            ad: Vec::new(),
+            primals: Vec::new(),
+            labels: Vec::new(),
+        };
+        for seed in 0..self.k {
+            let (_, d, _) = render_diff(&base, &[name.to_string()], &self.opts(seed)).unwrap();
+            if runs.labels.is_empty() {
+                runs.labels = coarse_aggregates(&d[0]).into_iter().map(|(l, _)| l).collect();
+            }
+            runs.ad.push(Views::of(&d[0]));
+            runs.primals
+                .push(steps.each_ref().map(|s| Views::of(&self.primal(s, seed))));
+        }
+        runs
+    }
+
+    /// Checks ∂I/∂`name` at `value` against central differences with step `h`, per entry
+    /// (every pixel's time-summed derivative and every bin's total).
+    pub fn check(&self, name: &str, value: f32, h: f32) {
+        self.judge_entries(name, &self.runs(name, value, h));
+    }
+
+    /// [`FdCheck::check`] and [`FdCheck::check_aggregates`] on one set of renders.
+    pub fn check_entries_and_aggregates(&self, name: &str, value: f32, h: f32) -> (f64, f64) {
+        let runs = self.runs(name, value, h);
+        self.judge_entries(name, &runs);
+        self.judge_aggregates(name, &runs)
+    }
+
+    fn judge_entries(&self, name: &str, runs: &Runs) {
+        let k_seeds = self.k;
+        let img: fn(&Views) -> &Vec<f64> = |v| &v.image;
+        let bin: fn(&Views) -> &Vec<f64> = |v| &v.bins;
         let dof = (k_seeds - 1) as f64;
-        // FD error per entry: |mean Richardson estimate| + its standard error + rounding
-        let fd_err = |rich: &[Vec<f64>], round: &[f64]| -> Vec<f64> {
+        // FD error per entry: |mean Richardson estimate| + its standard error + rounding (of
+        // the last seed's renders)
+        let fd_err = |view: fn(&Views) -> &Vec<f64>| -> Vec<f64> {
+            let rich = runs.richardson(view);
+            let round = runs.rounding(view).pop().unwrap();
             (0..round.len())
                 .map(|i| {
                     let col: Vec<f64> = rich.iter().map(|r| r[i]).collect();
@@ -187,8 +241,10 @@ impl FdCheck {
             let peak = ads.iter().flatten().fold(0.0f64, |m, v| m.max(v.abs()));
             e.into_iter().map(|x| x + 1e-12 * peak).collect()
         };
-        let err_img = floor(fd_err(&rich_img, &round_img), &a_img);
-        let err_bin = floor(fd_err(&rich_bin, &round_bin), &a_bin);
+        let (a_img, a_bin) = (runs.ads(img), runs.ads(bin));
+        let (d_img, d_bin) = (runs.diffs(img), runs.diffs(bin));
+        let err_img = floor(fd_err(img), &a_img);
+        let err_bin = floor(fd_err(bin), &a_bin);
         let mut best_signal = 0.0f64;
         for (what, d, a, e) in [("image", &d_img, &a_img, &err_img), ("bins", &d_bin, &a_bin, &err_bin)] {
             let (chi2, zmax, n, signal) = z_stats(d, a, e);
@@ -210,6 +266,7 @@ impl FdCheck {
             !self.require_signal || best_signal > 5.0,
             "{name}: the derivative is not distinguishable from zero ({best_signal:.1} se)"
         );
+        let totals: Vec<f64> = d_bin.iter().map(|d| d.iter().sum::<f64>()).collect();
         let (m, se) = super::mean_se(&totals);
         let total_fd_err: f64 = err_bin.iter().sum();
         assert!(
@@ -260,30 +317,18 @@ impl FdCheck {
     /// the resolution: the smallest relative bias of an aggregate's derivative that this run
     /// would see at 4 standard errors (min over aggregates of 4·sd(AD − FD) / |AD|).
     pub fn check_aggregates(&self, name: &str, value: f32, h: f32) -> (f64, f64) {
-        let base = self.load_with(name, None);
-        let steps = [h, -h, 2.0 * h, -2.0 * h].map(|s| self.load_with(name, Some(value + s)));
-        let agg = |t: &Transient| -> Vec<f64> { coarse_aggregates(t).into_iter().map(|(_, v)| v).collect() };
-        let labels: Vec<String> = coarse_aggregates(&render(&base, &self.opts(0)).unwrap().0)
-            .into_iter()
-            .map(|(l, _)| l)
-            .collect();
-        let (mut diffs, mut ads, mut rich, mut round) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
-        for seed in 0..self.k {
-            let (_, d, _) = render_diff(&base, &[name.to_string()], &self.opts(seed)).unwrap();
-            let ad = agg(&d[0]);
-            let p: Vec<Vec<f64>> = steps.iter().map(|s| agg(&self.primal(s, seed))).collect();
-            let fd: Vec<f64> = (0..ad.len()).map(|i| (p[0][i] - p[1][i]) / (2.0 * h as f64)).collect();
-            let fd2: Vec<f64> = (0..ad.len()).map(|i| (p[2][i] - p[3][i]) / (4.0 * h as f64)).collect();
-            rich.push(fd2.iter().zip(&fd).map(|(a, b)| (a - b) / 3.0).collect::<Vec<_>>());
-            let eps = f32::EPSILON as f64;
-            round.push(
-                (0..ad.len())
-                    .map(|i| 4.0 * eps * (p[0][i].abs() + p[1][i].abs()) / (2.0 * h as f64))
-                    .collect::<Vec<_>>(),
-            );
-            diffs.push(ad.iter().zip(&fd).map(|(a, f)| a - f).collect::<Vec<_>>());
-            ads.push(ad);
-        }
+        self.judge_aggregates(name, &self.runs(name, value, h))
+    }
+
+    fn judge_aggregates(&self, name: &str, runs: &Runs) -> (f64, f64) {
+        let coarse: fn(&Views) -> &Vec<f64> = |v| &v.coarse;
+        let (diffs, ads, rich, round) = (
+            runs.diffs(coarse),
+            runs.ads(coarse),
+            runs.richardson(coarse),
+            runs.rounding(coarse),
+        );
+        let labels = &runs.labels;
         let col = |m: &[Vec<f64>], i: usize| -> Vec<f64> { m.iter().map(|r| r[i]).collect() };
         let mut zmax = 0.0f64;
         let mut resolution = f64::INFINITY;
