@@ -187,8 +187,11 @@ impl Polygon {
 #[derive(Clone, Copy, Debug)]
 enum Spread {
     /// Logistic of scale `s`, cut at ±`cut` (a Gaussian pulse: s = σ·√3/π, cut at
-    /// `GAUSSIAN_CUTOFF_SIGMAS`·σ, where the film's ∂S_e/∂d ends too).
-    Logistic { s: f64, cut: f64 },
+    /// `GAUSSIAN_CUTOFF_SIGMAS`·σ, where the film's ∂S_e/∂d ends too). `per_edge` =
+    /// e^{−w/s} for film edges w apart: the factor by which e^{−t/s} changes from one edge's
+    /// component to the next, which lets a run of components share one `exp`
+    /// ([`Spread::component_masses`], [`Spread::density_at`]).
+    Logistic { s: f64, cut: f64, per_edge: f64 },
     /// Uniform on ±`half` (a box pulse: ∂S_e/∂d is ±1/width there).
     Uniform { half: f64 },
     /// The edge itself (a delta pulse: ∂S_e/∂d is a Dirac on each edge, supplemental
@@ -197,14 +200,16 @@ enum Spread {
 }
 
 impl Spread {
-    /// The draws' spread for `pulse`.
-    fn of(pulse: Pulse) -> Self {
+    /// The draws' spread for `pulse`, on film edges `width` apart.
+    fn of(pulse: Pulse, width: f64) -> Self {
         match pulse {
             Pulse::Gaussian { sigma_opl } => {
-                let s = sigma_opl as f64;
+                let sigma = sigma_opl as f64;
+                let s = sigma * 3f64.sqrt() / std::f64::consts::PI;
                 Spread::Logistic {
-                    s: s * 3f64.sqrt() / std::f64::consts::PI,
-                    cut: GAUSSIAN_CUTOFF_SIGMAS * s,
+                    s,
+                    cut: GAUSSIAN_CUTOFF_SIGMAS * sigma,
+                    per_edge: (-width / s).exp(),
                 }
             }
             Pulse::Box { width_opl } => Spread::Uniform {
@@ -250,6 +255,108 @@ impl Spread {
             Spread::Uniform { half } => 0.5 / half,
             // not a density: the delta's draws take their weight without it (`TimeEdges::draw`)
             Spread::Delta => 1.0,
+        }
+    }
+
+    /// The mixture's density at OPL `d` (unnormalised): Σ pdf(t_j) over the components j in
+    /// `js` whose t_j = `first` + j·`w` − d lies within reach. For the logistic,
+    /// e^{−|t|/s} is carried outward from t = 0 on each side by `per_edge`, so a draw takes
+    /// two `exp` however many components overlap (within about n ulp of evaluating each).
+    fn density_at(self, first: f64, w: f64, d: f64, js: std::ops::Range<usize>) -> f64 {
+        let t = |j: usize| first + j as f64 * w - d;
+        let Spread::Logistic { s, cut, per_edge } = self else {
+            let reach = self.reach();
+            return js.map(|j| if t(j).abs() <= reach { self.pdf(t(j)) } else { 0.0 }).sum();
+        };
+        let pdf = |e: f64| e / (s * (1.0 + e) * (1.0 + e));
+        // the first component at or past t = 0; those before it have t < 0
+        let mid = js.start + js.clone().take_while(|&j| t(j) < 0.0).count();
+        let mut sum = 0.0;
+        let mut e = None;
+        for j in mid..js.end {
+            let tj = t(j);
+            if tj > cut {
+                break;
+            }
+            let v = e.map_or_else(|| (-tj / s).exp(), |e: f64| e * per_edge);
+            sum += pdf(v);
+            e = Some(v);
+        }
+        e = None;
+        for j in (js.start..mid).rev() {
+            let tj = t(j);
+            if -tj > cut {
+                break;
+            }
+            let v = e.map_or_else(|| (tj / s).exp(), |e: f64| e * per_edge);
+            sum += pdf(v);
+            e = Some(v);
+        }
+        sum
+    }
+
+    /// `f(i, mass)` for the components j = `js`.start + i, in order, until `f` returns false:
+    /// each one's mass between
+    /// t = `first` + j·w − `d_hi` and `first` + j·w − `d_lo`, within the cut (0 where that
+    /// window is empty), as [`Spread::cdf`] gives it. For the logistic, e^{−t/s} at both ends
+    /// is carried from one component to the next by `per_edge` while the end lies inside the
+    /// cut, and taken afresh from `exp` where it enters it.
+    fn component_masses(
+        self,
+        first: f64,
+        w: f64,
+        d_lo: f64,
+        d_hi: f64,
+        js: std::ops::Range<usize>,
+        mut f: impl FnMut(usize, f64) -> bool,
+    ) {
+        let reach = self.reach();
+        let window = |j: usize| {
+            let edge = first + j as f64 * w;
+            ((edge - d_hi).max(-reach), (edge - d_lo).min(reach))
+        };
+        let Spread::Logistic { s, cut, per_edge } = self else {
+            for (i, j) in js.enumerate() {
+                let (a, b) = window(j);
+                let m = match self {
+                    Spread::Delta => (a <= b) as u8 as f64,
+                    _ if a >= b => 0.0,
+                    _ => self.cdf(b) - self.cdf(a),
+                };
+                if !f(i, m) {
+                    return;
+                }
+            }
+            return;
+        };
+        let (at_lo, at_hi) = (self.cdf(-cut), self.cdf(cut));
+        // e^{−t/s} at each end while it lies inside the cut
+        let (mut ea, mut eb): (Option<f64>, Option<f64>) = (None, None);
+        let carried = |e: &mut Option<f64>, t: f64, clipped: bool, at_cut: f64| -> f64 {
+            if clipped {
+                *e = None;
+                return at_cut;
+            }
+            let v = e.map_or_else(|| (-t / s).exp(), |e| e * per_edge);
+            *e = Some(v);
+            1.0 / (1.0 + v)
+        };
+        for (i, j) in js.enumerate() {
+            let edge = first + j as f64 * w;
+            let (a, b) = window(j);
+            if a >= b {
+                ea = None;
+                eb = None;
+                if !f(i, 0.0) {
+                    return;
+                }
+                continue;
+            }
+            let ca = carried(&mut ea, a, edge - d_hi <= -cut, at_lo);
+            let cb = carried(&mut eb, b, edge - d_lo >= cut, at_hi);
+            if !f(i, cb - ca) {
+                return;
+            }
         }
     }
 }
@@ -363,7 +470,7 @@ impl TimeEdges {
             let EmitterKind::Area { shape, radiance } = e.kind else {
                 return None;
             };
-            spreads.push(Spread::of(e.pulse));
+            spreads.push(Spread::of(e.pulse, scene.film.axis.bin_width_opl));
             first.push(scene.film.axis.start_opl - e.offset_opl);
             emitters_move |= motion
                 .fields
@@ -486,12 +593,13 @@ impl TimeEdges {
         let (j0, j1) = (j0 as usize, j1 as usize);
         let mut cum = [0.0; CACHED_EDGES];
         let mut mass = 0.0;
-        for (i, j) in (j0..j1).enumerate() {
-            mass += self.mass(e, j, d_lo, d_hi);
+        spread.component_masses(first, w, d_lo, d_hi, j0..j1, |i, m| {
+            mass += m;
             if i < CACHED_EDGES {
                 cum[i] = mass;
             }
-        }
+            true
+        });
         if !(mass > 0.0) {
             return None;
         }
@@ -521,18 +629,6 @@ impl TimeEdges {
         ((edge - d_hi).max(-reach), (edge - d_lo).min(reach))
     }
 
-    fn mass(&self, e: usize, j: usize, d_lo: f64, d_hi: f64) -> f64 {
-        let (a, b) = self.window(e, j, d_lo, d_hi);
-        if let Spread::Delta = self.spreads[e] {
-            return (a <= b) as u8 as f64;
-        }
-        if a >= b {
-            return 0.0;
-        }
-        let s = self.spreads[e];
-        s.cdf(b) - s.cdf(a)
-    }
-
     /// Draw `slot` of `plan` from the numbers `xi` (position in its stratum) and `v` (angle):
     /// the light point and its weight 1/(K·density), or `None` past the mass (Russian
     /// roulette when it is under one draw's worth) or where the circle misses the polygon
@@ -556,44 +652,39 @@ impl TimeEdges {
                 edge: Some(j as u32),
             });
         }
-        let mut t = None;
         // the edge the point falls on (found from the cumulative masses when the plan kept
-        // them, else by walking the edges) and the point's mass within it
+        // them, else by walking the components' masses as the plan took them) and the point's
+        // mass within it
         let n = plan.j1 - plan.j0;
-        let start = if n <= CACHED_EDGES {
+        let (first, w) = (self.first[e], self.width);
+        let (j, u) = if n <= CACHED_EDGES {
             let i = plan.cum[..n].partition_point(|&c| c <= u).min(n - 1);
-            u -= if i == 0 { 0.0 } else { plan.cum[i - 1] };
-            plan.j0 + i
+            (plan.j0 + i, u - if i == 0 { 0.0 } else { plan.cum[i - 1] })
         } else {
-            plan.j0
+            let mut found = (plan.j1 - 1, 0.0);
+            spread.component_masses(first, w, plan.d_lo, plan.d_hi, plan.j0..plan.j1, |i, m| {
+                if u < m || i + 1 == n {
+                    found = (plan.j0 + i, u);
+                    return false;
+                }
+                u -= m;
+                true
+            });
+            found
         };
-        for j in start..plan.j1 {
-            let (a, b) = self.window(e, j, plan.d_lo, plan.d_hi);
-            if a >= b {
-                continue;
-            }
-            let (ca, cb) = (spread.cdf(a), spread.cdf(b));
-            if u < cb - ca || j + 1 == plan.j1 {
-                let p = (ca + u).clamp(ca, cb);
-                let edge = self.first[e] + j as f64 * self.width;
-                t = Some(edge - spread.inverse_cdf(p).clamp(a, b));
-                break;
-            }
-            u -= cb - ca;
+        let (a, b) = self.window(e, j, plan.d_lo, plan.d_hi);
+        if a >= b {
+            return None;
         }
-        let d = t?.clamp(plan.d_lo, plan.d_hi);
+        let (ca, cb) = (spread.cdf(a), spread.cdf(b));
+        let p = (ca + u).clamp(ca, cb);
+        let t = first + j as f64 * w - spread.inverse_cdf(p).clamp(a, b);
+        let d = t.clamp(plan.d_lo, plan.d_hi);
         // the mixture's density in D at d: every component whose window holds d
         let reach = spread.reach();
-        let (first, w) = (self.first[e], self.width);
         let lo = ((d - reach - first) / w).ceil().max(plan.j0 as f64) as usize;
         let hi = (((d + reach - first) / w).floor() + 1.0).min(plan.j1 as f64) as usize;
-        let q: f64 = (lo..hi.max(lo))
-            .map(|j| {
-                let tj = first + j as f64 * w - d;
-                if tj.abs() <= reach { spread.pdf(tj) } else { 0.0 }
-            })
-            .sum::<f64>()
-            / plan.line;
+        let q = spread.density_at(first, w, d, lo..hi.max(lo)) / plan.line;
         if !(q > 0.0) {
             return None;
         }
