@@ -338,3 +338,59 @@ pub fn write_on_signal() {
         f();
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every f64 of the header (the tallies' energies and block sums here) reads back to the
+    /// bit: a resumed render's energy report is summed from them and must equal the
+    /// uninterrupted render's. serde_json's default float parser may land one ulp off
+    /// (tests/cli_checkpoint.rs once failed so, on "inside" = 61.1761974901348), so the
+    /// crate is built with its `float_roundtrip` feature.
+    #[test]
+    fn header_floats_read_back_to_the_bit() {
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = move || {
+            state = state.wrapping_add(0x9e37_79b9_7f4a_7c15);
+            let mut z = state;
+            z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+            z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+            z ^ (z >> 31)
+        };
+        // sums of the sizes a film block has, and arbitrary finite bit patterns
+        let mut values: Vec<f64> = (0..20_000)
+            .map(|_| (next() >> 11) as f64 / (1u64 << 53) as f64 * 100.0)
+            .collect();
+        values.extend((0..20_000).map(|_| f64::from_bits(next())).filter(|v| v.is_finite()));
+        values.push(61.1761974901348);
+        let tally = |v: &[f64]| Some((PathCounts::default(), [v[0], v[1]], v.to_vec()));
+        let saved = Saved {
+            units: 2,
+            done: vec![true, true],
+            tallies: vec![tally(&values), tally(&values[7..])],
+            ..Default::default()
+        };
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("r.checkpoint");
+        write(&path, &serde_json::json!({"scene": "test"}), &saved).unwrap();
+        let (_, back) = read(&path).unwrap();
+        for (a, b) in saved.tallies.iter().zip(&back.tallies) {
+            let (a, b) = (a.as_ref().unwrap(), b.as_ref().unwrap());
+            assert_eq!(a.1.map(f64::to_bits), b.1.map(f64::to_bits));
+            let off: Vec<(f64, f64)> =
+                a.2.iter()
+                    .zip(&b.2)
+                    .filter(|(x, y)| x.to_bits() != y.to_bits())
+                    .map(|(x, y)| (*x, *y))
+                    .collect();
+            assert!(
+                off.is_empty(),
+                "{} of {} values read back otherwise, e.g. {:?}",
+                off.len(),
+                a.2.len(),
+                &off[..off.len().min(3)]
+            );
+        }
+    }
+}
