@@ -398,21 +398,26 @@ impl Secondary<'_> {
                 self.ctx.tile_film(0, y0, w, y1 - y0, self.params)
             })
             .collect();
-        let (stats, samples) = self.trace(settings, pool, |paths| {
-            let dropped: Vec<u64> = pool.install(|| {
-                tiles
-                    .par_iter_mut()
-                    .map(|tile| {
-                        let rows = tile.y0..tile.y0 + tile.h;
-                        paths
-                            .iter()
-                            .map(|bp| u64::from(!self.splat(tile, rows.clone(), bp)))
-                            .sum()
-                    })
-                    .collect()
-            });
-            dropped[0]
-        });
+        let (stats, samples) = self.trace(
+            settings,
+            pool,
+            |paths| paths,
+            |paths| {
+                let dropped: Vec<u64> = pool.install(|| {
+                    tiles
+                        .par_iter_mut()
+                        .map(|tile| {
+                            let rows = tile.y0..tile.y0 + tile.h;
+                            paths
+                                .iter()
+                                .map(|bp| u64::from(!self.splat(tile, rows.clone(), bp)))
+                                .sum()
+                        })
+                        .collect()
+                });
+                dropped[0]
+            },
+        );
         for tile in &tiles {
             tile.store_into(&mut out);
         }
@@ -430,25 +435,34 @@ impl Secondary<'_> {
         pool: &rayon::ThreadPool,
         adjoint: &Transient,
     ) -> ([f64; MAX_PARAMS], SecondaryStats) {
-        let mut acc = crate::adjoint::AdjointFilm::new(adjoint);
+        // each chunk's paths contracted where they were traced, the chunks' sums added in
+        // chunk order (chunks have a fixed size: the same gradient for any thread count)
         let h = self.ctx.scene.film.height as usize;
-        let (stats, samples) = self.trace(settings, pool, |paths| {
-            paths.iter().map(|bp| u64::from(!self.splat(&mut acc, 0..h, bp))).sum()
+        let contract = |paths: Vec<BoundaryPath>| {
+            let mut acc = crate::adjoint::AdjointFilm::new(adjoint);
+            let dropped: u64 = paths.iter().map(|bp| u64::from(!self.splat(&mut acc, 0..h, bp))).sum();
+            (acc.grad, dropped)
+        };
+        let mut grad = [0.0f64; MAX_PARAMS];
+        let (stats, samples) = self.trace(settings, pool, contract, |(part, dropped)| {
+            grad.iter_mut().zip(part).for_each(|(g, p)| *g += p);
+            *dropped
         });
-        let mut grad = acc.grad;
         grad.iter_mut().for_each(|g| *g /= samples.max(1) as f64);
         (grad, stats)
     }
 
-    /// The pilot, then every boundary sample of the settings' shard in chunks traced in
-    /// parallel; each batch's paths go to `consume` in chunk order, which returns how many it
-    /// dropped as not finite. Returns the pass's record and its sample count (the
+    /// The pilot, then every boundary sample of the settings' shard in chunks of a fixed size
+    /// traced in parallel; each chunk's paths are mapped by `per_chunk` on the thread that
+    /// traced them, and the results go to `consume` in chunk order, which returns how many
+    /// paths it dropped as not finite. Returns the pass's record and its sample count (the
     /// normalisation of every shard).
-    fn trace(
+    fn trace<T: Send>(
         &self,
         settings: &BoundarySettings,
         pool: &rayon::ThreadPool,
-        mut consume: impl FnMut(&[BoundaryPath]) -> u64,
+        per_chunk: impl Fn(Vec<BoundaryPath>) -> T + Sync,
+        mut consume: impl FnMut(&T) -> u64,
     ) -> (SecondaryStats, u64) {
         let film = &self.ctx.scene.film;
         let samples = settings.spp_boundary as u64 * film.width as u64 * film.height as u64;
@@ -487,7 +501,7 @@ impl Secondary<'_> {
         let batch_len = (BATCH_PER_THREAD * pool.current_num_threads() as u64).max(8);
         while batch0 < chunks && batch0 * CHUNK < mine.end {
             let batch: Vec<u64> = (batch0..(batch0 + batch_len).min(chunks)).collect();
-            let parts: Vec<(Vec<BoundaryPath>, Scratch)> = pool.install(|| {
+            let parts: Vec<(T, Scratch)> = pool.install(|| {
                 batch
                     .par_iter()
                     .map(|&c| {
@@ -516,7 +530,7 @@ impl Secondary<'_> {
                         for q in &mut queue {
                             q.flush(self, &mut scratch, &mut keep);
                         }
-                        (paths, scratch)
+                        (per_chunk(paths), scratch)
                     })
                     .collect()
             });

@@ -105,13 +105,21 @@ pub fn render_primary_with_stats(
             out.iter().map(|t| SumFilm::new(t, rows.clone())).collect()
         })
         .collect();
-    let stats = for_each_wave(ctx, spp_boundary, seed, shard, pool, |wave| {
-        pool.install(|| {
-            sums.par_iter_mut().for_each(|band| {
-                wave.iter().flatten().for_each(|jump| jump.splat(ctx, band));
+    let stats = for_each_wave(
+        ctx,
+        spp_boundary,
+        seed,
+        shard,
+        pool,
+        |jumps| jumps,
+        |wave| {
+            pool.install(|| {
+                sums.par_iter_mut().for_each(|band| {
+                    wave.iter().flatten().for_each(|jump| jump.splat(ctx, band));
+                })
             })
-        })
-    });
+        },
+    );
     for band in &sums {
         band.iter().zip(out.iter_mut()).for_each(|(s, t)| s.store(t));
     }
@@ -128,24 +136,33 @@ pub fn primary_adjoint(
     pool: &rayon::ThreadPool,
     adjoint: &Transient,
 ) -> ([f64; MAX_PARAMS], PrimaryStats) {
+    // each chunk's jumps contracted where they were traced, the chunks' sums added in chunk
+    // order (chunks have a fixed size: the same gradient for any thread count)
     let mut grad = [0.0f64; MAX_PARAMS];
-    let stats = for_each_wave(ctx, spp_boundary, seed, shard, pool, |wave| {
-        wave.iter()
-            .flatten()
-            .for_each(|jump| jump.contract(ctx, adjoint, &mut grad))
+    let contract = |jumps: Vec<Jump>| {
+        let mut part = [0.0f64; MAX_PARAMS];
+        jumps.iter().for_each(|jump| jump.contract(ctx, adjoint, &mut part));
+        part
+    };
+    let stats = for_each_wave(ctx, spp_boundary, seed, shard, pool, contract, |parts| {
+        for part in parts {
+            grad.iter_mut().zip(part).for_each(|(g, p)| *g += p);
+        }
     });
     (grad, stats)
 }
 
-/// Draws the primary-edge samples of `shard` and hands their jumps to `consume`, a wave at a
-/// time: each wave's chunks in sample order (the same order for any thread count).
-fn for_each_wave(
+/// Draws the primary-edge samples of `shard` in chunks of a fixed size, maps each chunk's
+/// jumps by `per_chunk` on the thread that traced them, and hands the results to `consume`,
+/// a wave at a time: each wave's chunks in sample order (the same order for any thread count).
+fn for_each_wave<T: Send>(
     ctx: &RenderContext,
     spp_boundary: u32,
     seed: u64,
     shard: Shard,
     pool: &rayon::ThreadPool,
-    mut consume: impl FnMut(&[Vec<Jump>]),
+    per_chunk: impl Fn(Vec<Jump>) -> T + Sync,
+    mut consume: impl FnMut(&[T]),
 ) -> PrimaryStats {
     let scene = ctx.scene;
     let (w, h) = (scene.film.width as usize, scene.film.height as usize);
@@ -183,16 +200,19 @@ fn for_each_wave(
         .collect();
     // Waves of a few chunks per thread bound the memory; jumps are consumed in chunk order.
     for wave in chunks.chunks(4 * pool.current_num_threads().max(1)) {
-        let done: Vec<(Vec<Jump>, PrimaryStats)> = pool.install(|| {
+        let done: Vec<(T, PrimaryStats)> = pool.install(|| {
             wave.par_iter()
-                .map(|&(a, b)| match scene.film.channels {
-                    1 => est.chunk::<1>(a, b),
-                    _ => est.chunk::<3>(a, b),
+                .map(|&(a, b)| {
+                    let (jumps, tally) = match scene.film.channels {
+                        1 => est.chunk::<1>(a, b),
+                        _ => est.chunk::<3>(a, b),
+                    };
+                    (per_chunk(jumps), tally)
                 })
                 .collect()
         });
-        let (jumps, tallies): (Vec<Vec<Jump>>, Vec<PrimaryStats>) = done.into_iter().unzip();
-        consume(&jumps);
+        let (parts, tallies): (Vec<T>, Vec<PrimaryStats>) = done.into_iter().unzip();
+        consume(&parts);
         for s in &tallies {
             stats.samples += s.samples;
             stats.traced += s.traced;
