@@ -258,6 +258,13 @@ impl Spread {
         }
     }
 
+    /// The bounds (in t = `edge` − D) of the component centred on `edge` over OPLs
+    /// [`d_lo`, `d_hi`], within reach.
+    fn window(self, edge: f64, d_lo: f64, d_hi: f64) -> (f64, f64) {
+        let reach = self.reach();
+        ((edge - d_hi).max(-reach), (edge - d_lo).min(reach))
+    }
+
     /// The mixture's density at OPL `d` (unnormalised): Σ pdf(t_j) over the components j in
     /// `js` whose t_j = `first` + j·`w` − d lies within reach. For the logistic,
     /// e^{−|t|/s} is carried outward from t = 0 on each side by `per_edge`, so a draw takes
@@ -272,26 +279,21 @@ impl Spread {
         // the first component at or past t = 0; those before it have t < 0
         let mid = js.start + js.clone().take_while(|&j| t(j) < 0.0).count();
         let mut sum = 0.0;
-        let mut e = None;
-        for j in mid..js.end {
-            let tj = t(j);
-            if tj > cut {
-                break;
+        // outward from t = 0 on one side, while |t| is within the cut
+        let mut side = |outward: &mut dyn Iterator<Item = usize>| {
+            let mut e = None;
+            for j in outward {
+                let a = t(j).abs();
+                if a > cut {
+                    break;
+                }
+                let v = e.map_or_else(|| (-a / s).exp(), |e: f64| e * per_edge);
+                sum += pdf(v);
+                e = Some(v);
             }
-            let v = e.map_or_else(|| (-tj / s).exp(), |e: f64| e * per_edge);
-            sum += pdf(v);
-            e = Some(v);
-        }
-        e = None;
-        for j in (js.start..mid).rev() {
-            let tj = t(j);
-            if -tj > cut {
-                break;
-            }
-            let v = e.map_or_else(|| (tj / s).exp(), |e: f64| e * per_edge);
-            sum += pdf(v);
-            e = Some(v);
-        }
+        };
+        side(&mut (mid..js.end));
+        side(&mut (js.start..mid).rev());
         sum
     }
 
@@ -310,14 +312,9 @@ impl Spread {
         js: std::ops::Range<usize>,
         mut f: impl FnMut(usize, f64) -> bool,
     ) {
-        let reach = self.reach();
-        let window = |j: usize| {
-            let edge = first + j as f64 * w;
-            ((edge - d_hi).max(-reach), (edge - d_lo).min(reach))
-        };
         let Spread::Logistic { s, cut, per_edge } = self else {
             for (i, j) in js.enumerate() {
-                let (a, b) = window(j);
+                let (a, b) = self.window(first + j as f64 * w, d_lo, d_hi);
                 let m = match self {
                     Spread::Delta => (a <= b) as u8 as f64,
                     _ if a >= b => 0.0,
@@ -343,7 +340,7 @@ impl Spread {
         };
         for (i, j) in js.enumerate() {
             let edge = first + j as f64 * w;
-            let (a, b) = window(j);
+            let (a, b) = self.window(edge, d_lo, d_hi);
             if a >= b {
                 ea = None;
                 eb = None;
@@ -624,9 +621,7 @@ impl TimeEdges {
 
     /// The bounds (in the spread's t = E_j − D) of edge j's component over [d_lo, d_hi].
     fn window(&self, e: usize, j: usize, d_lo: f64, d_hi: f64) -> (f64, f64) {
-        let edge = self.first[e] + j as f64 * self.width;
-        let reach = self.spreads[e].reach();
-        ((edge - d_hi).max(-reach), (edge - d_lo).min(reach))
+        self.spreads[e].window(self.first[e] + j as f64 * self.width, d_lo, d_hi)
     }
 
     /// Draw `slot` of `plan` from the numbers `xi` (position in its stratum) and `v` (angle):
