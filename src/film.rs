@@ -5,10 +5,15 @@
 //! Eq. 24): `I[y, x, l, c] += f_c · S_e(l, d)` for `l ∈ S_e.range(d)`. The derivative films
 //! add `ḟ_c · S_e(l, d) + f_c · Ṡ_e(l, d) · ḋ` (Algorithm 1, last loop).
 
+use std::ops::Range;
+
 use crate::temporal::{Correlation, TimeAxis};
 use bins::Bins;
 
 mod bins;
+mod shared_frame;
+
+pub use shared_frame::{Rect, SharedFrame};
 
 /// A finished transient: `data` is `[height, width, bins, channels]`, row-major, averaged
 /// over samples. `steady` is the time-integrated image `[height, width, channels]` of the
@@ -447,29 +452,43 @@ impl TileFilm {
     /// finish). The bytes are those of adding the tile to the zeros (`0 + x`), but the
     /// films are only written ([`Bins::store_into`]).
     pub fn store_into(&self, films: &mut [Transient]) {
-        let row = self.w * self.bins * self.channels;
-        let srow = self.w * self.channels;
         for (k, film) in films.iter_mut().enumerate().take(1 + self.derivs) {
-            let off = self.block() * k;
-            let soff = self.w * self.h * self.channels * k;
-            for ty in 0..self.h {
-                let dst = film.index(self.x0, self.y0 + ty, 0, 0);
-                let src = off + ty * row;
-                debug_assert!(
-                    film.data[dst..dst + row].iter().all(|&v| v == 0.0),
-                    "a tile is stored only where the film holds zeros"
-                );
-                self.data.store_into(&mut film.data[dst..dst + row], src);
-                let sdst = ((self.y0 + ty) * film.width + self.x0) * self.channels;
-                let ssrc = soff + ty * srow;
-                for (d, s) in film.steady[sdst..sdst + srow]
-                    .iter_mut()
-                    .zip(&self.steady[ssrc..ssrc + srow])
-                {
-                    *d = 0.0 + *s as f32;
-                }
+            for (ty, data, steady) in self.rows_in(film.width) {
+                self.store_row(k, ty, &mut film.data[data], &mut film.steady[steady]);
             }
         }
+    }
+
+    /// Each of the tile's rows `ty` with where it lies in a full film `width` pixels wide:
+    /// its range of the film's `data` and of its `steady` image.
+    pub fn rows_in(&self, width: usize) -> impl Iterator<Item = (usize, Range<usize>, Range<usize>)> + '_ {
+        let (row, srow) = (self.w * self.bins * self.channels, self.w * self.channels);
+        (0..self.h).map(move |ty| {
+            let first = (self.y0 + ty) * width + self.x0;
+            let data = first * self.bins * self.channels;
+            let steady = first * self.channels;
+            (ty, data..data + row, steady..steady + srow)
+        })
+    }
+
+    /// Stores row `ty` of film `k` (0: the primal, then the derivatives) into `data` and
+    /// `steady`, the row's place in a full film ([`Self::rows_in`]), which holds zeros.
+    pub fn store_row(&self, k: usize, ty: usize, data: &mut [f32], steady: &mut [f32]) {
+        debug_assert!(
+            data.iter().all(|&v| v == 0.0),
+            "a tile is stored only where the film holds zeros"
+        );
+        let src = self.block() * k + ty * self.w * self.bins * self.channels;
+        self.data.store_into(data, src);
+        let ssrc = self.w * self.h * self.channels * k + ty * self.w * self.channels;
+        for (d, s) in steady.iter_mut().zip(&self.steady[ssrc..]) {
+            *d = 0.0 + *s as f32;
+        }
+    }
+
+    /// Films this tile writes: the primal, then one per derivative.
+    pub fn films(&self) -> usize {
+        1 + self.derivs
     }
 }
 

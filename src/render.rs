@@ -8,7 +8,7 @@
 use crate::accel::{Device, set_flush_denormals};
 use crate::checkpoint::{Checkpointing, Saved};
 use crate::error::Error;
-use crate::film::{DerivWindowEnergy, SteadyMode, TileFilm, Transient, WindowEnergy};
+use crate::film::{DerivWindowEnergy, SharedFrame, SteadyMode, TileFilm, Transient, WindowEnergy};
 use crate::integrator::RenderContext;
 use crate::integrator::bdpt::{self, film::BdptFilm};
 use crate::integrator::deposit::PathCounts;
@@ -808,32 +808,33 @@ impl<'s> Run<'s> {
         Some(saved)
     }
 
-    /// On SIGINT/SIGTERM, write the state of the running pass.
-    fn watch(&self, state: &std::sync::Arc<std::sync::Mutex<Saved>>) {
+    /// On SIGINT/SIGTERM, write the state of the running pass, as `snapshot` takes it.
+    fn watch(&self, snapshot: impl Fn() -> Saved + Send + 'static) {
         if let Some(ck) = self.checkpointing() {
-            let (ck, state) = (ck.clone(), state.clone());
-            crate::checkpoint::set_signal_writer(Some(Box::new(move || {
-                let snapshot = lock(&state).clone();
-                report(&ck, ck.write(&snapshot));
-            })));
+            let ck = ck.clone();
+            crate::checkpoint::set_signal_writer(Some(Box::new(move || report(&ck, ck.write(&snapshot())))));
         }
     }
 
-    /// Writes a checkpoint of `state` when one is due.
-    fn checkpoint_if_due(&self, state: &std::sync::Mutex<Saved>) {
+    /// Writes a checkpoint of the state `snapshot` takes, when one is due.
+    fn checkpoint_if_due(&self, snapshot: impl FnOnce() -> Saved) {
         if let Some(ck) = self.checkpointing().filter(|ck| ck.due()) {
-            let snapshot = lock(state).clone();
-            report(ck, ck.write(&snapshot));
+            report(ck, ck.write(&snapshot()));
         }
+    }
+
+    /// Ends the signal writer of the pass whose state is `state`, and takes the state
+    /// (cloned if a signal writer still held it).
+    fn end_watch(state: std::sync::Arc<std::sync::Mutex<Saved>>) -> Saved {
+        crate::checkpoint::set_signal_writer(None);
+        std::sync::Arc::try_unwrap(state)
+            .map(|m| m.into_inner().unwrap_or_else(|e| e.into_inner()))
+            .unwrap_or_else(|arc| lock(&arc).clone())
     }
 
     /// The state at the end of the interior pass; with checkpoints, written and kept (with
     /// a resumed boundary stage) for the boundary stage's checkpoint.
-    fn finish_pass(&self, state: std::sync::Arc<std::sync::Mutex<Saved>>) -> Saved {
-        crate::checkpoint::set_signal_writer(None);
-        let mut st = std::sync::Arc::try_unwrap(state)
-            .map(|m| m.into_inner().unwrap_or_else(|e| e.into_inner()))
-            .unwrap_or_else(|arc| lock(&arc).clone());
+    fn finish_pass(&self, mut st: Saved) -> Saved {
         if let Some(ck) = self.checkpointing() {
             let mut kept = self.saved.lock().unwrap_or_else(|e| e.into_inner());
             st.boundary = kept.take().and_then(|k| k.boundary);
@@ -868,10 +869,10 @@ impl<'s> Run<'s> {
                 // Tiles cover disjoint pixels and `out` starts at zero, so each pixel receives
                 // exactly one tile's sums (0 + x = x): storing tiles as they finish gives the
                 // same bytes for any order and thread count, and a checkpoint's films (the
-                // finished tiles, zero elsewhere) resume to the same bytes. Each worker reuses
-                // one film across its tiles.
+                // finished tiles, zero elsewhere) resume to the same bytes. The stores take
+                // no lock (`SharedFrame`); each worker reuses one film across its tiles.
                 let units = rects.len();
-                let state = self.resumed(units).unwrap_or_else(|| Saved {
+                let mut state = self.resumed(units).unwrap_or_else(|| Saved {
                     units,
                     done: vec![false; units],
                     tallies: vec![None; units],
@@ -879,12 +880,20 @@ impl<'s> Run<'s> {
                     ..Default::default()
                 });
                 bar.inc(state.done_units() as u64);
+                let todo: Vec<usize> = (0..units).filter(|&i| !state.done[i]).collect();
+                let frame = std::sync::Arc::new(SharedFrame::new(std::mem::take(&mut state.frame), rects.clone()));
                 let state = std::sync::Arc::new(std::sync::Mutex::new(state));
-                self.watch(&state);
-                let todo: Vec<usize> = {
-                    let st = lock(&state);
-                    (0..units).filter(|&i| !st.done[i]).collect()
+                // a snapshot: the finished tiles' films with their tallies, no store under way
+                let snapshot = {
+                    let (frame, state) = (frame.clone(), state.clone());
+                    move || {
+                        frame.read(|films| Saved {
+                            frame: films.to_vec(),
+                            ..lock(&state).clone()
+                        })
+                    }
                 };
+                self.watch(snapshot.clone());
                 self.pool.install(|| {
                     todo.par_iter().for_each_init(
                         || None::<TileFilm>,
@@ -908,19 +917,23 @@ impl<'s> Run<'s> {
                             );
                             counts.total_ticks = crate::timing::ticks() - tick0;
                             let tally = (counts, film.tails(), film.block_sums());
-                            {
+                            frame.store(i, &film, || {
                                 let mut st = lock(&state);
-                                film.store_into(&mut st.frame);
                                 st.done[i] = true;
                                 st.tallies[i] = Some(tally);
-                            }
-                            self.checkpoint_if_due(&state);
+                            });
+                            self.checkpoint_if_due(&snapshot);
                             *spare = Some(film);
                             bar.inc(1);
                         },
                     )
                 });
-                let st = self.finish_pass(state);
+                drop(snapshot);
+                let mut st = Self::end_watch(state);
+                st.frame = std::sync::Arc::try_unwrap(frame)
+                    .map(SharedFrame::into_films)
+                    .unwrap_or_else(|frame| frame.read(<[Transient]>::to_vec));
+                let st = self.finish_pass(st);
                 out = st.frame;
                 st.tallies.into_iter().map(|t| t.expect("every tile ran")).collect()
             }
@@ -953,7 +966,11 @@ impl<'s> Run<'s> {
                     }
                 }
                 let state = std::sync::Arc::new(std::sync::Mutex::new(state));
-                self.watch(&state);
+                let snapshot = {
+                    let state = state.clone();
+                    move || lock(&state).clone()
+                };
+                self.watch(snapshot.clone());
                 let mut films: Vec<BdptFilm> = Vec::new();
                 for (k, wave) in waves.iter().enumerate() {
                     if lock(&state).done[k] {
@@ -1013,9 +1030,10 @@ impl<'s> Run<'s> {
                         st.done[k] = true;
                         st.tallies[k] = Some(tally);
                     }
-                    self.checkpoint_if_due(&state);
+                    self.checkpoint_if_due(&snapshot);
                 }
-                let mut st = self.finish_pass(state);
+                drop(snapshot);
+                let mut st = self.finish_pass(Self::end_watch(state));
                 let mut tallies: Vec<crate::checkpoint::Tally> =
                     st.tallies.drain(..).map(|t| t.expect("every wave ran")).collect();
                 let list_len = rows.first().map_or(0, |r| r.strategies.len());
