@@ -53,6 +53,15 @@ pub struct Transient {
 }
 
 impl Transient {
+    /// `count` films of zeros, each allocated on its own. `vec![Transient::zeros(..); n]`
+    /// would clone one film of zeros: the copies write every value (all their pages mapped,
+    /// whether a tile ever reaches them or not), and reading the original maps its pages to
+    /// the shared zero page, so each page's first store faults again and flushes the TLB of
+    /// every core running the process.
+    pub fn zeros_many(count: usize, width: usize, height: usize, axis: TimeAxis, channels: usize) -> Vec<Self> {
+        (0..count).map(|_| Self::zeros(width, height, axis, channels)).collect()
+    }
+
     /// A film of zeros with the given size, axis and channel count.
     pub fn zeros(width: usize, height: usize, axis: TimeAxis, channels: usize) -> Self {
         Self {

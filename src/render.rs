@@ -862,7 +862,7 @@ impl<'s> Run<'s> {
         );
         let cpu0 = cpu_seconds();
         let t0 = Instant::now();
-        let mut out = vec![Transient::zeros(w, h, axis, channels); 1 + derivs];
+        let mut out = Transient::zeros_many(1 + derivs, w, h, axis, channels);
         let mut strategy_out = Vec::new();
         let tallies: Vec<(PathCounts, [f64; 2], Vec<f64>)> = match self.kind {
             IntegratorKind::Path => {
@@ -1037,7 +1037,7 @@ impl<'s> Run<'s> {
                 let mut tallies: Vec<crate::checkpoint::Tally> =
                     st.tallies.drain(..).map(|t| t.expect("every wave ran")).collect();
                 let list_len = rows.first().map_or(0, |r| r.strategies.len());
-                strategy_out = vec![Transient::zeros(w, h, axis, channels); list_len];
+                strategy_out = Transient::zeros_many(list_len, w, h, axis, channels);
                 for (row, sums) in rows.iter_mut().zip(st.chunks.drain(..)) {
                     row.film
                         .restore(sums.expect("every row's sums sit in the state"))

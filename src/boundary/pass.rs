@@ -387,7 +387,7 @@ impl Secondary<'_> {
     pub fn render(&self, settings: &BoundarySettings, pool: &rayon::ThreadPool) -> (Vec<Transient>, SecondaryStats) {
         let film = &self.ctx.scene.film;
         let (w, h) = (film.width as usize, film.height as usize);
-        let mut out = vec![Transient::zeros(w, h, film.axis, film.channels); 1 + self.params];
+        let mut out = Transient::zeros_many(1 + self.params, w, h, film.axis, film.channels);
         // Bands of film rows bin each batch's paths in parallel, each band every path in
         // chunk order, so the bytes do not depend on the thread count, and memory stays one
         // film plus a batch of path lists.

@@ -94,8 +94,8 @@ pub fn render_primary_with_stats(
 ) -> (Vec<Transient>, PrimaryStats) {
     let scene = ctx.scene;
     let (w, h) = (scene.film.width as usize, scene.film.height as usize);
-    let blank = Transient::zeros(w, h, scene.film.axis, scene.film.channels);
-    let mut out = vec![blank; ctx.motion.len().min(MAX_PARAMS)];
+    let films = ctx.motion.len().min(MAX_PARAMS);
+    let mut out = Transient::zeros_many(films, w, h, scene.film.axis, scene.film.channels);
     // Bands of rows add each wave's jumps in parallel, each band every jump in sample order:
     // a pixel lies in one band, so neither the band count nor the thread count changes a byte.
     let bands = super::row_bands(h, pool);

@@ -168,11 +168,11 @@ mod tests {
             .enumerate()
             .map(|(i, &r)| tile(r, &axis, derivs, i))
             .collect();
-        let mut serial = vec![Transient::zeros(w, h, axis, 3); 1 + derivs];
+        let mut serial = Transient::zeros_many(1 + derivs, w, h, axis, 3);
         for t in &tiles {
             t.store_into(&mut serial);
         }
-        let frame = SharedFrame::new(vec![Transient::zeros(w, h, axis, 3); 1 + derivs], rects.clone());
+        let frame = SharedFrame::new(Transient::zeros_many(1 + derivs, w, h, axis, 3), rects.clone());
         let count = std::sync::atomic::AtomicUsize::new(0);
         std::thread::scope(|s| {
             for part in 0..4 {
