@@ -200,8 +200,8 @@ fn write(path: &Path, identity: &serde_json::Value, s: &Saved) -> Result<(), Err
         w.write_all(&text).map_err(io)?;
         for (_, d) in &blobs {
             match d {
-                Data::F32(v) => crate::output::write_le(w, v).map_err(io)?,
-                Data::F64(v) => crate::output::write_le(w, v).map_err(io)?,
+                Data::F32(v) => crate::output::write_le_sparse(w, v).map_err(io)?,
+                Data::F64(v) => crate::output::write_le_sparse(w, v).map_err(io)?,
             }
         }
         Ok(())
