@@ -84,7 +84,8 @@ impl Checkpointing {
         }
     }
 
-    /// Whether a periodic checkpoint is due (and, if so, counts it as written now).
+    /// Whether a periodic checkpoint is due (and, if so, counts it as written now; the
+    /// write then counts again from its end, [`Self::write`]).
     pub fn due(&self) -> bool {
         let mut last = self.last.lock().unwrap_or_else(|e| e.into_inner());
         if last.elapsed() >= self.every {
@@ -95,10 +96,15 @@ impl Checkpointing {
         }
     }
 
-    /// Writes `saved` atomically (temporary file, sync, rename).
+    /// Writes `saved` atomically (temporary file, sync, rename). The next periodic
+    /// checkpoint is due `every` after the write ends: counted from its start, a checkpoint
+    /// that takes longer to take and write than `every` (a 1.5 GB film takes seconds) made
+    /// the next one due at once, and the workers did little but checkpoint.
     pub fn write(&self, saved: &Saved) -> Result<(), Error> {
         let _guard = self.writing.lock().unwrap_or_else(|e| e.into_inner());
-        write(&self.path, &self.identity, saved)
+        let written = write(&self.path, &self.identity, saved);
+        *self.last.lock().unwrap_or_else(|e| e.into_inner()) = Instant::now();
+        written
     }
 }
 
@@ -342,6 +348,25 @@ pub fn write_on_signal() {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The next checkpoint is due `every` after the last write ends, not after it began: a
+    /// checkpoint that takes longer than `every` (here, 80 ms between the check and the
+    /// write) does not make the next one due at once.
+    #[test]
+    fn the_next_checkpoint_counts_from_the_end_of_the_last() {
+        let dir = tempfile::tempdir().unwrap();
+        let every = Duration::from_millis(50);
+        let ck = Checkpointing::new(dir.path().join("c.checkpoint"), every, serde_json::json!({}), None);
+        assert!(!ck.due(), "not due before `every` has passed");
+        std::thread::sleep(Duration::from_millis(60));
+        assert!(ck.due());
+        assert!(!ck.due(), "one checkpoint per interval");
+        std::thread::sleep(Duration::from_millis(80));
+        ck.write(&Saved::default()).unwrap();
+        assert!(!ck.due(), "due again right after a write that took longer than `every`");
+        std::thread::sleep(Duration::from_millis(60));
+        assert!(ck.due());
+    }
 
     /// Every f64 of the header (the tallies' energies and block sums here) reads back to the
     /// bit: a resumed render's energy report is summed from them and must equal the

@@ -289,7 +289,7 @@ impl Accumulate for TileFilm {
 }
 
 /// A [`TileFilm`]'s running sums, exactly (f32 or f64 bins as the film keeps them).
-#[derive(Clone, Debug, Default)]
+#[derive(Debug, Default)]
 #[doc(hidden)]
 pub struct TileSums {
     pub data32: Vec<f32>,
@@ -299,6 +299,38 @@ pub struct TileSums {
     pub written: Vec<u64>,
     pub steady: Vec<f64>,
     pub tails: [f64; 2],
+}
+
+/// A copy that reads only the written runs of the bins (all of them when that is not known):
+/// the rest of the copy is fresh zeros. A checkpoint copies BDPT's row sums this way; a copy of
+/// every value would map the untouched pages of the rows to the kernel's shared zero page,
+/// and the next wave's first store into each would fault again and flush the TLB of every core.
+impl Clone for TileSums {
+    fn clone(&self) -> Self {
+        Self {
+            data32: bins::copy_written(&self.data32, &self.written),
+            data64: bins::copy_written(&self.data64, &self.written),
+            written: self.written.clone(),
+            steady: self.steady.clone(),
+            tails: self.tails,
+        }
+    }
+}
+
+/// Each row `ty` of the pixel rectangle `(x0, y0, w, h)` in a full film `width` pixels wide,
+/// of `bins` bins and `channels` channels: the row's range of the film's `data` and of its
+/// `steady` image.
+pub fn rect_rows(
+    (x0, y0, w, h): (usize, usize, usize, usize),
+    width: usize,
+    bins: usize,
+    channels: usize,
+) -> impl Iterator<Item = (usize, Range<usize>, Range<usize>)> {
+    (0..h).map(move |ty| {
+        let first = (y0 + ty) * width + x0;
+        let (data, steady) = (first * bins * channels, first * channels);
+        (ty, data..data + w * bins * channels, steady..steady + w * channels)
+    })
 }
 
 /// A rectangle of pixels accumulated by one worker, then stored into a [`Transient`]
@@ -471,13 +503,7 @@ impl TileFilm {
     /// Each of the tile's rows `ty` with where it lies in a full film `width` pixels wide:
     /// its range of the film's `data` and of its `steady` image.
     pub fn rows_in(&self, width: usize) -> impl Iterator<Item = (usize, Range<usize>, Range<usize>)> + '_ {
-        let (row, srow) = (self.w * self.bins * self.channels, self.w * self.channels);
-        (0..self.h).map(move |ty| {
-            let first = (self.y0 + ty) * width + self.x0;
-            let data = first * self.bins * self.channels;
-            let steady = first * self.channels;
-            (ty, data..data + row, steady..steady + srow)
-        })
+        rect_rows((self.x0, self.y0, self.w, self.h), width, self.bins, self.channels)
     }
 
     /// Stores row `ty` of film `k` (0: the primal, then the derivatives) into `data` and

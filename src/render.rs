@@ -887,10 +887,12 @@ impl<'s> Run<'s> {
                 let snapshot = {
                     let (frame, state) = (frame.clone(), state.clone());
                     move || {
-                        frame.read(|films| Saved {
-                            frame: films.to_vec(),
-                            ..lock(&state).clone()
-                        })
+                        let (st, films) = frame.snapshot(|| {
+                            let st = lock(&state).clone();
+                            let done = st.done.clone();
+                            (st, done)
+                        });
+                        Saved { frame: films, ..st }
                     }
                 };
                 self.watch(snapshot.clone());

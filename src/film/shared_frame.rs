@@ -110,6 +110,31 @@ impl SharedFrame {
         f(unsafe { &*self.films.get() })
     }
 
+    /// While no store is under way, calls `finished` for a record and which tiles it holds
+    /// (by index), and copies those tiles into fresh films of zeros: the films of a
+    /// checkpoint. Only the finished tiles are read. A copy of whole films would read every
+    /// page no tile has reached yet, mapping it to the kernel's shared zero page, and each
+    /// later store there would fault again and flush the TLB of every core; it would also
+    /// write every page of the copy.
+    pub fn snapshot<T>(&self, finished: impl FnOnce() -> (T, Vec<bool>)) -> (T, Vec<Transient>) {
+        self.read(|films| {
+            let (record, done) = finished();
+            let mut copy: Vec<Transient> = films
+                .iter()
+                .map(|f| Transient::zeros(f.width, f.height, f.axis, f.channels))
+                .collect();
+            for (rect, _) in self.rects.iter().zip(&done).filter(|(_, d)| **d) {
+                for (from, to) in films.iter().zip(&mut copy) {
+                    for (_, data, steady) in super::rect_rows(*rect, self.width, from.axis.bins, from.channels) {
+                        to.data[data.clone()].copy_from_slice(&from.data[data]);
+                        to.steady[steady.clone()].copy_from_slice(&from.steady[steady]);
+                    }
+                }
+            }
+            (record, copy)
+        })
+    }
+
     /// The films, once no store can run any more.
     pub fn into_films(self) -> Vec<Transient> {
         self.films.into_inner()
@@ -204,6 +229,50 @@ mod tests {
             );
         }
         assert!(serial[0].data.iter().any(|&v| v != 0.0) && serial[2].data.iter().any(|&v| v != 0.0));
+    }
+
+    /// A snapshot holds the tiles it is told are finished, bit for bit, and zeros elsewhere.
+    #[test]
+    fn a_snapshot_copies_the_finished_tiles() {
+        let axis = TimeAxis {
+            start_opl: 0.0,
+            bin_width_opl: 0.1,
+            bins: 24,
+        };
+        let (w, h, derivs) = (20, 12, 1);
+        let rects: Vec<Rect> = vec![(0, 0, 8, 8), (8, 0, 8, 8), (16, 0, 4, 8), (0, 8, 20, 4)];
+        let tiles: Vec<TileFilm> = rects
+            .iter()
+            .enumerate()
+            .map(|(i, &r)| tile(r, &axis, derivs, i))
+            .collect();
+        let frame = SharedFrame::new(Transient::zeros_many(1 + derivs, w, h, axis, 3), rects.clone());
+        for i in [0, 2, 3] {
+            frame.store(i, &tiles[i], || {});
+        }
+        let (record, copy) = frame.snapshot(|| ("record", vec![true, false, true, false]));
+        assert_eq!(record, "record");
+        let mut want = Transient::zeros_many(1 + derivs, w, h, axis, 3);
+        tiles[0].store_into(&mut want);
+        tiles[2].store_into(&mut want);
+        for (a, b) in copy.iter().zip(&want) {
+            assert!(
+                a.data
+                    .iter()
+                    .map(|v| v.to_bits())
+                    .eq(b.data.iter().map(|v| v.to_bits()))
+            );
+            assert!(
+                a.steady
+                    .iter()
+                    .map(|v| v.to_bits())
+                    .eq(b.steady.iter().map(|v| v.to_bits()))
+            );
+        }
+        assert!(want[0].data.iter().any(|&v| v != 0.0) && want[1].steady.iter().any(|&v| v != 0.0));
+        // the whole frame still holds tile 3, which the snapshot was told is not finished
+        let whole = frame.read(|f| f[0].data.clone());
+        assert_ne!(whole, copy[0].data);
     }
 
     #[test]
