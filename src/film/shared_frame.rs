@@ -172,6 +172,14 @@ mod tests {
         t
     }
 
+    fn assert_same_bits(a: &[Transient], b: &[Transient]) {
+        let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<u32>>();
+        assert_eq!(a.len(), b.len());
+        for (a, b) in a.iter().zip(b) {
+            assert!(bits(&a.data) == bits(&b.data) && bits(&a.steady) == bits(&b.steady));
+        }
+    }
+
     /// Stores from several threads at once give the bytes of storing the same tiles one by
     /// one into the films, whatever the order.
     #[test]
@@ -214,20 +222,7 @@ mod tests {
         });
         assert_eq!(count.into_inner(), tiles.len());
         let got = frame.into_films();
-        for (a, b) in got.iter().zip(&serial) {
-            assert!(
-                a.data
-                    .iter()
-                    .map(|v| v.to_bits())
-                    .eq(b.data.iter().map(|v| v.to_bits()))
-            );
-            assert!(
-                a.steady
-                    .iter()
-                    .map(|v| v.to_bits())
-                    .eq(b.steady.iter().map(|v| v.to_bits()))
-            );
-        }
+        assert_same_bits(&got, &serial);
         assert!(serial[0].data.iter().any(|&v| v != 0.0) && serial[2].data.iter().any(|&v| v != 0.0));
     }
 
@@ -255,20 +250,7 @@ mod tests {
         let mut want = Transient::zeros_many(1 + derivs, w, h, axis, 3);
         tiles[0].store_into(&mut want);
         tiles[2].store_into(&mut want);
-        for (a, b) in copy.iter().zip(&want) {
-            assert!(
-                a.data
-                    .iter()
-                    .map(|v| v.to_bits())
-                    .eq(b.data.iter().map(|v| v.to_bits()))
-            );
-            assert!(
-                a.steady
-                    .iter()
-                    .map(|v| v.to_bits())
-                    .eq(b.steady.iter().map(|v| v.to_bits()))
-            );
-        }
+        assert_same_bits(&copy, &want);
         assert!(want[0].data.iter().any(|&v| v != 0.0) && want[1].steady.iter().any(|&v| v != 0.0));
         // the whole frame still holds tile 3, which the snapshot was told is not finished
         let whole = frame.read(|f| f[0].data.clone());
