@@ -16,8 +16,8 @@ use super::{TileFilm, Transient};
 pub type Rect = (usize, usize, usize, usize);
 
 /// Full-frame films (the primal, then one per derivative) that tiles are stored into
-/// concurrently ([`Self::store`]) and that are read whole while no store is under way
-/// ([`Self::read`], for checkpoints).
+/// concurrently ([`Self::store`]) and that are read while no store is under way: the
+/// finished tiles for a checkpoint ([`Self::snapshot`]), or whole ([`Self::read`]).
 pub struct SharedFrame {
     films: UnsafeCell<Vec<Transient>>,
     /// Each film's `data` and `steady` buffers, taken once from the owned films: stores
