@@ -881,9 +881,13 @@ impl<'s> Run<'s> {
                 });
                 bar.inc(state.done_units() as u64);
                 let todo: Vec<usize> = (0..units).filter(|&i| !state.done[i]).collect();
-                let frame = std::sync::Arc::new(SharedFrame::new(std::mem::take(&mut state.frame), rects.clone()));
+                let frame = std::sync::Arc::new(SharedFrame::new(
+                    std::mem::take(&mut state.frame),
+                    rects.clone(),
+                    &state.done,
+                ));
                 let state = std::sync::Arc::new(std::sync::Mutex::new(state));
-                // a snapshot: the finished tiles' films with their tallies, no store under way
+                // a snapshot: the finished tiles' films with their tallies, while the stores go on
                 let snapshot = {
                     let (frame, state) = (frame.clone(), state.clone());
                     move || {

@@ -8,16 +8,24 @@
 
 use std::cell::UnsafeCell;
 use std::sync::RwLock;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicU8, Ordering};
 
 use super::{TileFilm, Transient};
+
+/// A tile whose store has not begun.
+const EMPTY: u8 = 0;
+/// A tile whose store is under way.
+const STORING: u8 = 1;
+/// A tile whose store has ended (or that the films held when the frame was made).
+const STORED: u8 = 2;
 
 /// A tile's rectangle: `(x0, y0, w, h)` in pixels.
 pub type Rect = (usize, usize, usize, usize);
 
 /// Full-frame films (the primal, then one per derivative) that tiles are stored into
-/// concurrently ([`Self::store`]) and that are read while no store is under way: the
-/// finished tiles for a checkpoint ([`Self::snapshot`]), or whole ([`Self::read`]).
+/// concurrently ([`Self::store`]), whose finished tiles a checkpoint copies while the stores
+/// go on ([`Self::snapshot`]), and that are read whole while no store is under way
+/// ([`Self::read`]).
 pub struct SharedFrame {
     films: UnsafeCell<Vec<Transient>>,
     /// Each film's `data` and `steady` buffers, taken once from the owned films: stores
@@ -26,8 +34,9 @@ pub struct SharedFrame {
     steady: Vec<*mut f32>,
     width: usize,
     rects: Vec<Rect>,
-    /// Whether tile `i` has been stored (or claimed by the thread storing it).
-    stored: Vec<AtomicBool>,
+    /// Tile `i`'s store: [`EMPTY`], [`STORING`] or [`STORED`] (its store has ended, or it
+    /// came with the films).
+    stored: Vec<AtomicU8>,
     /// Stores hold it shared, [`Self::read`] exclusively.
     gate: RwLock<()>,
 }
@@ -36,15 +45,17 @@ pub struct SharedFrame {
 // resizes until `into_films` consumes it. Stores write only inside their own tile's
 // rectangle; `new` checks that the rectangles are disjoint and inside every film, and
 // `store` lets each rectangle be written once. So concurrent stores write disjoint memory,
-// and `read` (which holds the gate exclusively) never overlaps a store.
+// `snapshot` reads only rectangles whose store has ended, and `read` (which holds the gate
+// exclusively) never overlaps a store.
 unsafe impl Send for SharedFrame {}
 unsafe impl Sync for SharedFrame {}
 
 impl SharedFrame {
-    /// Takes `films` (all of one size) and the tiles that will be stored into them.
-    /// Panics if a rectangle leaves the films or overlaps another: either would let two
-    /// stores write the same memory.
-    pub fn new(mut films: Vec<Transient>, rects: Vec<Rect>) -> Self {
+    /// Takes `films` (all of one size) and the tiles that will be stored into them; the
+    /// tiles `held` marks (a resumed checkpoint's) are in the films already and are not
+    /// stored again. Panics if a rectangle leaves the films or overlaps another: either
+    /// would let two stores write the same memory.
+    pub fn new(mut films: Vec<Transient>, rects: Vec<Rect>, held: &[bool]) -> Self {
         let (width, height) = films.first().map_or((0, 0), |f| (f.width, f.height));
         for f in &films {
             assert_eq!((f.width, f.height), (width, height), "the frame's films share a size");
@@ -69,7 +80,9 @@ impl SharedFrame {
             steady: films.iter_mut().map(|f| f.steady.as_mut_ptr()).collect(),
             films: UnsafeCell::new(films),
             width,
-            stored: rects.iter().map(|_| AtomicBool::new(false)).collect(),
+            stored: (0..rects.len())
+                .map(|i| AtomicU8::new(if held.get(i) == Some(&true) { STORED } else { EMPTY }))
+                .collect(),
             rects,
             gate: RwLock::new(()),
         }
@@ -85,7 +98,8 @@ impl SharedFrame {
             (tile.x0, tile.y0, tile.w, tile.h),
             "tile {i}'s rectangle"
         );
-        assert!(!self.stored[i].swap(true, Ordering::AcqRel), "tile {i} is stored once");
+        let claimed = self.stored[i].compare_exchange(EMPTY, STORING, Ordering::AcqRel, Ordering::Acquire);
+        assert!(claimed.is_ok(), "tile {i} is stored once");
         let _gate = self.gate.read().unwrap_or_else(|e| e.into_inner());
         for k in 0..tile.films().min(self.data.len()) {
             for (ty, data, steady) in tile.rows_in(self.width) {
@@ -100,6 +114,7 @@ impl SharedFrame {
                 tile.store_row(k, ty, data, steady);
             }
         }
+        self.stored[i].store(STORED, Ordering::Release);
         then();
     }
 
@@ -110,29 +125,44 @@ impl SharedFrame {
         f(unsafe { &*self.films.get() })
     }
 
-    /// While no store is under way, calls `finished` for a record and which tiles it holds
-    /// (by index), and copies those tiles into fresh films of zeros: the films of a
-    /// checkpoint. Only the finished tiles are read. A copy of whole films would read every
-    /// page no tile has reached yet, mapping it to the kernel's shared zero page, and each
-    /// later store there would fault again and flush the TLB of every core; it would also
-    /// write every page of the copy.
+    /// Calls `finished` for a record and which tiles it holds (by index), and copies those
+    /// tiles into fresh films of zeros: the films of a checkpoint. The stores go on while it
+    /// copies: a finished tile is never written again, and its store has ended (a tile
+    /// called finished whose store has not is refused with a panic; the store's `then`
+    /// runs after it ends). Only the finished tiles are read. A copy of whole films would read every page no
+    /// tile has reached yet, mapping it to the kernel's shared zero page, and each later store
+    /// there would fault again and flush the TLB of every core; it would also write every page
+    /// of the copy.
     pub fn snapshot<T>(&self, finished: impl FnOnce() -> (T, Vec<bool>)) -> (T, Vec<Transient>) {
-        self.read(|films| {
-            let (record, done) = finished();
-            let mut copy: Vec<Transient> = films
-                .iter()
-                .map(|f| Transient::zeros(f.width, f.height, f.axis, f.channels))
-                .collect();
-            for (rect, _) in self.rects.iter().zip(&done).filter(|(_, d)| **d) {
-                for (from, to) in films.iter().zip(&mut copy) {
-                    for (_, data, steady) in super::rect_rows(*rect, self.width, from.axis.bins, from.channels) {
-                        to.data[data.clone()].copy_from_slice(&from.data[data]);
-                        to.steady[steady.clone()].copy_from_slice(&from.steady[steady]);
-                    }
+        let (record, done) = finished();
+        // SAFETY: only the films' sizes are read through this reference, never their values.
+        let shapes: Vec<(usize, usize, super::TimeAxis, usize)> = unsafe { &*self.films.get() }
+            .iter()
+            .map(|f| (f.width, f.height, f.axis, f.channels))
+            .collect();
+        let mut copy: Vec<Transient> = shapes
+            .iter()
+            .map(|&(w, h, axis, c)| Transient::zeros(w, h, axis, c))
+            .collect();
+        for (i, rect) in self.rects.iter().enumerate().filter(|(i, _)| done[*i]) {
+            let state = self.stored[i].load(Ordering::Acquire);
+            assert_eq!(state, STORED, "tile {i} is called finished before its store ended");
+            for (k, to) in copy.iter_mut().enumerate() {
+                for (_, data, steady) in super::rect_rows(*rect, self.width, to.axis.bins, to.channels) {
+                    // SAFETY: rows of a tile whose store has ended (STORED, acquired above)
+                    // and which no store writes again, inside film `k` (the `Sync` impl).
+                    let (from_data, from_steady) = unsafe {
+                        (
+                            std::slice::from_raw_parts(self.data[k].add(data.start), data.len()),
+                            std::slice::from_raw_parts(self.steady[k].add(steady.start), steady.len()),
+                        )
+                    };
+                    to.data[data].copy_from_slice(from_data);
+                    to.steady[steady].copy_from_slice(from_steady);
                 }
             }
-            (record, copy)
-        })
+        }
+        (record, copy)
     }
 
     /// The films, once no store can run any more.
@@ -205,22 +235,41 @@ mod tests {
         for t in &tiles {
             t.store_into(&mut serial);
         }
-        let frame = SharedFrame::new(Transient::zeros_many(1 + derivs, w, h, axis, 3), rects.clone());
+        let frame = SharedFrame::new(Transient::zeros_many(1 + derivs, w, h, axis, 3), rects.clone(), &[]);
         let count = std::sync::atomic::AtomicUsize::new(0);
+        let finished = std::sync::Mutex::new(vec![false; tiles.len()]);
+        let snapshots = std::sync::Mutex::new(Vec::new());
         std::thread::scope(|s| {
             for part in 0..4 {
-                let (frame, tiles, count) = (&frame, &tiles, &count);
+                let (frame, tiles, count, finished, snapshots) = (&frame, &tiles, &count, &finished, &snapshots);
                 s.spawn(move || {
                     for i in (0..tiles.len()).rev().filter(|i| i % 4 == part) {
                         frame.store(i, &tiles[i], || {
                             count.fetch_add(1, Ordering::Relaxed);
+                            finished.lock().unwrap()[i] = true;
                         });
                         frame.read(|f| assert_eq!(f.len(), 1 + derivs));
+                        // a checkpoint's copy while the other threads store
+                        let taken = frame.snapshot(|| {
+                            let done = finished.lock().unwrap().clone();
+                            (done.clone(), done)
+                        });
+                        snapshots.lock().unwrap().push(taken);
                     }
                 });
             }
         });
         assert_eq!(count.into_inner(), tiles.len());
+        // each copy holds what storing its finished tiles into zeros gives
+        for (done, copy) in snapshots.into_inner().unwrap() {
+            let mut want = Transient::zeros_many(1 + derivs, w, h, axis, 3);
+            tiles
+                .iter()
+                .zip(&done)
+                .filter(|(_, d)| **d)
+                .for_each(|(t, _)| t.store_into(&mut want));
+            assert_same_bits(&copy, &want);
+        }
         let got = frame.into_films();
         assert_same_bits(&got, &serial);
         assert!(serial[0].data.iter().any(|&v| v != 0.0) && serial[2].data.iter().any(|&v| v != 0.0));
@@ -241,7 +290,7 @@ mod tests {
             .enumerate()
             .map(|(i, &r)| tile(r, &axis, derivs, i))
             .collect();
-        let frame = SharedFrame::new(Transient::zeros_many(1 + derivs, w, h, axis, 3), rects.clone());
+        let frame = SharedFrame::new(Transient::zeros_many(1 + derivs, w, h, axis, 3), rects.clone(), &[]);
         for i in [0, 2, 3] {
             frame.store(i, &tiles[i], || {});
         }
@@ -257,6 +306,37 @@ mod tests {
         assert_ne!(whole, copy[0].data);
     }
 
+    /// Tiles the films hold already (a resumed checkpoint's) are copied by a snapshot and
+    /// never stored again.
+    #[test]
+    #[should_panic(expected = "is stored once")]
+    fn held_tiles_are_not_stored_again() {
+        let axis = TimeAxis {
+            start_opl: 0.0,
+            bin_width_opl: 0.1,
+            bins: 4,
+        };
+        let mut films = vec![Transient::zeros(16, 8, axis, 3)];
+        films[0].data[5] = 2.5;
+        let frame = SharedFrame::new(films, vec![(0, 0, 8, 8), (8, 0, 8, 8)], &[true, false]);
+        let (_, copy) = frame.snapshot(|| ((), vec![true, false]));
+        assert_eq!(copy[0].data[5], 2.5);
+        frame.store(0, &tile((0, 0, 8, 8), &axis, 0, 1), || {});
+    }
+
+    /// A tile called finished whose store has not ended is refused, not read.
+    #[test]
+    #[should_panic(expected = "before its store ended")]
+    fn a_snapshot_refuses_a_tile_not_yet_stored() {
+        let axis = TimeAxis {
+            start_opl: 0.0,
+            bin_width_opl: 0.1,
+            bins: 4,
+        };
+        let frame = SharedFrame::new(vec![Transient::zeros(16, 8, axis, 3)], vec![(0, 0, 8, 8)], &[]);
+        frame.snapshot(|| ((), vec![true]));
+    }
+
     #[test]
     #[should_panic(expected = "overlaps another")]
     fn overlapping_tiles_are_refused() {
@@ -268,6 +348,7 @@ mod tests {
         SharedFrame::new(
             vec![Transient::zeros(16, 16, axis, 1)],
             vec![(0, 0, 8, 8), (4, 4, 8, 8)],
+            &[],
         );
     }
 
@@ -279,7 +360,7 @@ mod tests {
             bin_width_opl: 0.1,
             bins: 4,
         };
-        SharedFrame::new(vec![Transient::zeros(16, 16, axis, 1)], vec![(12, 0, 8, 8)]);
+        SharedFrame::new(vec![Transient::zeros(16, 16, axis, 1)], vec![(12, 0, 8, 8)], &[]);
     }
 
     #[test]
@@ -290,7 +371,7 @@ mod tests {
             bin_width_opl: 0.1,
             bins: 4,
         };
-        let frame = SharedFrame::new(vec![Transient::zeros(16, 16, axis, 3)], vec![(0, 0, 8, 8)]);
+        let frame = SharedFrame::new(vec![Transient::zeros(16, 16, axis, 3)], vec![(0, 0, 8, 8)], &[]);
         let t = tile((0, 0, 8, 8), &axis, 0, 1);
         frame.store(0, &t, || {});
         frame.store(0, &t, || {});
