@@ -176,6 +176,14 @@ mod tests {
     use super::*;
     use crate::temporal::TimeAxis;
 
+    fn axis(bins: usize) -> TimeAxis {
+        TimeAxis {
+            start_opl: 0.0,
+            bin_width_opl: 0.1,
+            bins,
+        }
+    }
+
     fn tile(rect: Rect, axis: &TimeAxis, derivs: usize, seed: usize) -> TileFilm {
         let (x0, y0, w, h) = rect;
         let n = w * h * axis.bins * 3 * (1 + derivs);
@@ -214,11 +222,7 @@ mod tests {
     /// one into the films, whatever the order.
     #[test]
     fn concurrent_stores_give_the_serial_bytes() {
-        let axis = TimeAxis {
-            start_opl: 0.0,
-            bin_width_opl: 0.1,
-            bins: 40,
-        };
+        let axis = axis(40);
         let (w, h, derivs) = (29, 23, 2);
         let mut rects = Vec::new();
         for y0 in (0..h).step_by(8) {
@@ -278,11 +282,7 @@ mod tests {
     /// A snapshot holds the tiles it is told are finished, bit for bit, and zeros elsewhere.
     #[test]
     fn a_snapshot_copies_the_finished_tiles() {
-        let axis = TimeAxis {
-            start_opl: 0.0,
-            bin_width_opl: 0.1,
-            bins: 24,
-        };
+        let axis = axis(24);
         let (w, h, derivs) = (20, 12, 1);
         let rects: Vec<Rect> = vec![(0, 0, 8, 8), (8, 0, 8, 8), (16, 0, 4, 8), (0, 8, 20, 4)];
         let tiles: Vec<TileFilm> = rects
@@ -311,11 +311,7 @@ mod tests {
     #[test]
     #[should_panic(expected = "is stored once")]
     fn held_tiles_are_not_stored_again() {
-        let axis = TimeAxis {
-            start_opl: 0.0,
-            bin_width_opl: 0.1,
-            bins: 4,
-        };
+        let axis = axis(4);
         let mut films = vec![Transient::zeros(16, 8, axis, 3)];
         films[0].data[5] = 2.5;
         let frame = SharedFrame::new(films, vec![(0, 0, 8, 8), (8, 0, 8, 8)], &[true, false]);
@@ -328,11 +324,7 @@ mod tests {
     #[test]
     #[should_panic(expected = "before its store ended")]
     fn a_snapshot_refuses_a_tile_not_yet_stored() {
-        let axis = TimeAxis {
-            start_opl: 0.0,
-            bin_width_opl: 0.1,
-            bins: 4,
-        };
+        let axis = axis(4);
         let frame = SharedFrame::new(vec![Transient::zeros(16, 8, axis, 3)], vec![(0, 0, 8, 8)], &[]);
         frame.snapshot(|| ((), vec![true]));
     }
@@ -340,11 +332,7 @@ mod tests {
     #[test]
     #[should_panic(expected = "overlaps another")]
     fn overlapping_tiles_are_refused() {
-        let axis = TimeAxis {
-            start_opl: 0.0,
-            bin_width_opl: 0.1,
-            bins: 4,
-        };
+        let axis = axis(4);
         SharedFrame::new(
             vec![Transient::zeros(16, 16, axis, 1)],
             vec![(0, 0, 8, 8), (4, 4, 8, 8)],
@@ -355,22 +343,14 @@ mod tests {
     #[test]
     #[should_panic(expected = "leaves the frame")]
     fn tiles_outside_the_films_are_refused() {
-        let axis = TimeAxis {
-            start_opl: 0.0,
-            bin_width_opl: 0.1,
-            bins: 4,
-        };
+        let axis = axis(4);
         SharedFrame::new(vec![Transient::zeros(16, 16, axis, 1)], vec![(12, 0, 8, 8)], &[]);
     }
 
     #[test]
     #[should_panic(expected = "is stored once")]
     fn a_tile_is_stored_once() {
-        let axis = TimeAxis {
-            start_opl: 0.0,
-            bin_width_opl: 0.1,
-            bins: 4,
-        };
+        let axis = axis(4);
         let frame = SharedFrame::new(vec![Transient::zeros(16, 16, axis, 3)], vec![(0, 0, 8, 8)], &[]);
         let t = tile((0, 0, 8, 8), &axis, 0, 1);
         frame.store(0, &t, || {});
