@@ -7,7 +7,6 @@
 //! much as its paths, and 2 threads ran 1.3× faster than one.
 
 use std::cell::UnsafeCell;
-use std::sync::RwLock;
 use std::sync::atomic::{AtomicU8, Ordering};
 
 use super::{TileFilm, Transient};
@@ -23,30 +22,28 @@ const STORED: u8 = 2;
 pub type Rect = (usize, usize, usize, usize);
 
 /// Full-frame films (the primal, then one per derivative) that tiles are stored into
-/// concurrently ([`Self::store`]), whose finished tiles a checkpoint copies while the stores
-/// go on ([`Self::snapshot`]), and that are read whole while no store is under way
-/// ([`Self::read`]).
+/// concurrently ([`Self::store`]) and whose finished tiles a checkpoint copies while the
+/// stores go on ([`Self::snapshot`]).
 pub struct SharedFrame {
     films: UnsafeCell<Vec<Transient>>,
     /// Each film's `data` and `steady` buffers, taken once from the owned films: stores
     /// write through these, never through a reference to the films.
     data: Vec<*mut f32>,
     steady: Vec<*mut f32>,
+    /// Each film's (height, time axis, channels); all are `width` pixels wide.
+    shapes: Vec<(usize, super::TimeAxis, usize)>,
     width: usize,
     rects: Vec<Rect>,
     /// Tile `i`'s store: [`EMPTY`], [`STORING`] or [`STORED`] (its store has ended, or it
     /// came with the films).
     stored: Vec<AtomicU8>,
-    /// Stores hold it shared, [`Self::read`] exclusively.
-    gate: RwLock<()>,
 }
 
 // SAFETY: the raw pointers point into `films`, which the frame owns and never moves or
 // resizes until `into_films` consumes it. Stores write only inside their own tile's
 // rectangle; `new` checks that the rectangles are disjoint and inside every film, and
 // `store` lets each rectangle be written once. So concurrent stores write disjoint memory,
-// `snapshot` reads only rectangles whose store has ended, and `read` (which holds the gate
-// exclusively) never overlaps a store.
+// and `snapshot` reads only rectangles whose store has ended.
 unsafe impl Send for SharedFrame {}
 unsafe impl Sync for SharedFrame {}
 
@@ -78,20 +75,20 @@ impl SharedFrame {
         Self {
             data: films.iter_mut().map(|f| f.data.as_mut_ptr()).collect(),
             steady: films.iter_mut().map(|f| f.steady.as_mut_ptr()).collect(),
+            shapes: films.iter().map(|f| (f.height, f.axis, f.channels)).collect(),
             films: UnsafeCell::new(films),
             width,
             stored: (0..rects.len())
                 .map(|i| AtomicU8::new(if held.get(i) == Some(&true) { STORED } else { EMPTY }))
                 .collect(),
             rects,
-            gate: RwLock::new(()),
         }
     }
 
     /// Stores `tile`, which must cover rectangle `i`, into the films (which hold zeros
-    /// there: [`TileFilm::store_into`]), then runs `then` before any [`Self::read`] can see
-    /// the frame, so a reader sees the tile together with whatever `then` records of it.
-    /// Panics if rectangle `i` was stored before or the tile covers another one.
+    /// there: [`TileFilm::store_into`]), then runs `then`: whatever `then` records of the
+    /// tile, a [`Self::snapshot`] that sees it finds the tile's store ended. Panics if
+    /// rectangle `i` was stored before or the tile covers another one.
     pub fn store(&self, i: usize, tile: &TileFilm, then: impl FnOnce()) {
         assert_eq!(
             self.rects[i],
@@ -100,7 +97,6 @@ impl SharedFrame {
         );
         let claimed = self.stored[i].compare_exchange(EMPTY, STORING, Ordering::AcqRel, Ordering::Acquire);
         assert!(claimed.is_ok(), "tile {i} is stored once");
-        let _gate = self.gate.read().unwrap_or_else(|e| e.into_inner());
         for k in 0..tile.films().min(self.data.len()) {
             for (ty, data, steady) in tile.rows_in(self.width) {
                 // SAFETY: the ranges are row `ty` of rectangle `i` in film `k` (`rows_in`),
@@ -118,31 +114,20 @@ impl SharedFrame {
         then();
     }
 
-    /// Calls `f` with the films while no store is under way.
-    pub fn read<T>(&self, f: impl FnOnce(&[Transient]) -> T) -> T {
-        let _gate = self.gate.write().unwrap_or_else(|e| e.into_inner());
-        // SAFETY: the exclusive gate keeps every store out while `f` runs.
-        f(unsafe { &*self.films.get() })
-    }
-
     /// Calls `finished` for a record and which tiles it holds (by index), and copies those
     /// tiles into fresh films of zeros: the films of a checkpoint. The stores go on while it
     /// copies: a finished tile is never written again, and its store has ended (a tile
     /// called finished whose store has not is refused with a panic; the store's `then`
-    /// runs after it ends). Only the finished tiles are read. A copy of whole films would read every page no
-    /// tile has reached yet, mapping it to the kernel's shared zero page, and each later store
-    /// there would fault again and flush the TLB of every core; it would also write every page
-    /// of the copy.
+    /// runs after it ends). Only the finished tiles are read. A copy of whole films would
+    /// read every page no tile has reached yet, mapping it to the kernel's shared zero page,
+    /// and each later store there would fault again and flush the TLB of every core; it
+    /// would also write every page of the copy.
     pub fn snapshot<T>(&self, finished: impl FnOnce() -> (T, Vec<bool>)) -> (T, Vec<Transient>) {
         let (record, done) = finished();
-        // SAFETY: only the films' sizes are read through this reference, never their values.
-        let shapes: Vec<(usize, usize, super::TimeAxis, usize)> = unsafe { &*self.films.get() }
+        let mut copy: Vec<Transient> = self
+            .shapes
             .iter()
-            .map(|f| (f.width, f.height, f.axis, f.channels))
-            .collect();
-        let mut copy: Vec<Transient> = shapes
-            .iter()
-            .map(|&(w, h, axis, c)| Transient::zeros(w, h, axis, c))
+            .map(|&(h, axis, c)| Transient::zeros(self.width, h, axis, c))
             .collect();
         for (i, rect) in self.rects.iter().enumerate().filter(|(i, _)| done[*i]) {
             let state = self.stored[i].load(Ordering::Acquire);
@@ -252,7 +237,6 @@ mod tests {
                             count.fetch_add(1, Ordering::Relaxed);
                             finished.lock().unwrap()[i] = true;
                         });
-                        frame.read(|f| assert_eq!(f.len(), 1 + derivs));
                         // a checkpoint's copy while the other threads store
                         let taken = frame.snapshot(|| {
                             let done = finished.lock().unwrap().clone();
@@ -302,8 +286,7 @@ mod tests {
         assert_same_bits(&copy, &want);
         assert!(want[0].data.iter().any(|&v| v != 0.0) && want[1].steady.iter().any(|&v| v != 0.0));
         // the whole frame still holds tile 3, which the snapshot was told is not finished
-        let whole = frame.read(|f| f[0].data.clone());
-        assert_ne!(whole, copy[0].data);
+        assert_ne!(frame.into_films()[0].data, copy[0].data);
     }
 
     /// Tiles the films hold already (a resumed checkpoint's) are copied by a snapshot and
