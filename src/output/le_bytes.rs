@@ -43,17 +43,12 @@ pub(crate) fn write_le_sparse<T: bytemuck::Pod>(w: &mut (impl Write + Seek), val
     }
     let bytes: &[u8] = bytemuck::cast_slice(values);
     let start = w.stream_position()?;
-    // block ends at file offsets that are multiples of HOLE_BYTES
-    let mut ends = Vec::new();
-    let mut at = 0usize;
-    while at < bytes.len() {
-        let to_boundary = (HOLE_BYTES - (start + at as u64) % HOLE_BYTES) as usize;
-        at = (at + to_boundary).min(bytes.len());
-        ends.push(at);
-    }
     let (mut from, mut run_start, mut run_zero) = (0usize, 0usize, None::<bool>);
-    for (k, &end) in ends.iter().enumerate() {
-        let zero = k + 1 < ends.len() && all_zero(&bytes[from..end]);
+    while from < bytes.len() {
+        // the block ends at the next file offset that is a multiple of HOLE_BYTES
+        let to_boundary = (HOLE_BYTES - (start + from as u64) % HOLE_BYTES) as usize;
+        let end = (from + to_boundary).min(bytes.len());
+        let zero = end < bytes.len() && all_zero(&bytes[from..end]);
         if run_zero.is_some_and(|z| z != zero) {
             flush_run(w, &bytes[run_start..from], run_zero == Some(true))?;
             run_start = from;
