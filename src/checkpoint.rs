@@ -102,7 +102,15 @@ impl Checkpointing {
     /// the next one due at once, and the workers did little but checkpoint.
     pub fn write(&self, saved: &Saved) -> Result<(), Error> {
         let _guard = self.writing.lock().unwrap_or_else(|e| e.into_inner());
+        let t0 = Instant::now();
         let written = write(&self.path, &self.identity, saved);
+        log::debug!(
+            "checkpoint {} ({} of {} units) written in {:.3} s",
+            self.path.display(),
+            saved.done_units(),
+            saved.units,
+            t0.elapsed().as_secs_f64()
+        );
         *self.last.lock().unwrap_or_else(|e| e.into_inner()) = Instant::now();
         written
     }
@@ -206,8 +214,8 @@ fn write(path: &Path, identity: &serde_json::Value, s: &Saved) -> Result<(), Err
         w.write_all(&text).map_err(io)?;
         for (_, d) in &blobs {
             match d {
-                Data::F32(v) => crate::output::write_le_sparse(w, v).map_err(io)?,
-                Data::F64(v) => crate::output::write_le_sparse(w, v).map_err(io)?,
+                Data::F32(v) => crate::output::write_le_sparse(w, v, crate::output::MEGABYTE_HOLES).map_err(io)?,
+                Data::F64(v) => crate::output::write_le_sparse(w, v, crate::output::MEGABYTE_HOLES).map_err(io)?,
             }
         }
         Ok(())
