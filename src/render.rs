@@ -682,6 +682,9 @@ pub(crate) struct Run<'s> {
     /// With checkpoints: what the finished interior pass saved (then the boundary stage).
     pub(crate) saved: std::sync::Mutex<Option<Saved>>,
     pub(crate) checkpoint: Option<std::sync::Arc<Checkpointing>>,
+    /// Whether the boundary stage runs after the interior pass: some parameter moves
+    /// geometry and the options ask for it.
+    pub(crate) boundary_wanted: bool,
 }
 
 fn lock<T>(m: &std::sync::Mutex<T>) -> std::sync::MutexGuard<'_, T> {
@@ -774,6 +777,7 @@ impl<'s> Run<'s> {
             ctx.use_time_edges();
         }
         ctx.cut_to_window(opts.steady);
+        let boundary_wanted = derivs > 0 && ctx.motion.moves_geometry() && opts.boundary != BoundaryMode::InteriorOnly;
         Ok(Self {
             ctx,
             pool: thread_pool(opts.threads)?,
@@ -786,6 +790,7 @@ impl<'s> Run<'s> {
             bvh_build_seconds: t_build.elapsed().as_secs_f64(),
             saved: std::sync::Mutex::new(None),
             checkpoint: opts.checkpoint.clone(),
+            boundary_wanted,
         })
     }
 
@@ -832,14 +837,30 @@ impl<'s> Run<'s> {
             .unwrap_or_else(|arc| lock(&arc).clone())
     }
 
-    /// The state at the end of the interior pass; with checkpoints, written and kept (with
-    /// a resumed boundary stage) for the boundary stage's checkpoint.
-    fn finish_pass(&self, mut st: Saved) -> Saved {
+    /// The state at the end of the interior pass. With checkpoints, when the boundary stage
+    /// is still to run, it is written (so a render stopped in that stage resumes after the
+    /// interior) and kept for the boundary stage's checkpoint. When only the outputs follow,
+    /// it is written only if a periodic checkpoint is due, and never kept: a render stopped
+    /// while its outputs are written then resumes from its last periodic checkpoint, as it
+    /// would anywhere else, and writing the outputs no longer waits on a whole extra
+    /// checkpoint (on a 256×256×2000 forward render: 7–11 s on top of 4.4 s, and 1.5 GB of
+    /// memory for the copy).
+    fn finish_pass(&self, st: Saved) -> Saved {
         if let Some(ck) = self.checkpointing() {
             let mut kept = self.saved.lock().unwrap_or_else(|e| e.into_inner());
-            st.boundary = kept.take().and_then(|k| k.boundary);
-            report(ck, ck.write(&st));
-            *kept = Some(st.clone());
+            let boundary = kept.take().and_then(|k| k.boundary);
+            if boundary.is_some() {
+                // resumed after the boundary stage: it is kept for `boundary`, nothing to write
+                *kept = Some(Saved {
+                    boundary,
+                    ..Default::default()
+                });
+            } else if self.boundary_wanted {
+                report(ck, ck.write(&st));
+                *kept = Some(st.clone());
+            } else if ck.due() {
+                report(ck, ck.write(&st));
+            }
         }
         st
     }
@@ -1088,8 +1109,7 @@ impl<'s> Run<'s> {
     /// The boundary integral (primary + secondary edges, Algorithm 2), when some parameter
     /// moves geometry and the options ask for it.
     fn boundary(&self, opts: &RenderOptions) -> Option<crate::boundary::BoundaryParts> {
-        let wanted = self.derivs > 0 && self.ctx.motion.moves_geometry() && opts.boundary != BoundaryMode::InteriorOnly;
-        wanted.then(|| {
+        self.boundary_wanted.then(|| {
             let resumed = lock(&self.saved).as_ref().and_then(|s| s.boundary.clone());
             if let Some((primary, secondary, stats)) = resumed {
                 return crate::boundary::BoundaryParts {
@@ -1130,7 +1150,8 @@ impl<'s> Run<'s> {
                 st.wall_seconds,
                 st.cpu_seconds
             );
-            if let Some(ck) = self.checkpointing() {
+            // a periodic checkpoint, if one is due (only the outputs follow)
+            if let Some(ck) = self.checkpointing().filter(|ck| ck.due()) {
                 let mut kept = lock(&self.saved);
                 let saved = kept.get_or_insert_with(Saved::default);
                 saved.boundary = Some((parts.primary.clone(), parts.secondary.clone(), parts.stats.clone()));

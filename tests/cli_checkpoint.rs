@@ -198,3 +198,106 @@ fn resume_refuses_what_is_not_this_render() {
     let o = dtr(&["render", CORNELL, "--spp", "1024", "-o", "r", "--resume"], dir);
     assert!(String::from_utf8_lossy(&o.stderr).contains("not a usable dtr checkpoint"));
 }
+
+/// Options of a library render at 2 spp (and 2 boundary samples) on 2 threads that
+/// checkpoints to `path` every `every` and resumes from `resume`.
+fn checkpointed(
+    path: &Path,
+    every: Duration,
+    resume: Option<difftransient::checkpoint::Saved>,
+) -> difftransient::RenderOptions {
+    difftransient::RenderOptions {
+        spp: Some(2),
+        spp_boundary: Some(2),
+        seed: Some(1),
+        threads: Some(2),
+        checkpoint: Some(std::sync::Arc::new(difftransient::checkpoint::Checkpointing::new(
+            path.to_path_buf(),
+            every,
+            serde_json::json!({}),
+            resume,
+        ))),
+        ..Default::default()
+    }
+}
+
+/// `scene` at 16×16 pixels.
+fn small(scene: &str) -> difftransient::Scene {
+    let mut s = common::load(scene);
+    s.film.width = 16;
+    s.film.height = 16;
+    s
+}
+
+/// Where a render with checkpoints every hour writes one when it ends before the first is
+/// due: only between the interior pass and a boundary stage still to run. A forward render
+/// writes none (its outputs follow; it wrote the whole frame once more, and copied it, before
+/// the fix), nor BDPT; a derivative render whose boundary stage follows writes the interior.
+#[test]
+fn a_render_writes_an_end_of_pass_checkpoint_only_before_a_boundary_stage() {
+    use difftransient::scene::IntegratorKind;
+    let tmp = tempfile::tempdir().unwrap();
+    let hour = Duration::from_secs(3600);
+    let cornell = small("cornell_box.toml");
+    for (name, kind) in [("path", IntegratorKind::Path), ("bdpt", IntegratorKind::Bdpt)] {
+        let path = tmp.path().join(format!("{name}.checkpoint"));
+        let opts = difftransient::RenderOptions {
+            integrator: Some(kind),
+            ..checkpointed(&path, hour, None)
+        };
+        difftransient::render(&cornell, &opts).expect("render");
+        assert!(
+            !path.exists(),
+            "{name}: a forward render wrote an end-of-pass checkpoint"
+        );
+    }
+    let path = tmp.path().join("slide.checkpoint");
+    let slide = small("silhouette_slide.toml");
+    difftransient::render_diff(&slide, &["cube_x".to_string()], &checkpointed(&path, hour, None)).expect("render");
+    let (_, saved) =
+        difftransient::checkpoint::read(&path).expect("the interior's checkpoint, before the boundary stage");
+    assert_eq!(saved.done_units(), saved.units, "every tile of the interior");
+    assert!(
+        saved.boundary.is_none(),
+        "the boundary stage's end writes only a due checkpoint"
+    );
+}
+
+/// A render stopped while its outputs were written resumes from the checkpoint written at
+/// the end of its boundary stage (due at once here): the same bytes, without running the
+/// boundary stage again (its record, timings included, is the saved one).
+#[test]
+fn a_render_resumed_after_its_boundary_stage_does_not_run_it_again() {
+    let tmp = tempfile::tempdir().unwrap();
+    let slide = small("silhouette_slide.toml");
+    let params = ["cube_x".to_string()];
+    let path = tmp.path().join("slide.checkpoint");
+    let whole =
+        difftransient::render_diff_parts(&slide, &params, &checkpointed(&path, Duration::ZERO, None)).expect("render");
+    let (_, saved) = difftransient::checkpoint::read(&path).expect("the checkpoint of the boundary stage's end");
+    let (_, _, stats) = saved.boundary.clone().expect("the boundary stage is saved");
+    let again = tmp.path().join("again.checkpoint");
+    let resumed = difftransient::render_diff_parts(
+        &slide,
+        &params,
+        &checkpointed(&again, Duration::from_secs(3600), Some(saved)),
+    )
+    .expect("resumed render");
+    let bits = |t: &[difftransient::Transient]| -> Vec<u32> {
+        t.iter()
+            .flat_map(|f| f.data.iter().chain(&f.steady).map(|v| v.to_bits()))
+            .collect()
+    };
+    assert_eq!(
+        bits(std::slice::from_ref(&whole.primal)),
+        bits(std::slice::from_ref(&resumed.primal))
+    );
+    assert_eq!(bits(&whole.sum()), bits(&resumed.sum()));
+    let b = resumed.stats.boundary.expect("the boundary record");
+    assert_eq!(
+        b.wall_seconds.to_bits(),
+        stats.wall_seconds.to_bits(),
+        "the boundary stage ran again"
+    );
+    assert!(!again.exists(), "nothing was due and nothing followed: no checkpoint");
+}
