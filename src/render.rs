@@ -1000,6 +1000,10 @@ impl<'s> Run<'s> {
                 };
                 self.watch(snapshot.clone());
                 let mut films: Vec<BdptFilm> = Vec::new();
+                // a checkpoint found due after a wave is written from the state itself (no
+                // copy) while the next wave traces, which leaves the rows alone; the row adds
+                // wait for it
+                let mut due = false;
                 for (k, wave) in waves.iter().enumerate() {
                     if lock(&state).done[k] {
                         continue;
@@ -1008,27 +1012,34 @@ impl<'s> Run<'s> {
                         films.push(BdptFilm::new(ctx, (0, 0, TILE, TILE), derivs, per_strategy, true));
                     }
                     let films = &mut films[..wave.len()];
-                    let counts: Vec<PathCounts> = self.pool.install(|| {
-                        films
-                            .par_iter_mut()
-                            .zip(wave.clone())
-                            .map(|(film, u)| {
-                                let (rect, block) = units.unit(u);
-                                film.reset(rect);
-                                let mut counts = PathCounts::default();
-                                let tick0 = crate::timing::ticks();
-                                let (f, cn, tile) = (&mut *film, &mut counts, [(rect.0, rect.1)]);
-                                dispatch!(
-                                    derivs,
-                                    opts.lanes,
-                                    channels,
-                                    bdpt_tiles(ctx, seed, spp, &block, &tile, TILE, f, cn)
-                                );
-                                counts.total_ticks = crate::timing::ticks() - tick0;
-                                bar.inc(1);
-                                counts
-                            })
-                            .collect()
+                    let writer = std::mem::take(&mut due).then_some(self.checkpointing()).flatten();
+                    let counts: Vec<PathCounts> = std::thread::scope(|scope| {
+                        if let Some(ck) = writer {
+                            let state = &state;
+                            scope.spawn(move || report(ck, ck.write(&lock(state))));
+                        }
+                        self.pool.install(|| {
+                            films
+                                .par_iter_mut()
+                                .zip(wave.clone())
+                                .map(|(film, u)| {
+                                    let (rect, block) = units.unit(u);
+                                    film.reset(rect);
+                                    let mut counts = PathCounts::default();
+                                    let tick0 = crate::timing::ticks();
+                                    let (f, cn, tile) = (&mut *film, &mut counts, [(rect.0, rect.1)]);
+                                    dispatch!(
+                                        derivs,
+                                        opts.lanes,
+                                        channels,
+                                        bdpt_tiles(ctx, seed, spp, &block, &tile, TILE, f, cn)
+                                    );
+                                    counts.total_ticks = crate::timing::ticks() - tick0;
+                                    bar.inc(1);
+                                    counts
+                                })
+                                .collect()
+                        })
                     });
                     let mut tally: crate::checkpoint::Tally = (PathCounts::default(), [0.0; 2], Vec::new());
                     for (c, f) in counts.iter().zip(films.iter()) {
@@ -1058,9 +1069,13 @@ impl<'s> Run<'s> {
                         st.done[k] = true;
                         st.tallies[k] = Some(tally);
                     }
-                    self.checkpoint_if_due(&snapshot);
+                    due = self.checkpointing().is_some_and(|ck| ck.due());
                 }
                 drop(snapshot);
+                if let Some(ck) = self.checkpointing().filter(|_| due && !self.boundary_wanted) {
+                    // due after the last wave (`finish_pass` writes before a boundary stage)
+                    report(ck, ck.write(&lock(&state)));
+                }
                 let mut st = self.finish_pass(Self::end_watch(state));
                 let mut tallies: Vec<crate::checkpoint::Tally> =
                     st.tallies.drain(..).map(|t| t.expect("every wave ran")).collect();
