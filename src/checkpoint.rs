@@ -15,13 +15,21 @@
 //! the thread count.
 //!
 //! File: `DTRCKPT1`, the header's length (u64 LE), the header (JSON: identity, stage, which
-//! units are done, tallies, the blob list), then the blobs (f32 or f64 LE arrays).
+//! units are done, tallies, the blob list), then the blobs (f32 or f64 LE arrays). A blob of
+//! bins is stored by runs (`"runs": true`): the written bits of its runs of 16 values (u64
+//! LE words, as `film::bins` keeps them), then the values of the marked runs, in order; the
+//! rest is +0. A transient is sparse in time, so this is what a checkpoint of a large film
+//! holds: the Cornell box's 256×256×2000 film at 64 spp, 1.5 GB as an array, is some 400 MB
+//! of runs, and no file system holes (a file of 50 000 extents, slow to replace and delete
+//! where the file system discards freed blocks) are needed. Blobs without `runs` (dtr's
+//! earlier checkpoints, and the steady images) are whole arrays.
 
 use crate::boundary::BoundaryStats;
 use crate::error::Error;
 use crate::film::{TileSums, Transient};
 use crate::integrator::deposit::PathCounts;
 use serde::{Deserialize, Serialize};
+use std::borrow::Cow;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
@@ -120,7 +128,11 @@ impl Checkpointing {
 struct Blob {
     name: String,
     f64: bool,
+    /// Values of the array (with `runs`, of the array the runs are put back into).
     len: usize,
+    /// Stored by runs: written bits, then the marked runs' values.
+    #[serde(default)]
+    runs: bool,
 }
 
 #[derive(Serialize, Deserialize)]
@@ -140,18 +152,68 @@ struct Header {
 enum Data<'a> {
     F32(&'a [f32]),
     F64(&'a [f64]),
+    /// Bins stored by the runs the bits mark.
+    Runs32(&'a [f32], Cow<'a, [u64]>),
+    Runs64(&'a [f64], Cow<'a, [u64]>),
+}
+
+impl Data<'_> {
+    /// Bins by runs, with their written bits when known (and fitting), else found from the values.
+    fn runs32<'a>(values: &'a [f32], written: &'a [u64]) -> Data<'a> {
+        Data::Runs32(values, bits(values, written))
+    }
+
+    fn runs64<'a>(values: &'a [f64], written: &'a [u64]) -> Data<'a> {
+        Data::Runs64(values, bits(values, written))
+    }
+
+    fn is_f64(&self) -> bool {
+        matches!(self, Data::F64(_) | Data::Runs64(..))
+    }
+
+    fn len(&self) -> usize {
+        match self {
+            Data::F32(v) | Data::Runs32(v, _) => v.len(),
+            Data::F64(v) | Data::Runs64(v, _) => v.len(),
+        }
+    }
+
+    fn write(&self, w: &mut impl Write) -> std::io::Result<()> {
+        use crate::output::write_le;
+        match self {
+            Data::F32(v) => write_le(w, v),
+            Data::F64(v) => write_le(w, v),
+            Data::Runs32(v, bits) => {
+                write_le(w, bits)?;
+                crate::film::try_each_written(v, bits, |run| write_le(w, run))
+            }
+            Data::Runs64(v, bits) => {
+                write_le(w, bits)?;
+                crate::film::try_each_written(v, bits, |run| write_le(w, run))
+            }
+        }
+    }
+}
+
+/// `written` when it fits `values`, else the runs of `values` that hold any bits.
+fn bits<'a, T: bytemuck::Pod>(values: &[T], written: &'a [u64]) -> Cow<'a, [u64]> {
+    if crate::film::written_len(values.len(), written).is_some() {
+        Cow::Borrowed(written)
+    } else {
+        Cow::Owned(crate::film::nonzero_runs(values))
+    }
 }
 
 fn write(path: &Path, identity: &serde_json::Value, s: &Saved) -> Result<(), Error> {
     let mut blobs: Vec<(String, Data)> = Vec::new();
     for (k, t) in s.frame.iter().enumerate() {
-        blobs.push((format!("frame{k}.data"), Data::F32(&t.data)));
+        blobs.push((format!("frame{k}.data"), Data::runs32(&t.data, &[])));
         blobs.push((format!("frame{k}.steady"), Data::F32(&t.steady)));
     }
     for (c, sums) in s.chunks.iter().enumerate() {
         if let Some(sums) = sums {
-            blobs.push((format!("chunk{c}.data32"), Data::F32(&sums.data32)));
-            blobs.push((format!("chunk{c}.data64"), Data::F64(&sums.data64)));
+            blobs.push((format!("chunk{c}.data32"), Data::runs32(&sums.data32, &sums.written)));
+            blobs.push((format!("chunk{c}.data64"), Data::runs64(&sums.data64, &sums.written)));
             blobs.push((format!("chunk{c}.steady"), Data::F64(&sums.steady)));
         }
     }
@@ -159,7 +221,7 @@ fn write(path: &Path, identity: &serde_json::Value, s: &Saved) -> Result<(), Err
     if let Some((p, q, stats)) = &s.boundary {
         for (name, films) in [("primary", p), ("secondary", q)] {
             for (k, t) in films.iter().enumerate() {
-                blobs.push((format!("{name}{k}.data"), Data::F32(&t.data)));
+                blobs.push((format!("{name}{k}.data"), Data::runs32(&t.data, &[])));
                 blobs.push((format!("{name}{k}.steady"), Data::F32(&t.steady)));
             }
         }
@@ -198,11 +260,9 @@ fn write(path: &Path, identity: &serde_json::Value, s: &Saved) -> Result<(), Err
             .iter()
             .map(|(name, d)| Blob {
                 name: name.clone(),
-                f64: matches!(d, Data::F64(_)),
-                len: match d {
-                    Data::F32(v) => v.len(),
-                    Data::F64(v) => v.len(),
-                },
+                f64: d.is_f64(),
+                len: d.len(),
+                runs: matches!(d, Data::Runs32(..) | Data::Runs64(..)),
             })
             .collect(),
     };
@@ -213,10 +273,7 @@ fn write(path: &Path, identity: &serde_json::Value, s: &Saved) -> Result<(), Err
         w.write_all(&(text.len() as u64).to_le_bytes()).map_err(io)?;
         w.write_all(&text).map_err(io)?;
         for (_, d) in &blobs {
-            match d {
-                Data::F32(v) => crate::output::write_le_sparse(w, v, crate::output::MEGABYTE_HOLES).map_err(io)?,
-                Data::F64(v) => crate::output::write_le_sparse(w, v, crate::output::MEGABYTE_HOLES).map_err(io)?,
-            }
+            d.write(w).map_err(io)?;
         }
         Ok(())
     })
@@ -246,43 +303,69 @@ pub fn read(path: &Path) -> Result<(serde_json::Value, Saved), Error> {
     let mut at = 16 + hlen as usize;
     let mut blobs = std::collections::HashMap::new();
     for b in &header.blobs {
-        let size = b
-            .len
-            .checked_mul(if b.f64 { 8 } else { 4 })
-            .ok_or_else(|| bad("a blob is too large"))?;
-        let end = at
-            .checked_add(size)
-            .filter(|&e| e <= bytes.len())
-            .ok_or_else(|| bad("it is cut short"))?;
-        blobs.insert(b.name.clone(), (b.f64, &bytes[at..end]));
+        let size = if b.f64 { 8 } else { 4 };
+        let cut = || bad("it is cut short");
+        let len = if b.runs {
+            // the written bits, then the values of the runs they mark
+            let words = crate::film::written_words(b.len);
+            let bits = at
+                .checked_add(words.checked_mul(8).ok_or_else(cut)?)
+                .filter(|&e| e <= bytes.len())
+                .ok_or_else(cut)?;
+            let packed = crate::film::written_len(b.len, &le_words(&bytes[at..bits])).ok_or_else(|| {
+                bad(&format!(
+                    "blob {}: its written bits do not fit {} values",
+                    b.name, b.len
+                ))
+            })?;
+            packed.checked_mul(size).and_then(|p| p.checked_add(8 * words))
+        } else {
+            b.len.checked_mul(size)
+        }
+        .ok_or_else(|| bad("a blob is too large"))?;
+        let end = at.checked_add(len).filter(|&e| e <= bytes.len()).ok_or_else(cut)?;
+        blobs.insert(b.name.clone(), (b, &bytes[at..end]));
         at = end;
     }
     if at != bytes.len() {
         return Err(bad("it has trailing bytes"));
     }
-    let f32s = |name: &str, len: usize| -> Result<Vec<f32>, Error> {
+    // a blob's values (of `len` values, when given) and, when stored by runs, its written bits
+    fn values<T: Copy + Default, const N: usize>(
+        b: &Blob,
+        raw: &[u8],
+        from_le: fn([u8; N]) -> T,
+    ) -> (Vec<T>, Vec<u64>) {
+        let parse = |raw: &[u8]| -> Vec<T> {
+            raw.chunks_exact(N)
+                .map(|c| from_le(c.try_into().expect("N bytes")))
+                .collect()
+        };
+        if !b.runs {
+            return (parse(raw), Vec::new());
+        }
+        let (bits, packed) = raw.split_at(8 * crate::film::written_words(b.len));
+        let bits = le_words(bits);
+        let values = crate::film::unpack_written(b.len, &bits, &parse(packed)).expect("sizes checked above");
+        (values, bits)
+    }
+    let f32s = |name: &str, len: Option<usize>| -> Result<(Vec<f32>, Vec<u64>), Error> {
         match blobs.get(name) {
-            Some((false, raw)) if raw.len() == 4 * len => Ok(raw
-                .chunks_exact(4)
-                .map(|c| f32::from_le_bytes(c.try_into().expect("4 bytes")))
-                .collect()),
+            Some((b, raw)) if !b.f64 && len.is_none_or(|n| n == b.len) => Ok(values(b, raw, f32::from_le_bytes)),
             _ => Err(bad(&format!("blob {name} is missing or of the wrong size"))),
         }
     };
-    let f64s = |name: &str| -> Result<Vec<f64>, Error> {
+    let f64s = |name: &str| -> Result<(Vec<f64>, Vec<u64>), Error> {
         match blobs.get(name) {
-            Some((true, raw)) => Ok(raw
-                .chunks_exact(8)
-                .map(|c| f64::from_le_bytes(c.try_into().expect("8 bytes")))
-                .collect()),
+            Some((b, raw)) if b.f64 => Ok(values(b, raw, f64::from_le_bytes)),
             _ => Err(bad(&format!("blob {name} is missing"))),
         }
     };
     let film =
         |name: &str, (w, h, axis, c): (usize, usize, crate::temporal::TimeAxis, usize)| -> Result<Transient, Error> {
             let mut t = Transient::zeros(w, h, axis, c);
-            t.data = f32s(&format!("{name}.data"), t.data.len())?;
-            t.steady = f32s(&format!("{name}.steady"), t.steady.len())?;
+            t.data = f32s(&format!("{name}.data"), Some(t.data.len()))?.0;
+            t.steady = f32s(&format!("{name}.steady"), Some(t.steady.len()))?.0;
             Ok(t)
         };
     if header.done.len() != header.units || header.tallies.len() != header.units {
@@ -298,15 +381,14 @@ pub fn read(path: &Path) -> Result<(serde_json::Value, Saved), Error> {
     for (c, tails) in header.chunks.iter().enumerate() {
         chunks.push(match tails {
             Some(tails) => {
-                let data32 = f32s(
-                    &format!("chunk{c}.data32"),
-                    blobs.get(&format!("chunk{c}.data32")).map_or(0, |b| b.1.len() / 4),
-                )?;
+                // the rows keep one precision: its blob has the written bits, the other is empty
+                let (data32, bits32) = f32s(&format!("chunk{c}.data32"), None)?;
+                let (data64, bits64) = f64s(&format!("chunk{c}.data64"))?;
                 Some(TileSums {
+                    written: if data32.is_empty() { bits64 } else { bits32 },
                     data32,
-                    written: Vec::new(),
-                    data64: f64s(&format!("chunk{c}.data64"))?,
-                    steady: f64s(&format!("chunk{c}.steady"))?,
+                    data64,
+                    steady: f64s(&format!("chunk{c}.steady"))?.0,
                     tails: *tails,
                 })
             }
@@ -335,6 +417,14 @@ pub fn read(path: &Path) -> Result<(serde_json::Value, Saved), Error> {
             boundary,
         },
     ))
+}
+
+/// u64 LE words.
+fn le_words(bytes: &[u8]) -> Vec<u64> {
+    bytes
+        .chunks_exact(8)
+        .map(|c| u64::from_le_bytes(c.try_into().expect("8 bytes")))
+        .collect()
 }
 
 /// What the signal thread (`cli::output_set`) runs before the process exits on SIGINT or
@@ -424,6 +514,196 @@ mod tests {
                 a.2.len(),
                 &off[..off.len().min(3)]
             );
+        }
+    }
+
+    /// Sparse bins with −0, values at the edges of runs and a short last run.
+    fn sparse<T: Copy + Default>(n: usize, at: impl Fn(usize) -> Option<T>) -> Vec<T> {
+        (0..n).map(|i| at(i).unwrap_or_default()).collect()
+    }
+
+    fn pattern(i: usize) -> Option<f64> {
+        match i % 1013 {
+            0 => Some(-0.0),
+            15 | 16 => Some(i as f64 * 0.25),
+            500..=540 => Some(-(i as f64)),
+            _ if i % 4099 == 7 => Some(f64::MIN_POSITIVE),
+            _ => None,
+        }
+    }
+
+    fn bits32(v: &[f32]) -> Vec<u32> {
+        v.iter().map(|x| x.to_bits()).collect()
+    }
+
+    fn bits64(v: &[f64]) -> Vec<u64> {
+        v.iter().map(|x| x.to_bits()).collect()
+    }
+
+    /// Bins stored by runs read back to the bit (−0 included): films of the path tracer and
+    /// the boundary, and BDPT's rows in f32 and f64, with their written bits (given, or found
+    /// from the values); and the file holds the runs, not the arrays.
+    #[test]
+    fn bins_stored_by_runs_read_back_to_the_bit() {
+        use crate::temporal::TimeAxis;
+        let axis = TimeAxis {
+            start_opl: 0.0,
+            bin_width_opl: 0.1,
+            bins: 1000,
+        };
+        let film = |key: usize| {
+            let mut t = Transient::zeros(20, 10, axis, 3);
+            t.data = sparse(t.data.len(), |i| pattern(i + key).map(|v| v as f32));
+            t.steady = sparse(t.steady.len(), |i| Some(i as f32 - 7.0));
+            t
+        };
+        let n = 40 * 1000 * 3 + 5;
+        let rows = |f64s: bool, written: bool| {
+            let data64: Vec<f64> = sparse(n, pattern);
+            let written = if written {
+                crate::film::nonzero_runs(&data64)
+            } else {
+                Vec::new()
+            };
+            let (data32, data64) = if f64s {
+                (Vec::new(), data64)
+            } else {
+                (data64.iter().map(|&v| v as f32).collect(), Vec::new())
+            };
+            Some(TileSums {
+                data32,
+                data64,
+                written,
+                steady: vec![1.5; 120],
+                tails: [0.25, 0.5],
+            })
+        };
+        let saved = Saved {
+            units: 1,
+            done: vec![true],
+            tallies: vec![None],
+            frame: vec![film(0), film(3)],
+            chunks: vec![
+                rows(false, true),
+                None,
+                rows(true, true),
+                rows(false, false),
+                rows(true, false),
+            ],
+            boundary: Some((vec![film(11)], vec![film(17)], BoundaryStats::default())),
+        };
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("r.checkpoint");
+        write(&path, &serde_json::json!({}), &saved).unwrap();
+        let (_, back) = read(&path).unwrap();
+        let films = |a: &[Transient], b: &[Transient]| {
+            assert_eq!(a.len(), b.len());
+            for (a, b) in a.iter().zip(b) {
+                assert!(bits32(&a.data) == bits32(&b.data), "a film's bins differ");
+                assert!(bits32(&a.steady) == bits32(&b.steady), "a film's steady image differs");
+            }
+        };
+        films(&saved.frame, &back.frame);
+        let (p, q, _) = saved.boundary.as_ref().unwrap();
+        let (bp, bq, _) = back.boundary.as_ref().unwrap();
+        films(p, bp);
+        films(q, bq);
+        assert_eq!(back.chunks.len(), saved.chunks.len());
+        for (a, b) in saved.chunks.iter().zip(&back.chunks) {
+            let (Some(a), Some(b)) = (a, b) else {
+                assert!(a.is_none() && b.is_none());
+                continue;
+            };
+            assert!(bits32(&a.data32) == bits32(&b.data32) && bits64(&a.data64) == bits64(&b.data64));
+            assert!(bits64(&a.steady) == bits64(&b.steady) && a.tails == b.tails);
+            // the given bits (a run written with +0 stays marked), else those of the values
+            let want = if !a.written.is_empty() {
+                a.written.clone()
+            } else if a.data32.is_empty() {
+                crate::film::nonzero_runs(&a.data64)
+            } else {
+                crate::film::nonzero_runs(&a.data32)
+            };
+            assert!(b.written == want, "the written bits come back with the rows");
+        }
+        // some 10 % of the bins' runs hold values: the file is about that share of the arrays
+        let arrays: usize = [&saved.frame[..], p, q]
+            .iter()
+            .flat_map(|f| f.iter())
+            .map(|t| 4 * t.data.len())
+            .sum::<usize>()
+            + saved
+                .chunks
+                .iter()
+                .flatten()
+                .map(|c| 4 * c.data32.len() + 8 * c.data64.len())
+                .sum::<usize>();
+        let size = std::fs::metadata(&path).unwrap().len() as usize;
+        assert!(size < arrays * 15 / 100, "{size} bytes for {arrays} bytes of bins");
+    }
+
+    /// A checkpoint of an earlier dtr (every blob a whole array) still reads; blobs whose
+    /// written bits do not fit their length, or which are cut short, are refused by name.
+    #[test]
+    fn whole_arrays_read_and_bad_runs_are_refused() {
+        let bytes = |header: serde_json::Value, body: &[u8]| {
+            let text = serde_json::to_vec(&header).unwrap();
+            let mut b = MAGIC.to_vec();
+            b.extend((text.len() as u64).to_le_bytes());
+            b.extend(text);
+            b.extend(body);
+            b
+        };
+        let header = |blobs: serde_json::Value| {
+            serde_json::json!({
+                "identity": {}, "units": 1, "done": [true], "tallies": [null], "frame": [],
+                "chunks": [[0.0, 0.0]], "boundary": null, "blobs": blobs
+            })
+        };
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("r.checkpoint");
+        // the layout of earlier checkpoints: no "runs"
+        let old = header(serde_json::json!([
+            {"name": "chunk0.data32", "f64": false, "len": 3},
+            {"name": "chunk0.data64", "f64": true, "len": 0},
+            {"name": "chunk0.steady", "f64": true, "len": 1},
+        ]));
+        let mut body: Vec<u8> = [0.0f32, -0.0, 2.5].iter().flat_map(|v| v.to_le_bytes()).collect();
+        body.extend(4.0f64.to_le_bytes());
+        std::fs::write(&path, bytes(old, &body)).unwrap();
+        let (_, back) = read(&path).unwrap();
+        let rows = back.chunks[0].as_ref().unwrap();
+        assert_eq!(bits32(&rows.data32), bits32(&[0.0, -0.0, 2.5]));
+        assert!(
+            rows.written.is_empty(),
+            "found from the values when the rows are restored"
+        );
+        // runs: bit 1 marks values 16..32 of 20 (4 of them); a bit past the last run is refused
+        let runs = |word: u64, values: usize| {
+            let h = header(serde_json::json!([
+                {"name": "chunk0.data32", "f64": false, "len": 20, "runs": true},
+                {"name": "chunk0.data64", "f64": true, "len": 0},
+                {"name": "chunk0.steady", "f64": true, "len": 0},
+            ]));
+            let mut body = word.to_le_bytes().to_vec();
+            body.extend((0..values).flat_map(|i| (i as f32 + 1.0).to_le_bytes()));
+            bytes(h, &body)
+        };
+        std::fs::write(&path, runs(0b10, 4)).unwrap();
+        let (_, back) = read(&path).unwrap();
+        let rows = back.chunks[0].as_ref().unwrap();
+        let mut want = vec![0.0f32; 20];
+        want[16..].copy_from_slice(&[1.0, 2.0, 3.0, 4.0]);
+        assert_eq!(bits32(&rows.data32), bits32(&want));
+        assert_eq!(rows.written, vec![0b10]);
+        for (word, values, says) in [
+            (0b110, 20, "its written bits do not fit 20 values"),
+            (0b10, 3, "it is cut short"),
+            (0b10, 5, "trailing bytes"),
+        ] {
+            std::fs::write(&path, runs(word, values)).unwrap();
+            let e = read(&path).unwrap_err().to_string();
+            assert!(e.contains(says) && e.contains("r.checkpoint"), "{e}");
         }
     }
 }

@@ -59,6 +59,11 @@ fn words(n: usize) -> usize {
     n.div_ceil(WORD)
 }
 
+/// Words of written bits for `n` values (a checkpoint's blob stored by runs starts with them).
+pub(crate) fn written_words(n: usize) -> usize {
+    words(n)
+}
+
 /// A copy of `values` that reads only the runs `written` marks; the rest of it is fresh
 /// zeros. With no written bits (not known, as for sums read from a checkpoint) every value
 /// is copied.
@@ -71,6 +76,89 @@ pub(super) fn copy_written<T: Copy + Default>(values: &[T], written: &[u64]) -> 
         out[a..b].copy_from_slice(&values[a..b])
     });
     out
+}
+
+/// Written bits found from the values: a run is marked when any of its values is not +0 (its
+/// bits are not all zero; −0 counts as written).
+pub(crate) fn nonzero_runs<T: bytemuck::Pod>(values: &[T]) -> Vec<u64> {
+    let mut w = vec![0; words(values.len())];
+    for (r, run) in values.chunks(RUN).enumerate() {
+        let bytes: &[u8] = bytemuck::cast_slice(run);
+        if bytes.iter().fold(0, |a, &b| a | b) != 0 {
+            w[r / 64] |= 1 << (r % 64);
+        }
+    }
+    w
+}
+
+/// Calls `f` with each stretch of consecutive runs of `values` that `written` marks, in
+/// order, and stops at the first error.
+pub(crate) fn try_each_written<T, E>(
+    values: &[T],
+    written: &[u64],
+    mut f: impl FnMut(&[T]) -> Result<(), E>,
+) -> Result<(), E> {
+    let mut stretch: Option<(usize, usize)> = None;
+    let mut result = Ok(());
+    written_runs(written, 0, values.len(), |a, b| {
+        if result.is_err() {
+            return;
+        }
+        match &mut stretch {
+            Some((_, end)) if *end == a => *end = b,
+            _ => {
+                if let Some((s, e)) = stretch.replace((a, b)) {
+                    result = f(&values[s..e]);
+                }
+            }
+        }
+    });
+    result?;
+    stretch.map_or(Ok(()), |(s, e)| f(&values[s..e]))
+}
+
+/// How many of `n` values the runs `written` marks hold, or `None` when the bits do not
+/// fit `n` values (a word too many or too few, or a bit past the last run).
+pub(crate) fn written_len(n: usize, written: &[u64]) -> Option<usize> {
+    let runs = n.div_ceil(RUN);
+    if written.len() != words(n)
+        || written
+            .iter()
+            .enumerate()
+            .any(|(k, &w)| k * 64 + 64 > runs && w >> (runs - k * 64) != 0)
+    {
+        return None;
+    }
+    let mut len = 0;
+    written_runs(written, 0, n, |a, b| len += b - a);
+    Some(len)
+}
+
+/// `n` values: those of the runs `written` marks taken in order from `packed`, +0 elsewhere.
+/// `None` when `packed` does not hold exactly those runs' values.
+pub(crate) fn unpack_written<T: Copy + Default>(n: usize, written: &[u64], packed: &[T]) -> Option<Vec<T>> {
+    if written_len(n, written)? != packed.len() {
+        return None;
+    }
+    let mut out = vec![T::default(); n];
+    let mut at = 0;
+    written_runs(written, 0, n, |a, b| {
+        out[a..b].copy_from_slice(&packed[at..at + b - a]);
+        at += b - a;
+    });
+    Some(out)
+}
+
+/// Copies the runs of `from` that hold any bits into `to` (of the same length), leaving the
+/// other runs of `to` untouched: the pages of a fresh film that only zeros would have gone
+/// to are never written.
+pub(crate) fn copy_nonzero<T: bytemuck::Pod>(to: &mut [T], from: &[T]) {
+    for (t, f) in to.chunks_mut(RUN).zip(from.chunks(RUN)) {
+        let bytes: &[u8] = bytemuck::cast_slice(f);
+        if bytes.iter().fold(0, |a, &b| a | b) != 0 {
+            t.copy_from_slice(f);
+        }
+    }
 }
 
 impl Bins {
@@ -217,28 +305,14 @@ impl Bins {
     /// from a checkpoint). `false`, and nothing changed, for values of another size or
     /// precision.
     pub(super) fn restore(&mut self, n: usize, data32: Vec<f32>, data64: Vec<f64>, written: Vec<u64>) -> bool {
-        // a run is written if any of its values is not +0 (its bits are not all zero)
-        fn runs_of<T: Copy>(v: &[T], bits: impl Fn(T) -> u64) -> Vec<u64> {
-            let mut w = vec![0; words(v.len())];
-            for (r, run) in v.chunks(RUN).enumerate() {
-                if run.iter().any(|&x| bits(x) != 0) {
-                    w[r / 64] |= 1 << (r % 64);
-                }
-            }
-            w
-        }
         let fits = written.len() == words(n);
         match &mut self.values {
             Values::F32(v) if data32.len() == n && data64.is_empty() => {
-                self.written = if fits {
-                    written
-                } else {
-                    runs_of(&data32, |x| x.to_bits() as u64)
-                };
+                self.written = if fits { written } else { nonzero_runs(&data32) };
                 *v = data32;
             }
             Values::F64(v) if data64.len() == n && data32.is_empty() => {
-                self.written = if fits { written } else { runs_of(&data64, f64::to_bits) };
+                self.written = if fits { written } else { nonzero_runs(&data64) };
                 *v = data64;
             }
             _ => return false,

@@ -142,7 +142,8 @@ impl SharedFrame {
                             std::slice::from_raw_parts(self.steady[k].add(steady.start), steady.len()),
                         )
                     };
-                    to.data[data].copy_from_slice(from_data);
+                    // runs of +0 stay untouched pages of the copy
+                    super::bins::copy_nonzero(&mut to.data[data], from_data);
                     to.steady[steady].copy_from_slice(from_steady);
                 }
             }

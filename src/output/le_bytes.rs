@@ -28,31 +28,20 @@ pub(crate) fn write_le<T: bytemuck::Pod>(w: &mut impl Write, values: &[T]) -> st
 
 /// The granularity of the holes [`write_le_sparse`] leaves: aligned blocks of this many bytes
 /// of the file (a page).
-const BLOCK_BYTES: u64 = 4096;
+const HOLE_BYTES: u64 = 4096;
 
-/// Holes as small as a page: the `.npy` body. The Cornell box's 256×256×2000 RGB film at
-/// 1 spp is 1.5 GB, and 236 MB of it are written: a pixel's 2000 bins span 6 pages, and a
-/// few bins of each hold values. The price is a file of some 50 000 extents, which a file
-/// system mounted with `discard` frees one by one: deleting or overwriting it took 3.9–4.6 s
-/// here, against 0.4 s for the dense file.
-pub(crate) const PAGE_HOLES: u64 = BLOCK_BYTES;
-
-/// Holes of a megabyte or more: the checkpoint's blobs, which each checkpoint replaces and
-/// the finished render deletes, so that freeing them stays cheap (at most one extent per
-/// megabyte). Whole unwritten films and bands of rows are still left out.
-pub(crate) const MEGABYTE_HOLES: u64 = 1 << 20;
-
-/// [`write_le`] into a file that may keep holes: every run of zero blocks (aligned blocks
-/// of [`BLOCK_BYTES`] whose bytes are all zero: +0 values; −0 is written) at least
-/// `min_hole` bytes long is passed over with a seek, so the file system stores, copies and
-/// syncs only the rest, and a reader sees the same bytes. Shorter zero runs are written
-/// with the data around them. The last block is always written, so the file has its full
-/// length.
-pub(crate) fn write_le_sparse<T: bytemuck::Pod>(
-    w: &mut (impl Write + Seek),
-    values: &[T],
-    min_hole: u64,
-) -> std::io::Result<()> {
+/// [`write_le`] into a file that may keep holes: every block of [`HOLE_BYTES`] (aligned in the
+/// file) whose bytes are all zero (+0 values; −0 is written) is passed over with a seek, so
+/// the file system stores, copies and syncs only the blocks that hold data, and a reader
+/// sees the same bytes. The last block is always written, so the file has its full length.
+/// A transient is mostly zeros at low spp or on long windows: the Cornell box's 256×256×2000
+/// RGB film at 1 spp is 1.5 GB, and 236 MB of it are written. Blocks are a page (4 KB): a
+/// pixel's 2000 bins span 6 pages, and a few bins of each hold values. The price is a file of
+/// some 50 000 extents, which a file system mounted with `discard` (this machine kind's ext4)
+/// frees one by one: deleting or overwriting that file took 3.9–4.6 s, against 0.4 s for the
+/// dense one. Checkpoints, which are replaced and deleted, store their bins by runs instead
+/// (`crate::checkpoint`).
+pub(crate) fn write_le_sparse<T: bytemuck::Pod>(w: &mut (impl Write + Seek), values: &[T]) -> std::io::Result<()> {
     if !cfg!(target_endian = "little") {
         return write_le(w, values);
     }
@@ -61,14 +50,12 @@ pub(crate) fn write_le_sparse<T: bytemuck::Pod>(
     // bytes[written..] are still to go out; a run of zero blocks starts at `zeros`
     let (mut from, mut written, mut zeros) = (0usize, 0usize, None::<usize>);
     while from < bytes.len() {
-        // the block ends at the next file offset that is a multiple of BLOCK_BYTES
-        let to_boundary = (BLOCK_BYTES - (start + from as u64) % BLOCK_BYTES) as usize;
+        // the block ends at the next file offset that is a multiple of HOLE_BYTES
+        let to_boundary = (HOLE_BYTES - (start + from as u64) % HOLE_BYTES) as usize;
         let end = (from + to_boundary).min(bytes.len());
         if end < bytes.len() && all_zero(&bytes[from..end]) {
             zeros.get_or_insert(from);
-        } else if let Some(z) = zeros.take()
-            && (from - z) as u64 >= min_hole
-        {
+        } else if let Some(z) = zeros.take() {
             w.write_all(&bytes[written..z])?;
             w.seek(SeekFrom::Current((from - z) as i64))?;
             written = from;
@@ -121,17 +108,14 @@ mod tests {
             ("short", vec![0.0f32, -0.0, 3.0]),
             ("empty", Vec::new()),
         ];
-        for ((label, values), min_hole) in cases
-            .iter()
-            .flat_map(|case| [PAGE_HOLES, 64 << 10, MEGABYTE_HOLES].map(|h| (case, h)))
-        {
+        for (label, values) in &cases {
             let dir = tempfile::tempdir().unwrap();
             let path = dir.path().join("f.bin");
             let mut file = std::fs::File::create(&path).unwrap();
             {
                 let mut w = std::io::BufWriter::new(&mut file);
                 w.write_all(b"header!").unwrap();
-                write_le_sparse(&mut w, values, min_hole).unwrap();
+                write_le_sparse(&mut w, values).unwrap();
                 w.flush().unwrap();
             }
             file.sync_all().unwrap();
@@ -141,21 +125,18 @@ mod tests {
             write_le(&mut want, values).unwrap();
             assert!(
                 got == want,
-                "{label}, holes of {min_hole} B or more: {} bytes read back, {} expected",
+                "{label}: {} bytes read back, {} expected",
                 got.len(),
                 want.len()
             );
         }
     }
 
-    /// Zero runs of at least the minimum become holes where the file system keeps them, and
-    /// shorter ones are written: a 64 MB film with one value every 4 MB takes a few MB of disk
-    /// with page holes and with megabyte holes; with one value every 8 KB (a pixel's bins
-    /// spread over pages), page holes halve it and megabyte holes leave none, so that the
-    /// file is a few extents rather than thousands.
+    /// Zero blocks become holes where the file system keeps them: a 64 MB film with 1 % of
+    /// its blocks written takes a few MB of disk.
     #[cfg(unix)]
     #[test]
-    fn zero_runs_of_the_minimum_take_no_disk() {
+    fn zero_blocks_take_no_disk() {
         use std::os::unix::fs::MetadataExt;
         let dir = tempfile::tempdir().unwrap();
         // does this file system keep holes at all?
@@ -167,36 +148,24 @@ mod tests {
             eprintln!("this file system keeps no holes; nothing to check");
             return;
         }
-        let on_disk = |step: usize, min_hole: u64| -> u64 {
-            let mut values = vec![0.0f32; 16 << 20];
-            for i in (0..values.len()).step_by(step) {
-                values[i] = 1.0;
-            }
-            let path = dir.path().join("film.bin");
-            let mut file = std::fs::File::create(&path).unwrap();
-            {
-                let mut w = std::io::BufWriter::new(&mut file);
-                write_le_sparse(&mut w, &values, min_hole).unwrap();
-                w.flush().unwrap();
-            }
-            file.sync_all().unwrap();
-            let meta = std::fs::metadata(&path).unwrap();
-            assert_eq!(meta.len(), 64 << 20);
-            meta.blocks() * 512
-        };
-        for min_hole in [PAGE_HOLES, MEGABYTE_HOLES] {
-            let bytes = on_disk(1 << 20, min_hole);
-            assert!(
-                bytes <= 4 << 20,
-                "{bytes} bytes on disk for 17 written blocks ({min_hole} B holes)"
-            );
+        let mut values = vec![0.0f32; 16 << 20];
+        for i in (0..values.len()).step_by(1 << 20) {
+            values[i] = 1.0;
         }
-        let pages = on_disk(2048, PAGE_HOLES);
-        assert!(pages <= 36 << 20, "{pages} bytes on disk for every other page");
-        let megabytes = on_disk(2048, MEGABYTE_HOLES);
+        let path = dir.path().join("film.bin");
+        let mut file = std::fs::File::create(&path).unwrap();
+        {
+            let mut w = std::io::BufWriter::new(&mut file);
+            write_le_sparse(&mut w, &values).unwrap();
+            w.flush().unwrap();
+        }
+        file.sync_all().unwrap();
+        let meta = std::fs::metadata(&path).unwrap();
+        assert_eq!(meta.len(), 64 << 20);
         assert!(
-            megabytes >= 64 << 20,
-            "{megabytes} bytes on disk: zero runs of a page became holes"
+            meta.blocks() * 512 <= 4 << 20,
+            "{} bytes on disk for 17 written blocks",
+            meta.blocks() * 512
         );
     }
 }

@@ -42,7 +42,7 @@ pub use plot::write_time_plot;
 pub use preview::{MAX_SHEET_FRAMES, SheetStyle, write_contact_sheet, write_steady_png};
 pub use xy_plot::{write_line_plot, write_loglog_plot};
 
-pub(crate) use le_bytes::{MEGABYTE_HOLES, PAGE_HOLES, write_le_sparse};
+pub(crate) use le_bytes::{write_le, write_le_sparse};
 
 use std::path::Path;
 

@@ -49,7 +49,7 @@ pub fn write_npy(path: &Path, shape: &[usize], data: &[f32]) -> Result<(), Outpu
             .writer(&mut *w)
             .write_header_only()
             .map_err(io)?;
-        super::write_le_sparse(w, data, super::PAGE_HOLES).map_err(io)
+        super::write_le_sparse(w, data).map_err(io)
     })
 }
 
