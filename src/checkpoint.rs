@@ -330,44 +330,59 @@ pub fn read(path: &Path) -> Result<(serde_json::Value, Saved), Error> {
     if at != bytes.len() {
         return Err(bad("it has trailing bytes"));
     }
-    // a blob's values (of `len` values, when given) and, when stored by runs, its written bits
-    fn values<T: Copy + Default, const N: usize>(
+    // a blob's values and, when stored by runs, its written bits; `None` when the array the
+    // runs go back into cannot be had (a corrupt length: the file bounds only the runs)
+    fn values<T: bytemuck::Pod, const N: usize>(
         b: &Blob,
         raw: &[u8],
         from_le: fn([u8; N]) -> T,
-    ) -> (Vec<T>, Vec<u64>) {
+    ) -> Option<(Vec<T>, Vec<u64>)> {
         let parse = |raw: &[u8]| -> Vec<T> {
             raw.chunks_exact(N)
                 .map(|c| from_le(c.try_into().expect("N bytes")))
                 .collect()
         };
         if !b.runs {
-            return (parse(raw), Vec::new());
+            return Some((parse(raw), Vec::new()));
         }
         let (bits, packed) = raw.split_at(8 * crate::film::written_words(b.len));
         let bits = le_words(bits);
-        let values = crate::film::unpack_written(b.len, &bits, &parse(packed)).expect("sizes checked above");
-        (values, bits)
+        let values = crate::film::unpack_written(b.len, &bits, &parse(packed))?;
+        Some((values, bits))
     }
+    let no_room = |name: &str, len: usize| bad(&format!("blob {name}: {len} values do not fit in memory"));
     let f32s = |name: &str, len: Option<usize>| -> Result<(Vec<f32>, Vec<u64>), Error> {
         match blobs.get(name) {
-            Some((b, raw)) if !b.f64 && len.is_none_or(|n| n == b.len) => Ok(values(b, raw, f32::from_le_bytes)),
+            Some((b, raw)) if !b.f64 && len.is_none_or(|n| n == b.len) => {
+                values(b, raw, f32::from_le_bytes).ok_or_else(|| no_room(name, b.len))
+            }
             _ => Err(bad(&format!("blob {name} is missing or of the wrong size"))),
         }
     };
     let f64s = |name: &str| -> Result<(Vec<f64>, Vec<u64>), Error> {
         match blobs.get(name) {
-            Some((b, raw)) if b.f64 => Ok(values(b, raw, f64::from_le_bytes)),
+            Some((b, raw)) if b.f64 => values(b, raw, f64::from_le_bytes).ok_or_else(|| no_room(name, b.len)),
             _ => Err(bad(&format!("blob {name} is missing"))),
         }
     };
-    let film =
-        |name: &str, (w, h, axis, c): (usize, usize, crate::temporal::TimeAxis, usize)| -> Result<Transient, Error> {
-            let mut t = Transient::zeros(w, h, axis, c);
-            t.data = f32s(&format!("{name}.data"), Some(t.data.len()))?.0;
-            t.steady = f32s(&format!("{name}.steady"), Some(t.steady.len()))?.0;
-            Ok(t)
+    // a film of the header's shape, allocated only as its blobs come back
+    let film = |name: &str, (width, height, axis, channels): (usize, usize, crate::temporal::TimeAxis, usize)| {
+        let pixels = width.checked_mul(height).and_then(|p| p.checked_mul(channels));
+        let (Some(steady), Some(data)) = (pixels, pixels.and_then(|p| p.checked_mul(axis.bins))) else {
+            return Err(bad(&format!(
+                "{name}: a film of {width}×{height}×{}×{channels} values",
+                axis.bins
+            )));
         };
+        Ok(Transient {
+            width,
+            height,
+            axis,
+            channels,
+            data: f32s(&format!("{name}.data"), Some(data))?.0,
+            steady: f32s(&format!("{name}.steady"), Some(steady))?.0,
+        })
+    };
     if header.done.len() != header.units || header.tallies.len() != header.units {
         return Err(bad("its unit lists disagree"));
     }
@@ -696,6 +711,16 @@ mod tests {
         want[16..].copy_from_slice(&[1.0, 2.0, 3.0, 4.0]);
         assert_eq!(bits32(&rows.data32), bits32(&want));
         assert_eq!(rows.written, vec![0b10]);
+        // a film whose shape overflows is refused before anything is allocated
+        let mut huge = header(serde_json::json!([]));
+        huge["frame"] =
+            serde_json::json!([[1u64 << 40, 1u64 << 40, {"start_opl": 0.0, "bin_width_opl": 0.1, "bins": 1000}, 3]]);
+        std::fs::write(&path, bytes(huge, &[])).unwrap();
+        let e = read(&path).unwrap_err().to_string();
+        assert!(
+            e.contains("frame0: a film of 1099511627776×1099511627776×1000×3 values"),
+            "{e}"
+        );
         for (word, values, says) in [
             (0b110, 20, "its written bits do not fit 20 values"),
             (0b10, 3, "it is cut short"),

@@ -135,12 +135,13 @@ pub(crate) fn written_len(n: usize, written: &[u64]) -> Option<usize> {
 }
 
 /// `n` values: those of the runs `written` marks taken in order from `packed`, +0 elsewhere.
-/// `None` when `packed` does not hold exactly those runs' values.
-pub(crate) fn unpack_written<T: Copy + Default>(n: usize, written: &[u64], packed: &[T]) -> Option<Vec<T>> {
+/// `None` when `packed` does not hold exactly those runs' values, or when `n` values cannot
+/// be allocated (they are allocated zeroed, so pages no run reaches stay untouched).
+pub(crate) fn unpack_written<T: bytemuck::Pod>(n: usize, written: &[u64], packed: &[T]) -> Option<Vec<T>> {
     if written_len(n, written)? != packed.len() {
         return None;
     }
-    let mut out = vec![T::default(); n];
+    let mut out: Vec<T> = bytemuck::allocation::try_zeroed_vec(n).ok()?;
     let mut at = 0;
     written_runs(written, 0, n, |a, b| {
         out[a..b].copy_from_slice(&packed[at..at + b - a]);
