@@ -1,5 +1,6 @@
 //! Unit tests of the derivative deposits of tile films (`TileFilm::add_with_derivs`,
-//! Algorithm 1: İ_k += ḟ_k·S_e + f·Ṡ_e·ḋ_k) against the primal binning (`TileFilm::add`).
+//! Algorithm 1: İ_k += ḟ_k·S_e + f·Ṡ_e·ḋ_k) against the primal binning (`TileFilm::add`),
+//! and the sparse copy of a `Transient`.
 
 use super::*;
 use crate::temporal::{Gate, Pulse};
@@ -285,4 +286,34 @@ fn scaling_skips_zero_runs_without_changing_a_bit() {
         assert_eq!(bits(&got.data), bits(&want), "factor {s}");
         assert_eq!(bits(&got.steady), bits(&want_steady), "factor {s}");
     }
+}
+
+/// A clone writes only the runs that hold bits, and is the film to the bit: −0, values at the
+/// edges of runs, a dense stretch and the steady image.
+#[test]
+fn a_clone_is_the_film_to_the_bit() {
+    let axis = TimeAxis {
+        start_opl: 0.0,
+        bin_width_opl: 0.1,
+        bins: 333,
+    };
+    let mut t = Transient::zeros(5, 3, axis, 3);
+    let n = t.data.len();
+    for (i, v) in t.data.iter_mut().enumerate() {
+        *v = match i % 97 {
+            0 => -0.0,
+            15 | 16 => i as f32,
+            _ if i > n - 40 => -(i as f32),
+            _ => 0.0,
+        };
+    }
+    t.steady.iter_mut().enumerate().for_each(|(i, v)| *v = i as f32 - 2.0);
+    let c = t.clone();
+    let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+    assert_eq!(bits(&c.data), bits(&t.data));
+    assert_eq!(bits(&c.steady), bits(&t.steady));
+    assert_eq!(
+        (c.width, c.height, c.axis, c.channels),
+        (t.width, t.height, t.axis, t.channels)
+    );
 }
