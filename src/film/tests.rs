@@ -200,11 +200,7 @@ fn narrow_pulse_derivative_lobes_cancel_over_time() {
 /// +0, runs of zeros stay zero), at the tile's pixels only, for both precisions.
 #[test]
 fn storing_a_tile_writes_what_adding_it_to_zeros_would() {
-    let axis = TimeAxis {
-        start_opl: 0.0,
-        bin_width_opl: 0.1,
-        bins: 37,
-    };
+    let axis = axis_of(37);
     let (x0, y0, w, h, c) = (1, 2, 3, 2, 2);
     for derivs in [0, 1] {
         let n = w * h * axis.bins * c * (1 + derivs);
@@ -256,15 +252,20 @@ fn storing_a_tile_writes_what_adding_it_to_zeros_would() {
     }
 }
 
+/// `bins` bins of 0.1 m from 0.
+fn axis_of(bins: usize) -> TimeAxis {
+    TimeAxis {
+        start_opl: 0.0,
+        bin_width_opl: 0.1,
+        bins,
+    }
+}
+
 /// `Transient::scale` gives the bits of multiplying every value, though it leaves runs of
 /// zeros unwritten for a positive factor (and a negative one still turns +0 into −0).
 #[test]
 fn scaling_skips_zero_runs_without_changing_a_bit() {
-    let axis = TimeAxis {
-        start_opl: 0.0,
-        bin_width_opl: 0.1,
-        bins: 50,
-    };
+    let axis = axis_of(50);
     let mut t = Transient::zeros(3, 2, axis, 3);
     for (i, v) in t.data.iter_mut().enumerate() {
         *v = match i % 97 {
@@ -292,11 +293,7 @@ fn scaling_skips_zero_runs_without_changing_a_bit() {
 /// edges of runs, a dense stretch and the steady image.
 #[test]
 fn a_clone_is_the_film_to_the_bit() {
-    let axis = TimeAxis {
-        start_opl: 0.0,
-        bin_width_opl: 0.1,
-        bins: 333,
-    };
+    let axis = axis_of(333);
     let mut t = Transient::zeros(5, 3, axis, 3);
     let n = t.data.len();
     for (i, v) in t.data.iter_mut().enumerate() {
