@@ -65,26 +65,31 @@ pub(crate) fn written_words(n: usize) -> usize {
 }
 
 /// A copy of `values` that reads only the runs `written` marks; the rest of it is fresh
-/// zeros. With no written bits (not known, as for sums read from a checkpoint) every value
-/// is copied.
-pub(super) fn copy_written<T: Copy + Default>(values: &[T], written: &[u64]) -> Vec<T> {
+/// zeros. With no written bits (not known, as for sums read from an earlier checkpoint) it
+/// copies the runs that hold any bits ([`copy_nonzero`]).
+pub(super) fn copy_written<T: bytemuck::Pod>(values: &[T], written: &[u64]) -> Vec<T> {
+    let mut out = vec![T::zeroed(); values.len()];
     if written.is_empty() {
-        return values.to_vec();
+        copy_nonzero(&mut out, values);
+    } else {
+        written_runs(written, 0, values.len(), |a, b| {
+            out[a..b].copy_from_slice(&values[a..b])
+        });
     }
-    let mut out = vec![T::default(); values.len()];
-    written_runs(written, 0, values.len(), |a, b| {
-        out[a..b].copy_from_slice(&values[a..b])
-    });
     out
 }
 
-/// Written bits found from the values: a run is marked when any of its values is not +0 (its
-/// bits are not all zero; −0 counts as written).
+/// Whether any value of `run` is not +0 (has any bit set; −0 counts).
+fn holds_bits<T: bytemuck::Pod>(run: &[T]) -> bool {
+    let bytes: &[u8] = bytemuck::cast_slice(run);
+    bytes.iter().fold(0, |a, &b| a | b) != 0
+}
+
+/// Written bits found from the values: a run is marked when it [holds bits](holds_bits).
 pub(crate) fn nonzero_runs<T: bytemuck::Pod>(values: &[T]) -> Vec<u64> {
     let mut w = vec![0; words(values.len())];
     for (r, run) in values.chunks(RUN).enumerate() {
-        let bytes: &[u8] = bytemuck::cast_slice(run);
-        if bytes.iter().fold(0, |a, &b| a | b) != 0 {
+        if holds_bits(run) {
             w[r / 64] |= 1 << (r % 64);
         }
     }
@@ -155,8 +160,7 @@ pub(crate) fn unpack_written<T: bytemuck::Pod>(n: usize, written: &[u64], packed
 /// to are never written.
 pub(crate) fn copy_nonzero<T: bytemuck::Pod>(to: &mut [T], from: &[T]) {
     for (t, f) in to.chunks_mut(RUN).zip(from.chunks(RUN)) {
-        let bytes: &[u8] = bytemuck::cast_slice(f);
-        if bytes.iter().fold(0, |a, &b| a | b) != 0 {
+        if holds_bits(f) {
             t.copy_from_slice(f);
         }
     }
