@@ -301,30 +301,33 @@ pub fn read(path: &Path) -> Result<(serde_json::Value, Saved), Error> {
     let header: Header =
         serde_json::from_slice(&bytes[16..16 + hlen as usize]).map_err(|e| bad(&format!("header: {e}")))?;
     let mut at = 16 + hlen as usize;
+    // each blob: its entry, its written bits (stored by runs; else none) and its values' bytes
     let mut blobs = std::collections::HashMap::new();
     for b in &header.blobs {
         let size = if b.f64 { 8 } else { 4 };
         let cut = || bad("it is cut short");
-        let len = if b.runs {
+        let (bits, len) = if b.runs {
             // the written bits, then the values of the runs they mark
             let words = crate::film::written_words(b.len);
-            let bits = at
+            let end = at
                 .checked_add(words.checked_mul(8).ok_or_else(cut)?)
                 .filter(|&e| e <= bytes.len())
                 .ok_or_else(cut)?;
-            let packed = crate::film::written_len(b.len, &le_words(&bytes[at..bits])).ok_or_else(|| {
+            let bits = le_words(&bytes[at..end]);
+            let packed = crate::film::written_len(b.len, &bits).ok_or_else(|| {
                 bad(&format!(
                     "blob {}: its written bits do not fit {} values",
                     b.name, b.len
                 ))
             })?;
-            packed.checked_mul(size).and_then(|p| p.checked_add(8 * words))
+            at = end;
+            (bits, packed.checked_mul(size))
         } else {
-            b.len.checked_mul(size)
-        }
-        .ok_or_else(|| bad("a blob is too large"))?;
+            (Vec::new(), b.len.checked_mul(size))
+        };
+        let len = len.ok_or_else(|| bad("a blob is too large"))?;
         let end = at.checked_add(len).filter(|&e| e <= bytes.len()).ok_or_else(cut)?;
-        blobs.insert(b.name.clone(), (b, &bytes[at..end]));
+        blobs.insert(b.name.clone(), (b, bits, &bytes[at..end]));
         at = end;
     }
     if at != bytes.len() {
@@ -333,35 +336,30 @@ pub fn read(path: &Path) -> Result<(serde_json::Value, Saved), Error> {
     // a blob's values and, when stored by runs, its written bits; `None` when the array the
     // runs go back into cannot be had (a corrupt length: the file bounds only the runs)
     fn values<T: bytemuck::Pod, const N: usize>(
-        b: &Blob,
-        raw: &[u8],
+        (b, bits, raw): &(&Blob, Vec<u64>, &[u8]),
         from_le: fn([u8; N]) -> T,
     ) -> Option<(Vec<T>, Vec<u64>)> {
-        let parse = |raw: &[u8]| -> Vec<T> {
-            raw.chunks_exact(N)
-                .map(|c| from_le(c.try_into().expect("N bytes")))
-                .collect()
-        };
+        let parsed: Vec<T> = raw
+            .chunks_exact(N)
+            .map(|c| from_le(c.try_into().expect("N bytes")))
+            .collect();
         if !b.runs {
-            return Some((parse(raw), Vec::new()));
+            return Some((parsed, Vec::new()));
         }
-        let (bits, packed) = raw.split_at(8 * crate::film::written_words(b.len));
-        let bits = le_words(bits);
-        let values = crate::film::unpack_written(b.len, &bits, &parse(packed))?;
-        Some((values, bits))
+        Some((crate::film::unpack_written(b.len, bits, &parsed)?, bits.clone()))
     }
     let no_room = |name: &str, len: usize| bad(&format!("blob {name}: {len} values do not fit in memory"));
     let f32s = |name: &str, len: Option<usize>| -> Result<(Vec<f32>, Vec<u64>), Error> {
         match blobs.get(name) {
-            Some((b, raw)) if !b.f64 && len.is_none_or(|n| n == b.len) => {
-                values(b, raw, f32::from_le_bytes).ok_or_else(|| no_room(name, b.len))
+            Some(blob) if !blob.0.f64 && len.is_none_or(|n| n == blob.0.len) => {
+                values(blob, f32::from_le_bytes).ok_or_else(|| no_room(name, blob.0.len))
             }
             _ => Err(bad(&format!("blob {name} is missing or of the wrong size"))),
         }
     };
     let f64s = |name: &str| -> Result<(Vec<f64>, Vec<u64>), Error> {
         match blobs.get(name) {
-            Some((b, raw)) if b.f64 => values(b, raw, f64::from_le_bytes).ok_or_else(|| no_room(name, b.len)),
+            Some(blob) if blob.0.f64 => values(blob, f64::from_le_bytes).ok_or_else(|| no_room(name, blob.0.len)),
             _ => Err(bad(&format!("blob {name} is missing"))),
         }
     };
