@@ -9,7 +9,7 @@ use std::ops::Range;
 
 use crate::temporal::{Correlation, TimeAxis};
 use bins::Bins;
-pub(crate) use bins::{nonzero_runs, try_each_written, unpack_written, written_len, written_words};
+pub(crate) use bins::{holds_bits, nonzero_runs, try_each_written, unpack_written, written_len, written_words};
 
 mod bins;
 mod shared_frame;

@@ -79,10 +79,11 @@ pub(super) fn copy_written<T: bytemuck::Pod>(values: &[T], written: &[u64]) -> V
     out
 }
 
-/// Whether any value of `run` is not +0 (has any bit set; −0 counts).
-fn holds_bits<T: bytemuck::Pod>(run: &[T]) -> bool {
-    let bytes: &[u8] = bytemuck::cast_slice(run);
-    bytes.iter().fold(0, |a, &b| a | b) != 0
+/// Whether any value of `values` is not +0 (has any bit set; −0 counts): an OR over words,
+/// without an early exit, which vectorises.
+pub(crate) fn holds_bits<T: bytemuck::Pod>(values: &[T]) -> bool {
+    let (head, words, tail) = bytemuck::pod_align_to::<u8, u64>(bytemuck::cast_slice(values));
+    words.iter().fold(0u64, |a, &x| a | x) != 0 || head.iter().chain(tail).any(|&b| b != 0)
 }
 
 /// Written bits found from the values: a run is marked when it [holds bits](holds_bits).

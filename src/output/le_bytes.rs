@@ -53,7 +53,7 @@ pub(crate) fn write_le_sparse<T: bytemuck::Pod>(w: &mut (impl Write + Seek), val
         // the block ends at the next file offset that is a multiple of HOLE_BYTES
         let to_boundary = (HOLE_BYTES - (start + from as u64) % HOLE_BYTES) as usize;
         let end = (from + to_boundary).min(bytes.len());
-        if end < bytes.len() && all_zero(&bytes[from..end]) {
+        if end < bytes.len() && !crate::film::holds_bits(&bytes[from..end]) {
             zeros.get_or_insert(from);
         } else if let Some(z) = zeros.take() {
             w.write_all(&bytes[written..z])?;
@@ -63,12 +63,6 @@ pub(crate) fn write_le_sparse<T: bytemuck::Pod>(w: &mut (impl Write + Seek), val
         from = end;
     }
     w.write_all(&bytes[written..])
-}
-
-/// Whether every byte is zero (an OR over words, without an early exit, which vectorises).
-fn all_zero(bytes: &[u8]) -> bool {
-    let (head, words, tail) = bytemuck::pod_align_to::<u8, u64>(bytes);
-    words.iter().fold(0u64, |a, &x| a | x) == 0 && head.iter().chain(tail).all(|&b| b == 0)
 }
 
 #[cfg(test)]
