@@ -23,10 +23,10 @@ pub struct SurfaceHit {
 
 /// Closest hit of the ray `o + t·d` (d unit), t ∈ (0, ∞).
 pub fn trace(ctx: &RenderContext, o: Vec3, d: Vec3, counts: &mut RayCounts) -> Option<SurfaceHit> {
-    let t0 = crate::timing::ticks();
+    let t0 = counts.clock.start();
     counts.intersect += 1;
     let hit = ctx.accel.intersect1(o.to_array(), d.to_array(), 0.0, f32::INFINITY);
-    counts.trace_ticks += crate::timing::ticks() - t0;
+    counts.trace_ticks += crate::timing::sampled_ticks(t0);
     let h = hit?;
     let [p0, p1, p2] = ctx.tri_verts[h.prim as usize];
     let p = p0 + (p1 - p0) * h.u + (p2 - p0) * h.v;

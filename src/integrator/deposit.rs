@@ -111,8 +111,12 @@ pub struct PathCounts {
     pub rays: RayCounts,
     /// Samples dropped because they were not finite (reported, never written to the film).
     pub non_finite: u64,
-    /// Ticks spent adding contributions to the film (binning through S_e).
+    /// Ticks spent adding contributions to the film (binning through S_e; sampled by
+    /// `film_clock`).
     pub film_ticks: u64,
+    /// Which film deposits read the counter (not part of a tally).
+    #[serde(skip)]
+    pub film_clock: crate::timing::SampledClock,
     /// Ticks spent in the whole tile (set by the render driver).
     pub total_ticks: u64,
 }
@@ -143,7 +147,7 @@ pub fn for_each_lane<R: Real, const C: usize>(
     counts: &mut PathCounts,
     mut add: impl FnMut(usize, &LaneContribution<C>),
 ) {
-    let t0 = crate::timing::ticks();
+    let t0 = counts.film_clock.start();
     for i in 0..R::LANES {
         if !crate::kernel::Mask::bit(mask, i) || emitter[i] == u32::MAX {
             continue;
@@ -154,5 +158,5 @@ pub fn for_each_lane<R: Real, const C: usize>(
             None => counts.non_finite += 1,
         }
     }
-    counts.film_ticks += crate::timing::ticks() - t0;
+    counts.film_ticks += crate::timing::sampled_ticks(t0);
 }

@@ -3,6 +3,7 @@
 use super::surface::{offset_origin, self_intersection_eps};
 use crate::accel::{Accel, Ray8};
 use crate::kernel::{Mask, Real, V3};
+use crate::timing::{SampledClock, sampled_ticks};
 
 /// Plain hit lanes: `prim[i] == u32::MAX` where lane `i` missed or was inactive.
 #[derive(Clone, Copy, Debug)]
@@ -18,8 +19,11 @@ pub struct HitLanes<V> {
 pub struct RayCounts {
     pub intersect: u64,
     pub occluded: u64,
-    /// Ticks spent in Embree queries (see `crate::timing`).
+    /// Ticks spent in Embree queries (see `crate::timing`; sampled by `clock`).
     pub trace_ticks: u64,
+    /// Which queries read the counter (not part of a tally).
+    #[serde(skip)]
+    pub clock: SampledClock,
 }
 
 fn pack<V: Real>(o: &V3<V>, d: &V3<V>, tnear: V, tfar: V) -> Ray8 {
@@ -52,7 +56,7 @@ pub fn intersect<V: Real>(
     coherent: bool,
     counts: &mut RayCounts,
 ) -> HitLanes<V> {
-    let t0 = crate::timing::ticks();
+    let t0 = counts.clock.start();
     let mut prim = [u32::MAX; 8];
     let mut t = [0.0f32; 8];
     let mut u = [0.0f32; 8];
@@ -79,7 +83,7 @@ pub fn intersect<V: Real>(
         u = h.u;
         v = h.v;
     }
-    counts.trace_ticks += crate::timing::ticks() - t0;
+    counts.trace_ticks += sampled_ticks(t0);
     HitLanes {
         t: V::from_lanes(&t),
         u: V::from_lanes(&u),
@@ -98,7 +102,7 @@ pub fn unoccluded<V: Real>(
     active: V::Mask,
     counts: &mut RayCounts,
 ) -> V::Mask {
-    let t0 = crate::timing::ticks();
+    let t0 = counts.clock.start();
     let act = bools(active, V::LANES);
     counts.occluded += act.iter().filter(|&&a| a).count() as u64;
     let mut free = [false; 8];
@@ -114,7 +118,7 @@ pub fn unoccluded<V: Real>(
             free[i] = act[i] && !blocked[i];
         }
     }
-    counts.trace_ticks += crate::timing::ticks() - t0;
+    counts.trace_ticks += sampled_ticks(t0);
     V::Mask::from_bools(&free[..V::LANES])
 }
 
