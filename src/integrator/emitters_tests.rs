@@ -355,3 +355,55 @@ fn a_large_emitter_mesh_picks_its_triangles_by_area() {
     }
     assert_chi2("a large emitter mesh", &observed, &probability, 1e-9);
 }
+
+/// `LIGHTS` with only the emitter called `name` (its shapes all kept).
+fn only_emitter(text: &str, name: &str) -> String {
+    let mut parts = text.split("[[emitter]]");
+    let head = parts.next().unwrap().to_string();
+    let kept: Vec<&str> = parts.filter(|p| p.contains(&format!("name = \"{name}\""))).collect();
+    assert_eq!(kept.len(), 1, "{name}");
+    head + "[[emitter]]" + kept[0]
+}
+
+/// `reads_select` says whether the emitter-choice number matters, which is what lets the
+/// path tracer and BDPT skip computing it: with one emitter of few triangles the samples are
+/// the same whatever that number, and where it picks an emitter or a large mesh's triangle
+/// the table says it is read (and it does change the samples).
+#[test]
+fn the_select_number_is_read_only_where_it_picks() {
+    let device = Device::new("").unwrap();
+    let cases = [
+        (LIGHTS.to_string(), true),
+        (only_emitter(LIGHTS, "panel_light"), false),
+        (
+            only_emitter(&LIGHTS.replace("subdivisions = 1", "subdivisions = 3"), "bulb_light"),
+            true,
+        ),
+    ];
+    for (text, reads) in cases {
+        let scene = load(&text, &[]);
+        let ctx = RenderContext::new(&scene, &device).unwrap();
+        assert_eq!(
+            ctx.emitters.reads_select(),
+            reads,
+            "{} emitter(s)",
+            scene.emitters.len()
+        );
+        let mut sampler = PathSampler::new(0x5E1EC7, &[0, 1, 2, 3, 4, 5, 6, 7]);
+        let mut changed = false;
+        for _ in 0..64 {
+            let (u0, u1) = sampler.next2::<f32x8>();
+            let select = sampler.next::<f32x8>();
+            let a = ctx.emitters.sample::<f32x8, 3>(&ctx, select, u0, u1, Mask::splat(true));
+            let b = ctx
+                .emitters
+                .sample::<f32x8, 3>(&ctx, f32x8::ZERO, u0, u1, Mask::splat(true));
+            for i in 0..8 {
+                let same = a.emitter[i] == b.emitter[i] && a.p.lane(i) == b.p.lane(i);
+                assert!(reads || same, "lane {i}: a number that is not read changed the sample");
+                changed |= !same;
+            }
+        }
+        assert_eq!(changed, reads, "whether the number changed any sample");
+    }
+}

@@ -143,6 +143,13 @@ impl PathSampler {
         R::from_lanes(&a)
     }
 
+    /// Passes over the next dimension without computing it: for a number the caller would
+    /// not read. The numbers after it are the ones they would have been.
+    #[inline(always)]
+    pub fn skip(&mut self) {
+        self.dim += 1;
+    }
+
     /// Two numbers; with Sobol points, a pair of dimensions stratified together (a 2D draw
     /// starting at an odd dimension skips one).
     pub fn next2<R: Real>(&mut self) -> (R, R) {
@@ -186,6 +193,44 @@ impl PathSampler {
 mod tests {
     use super::*;
     use wide::f32x8;
+
+    /// A skipped dimension leaves every later number as it was, for both sequences and
+    /// whatever draw (1D, 2D, 3D) follows.
+    #[test]
+    fn a_skipped_dimension_leaves_the_later_numbers_alone() {
+        let ids: Vec<u64> = (40..48).collect();
+        for sequence in [SampleSequence::Independent, SampleSequence::Sobol] {
+            for skip_at in 0..6 {
+                let mut read = PathSampler::with_sequence(sequence, 3, &ids, 16);
+                let mut skipped = read.clone();
+                for d in 0..skip_at {
+                    let (a, b) = (read.next::<f32x8>(), skipped.next::<f32x8>());
+                    assert_eq!(a.to_array(), b.to_array(), "{sequence:?} dimension {d}");
+                }
+                let _ = read.next::<f32x8>();
+                skipped.skip();
+                let a = (
+                    read.next::<f32x8>(),
+                    read.next2::<f32x8>(),
+                    read.next3::<f32x8>(),
+                    read.next::<f32x8>(),
+                );
+                let b = (
+                    skipped.next::<f32x8>(),
+                    skipped.next2::<f32x8>(),
+                    skipped.next3::<f32x8>(),
+                    skipped.next::<f32x8>(),
+                );
+                assert_eq!(a.0.to_array(), b.0.to_array(), "{sequence:?}, skip at {skip_at}");
+                assert_eq!(
+                    [a.1.0.to_array(), a.1.1.to_array()],
+                    [b.1.0.to_array(), b.1.1.to_array()]
+                );
+                assert_eq!(a.2.map(|v| v.to_array()), b.2.map(|v: f32x8| v.to_array()));
+                assert_eq!(a.3.to_array(), b.3.to_array());
+            }
+        }
+    }
 
     #[test]
     fn lanes_equal_scalar_streams() {

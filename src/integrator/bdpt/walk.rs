@@ -261,7 +261,7 @@ pub fn light_subpath<R: Real, const C: usize>(
     let in_use: [bool; 8] = std::array::from_fn(|i| i < lanes.count);
     let active = R::Mask::from_bools(&in_use[..R::LANES]);
     let (u0, u1) = sampler.next2::<V<R>>();
-    let select = sampler.next::<V<R>>();
+    let select = crate::integrator::path::draw_select::<R>(ctx, sampler, true);
     let ls = ctx.emitters.sample::<R, C>(ctx, select, u0, u1, active);
     let alive = active & ls.valid;
     let eta = ctx.motion.eta::<R>(ctx.scene.eta);
