@@ -176,8 +176,10 @@ impl PathSampler {
         let d = self.dim + (self.dim & 1);
         self.dim = d + 4;
         let seeds = std::array::from_fn(|i| {
-            // a key no pair of this stream uses (pairs are keyed by d/2 < 2^62)
-            let k = stream_key(self.keys[i], (d >> 1) | (1 << 62));
+            // the key of pair d/2, whose dimensions the triple takes, so no pair draw of the
+            // stream shares it. (Until 2026-11-28 the id carried a bit 1 << 62 meant to set it
+            // apart; `stream_key` keeps only the id's low 32 bits, so that bit changed nothing.)
+            let k = stream_key(self.keys[i], d >> 1);
             (k ^ (k >> 32)) as u32
         });
         sobol_triple(sb.index, seeds).map(|v| R::from_lanes(&v))
