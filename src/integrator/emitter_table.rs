@@ -167,18 +167,6 @@ impl EmitterTable {
         self.entries.len()
     }
 
-    /// Whether [`EmitterTable::sample`] reads its `select` number: to pick one of several
-    /// emitters, or a triangle of a mesh larger than `REUSE_MAX_TRIANGLES`. With one emitter
-    /// of fewer triangles, the number is never read, so a caller may skip its dimension
-    /// ([`crate::kernel::sampler::PathSampler::skip`]) instead of computing it.
-    pub fn reads_select(&self) -> bool {
-        self.entries.len() > 1
-            || self
-                .entries
-                .iter()
-                .any(|e| matches!(e, Entry::Area { tris, .. } if tris.len() > super::emitters::REUSE_MAX_TRIANGLES))
-    }
-
     /// Area pdf (with selection) of emitter `e` sampling a point on its surface.
     #[inline]
     pub fn area_pdf(&self, e: u32) -> f32 {

@@ -39,6 +39,18 @@ pub struct LightSample<R: Real, const C: usize> {
 pub const REUSE_MAX_TRIANGLES: usize = 1024;
 
 impl EmitterTable {
+    /// Whether [`EmitterTable::sample`] reads its `select` number: to pick one of several
+    /// emitters, or a triangle of a mesh larger than `REUSE_MAX_TRIANGLES`. With one emitter
+    /// of fewer triangles, the number is never read, so a caller may skip its dimension
+    /// ([`crate::kernel::sampler::PathSampler::skip`]) instead of computing it.
+    pub fn reads_select(&self) -> bool {
+        self.entries.len() > 1
+            || self
+                .entries
+                .iter()
+                .any(|e| matches!(e, Entry::Area { tris, .. } if tris.len() > REUSE_MAX_TRIANGLES))
+    }
+
     /// Samples one emitter point per lane: `select` picks the emitter, and the 2D point
     /// (`u0`, `u1`) the point on it. An area emitter of at most [`REUSE_MAX_TRIANGLES`]
     /// triangles maps the whole 2D point onto its surface: `u0` picks the triangle by area and
