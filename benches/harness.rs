@@ -9,8 +9,8 @@
 //! bench-out/error_vs_time.png (one line per workload and estimator).
 //!
 //! Run: `cargo bench --bench harness` (DTR_HARNESS_QUICK=1 for a short run).
-//! Workloads: the Cornell box (forward: path tracer with independent numbers, the default,
-//! and with Sobol points, and BDPT); the Cornell box with a Gaussian
+//! Workloads: the Cornell box (forward: path tracer with Sobol points, the default, and with
+//! independent numbers, and BDPT); the Cornell box with a Gaussian
 //! pulse and one pose parameter (derivative: interior alone, and interior + primary + secondary
 //! boundary, both against a full-gradient reference); the Cornell box plus a ~1M-triangle
 //! bumpy sphere; scenes/gated_laser_room.toml (a laser spot on a wall seen through a gated
@@ -80,14 +80,22 @@ fn main() {
         reference: "cornell_diff_full",
         reference_kind: IntegratorKind::Path,
     };
-    // the same scene drawing Sobol points instead of the default independent numbers
-    let sobol = |mut s: Scene| {
-        s.integrator.sampler = difftransient::kernel::SampleSequence::Sobol;
+    // the same scene drawing independent numbers instead of the default Sobol points (until
+    // 2026-11-28 this row set Sobol points, the default since 2026-11-26, so both rows were
+    // the same render)
+    let independent = |mut s: Scene| {
+        s.integrator.sampler = difftransient::kernel::SampleSequence::Independent;
         s
     };
     let workloads = vec![
         forward("cornell", cornell.clone(), None, "path", "cornell"),
-        forward("cornell", sobol(cornell.clone()), None, "path-sobol", "cornell"),
+        forward(
+            "cornell",
+            independent(cornell.clone()),
+            None,
+            "path-independent",
+            "cornell",
+        ),
         forward(
             "cornell",
             cornell.clone(),
