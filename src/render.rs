@@ -892,7 +892,16 @@ impl<'s> Run<'s> {
                 // same bytes for any order and thread count, and a checkpoint's films (the
                 // finished tiles, zero elsewhere) resume to the same bytes. The stores take
                 // no lock (`SharedFrame`); each worker reuses one film across its tiles.
-                let units = rects.len();
+                // A film of few tiles is cut into more units, each a tile and a block of its
+                // samples ([`sample_blocks`]), so that many threads have work; a tile's block
+                // films are added in block order once all have run, then stored.
+                let blocks = if ran {
+                    sample_blocks(rects.len(), samples)
+                } else {
+                    Vec::new()
+                };
+                let per_tile = blocks.len().max(1);
+                let units = rects.len() * per_tile;
                 let mut state = self.resumed(units).unwrap_or_else(|| Saved {
                     units,
                     done: vec![false; units],
@@ -900,33 +909,48 @@ impl<'s> Run<'s> {
                     frame: std::mem::take(&mut out),
                     ..Default::default()
                 });
+                bar.set_length(units as u64);
                 bar.inc(state.done_units() as u64);
-                let todo: Vec<usize> = (0..units).filter(|&i| !state.done[i]).collect();
+                let tiles_done: Vec<bool> = (0..rects.len())
+                    .map(|i| state.done[i * per_tile..(i + 1) * per_tile].iter().all(|&d| d))
+                    .collect();
+                let todo: Vec<usize> = (0..units).filter(|&u| !state.done[u]).collect();
                 let frame = std::sync::Arc::new(SharedFrame::new(
                     std::mem::take(&mut state.frame),
                     rects.clone(),
-                    &state.done,
+                    &tiles_done,
                 ));
                 let state = std::sync::Arc::new(std::sync::Mutex::new(state));
                 // a snapshot: the finished tiles' films with their tallies, while the stores go on
+                let n_tiles = rects.len();
                 let snapshot = {
                     let (frame, state) = (frame.clone(), state.clone());
                     move || {
                         let (st, films) = frame.snapshot(|| {
                             let st = lock(&state).clone();
-                            let done = st.done.clone();
+                            // a tile's blocks are done together, when the tile is stored
+                            let done = (0..n_tiles).map(|i| st.done[i * per_tile]).collect();
                             (st, done)
                         });
                         Saved { frame: films, ..st }
                     }
                 };
                 self.watch(snapshot.clone());
+                // the block films of tiles cut into blocks, kept until the tile's last block
+                // has run, with its tally
+                type Parked = Vec<Option<(TileFilm, crate::checkpoint::Tally)>>;
+                let parked: Vec<std::sync::Mutex<Parked>> = (0..if per_tile > 1 { rects.len() } else { 0 })
+                    .map(|_| std::sync::Mutex::new((0..per_tile).map(|_| None).collect()))
+                    .collect();
+                let spares = std::sync::Mutex::new(Vec::<TileFilm>::new());
                 self.pool.install(|| {
                     todo.par_iter().for_each_init(
                         || None::<TileFilm>,
-                        |spare, &i| {
+                        |spare, &u| {
+                            let (i, b) = (u / per_tile, u % per_tile);
                             let (x0, y0, tw, th) = rects[i];
-                            let mut film = match spare.take() {
+                            let reused = spare.take().or_else(|| lock(&spares).pop());
+                            let mut film = match reused {
                                 Some(mut f) => {
                                     f.reset(x0, y0, tw, th);
                                     f
@@ -936,21 +960,48 @@ impl<'s> Run<'s> {
                             let mut counts = PathCounts::default();
                             let tick0 = crate::timing::ticks();
                             let (f, c) = (&mut film, &mut counts);
+                            let block = blocks.get(b).unwrap_or(samples);
                             dispatch!(
                                 derivs,
                                 opts.lanes,
                                 channels,
-                                render_tile(ctx, seed, spp, samples, w, (x0, y0, tw, th), f, c)
+                                render_tile(ctx, seed, spp, block, w, (x0, y0, tw, th), f, c)
                             );
                             counts.total_ticks = crate::timing::ticks() - tick0;
                             let tally = (counts, film.tails(), film.block_sums());
-                            frame.store(i, &film, || {
-                                let mut st = lock(&state);
-                                st.done[i] = true;
-                                st.tallies[i] = Some(tally);
-                            });
+                            if per_tile == 1 {
+                                frame.store(i, &film, || {
+                                    let mut st = lock(&state);
+                                    st.done[u] = true;
+                                    st.tallies[u] = Some(tally);
+                                });
+                                *spare = Some(film);
+                            } else {
+                                let all = {
+                                    let mut p = lock(&parked[i]);
+                                    p[b] = Some((film, tally));
+                                    p.iter().all(Option::is_some).then(|| std::mem::take(&mut *p))
+                                };
+                                if let Some(all) = all {
+                                    let mut all = all.into_iter().map(|p| p.expect("every block ran"));
+                                    let (mut sum, first) = all.next().expect("a tile has blocks");
+                                    let mut kept = vec![first];
+                                    for (f, t) in all {
+                                        sum.add_film(&f);
+                                        kept.push(t);
+                                        lock(&spares).push(f);
+                                    }
+                                    frame.store(i, &sum, || {
+                                        let mut st = lock(&state);
+                                        for (k, t) in kept.into_iter().enumerate() {
+                                            st.done[i * per_tile + k] = true;
+                                            st.tallies[i * per_tile + k] = Some(t);
+                                        }
+                                    });
+                                    *spare = Some(sum);
+                                }
+                            }
                             self.checkpoint_if_due(&snapshot);
-                            *spare = Some(film);
                             bar.inc(1);
                         },
                     )
@@ -960,10 +1011,10 @@ impl<'s> Run<'s> {
                 // every tile is stored now: a copy of all of them is the whole frame
                 st.frame = std::sync::Arc::try_unwrap(frame)
                     .map(SharedFrame::into_films)
-                    .unwrap_or_else(|frame| frame.snapshot(|| ((), vec![true; units])).1);
+                    .unwrap_or_else(|frame| frame.snapshot(|| ((), vec![true; rects.len()])).1);
                 let st = self.finish_pass(st);
                 out = st.frame;
-                st.tallies.into_iter().map(|t| t.expect("every tile ran")).collect()
+                st.tallies.into_iter().map(|t| t.expect("every unit ran")).collect()
             }
             IntegratorKind::Bdpt => {
                 // Units (a tile, a block of samples) run in waves; after each wave every
@@ -1364,6 +1415,22 @@ pub(crate) fn render_tile<R: Real, const C: usize, S: Sink<C>>(
     }
 }
 
+/// Units of work a path-traced render is cut into at least, when its samples allow: a
+/// film of fewer tiles cuts each tile's samples into blocks, so that a small film (an NLOS
+/// capture of 8 × 8 or 16 × 16 sensor points is 1 or 4 tiles) runs on many threads.
+pub const MIN_UNITS: usize = 256;
+
+/// The blocks of consecutive samples each tile of a `tiles`-tile render is cut into: as
+/// few as give [`MIN_UNITS`] units, at most one per sample, from the film's shape and the
+/// sample range alone (never the thread count), so neither are the bytes.
+pub(crate) fn sample_blocks(tiles: usize, samples: &std::ops::Range<u64>) -> Vec<std::ops::Range<u64>> {
+    let n = samples.end.saturating_sub(samples.start);
+    let count = (MIN_UNITS.div_ceil(tiles.max(1)) as u64).clamp(1, n.max(1));
+    (0..count)
+        .map(|k| samples.start + n * k / count..samples.start + n * (k + 1) / count)
+        .collect()
+}
+
 /// A progress bar on stderr in indicatif's `template`, hidden unless `show` and stderr is a
 /// terminal.
 pub(crate) fn progress_bar(show: bool, len: u64, template: &str) -> indicatif::ProgressBar {
@@ -1376,4 +1443,30 @@ pub(crate) fn progress_bar(show: bool, len: u64, template: &str) -> indicatif::P
         bar.set_style(style.progress_chars("=> "));
     }
     bar
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{MIN_UNITS, sample_blocks};
+
+    /// Blocks cover the sample range in order, without gaps or overlaps, as few as give
+    /// `MIN_UNITS` units and never an empty one.
+    #[test]
+    fn sample_blocks_cover_the_samples_in_order() {
+        for (tiles, samples, count) in [
+            (1usize, 0..16384u64, MIN_UNITS),
+            (4, 0..256, MIN_UNITS / 4),
+            (64, 10..74, MIN_UNITS / 64),
+            (300, 0..64, 1),
+            (1, 5..8, 3),
+            (4, 0..0, 1),
+        ] {
+            let b = sample_blocks(tiles, &samples);
+            assert_eq!(b.len(), count, "{tiles} tiles, samples {samples:?}");
+            assert_eq!(b.first().map(|r| r.start), Some(samples.start));
+            assert_eq!(b.last().map(|r| r.end), Some(samples.end));
+            assert!(b.windows(2).all(|p| p[0].end == p[1].start));
+            assert!(samples.is_empty() || b.iter().all(|r| !r.is_empty()), "{b:?}");
+        }
+    }
 }
