@@ -177,10 +177,10 @@ fn resume_refuses_what_is_not_this_render() {
         let e = String::from_utf8_lossy(&o.stderr);
         assert!(e.contains("checkpoint of another render") && e.contains(field), "{e}");
     }
-    // a checkpoint whose units are cut another way (an earlier dtr's: BDPT chunks) is refused
-    // by that field, never resumed into the wrong units
+    // a checkpoint whose units are cut another way (an earlier dtr's: one unit per path
+    // tracer tile, or BDPT chunks) is refused by that field, never resumed into the wrong units
     let bytes = std::fs::read(&ck).unwrap();
-    let (from, to) = (&b"\"checkpoint_units\":2"[..], &b"\"checkpoint_units\":1"[..]);
+    let (from, to) = (&b"\"checkpoint_units\":3"[..], &b"\"checkpoint_units\":2"[..]);
     let at = bytes
         .windows(from.len())
         .position(|w| w == from)
@@ -191,7 +191,7 @@ fn resume_refuses_what_is_not_this_render() {
     let o = dtr(&["render", CORNELL, "--spp", "1024", "-o", "r", "--resume"], dir);
     let e = String::from_utf8_lossy(&o.stderr);
     assert!(
-        !o.status.success() && e.contains("checkpoint_units was 1 there, is 2 now"),
+        !o.status.success() && e.contains("checkpoint_units was 2 there, is 3 now"),
         "{e}"
     );
     std::fs::write(&ck, b"not a checkpoint").unwrap();

@@ -13,10 +13,12 @@ use std::time::Duration;
 const DEFAULT_SECONDS: f64 = 300.0;
 
 /// How a checkpoint's units are cut, kept in its identity so that a checkpoint of another
-/// cut (an earlier dtr's) is refused by name rather than resumed into the wrong units. 2:
-/// BDPT's units are waves of (tile, sample block) units and its films the frame's rows
-/// (`integrator::bdpt::units`); 1 (no field) had up to 8 chunks of tiles.
-const UNITS_LAYOUT: u32 = 2;
+/// cut (an earlier dtr's) is refused by name rather than resumed into the wrong units. 3:
+/// the path tracer's units are (tile, sample block) pairs, several per tile on a film of few
+/// tiles (`render::sample_blocks`); 2: BDPT's units are waves of (tile, sample block) units
+/// and its films the frame's rows (`integrator::bdpt::units`), the path tracer's one per
+/// tile; 1 (no field) had up to 8 chunks of tiles.
+const UNITS_LAYOUT: u32 = 3;
 
 /// The checkpointing of a render to `set`'s prefix: every `seconds`, resuming from the
 /// checkpoint there when `resume` (refused when there is none, or it is another render's).
