@@ -428,13 +428,20 @@ fn film_bytes(
     let acc = if derivs > 0 { 8 } else { 4 };
     let d = derivs as u128;
     let outputs = frame * (1 + d) * 4;
-    // a path tracer's tile: 8 × 8 pixels, or 8 sensor columns × every laser row (`tile_rects`)
-    let tile_px = match &scene.nlos {
-        Some(n) if n.exhaustive() => TILE as u128 * n.lasers.len() as u128,
-        _ => (TILE * TILE) as u128,
-    };
     let workers = match kind {
-        IntegratorKind::Path => threads as u128 * tile_px * (bins * c + c) * (1 + d) * acc,
+        IntegratorKind::Path => {
+            // a tile film per worker, and the block films of tiles cut into sample blocks,
+            // kept until their tile's last block has run (`sample_blocks`), at their most
+            let tile = tile_film_bytes(scene, derivs);
+            let tiles = tile_rects(scene).len();
+            let per_tile = blocks_per_tile(tiles, u64::MAX, tile) as u128;
+            let parked = if per_tile > 1 {
+                tiles as u128 * per_tile * tile
+            } else {
+                0
+            };
+            threads as u128 * tile + parked
+        }
         IntegratorKind::Bdpt => {
             let strategies = if per_strategy {
                 bdpt::film::strategy_list(scene.integrator.max_bounces).len() as u128
@@ -450,6 +457,20 @@ fn film_bytes(
     };
     let copies = if checkpointing { 2 } else { 1 };
     outputs * copies + workers * if kind == IntegratorKind::Bdpt { copies } else { 1 } + frame * d * 8
+}
+
+/// Bytes of one path tracer tile film of `scene` with `derivs` derivative blocks: 8 × 8
+/// pixels, or 8 sensor columns × every laser row (`tile_rects`), every bin and the steady
+/// image, in f64 with derivatives and f32 without.
+fn tile_film_bytes(scene: &Scene, derivs: usize) -> u128 {
+    let f = &scene.film;
+    let tile_px = match &scene.nlos {
+        Some(n) if n.exhaustive() => TILE as u128 * n.lasers.len() as u128,
+        _ => (TILE * TILE) as u128,
+    };
+    let (bins, c) = (f.axis.bins as u128, f.channels as u128);
+    let acc = if derivs > 0 { 8 } else { 4 };
+    tile_px * (bins * c + c) * (1 + derivs as u128) * acc
 }
 
 /// Memory the system can still give (Linux `MemAvailable`), if it can be read.
@@ -896,7 +917,7 @@ impl<'s> Run<'s> {
                 // samples ([`sample_blocks`]), so that many threads have work; a tile's block
                 // films are added in block order once all have run, then stored.
                 let blocks = if ran {
-                    sample_blocks(rects.len(), samples)
+                    sample_blocks(rects.len(), samples, tile_film_bytes(scene, derivs))
                 } else {
                     Vec::new()
                 };
@@ -1420,12 +1441,31 @@ pub(crate) fn render_tile<R: Real, const C: usize, S: Sink<C>>(
 /// capture of 8 × 8 or 16 × 16 sensor points is 1 or 4 tiles) runs on many threads.
 pub const MIN_UNITS: usize = 256;
 
-/// The blocks of consecutive samples each tile of a `tiles`-tile render is cut into: as
-/// few as give [`MIN_UNITS`] units, at most one per sample, from the film's shape and the
-/// sample range alone (never the thread count), so neither are the bytes.
-pub(crate) fn sample_blocks(tiles: usize, samples: &std::ops::Range<u64>) -> Vec<std::ops::Range<u64>> {
+/// Most bytes the block films of tiles cut into sample blocks may take while they wait for
+/// their tile's last block: the cut is coarser where tile films are large (many bins,
+/// derivative blocks).
+pub const BLOCK_BYTES: u128 = 256 << 20;
+
+/// Blocks per tile for `tiles` tiles of `n` samples whose films take `tile_bytes` each: as
+/// few as give [`MIN_UNITS`] units, at most one per sample, and no more than keep every
+/// tile's block films under [`BLOCK_BYTES`].
+fn blocks_per_tile(tiles: usize, n: u64, tile_bytes: u128) -> u64 {
+    let by_memory = (BLOCK_BYTES / (tiles.max(1) as u128 * tile_bytes.max(1))).min(u64::MAX as u128) as u64;
+    (MIN_UNITS.div_ceil(tiles.max(1)) as u64)
+        .min(by_memory)
+        .clamp(1, n.max(1))
+}
+
+/// The blocks of consecutive samples each tile of a `tiles`-tile render is cut into
+/// ([`blocks_per_tile`]; tile films of `tile_bytes`), from the film's shape and the sample
+/// range alone (never the thread count), so neither are the bytes.
+pub(crate) fn sample_blocks(
+    tiles: usize,
+    samples: &std::ops::Range<u64>,
+    tile_bytes: u128,
+) -> Vec<std::ops::Range<u64>> {
     let n = samples.end.saturating_sub(samples.start);
-    let count = (MIN_UNITS.div_ceil(tiles.max(1)) as u64).clamp(1, n.max(1));
+    let count = blocks_per_tile(tiles, n, tile_bytes);
     (0..count)
         .map(|k| samples.start + n * k / count..samples.start + n * (k + 1) / count)
         .collect()
@@ -1447,7 +1487,7 @@ pub(crate) fn progress_bar(show: bool, len: u64, template: &str) -> indicatif::P
 
 #[cfg(test)]
 mod tests {
-    use super::{MIN_UNITS, sample_blocks};
+    use super::{BLOCK_BYTES, MIN_UNITS, sample_blocks};
 
     /// Blocks cover the sample range in order, without gaps or overlaps, as few as give
     /// `MIN_UNITS` units and never an empty one.
@@ -1461,12 +1501,15 @@ mod tests {
             (1, 5..8, 3),
             (4, 0..0, 1),
         ] {
-            let b = sample_blocks(tiles, &samples);
+            let b = sample_blocks(tiles, &samples, 1 << 10);
             assert_eq!(b.len(), count, "{tiles} tiles, samples {samples:?}");
             assert_eq!(b.first().map(|r| r.start), Some(samples.start));
             assert_eq!(b.last().map(|r| r.end), Some(samples.end));
             assert!(b.windows(2).all(|p| p[0].end == p[1].start));
             assert!(samples.is_empty() || b.iter().all(|r| !r.is_empty()), "{b:?}");
         }
+        // large tile films are cut no finer than keeps their block films under BLOCK_BYTES
+        assert_eq!(sample_blocks(4, &(0..4096), BLOCK_BYTES / 40).len(), 10);
+        assert_eq!(sample_blocks(4, &(0..4096), BLOCK_BYTES).len(), 1);
     }
 }
