@@ -19,26 +19,38 @@ pub fn ticks() -> u64 {
     }
 }
 
-/// Reads of the counter per timed call: one call in `SAMPLED_EVERY` of a phase is timed, and
-/// its ticks count for all of them. A read costs tens of cycles, and the tracing and film
-/// phases are entered several times per packet and bounce: reading the counter on every
-/// call took 5 % of a Cornell-box render (`benches/ab/render_ab.sh`, 2026-11-28). The calls
-/// a phase makes are alike and the timed ones are spread evenly over them, so the phase's
-/// share of the ticks comes out the same up to sampling noise.
+/// Reads of the counter per timed call: one call in `SAMPLED_EVERY` of a phase, on average, is
+/// timed, and its ticks count for all of them. A read costs tens of cycles, and the tracing
+/// and film phases are entered several times per packet and bounce: reading the counter on
+/// every call took 5 % of a Cornell-box render (`benches/ab/render_ab.sh`, 2026-11-28). The
+/// timed calls are drawn at random (a xorshift per clock, the same every run), not every
+/// 16th: calls of different cost come in fixed patterns (a closest-hit query, then a shadow
+/// ray, at every bounce), which a fixed period would sample unevenly.
 pub const SAMPLED_EVERY: u64 = 16;
 
-/// A phase's timer that reads the counter on one call in [`SAMPLED_EVERY`].
-#[derive(Clone, Copy, Debug, Default)]
+/// A phase's timer that reads the counter on one call in [`SAMPLED_EVERY`], on average.
+#[derive(Clone, Copy, Debug)]
 pub struct SampledClock {
-    calls: u64,
+    state: u32,
+}
+
+impl Default for SampledClock {
+    fn default() -> Self {
+        Self { state: 0x9E37_79B9 }
+    }
 }
 
 impl SampledClock {
     /// Starts a call: the counter when this call is one of the timed ones.
     #[inline(always)]
     pub fn start(&mut self) -> Option<u64> {
-        self.calls = self.calls.wrapping_add(1);
-        self.calls.is_multiple_of(SAMPLED_EVERY).then(ticks)
+        // xorshift32 (Marsaglia 2003): a full period over the nonzero states
+        let mut x = self.state;
+        x ^= x << 13;
+        x ^= x >> 17;
+        x ^= x << 5;
+        self.state = x;
+        (x as u64).is_multiple_of(SAMPLED_EVERY).then(ticks)
     }
 }
 
@@ -53,19 +65,28 @@ pub fn sampled_ticks(start: Option<u64>) -> u64 {
 mod tests {
     use super::*;
 
+    /// About one call in `SAMPLED_EVERY` is timed, and calls that alternate (two kinds of
+    /// query, in turn) are timed alike: a fixed period of 16 timed only one of the two.
     #[test]
     fn one_call_in_sampled_every_reads_the_counter_and_stands_for_them_all() {
         let mut clock = SampledClock::default();
-        let timed: Vec<bool> = (0..3 * SAMPLED_EVERY).map(|_| clock.start().is_some()).collect();
-        assert_eq!(timed.iter().filter(|&&t| t).count(), 3);
-        assert!(
-            timed
-                .chunks(SAMPLED_EVERY as usize)
-                .all(|c| c.iter().filter(|&&t| t).count() == 1)
-        );
+        let n = 160_000;
+        let timed: Vec<bool> = (0..n).map(|_| clock.start().is_some()).collect();
+        let (even, odd) = timed.iter().enumerate().fold((0, 0), |(e, o), (i, &t)| {
+            if !t {
+                (e, o)
+            } else if i % 2 == 0 {
+                (e + 1, o)
+            } else {
+                (e, o + 1)
+            }
+        });
+        let expected = n as f64 / SAMPLED_EVERY as f64;
+        // binomial: sd ≈ √(n/16) = 100
+        assert!(((even + odd) as f64 - expected).abs() < 500.0, "{even} + {odd} of {n}");
+        assert!(((even as f64) - expected / 2.0).abs() < 400.0, "{even} even, {odd} odd");
         assert_eq!(sampled_ticks(None), 0);
-        let t0 = ticks();
-        let spent = sampled_ticks(Some(t0));
+        let spent = sampled_ticks(Some(ticks()));
         assert_eq!(spent % SAMPLED_EVERY, 0);
     }
 }
