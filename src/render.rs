@@ -932,9 +932,7 @@ impl<'s> Run<'s> {
                 });
                 bar.set_length(units as u64);
                 bar.inc(state.done_units() as u64);
-                let tiles_done: Vec<bool> = (0..rects.len())
-                    .map(|i| state.done[i * per_tile..(i + 1) * per_tile].iter().all(|&d| d))
-                    .collect();
+                let tiles_done: Vec<bool> = (0..rects.len()).map(|i| tile_done(&state.done, i, per_tile)).collect();
                 let todo: Vec<usize> = (0..units).filter(|&u| !state.done[u]).collect();
                 let frame = std::sync::Arc::new(SharedFrame::new(
                     std::mem::take(&mut state.frame),
@@ -949,18 +947,17 @@ impl<'s> Run<'s> {
                     move || {
                         let (st, films) = frame.snapshot(|| {
                             let st = lock(&state).clone();
-                            // a tile's blocks are done together, when the tile is stored
-                            let done = (0..n_tiles).map(|i| st.done[i * per_tile]).collect();
+                            let done = (0..n_tiles).map(|i| tile_done(&st.done, i, per_tile)).collect();
                             (st, done)
                         });
                         Saved { frame: films, ..st }
                     }
                 };
                 self.watch(snapshot.clone());
-                // the block films of tiles cut into blocks, kept until the tile's last block
-                // has run, with its tally
+                // each tile's block films with their tallies, kept until the tile's last
+                // block has run (a tile of one block is stored at once)
                 type Parked = Vec<Option<(TileFilm, crate::checkpoint::Tally)>>;
-                let parked: Vec<std::sync::Mutex<Parked>> = (0..if per_tile > 1 { rects.len() } else { 0 })
+                let parked: Vec<std::sync::Mutex<Parked>> = (0..rects.len())
                     .map(|_| std::sync::Mutex::new((0..per_tile).map(|_| None).collect()))
                     .collect();
                 let spares = std::sync::Mutex::new(Vec::<TileFilm>::new());
@@ -990,37 +987,28 @@ impl<'s> Run<'s> {
                             );
                             counts.total_ticks = crate::timing::ticks() - tick0;
                             let tally = (counts, film.tails(), film.block_sums());
-                            if per_tile == 1 {
-                                frame.store(i, &film, || {
-                                    let mut st = lock(&state);
-                                    st.done[u] = true;
-                                    st.tallies[u] = Some(tally);
-                                });
-                                *spare = Some(film);
-                            } else {
-                                let all = {
-                                    let mut p = lock(&parked[i]);
-                                    p[b] = Some((film, tally));
-                                    p.iter().all(Option::is_some).then(|| std::mem::take(&mut *p))
-                                };
-                                if let Some(all) = all {
-                                    let mut all = all.into_iter().map(|p| p.expect("every block ran"));
-                                    let (mut sum, first) = all.next().expect("a tile has blocks");
-                                    let mut kept = vec![first];
-                                    for (f, t) in all {
-                                        sum.add_film(&f);
-                                        kept.push(t);
-                                        lock(&spares).push(f);
-                                    }
-                                    frame.store(i, &sum, || {
-                                        let mut st = lock(&state);
-                                        for (k, t) in kept.into_iter().enumerate() {
-                                            st.done[i * per_tile + k] = true;
-                                            st.tallies[i * per_tile + k] = Some(t);
-                                        }
-                                    });
-                                    *spare = Some(sum);
+                            let all = {
+                                let mut p = lock(&parked[i]);
+                                p[b] = Some((film, tally));
+                                p.iter().all(Option::is_some).then(|| std::mem::take(&mut *p))
+                            };
+                            if let Some(all) = all {
+                                let mut all = all.into_iter().map(|p| p.expect("every block ran"));
+                                let (mut sum, first) = all.next().expect("a tile has blocks");
+                                let mut kept = vec![first];
+                                for (f, t) in all {
+                                    sum.add_film(&f);
+                                    kept.push(t);
+                                    lock(&spares).push(f);
                                 }
+                                frame.store(i, &sum, || {
+                                    let mut st = lock(&state);
+                                    for (k, t) in kept.into_iter().enumerate() {
+                                        st.done[i * per_tile + k] = true;
+                                        st.tallies[i * per_tile + k] = Some(t);
+                                    }
+                                });
+                                *spare = Some(sum);
                             }
                             self.checkpoint_if_due(&snapshot);
                             bar.inc(1);
@@ -1449,6 +1437,12 @@ pub const BLOCK_BYTES: u128 = 256 << 20;
 /// Blocks per tile for `tiles` tiles of `n` samples whose films take `tile_bytes` each: as
 /// few as give [`MIN_UNITS`] units, at most one per sample, and no more than keep every
 /// tile's block films under [`BLOCK_BYTES`].
+/// Whether tile `i` of a render cut into `per_tile` sample blocks a tile is finished: all
+/// of its units are done (they are marked together, when the tile is stored).
+fn tile_done(done: &[bool], i: usize, per_tile: usize) -> bool {
+    done[i * per_tile..(i + 1) * per_tile].iter().all(|&d| d)
+}
+
 fn blocks_per_tile(tiles: usize, n: u64, tile_bytes: u128) -> u64 {
     let by_memory = (BLOCK_BYTES / (tiles.max(1) as u128 * tile_bytes.max(1))).min(u64::MAX as u128) as u64;
     (MIN_UNITS.div_ceil(tiles.max(1)) as u64)
