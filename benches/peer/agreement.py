@@ -1,9 +1,14 @@
-"""Agreement within noise of two renderers' transients (shared by compare_mitransient.py and
-check_xml.py): for per-bin totals and 8x8 blocks of the time-summed image, the difference of
+"""Agreement within noise of two renderers' transients (shared by compare_mitransient.py,
+compare_nlos.py and check_xml.py): for per-bin totals and 8x8 blocks of the time-summed image, the difference of
 the two renderers' means over independent seeds, in units of its standard error. Under
 agreement Σz² ≈ the number of entries (χ²) and no |z| exceeds a Bonferroni-like bound."""
 import math
 import numpy as np
+
+
+def rel_l2(a, b):
+    """Relative L2 error of a against the reference b."""
+    return float(np.sqrt(((a - b) ** 2).sum() / (b ** 2).sum()))
 
 
 def bins(a):

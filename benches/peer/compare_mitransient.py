@@ -28,6 +28,7 @@ mi.set_variant("llvm_ad_rgb")
 import mitransient as mitr  # noqa: E402,F401
 
 import agreement  # noqa: E402  (beside this script)
+from agreement import rel_l2  # noqa: E402
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 SCENE = os.path.join(ROOT, "scenes", os.environ.get("PEER_SCENE", "cornell_box.toml"))
@@ -139,10 +140,6 @@ def run_dtr(spp, seed, prefix, args=None):
                    check=True)
     with open(prefix + ".json") as f:
         return np.load(prefix + ".npy"), json.load(f)
-
-
-def rel_l2(a, b):
-    return float(np.sqrt(((a - b) ** 2).sum() / (b ** 2).sum()))
 
 
 def main():

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Optional peer comparison (not in CI): installs mitsuba 3.9.1 + mitransient 1.3.1 into a venv,
-# Debian's libllvm19 for Dr.Jit's LLVM backend (LLVM 15 aborts), builds dtr, and runs the script.
+# Debian's libllvm19 for Dr.Jit's LLVM backend (LLVM 15 aborts), builds dtr, and runs the script:
+# compare_mitransient.py (the Cornell box), or with the argument `nlos` compare_nlos.py (a relay wall).
 # PEER_NEE_FIX=1 runs it with a copy of the venv (bench-out/peer-venv-neefix) whose mitransient
 # places next-event segments taken through a refraction at the far side's index
 # (nee_opl_fix.py; BENCHMARKS.md, "Rough dielectrics against mitransient's roughdielectric").
@@ -16,5 +17,10 @@ if [ "${PEER_NEE_FIX:-0}" = 1 ]; then
   [ -x bench-out/peer-venv-neefix/bin/python ] || cp -a bench-out/peer-venv bench-out/peer-venv-neefix
   bench-out/peer-venv-neefix/bin/python benches/peer/nee_opl_fix.py bench-out/peer-venv-neefix
   venv=bench-out/peer-venv-neefix
+fi
+# `run.sh nlos`: the relay-wall comparison (compare_nlos.py); otherwise the Cornell box
+if [ "${1:-}" = nlos ]; then
+  shift
+  exec "$venv"/bin/python benches/peer/compare_nlos.py "$@"
 fi
 exec "$venv"/bin/python benches/peer/compare_mitransient.py "$@"
