@@ -448,11 +448,11 @@ fn film_bytes(
             } else {
                 0
             };
-            // the full-frame rows, and a wave of unit films with their splats onto other
-            // pixels at their worst (`bdpt::units`)
+            // the full-frame rows, and two waves of unit films with their splats onto other
+            // pixels at their worst (`bdpt::units`): one tracing while the other is added
             let rows = frame * ((1 + d) * acc + strategies * 4);
             let unit = bdpt::units::unit_bytes(scene, TILE, derivs, per_strategy);
-            rows + (bdpt::units::wave_len(unit) * unit) as u128
+            rows + 2 * (bdpt::units::wave_len(unit) * unit) as u128
         }
     };
     let copies = if checkpointing { 2 } else { 1 };
@@ -1026,9 +1026,10 @@ impl<'s> Run<'s> {
                 st.tallies.into_iter().map(|t| t.expect("every unit ran")).collect()
             }
             IntegratorKind::Bdpt => {
-                // Units (a tile, a block of samples) run in waves; after each wave every
-                // unit's tile and splats onto other pixels are added to the full-frame rows,
-                // row by row in parallel, unit by unit in order (`bdpt::units`). The rows
+                // Units (a tile, a block of samples) run in waves; after each wave, while the
+                // next one traces, every unit's tile and splats onto other pixels are added to
+                // the full-frame rows, row by row in parallel, unit by unit in order
+                // (`bdpt::units`). The rows
                 // live in the state as the checkpoint's films between waves (moved, not
                 // copied), so a checkpoint or a signal always sees whole waves.
                 let unit_bytes = bdpt::units::unit_bytes(scene, TILE, derivs, per_strategy);
@@ -1059,77 +1060,112 @@ impl<'s> Run<'s> {
                     move || lock(&state).clone()
                 };
                 self.watch(snapshot.clone());
-                let mut films: Vec<BdptFilm> = Vec::new();
-                // a checkpoint found due after a wave is written from the state itself (no
-                // copy) while the next wave traces, which leaves the rows alone; the row adds
-                // wait for it
-                let mut due = false;
-                for (k, wave) in waves.iter().enumerate() {
-                    if lock(&state).done[k] {
-                        continue;
-                    }
-                    while films.len() < wave.len() {
-                        films.push(BdptFilm::new(ctx, (0, 0, TILE, TILE), derivs, per_strategy, true));
-                    }
-                    let films = &mut films[..wave.len()];
-                    let writer = std::mem::take(&mut due).then_some(self.checkpointing()).flatten();
-                    let counts: Vec<PathCounts> = std::thread::scope(|scope| {
-                        if let Some(ck) = writer {
-                            let state = &state;
-                            scope.spawn(move || report(ck, ck.write(&lock(state))));
-                        }
-                        self.pool.install(|| {
-                            films
-                                .par_iter_mut()
-                                .zip(wave.clone())
-                                .map(|(film, u)| {
-                                    let (rect, block) = units.unit(u);
-                                    film.reset(rect);
-                                    let mut counts = PathCounts::default();
-                                    let tick0 = crate::timing::ticks();
-                                    let (f, cn, tile) = (&mut *film, &mut counts, [(rect.0, rect.1)]);
-                                    dispatch!(
-                                        derivs,
-                                        opts.lanes,
-                                        channels,
-                                        bdpt_tiles(ctx, seed, spp, &block, &tile, TILE, f, cn)
-                                    );
-                                    counts.total_ticks = crate::timing::ticks() - tick0;
-                                    bar.inc(1);
-                                    counts
-                                })
-                                .collect()
+                // Wave k traces while wave k - 1's units are added to the rows (`rayon::join`),
+                // so no thread waits for the adds, and the adds fill the threads that would
+                // wait for the wave's slowest unit. Two sets of unit films take turns. The
+                // rows get every unit in unit order as before, so the bytes are the same.
+                let trace = |films: &mut [BdptFilm], wave: &std::ops::Range<usize>| -> Vec<PathCounts> {
+                    films
+                        .par_iter_mut()
+                        .zip(wave.clone())
+                        .map(|(film, u)| {
+                            let (rect, block) = units.unit(u);
+                            film.reset(rect);
+                            let mut counts = PathCounts::default();
+                            let tick0 = crate::timing::ticks();
+                            let (f, cn, tile) = (&mut *film, &mut counts, [(rect.0, rect.1)]);
+                            dispatch!(
+                                derivs,
+                                opts.lanes,
+                                channels,
+                                bdpt_tiles(ctx, seed, spp, &block, &tile, TILE, f, cn)
+                            );
+                            counts.total_ticks = crate::timing::ticks() - tick0;
+                            bar.inc(1);
+                            counts
                         })
-                    });
+                        .collect()
+                };
+                // adds a traced wave's units to the rows and marks the wave done, with its tally
+                let commit = |rows: &mut [BdptFilm], (k, films, counts): (usize, &[BdptFilm], Vec<PathCounts>)| {
                     let mut tally: crate::checkpoint::Tally = (PathCounts::default(), [0.0; 2], Vec::new());
-                    for (c, f) in counts.iter().zip(films.iter()) {
+                    for (c, f) in counts.iter().zip(films) {
                         tally.0.add(c);
                         let t = f.film.tails();
                         tally.1[0] += t[0];
                         tally.1[1] += t[1];
                     }
-                    {
-                        let mut st = lock(&state);
-                        let films = &*films;
-                        let chunks = &mut st.chunks;
-                        self.pool.install(|| {
-                            rows.par_iter_mut().zip(chunks.par_iter_mut()).for_each(|(row, sums)| {
-                                row.film
-                                    .restore(sums.take().expect("every row's sums sit in the state"))
-                                    .expect("a row's own sums");
-                                for unit in films {
-                                    match channels {
-                                        1 => row.add_unit::<1>(ctx, unit),
-                                        _ => row.add_unit::<3>(ctx, unit),
-                                    }
+                    let mut st = lock(&state);
+                    rows.par_iter_mut()
+                        .zip(st.chunks.par_iter_mut())
+                        .for_each(|(row, sums)| {
+                            row.film
+                                .restore(sums.take().expect("every row's sums sit in the state"))
+                                .expect("a row's own sums");
+                            for unit in films {
+                                match channels {
+                                    1 => row.add_unit::<1>(ctx, unit),
+                                    _ => row.add_unit::<3>(ctx, unit),
                                 }
-                                *sums = Some(row.film.take_sums());
-                            })
+                            }
+                            *sums = Some(row.film.take_sums());
                         });
-                        st.done[k] = true;
-                        st.tallies[k] = Some(tally);
+                    st.done[k] = true;
+                    st.tallies[k] = Some(tally);
+                };
+                let mut sets: [Vec<BdptFilm>; 2] = [Vec::new(), Vec::new()];
+                // the wave traced but not yet added: its index, its set of films, its counts
+                let mut pending: Option<(usize, usize, Vec<PathCounts>)> = None;
+                // a checkpoint found due after a wave is written from the state itself (no
+                // copy) while the next wave traces, which leaves the rows alone; the wave
+                // traced before is added first, so the checkpoint holds every traced wave
+                let mut due = false;
+                for (k, wave) in waves.iter().enumerate() {
+                    if lock(&state).done[k] {
+                        continue;
                     }
+                    let s = pending.as_ref().map_or(0, |p| 1 - p.1);
+                    while sets[s].len() < wave.len() {
+                        sets[s].push(BdptFilm::new(ctx, (0, 0, TILE, TILE), derivs, per_strategy, true));
+                    }
+                    let [a, b] = &mut sets;
+                    let (films, other) = if s == 0 { (a, &*b) } else { (b, &*a) };
+                    let films = &mut films[..wave.len()];
+                    let before = pending.take().map(|(j, _, c)| (j, &other[..waves[j].len()], c));
+                    let writer = std::mem::take(&mut due).then_some(self.checkpointing()).flatten();
+                    let counts = match writer {
+                        Some(ck) => {
+                            if let Some(before) = before {
+                                self.pool.install(|| commit(&mut rows, before));
+                            }
+                            std::thread::scope(|scope| {
+                                let state = &state;
+                                scope.spawn(move || report(ck, ck.write(&lock(state))));
+                                self.pool.install(|| trace(films, wave))
+                            })
+                        }
+                        None => {
+                            let rows = &mut rows;
+                            self.pool.install(|| {
+                                rayon::join(
+                                    || trace(films, wave),
+                                    || {
+                                        if let Some(before) = before {
+                                            commit(rows, before)
+                                        }
+                                    },
+                                )
+                                .0
+                            })
+                        }
+                    };
+                    pending = Some((k, s, counts));
                     due = self.checkpointing().is_some_and(|ck| ck.due());
+                }
+                if let Some((j, s, counts)) = pending.take() {
+                    self.pool
+                        .install(|| commit(&mut rows, (j, &sets[s][..waves[j].len()], counts)));
+                    due |= self.checkpointing().is_some_and(|ck| ck.due());
                 }
                 drop(snapshot);
                 if let Some(ck) = self.checkpointing().filter(|_| due && !self.boundary_wanted) {

@@ -168,11 +168,7 @@ fn strategies_sum_to_the_transient_with_dirac_lobes() {
 }
 
 fn small_cornell() -> Scene {
-    let mut s = common::load("cornell_box.toml");
-    s.film.width = 16;
-    s.film.height = 16;
-    s.integrator.max_bounces = 4;
-    s
+    common::cornell(16, 16, 4)
 }
 
 #[test]
@@ -287,6 +283,44 @@ fn bdpt_is_deterministic_across_thread_counts() {
     o.threads = Some(5);
     let (c, _) = render(&scene, &o).unwrap();
     assert!(a.data == c.data && a.steady == c.steady);
+}
+
+/// A film of several waves of units. Wave k traces while wave k − 1's units are added to the
+/// rows, two sets of unit films taking turns (`render.rs`): every unit must reach the rows
+/// once, from the set it was traced into. A wave added twice, skipped, or read while it
+/// traces shows as a band of tiles off the path tracer's (16 × 16-pixel blocks of the
+/// time-summed image) or as bytes that change with the thread count.
+#[test]
+fn bdpt_waves_traced_beside_the_adds_reach_every_unit_once() {
+    use difftransient::integrator::bdpt::units::{Units, unit_bytes};
+    let scene = common::cornell(256, 256, 3);
+    let spp = 2;
+    let tile = difftransient::render::TILE;
+    let waves = Units::new(&scene, tile, &(0..spp as u64), unit_bytes(&scene, tile, 0, false))
+        .waves()
+        .len();
+    assert!(waves >= 4, "{waves} waves: the test needs several");
+    fn blocks(t: &Transient) -> (Vec<f64>, Vec<f64>) {
+        let (w, h) = (t.width, t.height);
+        let mut image = vec![0.0; (w / 16) * (h / 16)];
+        for y in 0..h {
+            for x in 0..w {
+                let v: f64 = (0..t.channels)
+                    .map(|c| t.steady[(y * w + x) * t.channels + c] as f64)
+                    .sum();
+                image[(y / 16) * (w / 16) + x / 16] += v;
+            }
+        }
+        (t.bin_totals().into_iter().map(|v| v as f64).collect(), image)
+    }
+    agree_on("cornell 256x256", &scene, spp, K, blocks);
+    let mut o = opts(IntegratorKind::Bdpt, spp, 5);
+    let (a, _) = render(&scene, &o).unwrap();
+    for threads in [1, 3] {
+        o.threads = Some(threads);
+        let (b, _) = render(&scene, &o).unwrap();
+        assert!(a.data == b.data && a.steady == b.steady, "{threads} threads");
+    }
 }
 
 /// A derivative render runs the same strategies with the same weights as the plain render

@@ -6,11 +6,7 @@ use crate::common;
 use glam::Vec3;
 
 fn small_cornell() -> difftransient::Scene {
-    let mut s = common::load("cornell_box.toml");
-    s.film.width = 16;
-    s.film.height = 16;
-    s.integrator.max_bounces = 4;
-    s
+    common::cornell(16, 16, 4)
 }
 
 /// `small_cornell` 10 km away, written as scene text (f64 positions, render origin).

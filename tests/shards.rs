@@ -89,10 +89,7 @@ fn a_shard_normalised_by_its_own_samples_would_fail() {
 
 #[test]
 fn bdpt_shards_add_up_to_the_whole_render() {
-    let mut scene = common::load("cornell_box.toml");
-    scene.film.width = 16;
-    scene.film.height = 16;
-    scene.integrator.max_bounces = 4;
+    let scene = common::cornell(16, 16, 4);
     let spp = 5;
     let (whole, _) = render(&scene, &opts(spp, Shard::WHOLE, IntegratorKind::Bdpt)).unwrap();
     let parts: Vec<Transient> = shards(2)

@@ -103,10 +103,7 @@ fn path_tracer_and_bdpt_contributions_reach_any_sink_with_their_strategy() {
 /// tile's own sums or splats, in the order they were made).
 #[test]
 fn a_bdpt_unit_and_its_splats_add_up_to_a_full_frame_film() {
-    let mut scene = common::load("cornell_box.toml");
-    scene.film.width = 16;
-    scene.film.height = 16;
-    scene.integrator.max_bounces = 4;
+    let scene = common::cornell(16, 16, 4);
     let device = Device::new("").unwrap();
     let ctx = RenderContext::new(&scene, &device).unwrap();
     let mut full = BdptFilm::new(&ctx, (0, 0, 16, 16), 0, false, false);

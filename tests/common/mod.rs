@@ -14,6 +14,15 @@ pub fn load(name: &str) -> Scene {
     Scene::load(&scene_path(name), &[]).unwrap_or_else(|e| panic!("loading {name}: {e}"))
 }
 
+/// scenes/cornell_box.toml at `width` × `height` pixels and `max_bounces` bounces.
+pub fn cornell(width: u32, height: u32, max_bounces: u32) -> Scene {
+    let mut s = load("cornell_box.toml");
+    s.film.width = width;
+    s.film.height = height;
+    s.integrator.max_bounces = max_bounces;
+    s
+}
+
 /// Every conductor and dielectric of `scene` made smooth (roughness 0: Dirac lobes).
 pub fn make_smooth(scene: &mut Scene) {
     use difftransient::scene::Material;

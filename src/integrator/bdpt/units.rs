@@ -1,7 +1,8 @@
 //! How a BDPT render is cut into units of work that any number of threads can run: a unit is
-//! one tile and one block of consecutive samples. Units run in waves of a fixed size; after
-//! each wave the driver adds every unit's tile and its splats onto other pixels
-//! (`super::film`) to the full-frame rows, row by row in parallel and unit by unit in order.
+//! one tile and one block of consecutive samples. Units run in waves of a fixed size; while
+//! the next wave traces, the driver adds every unit's tile and its splats onto other pixels
+//! (`super::film`) to the full-frame rows, row by row in parallel and unit by unit in order
+//! (two waves' films are alive at once).
 //! The cut depends on the scene, the film and the sample range only, never on the thread
 //! count, so neither do the bytes.
 //!
