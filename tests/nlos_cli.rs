@@ -348,6 +348,8 @@ fn explicit_points_and_info() {
         "{text}"
     );
     assert!(text.contains("relay legs out of the time of flight"), "{text}");
+    // max_bounces = 1: the third bounce (laser → spot → patch → sensor point → SPAD)
+    assert!(text.contains("paths of up to 3 bounces from laser to SPAD"), "{text}");
     let json = common::dtr(&["info", scene.to_str().unwrap(), "--json"], dir.path());
     let v: serde_json::Value = serde_json::from_slice(&json.stdout).unwrap();
     assert_eq!(v["nlos"]["scan"], "confocal");

@@ -414,7 +414,7 @@ impl fmt::Display for Scene {
         if let Some(n) = &self.nlos {
             writeln!(
                 out,
-                "  nlos: {} scan on shape {:?}: {} sensor point(s) ({}), {} laser point(s) of laser {:?}; the SPAD is the camera position; relay legs {} the time of flight; {}{}",
+                "  nlos: {} scan on shape {:?}: {} sensor point(s) ({}), {} laser point(s) of laser {:?}; the SPAD is the camera position; relay legs {} the time of flight; paths of up to {} bounces from laser to SPAD (max_bounces counts those between a sensor point and a laser spot); {}{}",
                 if n.exhaustive() { "exhaustive" } else { "confocal" },
                 self.shapes[n.wall as usize].name,
                 n.sensors.len(),
@@ -430,6 +430,7 @@ impl fmt::Display for Scene {
                 } else {
                     "out of"
                 },
+                it.max_bounces + 2,
                 if n.hidden.probability > 0.0 {
                     format!(
                         "{:.0}% of paths aimed at {:?}",
