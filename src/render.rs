@@ -1029,9 +1029,9 @@ impl<'s> Run<'s> {
                 // Units (a tile, a block of samples) run in waves; after each wave, while the
                 // next one traces, every unit's tile and splats onto other pixels are added to
                 // the full-frame rows, row by row in parallel, unit by unit in order
-                // (`bdpt::units`). The rows
-                // live in the state as the checkpoint's films between waves (moved, not
-                // copied), so a checkpoint or a signal always sees whole waves.
+                // (`bdpt::units`). The rows live in the state as the checkpoint's films
+                // between waves (moved, not copied), so a checkpoint or a signal always sees
+                // whole waves.
                 let unit_bytes = bdpt::units::unit_bytes(scene, TILE, derivs, per_strategy);
                 let units = bdpt::units::Units::new(scene, TILE, if ran { samples } else { &(0..0) }, unit_bytes);
                 let waves = units.waves();
@@ -1470,15 +1470,15 @@ pub const MIN_UNITS: usize = 256;
 /// derivative blocks).
 pub const BLOCK_BYTES: u128 = 256 << 20;
 
-/// Blocks per tile for `tiles` tiles of `n` samples whose films take `tile_bytes` each: as
-/// few as give [`MIN_UNITS`] units, at most one per sample, and no more than keep every
-/// tile's block films under [`BLOCK_BYTES`].
 /// Whether tile `i` of a render cut into `per_tile` sample blocks a tile is finished: all
 /// of its units are done (they are marked together, when the tile is stored).
 fn tile_done(done: &[bool], i: usize, per_tile: usize) -> bool {
     done[i * per_tile..(i + 1) * per_tile].iter().all(|&d| d)
 }
 
+/// Blocks per tile for `tiles` tiles of `n` samples whose films take `tile_bytes` each: as
+/// few as give [`MIN_UNITS`] units, at most one per sample, and no more than keep every
+/// tile's block films under [`BLOCK_BYTES`].
 fn blocks_per_tile(tiles: usize, n: u64, tile_bytes: u128) -> u64 {
     let by_memory = (BLOCK_BYTES / (tiles.max(1) as u128 * tile_bytes.max(1))).min(u64::MAX as u128) as u64;
     (MIN_UNITS.div_ceil(tiles.max(1)) as u64)
