@@ -31,15 +31,19 @@ fn load(file: &str, set: &[(&str, f64)]) -> Scene {
 /// AD − FD over 16 seeds of `spp` paths per sensor point on the coarse aggregates (total, halves, quadrants, time slices):
 /// every aggregate within 4 standard errors (widened by the Richardson estimate of the finite
 /// difference's truncation), and the run resolves a 5% bias of the largest aggregate.
+///
+/// The paths per sensor point resolve 5% of every coordinate's strongest aggregate about four
+/// times over (`best` 80 or more against the 20 required; measured 2026-11-28: 83–120 on the
+/// flat wall at 2048 paths, 99–189 on the curved one at 4096). The curved wall needs more
+/// paths for the same resolution.
 #[test]
 fn interior_position_derivative_matches_finite_differences() {
-    check_derivatives("nlos_tracking.toml", 8192);
+    check_derivatives("nlos_tracking.toml", 2048);
 }
 
 #[test]
 fn interior_position_derivative_matches_finite_differences_on_a_curved_wall() {
-    // the curved wall lights the square from more of the wall: more paths to resolve 5%
-    check_derivatives("nlos_tracking_curved.toml", 16384);
+    check_derivatives("nlos_tracking_curved.toml", 4096);
 }
 
 fn check_derivatives(file: &str, spp: u32) {
@@ -94,6 +98,7 @@ fn check_derivatives(file: &str, spp: u32) {
             }
         }
         // the strongest aggregate's derivative is at least 20 of its 4-sd bands: a 5% bias fails
+        eprintln!("{file} {name}: best {best:.1} (at least 20)");
         assert!(best > 20.0, "{name}: the check cannot see a 5% bias (best {best:.1})");
     }
 }
