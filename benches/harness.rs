@@ -156,7 +156,7 @@ fn main() {
                 ..Default::default()
             };
             let (t, d, st) = run(w, &opts);
-            let bare = bare_embree_rate(&w.scene, &st, threads, !w.diff.is_empty());
+            let bare = bare_embree_rate(&w.scene, &st, threads, st.traversal == "robust");
             let (med, worst) = per_bin(&t, &reference.0);
             let e_t = rel_l2(&t.data, &reference.0.data);
             let e_d = d
@@ -345,7 +345,8 @@ fn per_bin(t: &Transient, r: &Transient) -> (f64, f64) {
 }
 
 /// Bare Embree rays/s (wall, `threads` threads) on rays of the same kinds and counts as `st`,
-/// in the renderer's traversal mode (`robust` for derivative renders, see `render.rs`).
+/// in the traversal mode the render used (`RenderStats::traversal`: watertight unless a forward
+/// render asked for `fast_traversal`, see `render.rs`).
 fn bare_embree_rate(scene: &Scene, st: &RenderStats, threads: usize, robust: bool) -> f64 {
     let dev = Device::new("").unwrap();
     let pos: Vec<[f32; 3]> = scene.geometry.positions.iter().map(|p| p.to_array()).collect();
