@@ -160,7 +160,7 @@ struct GaussBin {
     w_inv_s: f64,
     /// w · φ(cut) / s.
     floor: f64,
-    /// The cut, cut · s: bins whose centre is farther from u get 0.
+    /// The cut in x (cut · s): bins whose centre is farther from u get 0.
     reach: f64,
 }
 
