@@ -19,6 +19,17 @@ known factor per point, no fitted scale. The agreement test (agreement.py: per-b
 8x8 blocks of the time-summed capture, z-scores of the difference of the means over PEER_SEEDS
 seeds) runs on the converted capture and stops the script if the two disagree.
 
+PEER_SCAN=exhaustive compares an exhaustive scan instead (every sensor point lit by every laser
+point; PEER_GRID defaults to 8 there: 64 x 64 sensor-laser pairs). mitransient then runs
+capture_type = exhaustive with its laser grid equal to the sensor grid (laser point i is sensor
+point i) and a film of shape [sensor y, sensor x, laser i // GRID, laser i % GRID, bins]; each
+laser point's transient goes to its own entries unscaled (only the steady image it returns is
+a mean over laser points), so the conversion is d² / (π cos i) at each laser point. Ours has
+laser points along rows and sensor points along columns (`dtr info`), both numbered row by row
+like the confocal grid. With mitransient 1.3.1 the exhaustive comparison stops at the agreement
+test: its exhaustive capture does not hold its own confocal capture on the diagonal
+(nlos_exhaustive_diagonal.py; BENCHMARKS.md, "Exhaustive scans").
+
 Then warm renders only, interleaved (ours, theirs, ...; PEER_REPEATS each, after one untimed
 warm-up of each at the timed spp), each renderer's CPU seconds from its own accounting, medians
 with ranges: paths per CPU-second, and the error at equal CPU time (transient rel. L2 against
@@ -38,7 +49,10 @@ from agreement import rel_l2  # noqa: E402
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 SCENE = os.path.join(ROOT, "benches", "peer", "nlos_peer.toml")
 DTR = os.environ.get("PEER_DTR", os.path.join(ROOT, "target", "release", "dtr"))
-GRID = int(os.environ.get("PEER_GRID", "32"))
+SCAN = os.environ.get("PEER_SCAN", "confocal")
+if SCAN not in ("confocal", "exhaustive"):
+    sys.exit(f"PEER_SCAN={SCAN}: expected confocal or exhaustive")
+GRID = int(os.environ.get("PEER_GRID", "32" if SCAN == "confocal" else "8"))
 SPP = int(os.environ.get("PEER_SPP", "256"))
 SEEDS = int(os.environ.get("PEER_SEEDS", "8"))
 REF_SPP = int(os.environ.get("PEER_REF_SPP", "16384"))
@@ -46,14 +60,28 @@ REPEATS = int(os.environ.get("PEER_REPEATS", "5"))
 DTR_ARGS = os.environ.get("PEER_DTR_ARGS", "").split()
 MI_SAMPLER = os.environ.get("PEER_MI_SAMPLER", "independent")
 THREADS = int(os.environ.get("PEER_THREADS", "1"))
-OUT = os.path.join(ROOT, "bench-out", "peer-nlos")
+OUT = os.path.join(ROOT, "bench-out", "peer-nlos" if SCAN == "confocal" else "peer-nlos-exhaustive")
+
+
+def scene_file():
+    """nlos_peer.toml, or a copy of it with the exhaustive scan (strings cannot be `--set`)."""
+    if SCAN == "confocal":
+        return SCENE
+    with open(SCENE) as f:
+        text = f.read()
+    if 'scan = "confocal"' not in text:
+        sys.exit(f"{SCENE}: expected `scan = \"confocal\"` to turn into the exhaustive scan")
+    path = os.path.join(OUT, "nlos_peer_exhaustive.toml")
+    with open(path, "w") as f:
+        f.write(text.replace('scan = "confocal"', 'scan = "exhaustive"'))
+    return path
 
 
 def run_dtr(spp, seed, prefix, args=None):
     args = DTR_ARGS if args is None else args
     grid = ["--set", f"nlos.grid.0={GRID}", "--set", f"nlos.grid.1={GRID}"]
     threads = ["--threads", str(THREADS)] if THREADS > 0 else []
-    subprocess.run([DTR, "render", SCENE, "--spp", str(spp), "--seed", str(seed), "-o", prefix, "-q",
+    subprocess.run([DTR, "render", scene_file(), "--spp", str(spp), "--seed", str(seed), "-o", prefix, "-q",
                     *grid, *threads, *args], check=True)
     with open(prefix + ".json") as f:
         return np.load(prefix + ".npy")[..., 0], json.load(f)
@@ -71,7 +99,8 @@ def mitsuba_scene(d):
         sys.exit("the conversion assumes the relay wall is the untransformed default rectangle")
     laser = next(e for e in d["emitter"] if e["name"] == nlos["laser"])
     if "pulse" in laser or "gate" in film or nlos.get("scan", "confocal") != "confocal":
-        sys.exit("the comparison needs a delta pulse, plain box bins and a confocal scan")
+        sys.exit("the comparison needs a delta pulse, plain box bins and (in the file) a confocal scan")
+    exhaustive = {"exhaustive_scan": True, "laser_scan_width": GRID, "laser_scan_height": GRID} if SCAN == "exhaustive" else {}
     diffuse = lambda m: {"type": "diffuse", "reflectance": {"type": "rgb", "value": [float(mats[m]["albedo"])] * 3}}
     from compare_mitransient import to_world  # the same transform convention as the Cornell box
     sc = {
@@ -80,7 +109,7 @@ def mitsuba_scene(d):
             # our NLOS paths count the bounces between the sensor point and the laser spot;
             # Mitsuba's depth counts the SPAD's segment, the sensor point and the spot too
             "type": "transient_nlos_path", "max_depth": int(d["integrator"]["max_bounces"]) + 3,
-            "rr_depth": 1000, "capture_type": "confocal", "nlos_laser_sampling": True,
+            "rr_depth": 1000, "capture_type": SCAN, "nlos_laser_sampling": True,
             "nlos_hidden_geometry_sampling": True, "nlos_hidden_geometry_sampling_includes_relay_wall": False,
             "temporal_filter": "box", "account_first_and_last_bounces": False,
         },
@@ -91,7 +120,7 @@ def mitsuba_scene(d):
                 "sampler": {"type": MI_SAMPLER, "sample_count": SPP},
                 "film": {"type": "transient_hdr_film", "width": GRID, "height": GRID, "rfilter": {"type": "box"},
                          "temporal_bins": int(film["bins"]), "start_opl": float(film["start_opl"]),
-                         "bin_width_opl": float(film["bin_width_opl"])},
+                         "bin_width_opl": float(film["bin_width_opl"]), **exhaustive},
             },
         },
         "laser": {
@@ -118,6 +147,17 @@ def laser_factor(d):
     return dist ** 2 / (math.pi * cos_i)
 
 
+def converted(capture, factor):
+    """mitransient's capture in our layout and units: confocal [y, x, bin] times the factor per
+    sensor point; exhaustive [laser, sensor, bin] (laser and sensor numbered row by row) times
+    the factor per laser point."""
+    if SCAN == "confocal":
+        return capture * factor[:, :, None]
+    n = GRID * GRID
+    c = capture.reshape(n, n, capture.shape[-1])  # [sensor, laser, bin]
+    return c.transpose(1, 0, 2) * factor.reshape(n)[:, None, None]
+
+
 def main():
     os.makedirs(OUT, exist_ok=True)
     with open(SCENE, "rb") as f:
@@ -126,8 +166,8 @@ def main():
         dr.set_thread_count(THREADS)
     ref, _ = run_dtr(REF_SPP, 777, os.path.join(OUT, "ref"), ["--sampler", "sobol"])
     scene = mi.load_dict(mitsuba_scene(d))
-    factor = laser_factor(d)[:, :, None]
-    theirs = lambda seed: np.array(mi.render(scene, spp=SPP, seed=seed)[1])[..., 0] * factor
+    factor = laser_factor(d)
+    theirs = lambda seed: converted(np.array(mi.render(scene, spp=SPP, seed=seed)[1])[..., 0], factor)
     theirs(10_000)  # warm-ups at the timed spp: Dr.Jit compiles one kernel per sample count
     run_dtr(SPP, 10_000, os.path.join(OUT, "warmup"))
     ours_runs = [run_dtr(SPP, 1 + k, os.path.join(OUT, f"ours{k}"))[0][..., None] for k in range(SEEDS)]
@@ -146,7 +186,7 @@ def main():
     paths = GRID * GRID * SPP
     med = lambda v: float(np.median(v))
     tot = lambda runs: float(np.mean([r.sum() for r in runs]))
-    print(f"{GRID}x{GRID} confocal, {SPP} spp, {THREADS or 'all'} thread(s); dtr {' '.join(DTR_ARGS) or '(defaults)'}, "
+    print(f"{GRID}x{GRID} {SCAN}, {SPP} spp, {THREADS or 'all'} thread(s); dtr {' '.join(DTR_ARGS) or '(defaults)'}, "
           f"mitransient sampler {MI_SAMPLER}")
     print(f"total (converted): ours {tot(ours_runs):.5f}, mitransient {tot(theirs_runs):.5f}, reference {float(ref.sum()):.5f}")
     rms = lambda runs: math.sqrt(sum(rel_l2(r[..., 0], ref) ** 2 for r in runs) / len(runs))

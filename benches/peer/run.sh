@@ -18,7 +18,13 @@ if [ "${PEER_NEE_FIX:-0}" = 1 ]; then
   bench-out/peer-venv-neefix/bin/python benches/peer/nee_opl_fix.py bench-out/peer-venv-neefix
   venv=bench-out/peer-venv-neefix
 fi
-# `run.sh nlos`: the relay-wall comparison (compare_nlos.py); otherwise the Cornell box
+# `run.sh nlos`: the relay-wall comparison (compare_nlos.py); `run.sh nlos-diagonal`: whether
+# each renderer's exhaustive capture holds its confocal one on the diagonal
+# (nlos_exhaustive_diagonal.py); otherwise the Cornell box
+if [ "${1:-}" = nlos-diagonal ]; then
+  shift
+  exec "$venv"/bin/python benches/peer/nlos_exhaustive_diagonal.py "$@"
+fi
 if [ "${1:-}" = nlos ]; then
   shift
   exec "$venv"/bin/python benches/peer/compare_nlos.py "$@"
