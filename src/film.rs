@@ -216,8 +216,8 @@ impl Accumulate for TileFilm {
         self.add_tails(corr, d, f);
         let base = p * self.bins * c_n;
         let (data, steady) = (&mut self.data, &mut self.steady[p * c_n..(p + 1) * c_n]);
-        // inlined into each of S_e's loops: as a call per bin it was a sixth of an NLOS
-        // capture's time (exhaustive, Gaussian gate)
+        // inlined into each of S_e's loops: as a call per bin it took 12–14 % of an exhaustive
+        // NLOS capture's time (Gaussian gate; `perf`, BENCHMARKS.md "Gaussian S_e splats")
         corr.for_each(
             d,
             #[inline(always)]
@@ -267,6 +267,7 @@ impl Accumulate for TileFilm {
         let block = self.block();
         let base = p * self.bins * c_n;
         let (data, steady) = (&mut self.data, &mut self.steady);
+        // inlined into S_e's loops, as in `add`
         corr.for_each(
             d,
             #[inline(always)]

@@ -220,6 +220,11 @@ pub fn trace_packet_from<R: Real, const C: usize, S: Sink<C>>(
         )
     });
     let no_lanes = R::Mask::splat(false);
+    // The laser spots' samples, once per packet: they do not depend on the vertex, and an
+    // exhaustive scan connects every vertex to every spot. Taken for the lanes alive at the
+    // first vertex, a superset of those alive later; each lane's values do not depend on
+    // the others, so a later vertex gets what it would have drawn itself.
+    let mut spot_samples: Vec<Option<super::emitters::LightSample<R, C>>> = Vec::new();
     if let Some(s) = surface {
         opl = R::from_lanes(&s.opl.map(|d| d as f32)[..R::LANES]);
         opl64 = s.opl;
@@ -382,7 +387,11 @@ pub fn trace_packet_from<R: Real, const C: usize, S: Sink<C>>(
                         to_lanes.py = [target as u32; 8];
                     }
                     let leg: [f64; 8] = std::array::from_fn(|i| n.spad_leg[sensor[i]]);
-                    let ls = ctx.emitters.sample_laser_points::<R, C>(ctx, n, &points, active);
+                    if spot_samples.is_empty() {
+                        spot_samples.resize(n.laser_points(), None);
+                    }
+                    let ls = *spot_samples[target]
+                        .get_or_insert_with(|| ctx.emitters.sample_laser_points::<R, C>(ctx, n, &points, active));
                     (ls, to_lanes, Some(leg))
                 }
             };
