@@ -224,7 +224,7 @@ pub fn trace_packet_from<R: Real, const C: usize, S: Sink<C>>(
     // exhaustive scan connects every vertex to every spot. Taken for the lanes alive at the
     // first vertex, a superset of those alive later; each lane's values do not depend on
     // the others, so a later vertex gets what it would have drawn itself.
-    let mut spot_samples: Vec<Option<super::emitters::LightSample<R, C>>> = Vec::new();
+    let mut spot_samples = Vec::new();
     if let Some(s) = surface {
         opl = R::from_lanes(&s.opl.map(|d| d as f32)[..R::LANES]);
         opl64 = s.opl;
