@@ -143,7 +143,7 @@ pub struct Correlation {
 /// products per bin after it ([`Correlation::gaussian_bins`]).
 #[derive(Clone, Copy, Debug)]
 struct GaussianRun {
-    step: f64,
+    /// q = exp(−Δ²), with Δ = w/σ = `bin.w_inv_s`.
     q: f64,
     /// The bins' values given φ, without a division per bin.
     bin: GaussBin,
@@ -156,7 +156,7 @@ struct GaussianRun {
 #[derive(Clone, Copy, Debug)]
 struct GaussBin {
     inv_s: f64,
-    /// w / s.
+    /// w / s: the recurrence's step Δ ([`GaussianRun`]) too.
     w_inv_s: f64,
     /// w · φ(cut) / s.
     floor: f64,
@@ -169,7 +169,7 @@ impl GaussBin {
         let inv_s = 1.0 / s;
         GaussBin {
             inv_s,
-            w_inv_s: w * inv_s,
+            w_inv_s: w / s,
             floor: w * inv_s * phi(GAUSSIAN_CUTOFF_SIGMAS),
             reach: GAUSSIAN_CUTOFF_SIGMAS * s,
         }
@@ -255,11 +255,10 @@ impl Correlation {
         let gaussian = match (pulse, gate) {
             (Pulse::Delta | Pulse::Gaussian { .. }, Gate::Gaussian { sigma_opl }) => {
                 let s = (p_reach * p_reach + (sigma_opl as f64).powi(2)).sqrt();
-                let step = axis.bin_width_opl / s;
+                let bin = GaussBin::new(axis.bin_width_opl, s);
                 Some(GaussianRun {
-                    step,
-                    q: (-step * step).exp(),
-                    bin: GaussBin::new(axis.bin_width_opl, s),
+                    q: (-bin.w_inv_s * bin.w_inv_s).exp(),
+                    bin,
                 })
             }
             _ => None,
@@ -370,7 +369,8 @@ impl Correlation {
             if l == first || l % GAUSSIAN_RUN == 0 {
                 let z = x * g.bin.inv_s;
                 p = phi(z);
-                ratio = (g.step * (z - 0.5 * g.step)).exp();
+                let step = g.bin.w_inv_s;
+                ratio = (step * (z - 0.5 * step)).exp();
             }
             let (se, ds) = g.bin.at(x, p);
             f(l, se, ds);
