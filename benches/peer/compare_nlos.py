@@ -35,7 +35,7 @@ warm-up of each at the timed spp), each renderer's CPU seconds from its own acco
 with ranges: paths per CPU-second, and the error at equal CPU time (transient rel. L2 against
 a PEER_REF_SPP dtr reference, scaled by error ∝ 1/√time).
 """
-import json, math, os, subprocess, sys, time, tomllib
+import functools, json, math, os, subprocess, sys, time, tomllib
 import numpy as np
 import mitsuba as mi
 import drjit as dr
@@ -63,8 +63,10 @@ THREADS = int(os.environ.get("PEER_THREADS", "1"))
 OUT = os.path.join(ROOT, "bench-out", "peer-nlos" if SCAN == "confocal" else "peer-nlos-exhaustive")
 
 
+@functools.cache
 def scene_file():
-    """nlos_peer.toml, or a copy of it with the exhaustive scan (strings cannot be `--set`)."""
+    """nlos_peer.toml, or a copy of it with the exhaustive scan (strings cannot be `--set`),
+    written once."""
     if SCAN == "confocal":
         return SCENE
     with open(SCENE) as f:
