@@ -12,7 +12,7 @@
 //! Lemma 2.5): its derivative is then a Dirac distribution, which
 //! [`Correlation::derivative_is_distribution`] reports.
 
-use normal::{Normal, cdf, pdf as phi};
+use normal::{Normal, Truncated, cdf, pdf as phi};
 use serde::{Deserialize, Serialize};
 
 mod normal;
@@ -135,6 +135,9 @@ pub struct Correlation {
     reach: f64,
     /// A Gaussian gate with a delta or Gaussian pulse: S_e is one Gaussian in the bin centres.
     gaussian: Option<GaussianRun>,
+    /// The standard normal truncated at [`GAUSSIAN_CUTOFF_SIGMAS`], for the box pulse's and
+    /// gate's edges against a Gaussian.
+    truncated: Truncated,
 }
 
 /// A Gaussian S_e of σ = `s` sampled at bin centres w apart, whose standardised positions z
@@ -270,6 +273,7 @@ impl Correlation {
             gate,
             reach,
             gaussian,
+            truncated: Truncated::new(GAUSSIAN_CUTOFF_SIGMAS),
         })
     }
 
@@ -398,7 +402,7 @@ impl Correlation {
             // adjacent bins share an edge: one CDF per edge instead of two per bin, the edges
             // by `eval_at`'s expression (bin l + 1 starts at (l + 1.0)·w), so the same values
             let (s, w, r0) = (sigma_opl as f64, self.axis.bin_width_opl, self.axis.start_opl - u);
-            let edge = |l: f64| Normal::truncated((r0 + l * w) / s, GAUSSIAN_CUTOFF_SIGMAS);
+            let edge = |l: f64| self.truncated.at((r0 + l * w) / s);
             let mut lo = edge(r.start as f64);
             for l in r {
                 let hi = edge(l as f64 + 1.0);
@@ -499,8 +503,7 @@ impl Correlation {
             (Pulse::Delta, Gate::Box) => (if a <= 0.0 && 0.0 < b { 1.0 } else { 0.0 }, 0.0),
             (Pulse::Gaussian { sigma_opl }, Gate::Box) => {
                 let s = sigma_opl as f64;
-                let cut = GAUSSIAN_CUTOFF_SIGMAS;
-                gaussian_box(&Normal::truncated(a / s, cut), &Normal::truncated(b / s, cut), s)
+                gaussian_box(&self.truncated.at(a / s), &self.truncated.at(b / s), s)
             }
             (Pulse::Box { width_opl }, Gate::Box) => {
                 let wp = width_opl as f64;
@@ -515,9 +518,8 @@ impl Correlation {
             }
             (Pulse::Box { width_opl }, Gate::Gaussian { sigma_opl }) => {
                 let (wp, s) = (width_opl as f64, sigma_opl as f64);
-                let cut = GAUSSIAN_CUTOFF_SIGMAS;
-                let na = Normal::truncated((-0.5 * wp - c) / s, cut);
-                let nb = Normal::truncated((0.5 * wp - c) / s, cut);
+                let na = self.truncated.at((-0.5 * wp - c) / s);
+                let nb = self.truncated.at((0.5 * wp - c) / s);
                 (w / wp * na.mass_to(&nb), w / wp * (nb.pdf - na.pdf) / s)
             }
         }

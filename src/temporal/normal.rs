@@ -135,19 +135,6 @@ impl Normal {
         Self { x, pdf, lower, upper }
     }
 
-    /// The standard normal truncated to [−c, c], at x: Φ and its tails at x clamped to [−c, c]
-    /// (`x` is the clamped value), so that Φ(b) − Φ(a) is the truncated density's mass on
-    /// [a, b], continuous in a and b; and its density, φ(x) inside [−c, c] and 0 outside, the
-    /// derivative of that mass in either end (the cut is a kink in the mass, not a jump).
-    #[inline]
-    pub fn truncated(x: f64, c: f64) -> Self {
-        let mut n = Self::at(x.clamp(-c, c));
-        if x.abs() > c {
-            n.pdf = 0.0;
-        }
-        n
-    }
-
     /// Φ(b) − Φ(a) for a = `self.x` ≤ b, from the side of the smaller tail (no cancellation).
     #[inline]
     pub fn mass_to(&self, b: &Normal) -> f64 {
@@ -155,6 +142,41 @@ impl Normal {
             self.upper - b.upper
         } else {
             b.lower - self.lower
+        }
+    }
+}
+
+/// The standard normal truncated to [−c, c]: at x, Φ and its tails at x clamped to [−c, c]
+/// (`x` is the clamped value), so that Φ(b) − Φ(a) is the truncated density's mass on [a, b],
+/// continuous in a and b; and its density, φ(x) inside [−c, c] and 0 outside, the derivative
+/// of that mass in either end (the cut is a kink in the mass, not a jump). The two values
+/// beyond the cut are taken once: a box gate's outermost edges around a Gaussian pulse lie
+/// there for every path, and each cost an `exp` and a rational (issue 11).
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Truncated {
+    c: f64,
+    below: Normal,
+    above: Normal,
+}
+
+impl Truncated {
+    pub fn new(c: f64) -> Self {
+        let end = |x: f64| Normal { pdf: 0.0, ..Normal::at(x) };
+        Self {
+            c,
+            below: end(-c),
+            above: end(c),
+        }
+    }
+
+    #[inline]
+    pub fn at(&self, x: f64) -> Normal {
+        if x < -self.c {
+            self.below
+        } else if x > self.c {
+            self.above
+        } else {
+            Normal::at(x)
         }
     }
 }

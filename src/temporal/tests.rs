@@ -574,3 +574,28 @@ fn gaussian_bins_match_the_closed_form() {
     }
     eprintln!("Gaussian S_e by recurrence: worst relative error {worst:e}");
 }
+
+/// `Truncated::at` is the standard normal at x clamped to the cut, with its density zero beyond
+/// the cut, to the bit: the two values beyond the cut are taken once, not at every edge.
+#[test]
+fn truncated_ends_taken_once_equal_the_clamped_normal() {
+    let c = GAUSSIAN_CUTOFF_SIGMAS;
+    let t = normal::Truncated::new(c);
+    let mut xs = vec![-1e6, -40.0, -c - 1e-9, -c, -c + 1e-12, -3.0, -0.0, 0.0, 1e-300, 2.5, c - 1e-12, c, c + 1e-9, 40.0, 1e6];
+    xs.extend((0..2001).map(|i| -10.0 + 0.01 * i as f64));
+    for x in xs {
+        let mut want = normal::Normal::at(x.clamp(-c, c));
+        if x.abs() > c {
+            want.pdf = 0.0;
+        }
+        let got = t.at(x);
+        for (g, w, what) in [
+            (got.x, want.x, "x"),
+            (got.pdf, want.pdf, "pdf"),
+            (got.lower, want.lower, "lower"),
+            (got.upper, want.upper, "upper"),
+        ] {
+            assert_eq!(g.to_bits(), w.to_bits(), "{what} at x = {x}: {g} against {w}");
+        }
+    }
+}
