@@ -161,7 +161,10 @@ pub(super) struct Truncated {
 
 impl Truncated {
     pub fn new(c: f64) -> Self {
-        let end = |x: f64| Normal { pdf: 0.0, ..Normal::at(x) };
+        let end = |x: f64| Normal {
+            pdf: 0.0,
+            ..Normal::at(x)
+        };
         Self {
             c,
             below: end(-c),

@@ -581,7 +581,23 @@ fn gaussian_bins_match_the_closed_form() {
 fn truncated_ends_taken_once_equal_the_clamped_normal() {
     let c = GAUSSIAN_CUTOFF_SIGMAS;
     let t = normal::Truncated::new(c);
-    let mut xs = vec![-1e6, -40.0, -c - 1e-9, -c, -c + 1e-12, -3.0, -0.0, 0.0, 1e-300, 2.5, c - 1e-12, c, c + 1e-9, 40.0, 1e6];
+    let mut xs = vec![
+        -1e6,
+        -40.0,
+        -c - 1e-9,
+        -c,
+        -c + 1e-12,
+        -3.0,
+        -0.0,
+        0.0,
+        1e-300,
+        2.5,
+        c - 1e-12,
+        c,
+        c + 1e-9,
+        40.0,
+        1e6,
+    ];
     xs.extend((0..2001).map(|i| -10.0 + 0.01 * i as f64));
     for x in xs {
         let mut want = normal::Normal::at(x.clamp(-c, c));
