@@ -33,6 +33,12 @@ pub struct RenderContext<'a> {
     /// The window cut (`super::window`): the largest OPL a traced path may reach, `None` to
     /// trace every path to its end (set with [`Self::cut_to_window`]).
     pub opl_budget: Option<f32>,
+    /// Where the emitters lie, for the path tracer's part of the window cut
+    /// ([`super::window::EmitterBox`]); used only with a budget.
+    pub emitter_box: Option<super::window::EmitterBox>,
+    /// The pinhole as such a box, for BDPT's light subpaths; `None` when the film is
+    /// unwarped (the camera's leg is then not counted).
+    pub camera_box: Option<super::window::EmitterBox>,
     /// The relay-wall sensor and laser spots of an NLOS capture (`super::nlos`).
     pub nlos: Option<super::nlos::NlosSensor>,
     /// Whether every material is Lambertian (`Scene::diffuse_only`): the kernels then keep
@@ -81,6 +87,12 @@ impl<'a> RenderContext<'a> {
             .map(|e| Correlation::new(scene.film.axis, e.pulse, e.offset_opl, scene.film.gate))
             .collect::<Result<Vec<_>, _>>()?;
         let camera = CameraSampler::new(&scene.camera, scene.film.width, scene.film.height, scene.film.filter);
+        let spots = (0..emitters.count())
+            .filter_map(|e| emitters.laser_spot(e))
+            .chain(nlos.iter().flat_map(|n| n.spots.iter().flatten()))
+            .map(|s| s.prim);
+        let emitter_box = super::window::EmitterBox::new(scene, spots);
+        let camera_box = (!scene.film.unwarp).then(|| super::window::EmitterBox::point(scene, scene.camera.position));
         Ok(Self {
             scene,
             accel,
@@ -94,6 +106,8 @@ impl<'a> RenderContext<'a> {
             opl: OplPrecision::choose(scene),
             steady: SteadyMode::Full,
             opl_budget: None,
+            emitter_box,
+            camera_box,
             nlos,
             diffuse_only: scene.diffuse_only(),
             time_edges: None,

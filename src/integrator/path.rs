@@ -363,6 +363,13 @@ pub fn trace_packet_from<R: Real, const C: usize, S: Sink<C>>(
         if depth > max_bounces {
             break;
         }
+        // the window cut ahead of this vertex: no emitter within the OPL left (`super::window`)
+        if let Some(b) = &ctx.emitter_box {
+            active = active & b.reachable(ctx.opl_budget, opl.value(), &x.p.value());
+            if active.none() {
+                break;
+            }
+        }
 
         // Next-event estimation: one sampled emitter point, or the laser points of an NLOS
         // scan (the lane's own, or every one in turn: `super::nlos`).

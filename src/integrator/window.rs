@@ -9,7 +9,12 @@
 //! - bound each ray's t_far by the OPL left, η·t ≤ budget − d, so Embree culls farther hits
 //!   and the path ends where it would have left the window;
 //! - skip next-event and BDPT connections whose OPL lands past the budget, before their
-//!   shadow ray.
+//!   shadow ray;
+//! - end a path at a vertex from which no end is near enough ([`EmitterBox`]): whatever
+//!   follows a path tracer's or BDPT camera subpath's vertex ends on an emitter, and a BDPT
+//!   light subpath's at the pinhole, so it adds at least η_min times the distance to the
+//!   nearest such point (the triangle inequality); when even that passes the budget, no
+//!   connection from the vertex or later bounce can land.
 //!
 //! Paths are sampled with counter-based random numbers (`kernel::PathSampler`), so ending one
 //! lane early changes no other lane: the transient and its derivatives are the same bytes as
@@ -17,8 +22,10 @@
 //! time-summed (steady) image, which then integrates the window ([`crate::film::SteadyMode`]);
 //! `--steady full` turns the cut off.
 
-use crate::kernel::{Mask, Real};
+use crate::kernel::{Mask, Real, V3};
+use crate::scene::{EmitterKind, Material, Scene};
 use crate::temporal::Correlation;
+use glam::Vec3;
 
 /// Relative slack added to the bound: the kernel's f32 OPL and the f64 OPL the film bins
 /// may differ by a few f32 ulps per segment (about 10⁻⁶ relative over a long path); 2⁻¹⁰ is
@@ -53,6 +60,86 @@ pub fn within<V: Real>(budget: Option<f32>, d: V) -> V::Mask {
         Some(b) => d.le(V::splat(b)),
         None => V::Mask::from_bools(&[true; 8][..V::LANES]),
     }
+}
+
+/// A box around every point a path can end on (the area emitters' triangles, the point
+/// lights, the triangles of the laser spots, an NLOS scan's included) and the smallest
+/// refractive index of the scene: from a vertex at distance r from the box, any continuation
+/// that ends on an emitter has an OPL of at least η_min·r (a path is at least as long as the
+/// straight line, and each of its segments is weighted by an index ≥ η_min).
+#[derive(Clone, Copy, Debug)]
+pub struct EmitterBox {
+    lo: Vec3,
+    hi: Vec3,
+    eta_min: f32,
+}
+
+impl EmitterBox {
+    /// The box of `scene`'s emitter points; `spots` are the triangles laser beams land on
+    /// (the scene's lasers and an NLOS scan's laser points). `None` when there is no such
+    /// point: then no path reaches an emitter, and nothing is bounded.
+    pub fn new(scene: &Scene, spots: impl IntoIterator<Item = u32>) -> Option<Self> {
+        let geo = &scene.geometry;
+        let tri = |t: u32| geo.indices[t as usize].map(|i| geo.positions[i as usize]);
+        let mut points: Vec<Vec3> = spots.into_iter().flat_map(tri).collect();
+        for e in &scene.emitters {
+            match &e.kind {
+                EmitterKind::Area { shape, .. } => {
+                    let s = &scene.shapes[*shape as usize];
+                    points.extend((s.first_tri..s.first_tri + s.tri_count).flat_map(tri));
+                }
+                EmitterKind::Point { position, .. } => points.push(*position),
+                // the spot it lights is among `spots`
+                EmitterKind::Laser { .. } => {}
+            }
+        }
+        let first = *points.first()?;
+        let (lo, hi) = points
+            .iter()
+            .fold((first, first), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
+        let eta_min = least_index(scene);
+        (lo.is_finite() && hi.is_finite() && eta_min > 0.0).then_some(Self { lo, hi, eta_min })
+    }
+
+    /// One point as the box: the pinhole, where every path of a light subpath ends.
+    pub fn point(scene: &Scene, p: Vec3) -> Self {
+        Self {
+            lo: p,
+            hi: p,
+            eta_min: least_index(scene),
+        }
+    }
+
+    /// Lanes at `p` with OPL `opl` from which an emitter may still be reached within the
+    /// budget (all lanes without one): opl + η_min·dist(p, box) ≤ budget. The distance is
+    /// taken a hair short (its f32 rounding is far below the budget's slack), so that no
+    /// path that could land is ended.
+    #[inline(always)]
+    pub fn reachable<V: Real>(&self, budget: Option<f32>, opl: V, p: &V3<V>) -> V::Mask {
+        let Some(b) = budget else {
+            return V::Mask::from_bools(&[true; 8][..V::LANES]);
+        };
+        let out = |x: V, lo: f32, hi: f32| (V::splat(lo) - x).max(x - V::splat(hi)).max(V::zero());
+        let gap = V3::new(
+            out(p.x, self.lo.x, self.hi.x),
+            out(p.y, self.lo.y, self.hi.y),
+            out(p.z, self.lo.z, self.hi.z),
+        );
+        let least = gap.length().mul_f(self.eta_min * (1.0 - 1e-5));
+        (opl + least).le(V::splat(b))
+    }
+}
+
+/// The least refractive index of `scene`: its medium's and every dielectric's interior.
+fn least_index(scene: &Scene) -> f32 {
+    scene
+        .materials
+        .iter()
+        .filter_map(|m| match m.material {
+            Material::Dielectric { int_ior, .. } => Some(int_ior),
+            _ => None,
+        })
+        .fold(scene.eta, f32::min)
 }
 
 #[cfg(test)]
@@ -100,6 +187,144 @@ mod tests {
             assert!(b >= last && b <= last + 0.02, "{b} vs {last}");
         }
         assert_eq!(opl_budget(&[]), None);
+    }
+
+    /// The bound never ends a lane that an emitter point lies within reach of: for points p
+    /// and emitter points q (inside the box, on it, and for a box that is one point), a lane
+    /// whose opl + η_min·|p − q| ≤ budget is kept, and lanes far past it are ended.
+    #[test]
+    fn the_emitter_box_keeps_every_lane_an_emitter_point_is_within_reach_of() {
+        let b = EmitterBox {
+            lo: Vec3::new(-1.0, 2.0, 0.5),
+            hi: Vec3::new(1.0, 2.0, 1.5),
+            eta_min: 1.25,
+        };
+        let point = EmitterBox {
+            lo: Vec3::splat(3.0),
+            hi: Vec3::splat(3.0),
+            eta_min: 1.0,
+        };
+        let mut state = 0x2545_F491_4F6C_DD1Du64;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 40) as f32 / (1u64 << 24) as f32
+        };
+        let budget = 20.0f32;
+        let (mut kept, mut ended) = (0, 0);
+        for bx in [b, point] {
+            for _ in 0..20_000 {
+                let p = Vec3::new(next() * 16.0 - 8.0, next() * 16.0 - 8.0, next() * 16.0 - 8.0);
+                let q = bx.lo + (bx.hi - bx.lo) * Vec3::new(next(), next(), next());
+                let opl = next() * budget;
+                let reach = opl + bx.eta_min * (p - q).length();
+                let pv = V3::new(p.x, p.y, p.z);
+                let r = bx.reachable(Some(budget), opl, &pv);
+                if reach <= budget {
+                    assert!(r, "{bx:?}: p {p}, q {q}, opl {opl}: {reach} ≤ {budget} but ended");
+                    kept += 1;
+                }
+                // the nearest point of the box: ended once it is out of reach
+                let nearest = p.clamp(bx.lo, bx.hi);
+                if opl + bx.eta_min * (p - nearest).length() > budget * 1.001 {
+                    assert!(!r, "{bx:?}: p {p}, opl {opl} kept though no point is within reach");
+                    ended += 1;
+                }
+            }
+            assert!(
+                bx.reachable(None, 1e30f32, &V3::new(1e9, 0.0, 0.0)),
+                "no budget, no bound"
+            );
+        }
+        assert!(
+            kept > 1000 && ended > 1000,
+            "both cases seen: {kept} kept, {ended} ended"
+        );
+    }
+
+    /// The box covers the area emitters' triangles, and η_min is the least index of the scene:
+    /// a dielectric's interior below the scene's medium lowers it.
+    #[test]
+    fn the_emitter_box_covers_the_lights_with_the_least_index() {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell_box.toml");
+        let mut scene = Scene::load(&path, &[]).unwrap();
+        let b = EmitterBox::new(&scene, []).unwrap();
+        assert_eq!(b.eta_min, scene.eta);
+        let geo = &scene.geometry;
+        let mut lights = 0;
+        for (t, tri) in geo.indices.iter().enumerate() {
+            let shape = &scene.shapes[geo.tri_shape[t] as usize];
+            if shape.emitter.is_some() {
+                for v in tri.map(|i| geo.positions[i as usize]) {
+                    assert!(v.cmpge(b.lo).all() && v.cmple(b.hi).all(), "{v} outside {b:?}");
+                    lights += 1;
+                }
+            }
+        }
+        assert!(
+            lights >= 3 && (b.hi - b.lo).max_element() < 1.0,
+            "{lights} vertices, {b:?}"
+        );
+        scene.materials.push(crate::scene::NamedMaterial {
+            name: "thin".into(),
+            material: Material::Dielectric {
+                int_ior: 0.8,
+                roughness: 0.0,
+                exterior: None,
+            },
+        });
+        assert_eq!(EmitterBox::new(&scene, []).unwrap().eta_min, 0.8);
+        scene.emitters.clear();
+        assert!(EmitterBox::new(&scene, []).is_none(), "no emitter, nothing bounded");
+    }
+
+    /// The path tracer with the bound against without it, on a window that ends early: the
+    /// same bytes in every bin and the same shadow rays, and far fewer bounce rays.
+    #[test]
+    fn paths_that_no_emitter_is_within_reach_of_end_with_the_same_bytes() {
+        use crate::film::{SteadyMode, TileFilm};
+        use crate::integrator::RenderContext;
+        use crate::integrator::deposit::PathCounts;
+        use crate::kernel::f32x8;
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell_box.toml");
+        let mut scene = Scene::load(&path, &[]).unwrap();
+        (scene.film.width, scene.film.height, scene.film.axis.bins) = (16, 16, 40);
+        let device = crate::accel::Device::new("").unwrap();
+        let render = |bounded: bool| {
+            let mut ctx = RenderContext::new(&scene, &device).unwrap();
+            ctx.cut_to_window(SteadyMode::Window);
+            if !bounded {
+                ctx.emitter_box = None;
+            }
+            let mut film: TileFilm = ctx.tile_film(0, 0, 16, 16, 0);
+            let mut counts = PathCounts::default();
+            crate::render::render_tile::<f32x8, 3, _>(
+                &ctx,
+                7,
+                16,
+                &(0..16),
+                16,
+                (0, 0, 16, 16),
+                &mut film,
+                &mut counts,
+            );
+            let mut t = crate::film::Transient::zeros_many(1, 16, 16, scene.film.axis, 3);
+            film.store_into(&mut t);
+            (t.remove(0), counts.rays)
+        };
+        let (a, ra) = render(true);
+        let (b, rb) = render(false);
+        let bits = |t: &crate::film::Transient| t.data.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+        assert!(bits(&a) == bits(&b), "the transients differ");
+        assert!(a.data.iter().any(|&v| v > 0.0), "nothing rendered");
+        assert_eq!(ra.occluded, rb.occluded, "shadow rays");
+        assert!(
+            (ra.intersect as f64) < 0.8 * rb.intersect as f64,
+            "{} bounce rays with the bound, {} without",
+            ra.intersect,
+            rb.intersect
+        );
     }
 
     #[test]

@@ -52,6 +52,15 @@ fn random_walk<R: Real, const C: usize>(
     for depth in 1..=new_vertices {
         let ray_form = camera && depth == 1;
         let prev = *path.last().expect("a walk starts from a vertex");
+        // the window cut ahead of the last vertex: a camera subpath's strategies all end on
+        // an emitter, a light subpath's at the pinhole (`crate::integrator::window`)
+        let ends = if camera { &ctx.emitter_box } else { &ctx.camera_box };
+        if let Some(b) = ends.as_ref().filter(|_| depth > 1) {
+            active = active & b.reachable(ctx.opl_budget, prev.opl.value(), &prev.p.value());
+            if active.none() {
+                break;
+            }
+        }
         // the window cut (`crate::integrator::window`): any full path through a vertex
         // farther than the OPL left would land past the window
         let cut = !(ray_form && ctx.scene.film.unwarp);
