@@ -279,52 +279,73 @@ mod tests {
         assert!(EmitterBox::new(&scene, []).is_none(), "no emitter, nothing bounded");
     }
 
-    /// The path tracer with the bound against without it, on a window that ends early: the
-    /// same bytes in every bin and the same shadow rays, and far fewer bounce rays.
+    /// The path tracer and BDPT with the bound against without it (both boxes taken away),
+    /// on a window that ends early: the same bytes in every bin and the same shadow rays, and
+    /// far fewer bounce rays. `light` switches the path tracer's box off too, so that BDPT's
+    /// light subpaths are seen to end early on their own.
     #[test]
-    fn paths_that_no_emitter_is_within_reach_of_end_with_the_same_bytes() {
-        use crate::film::{SteadyMode, TileFilm};
+    fn paths_that_no_end_is_within_reach_of_end_with_the_same_bytes() {
+        use crate::film::{SteadyMode, Transient};
         use crate::integrator::RenderContext;
+        use crate::integrator::bdpt::{self, film::BdptFilm};
         use crate::integrator::deposit::PathCounts;
+        use crate::integrator::trace::RayCounts;
         use crate::kernel::f32x8;
         let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell_box.toml");
         let mut scene = Scene::load(&path, &[]).unwrap();
         (scene.film.width, scene.film.height, scene.film.axis.bins) = (16, 16, 40);
         let device = crate::accel::Device::new("").unwrap();
-        let render = |bounded: bool| {
+        // (bidirectional, keep the emitter box, keep the pinhole's)
+        let render = |(bidirectional, emitters, pinhole): (bool, bool, bool)| -> (Transient, RayCounts) {
             let mut ctx = RenderContext::new(&scene, &device).unwrap();
             ctx.cut_to_window(SteadyMode::Window);
-            if !bounded {
+            if !emitters {
                 ctx.emitter_box = None;
             }
-            let mut film: TileFilm = ctx.tile_film(0, 0, 16, 16, 0);
+            if !pinhole {
+                ctx.camera_box = None;
+            }
             let mut counts = PathCounts::default();
-            crate::render::render_tile::<f32x8, 3, _>(
-                &ctx,
-                7,
-                16,
-                &(0..16),
-                16,
-                (0, 0, 16, 16),
-                &mut film,
-                &mut counts,
-            );
-            let mut t = crate::film::Transient::zeros_many(1, 16, 16, scene.film.axis, 3);
+            let film = if bidirectional {
+                let mut f = BdptFilm::new(&ctx, (0, 0, 16, 16), 0, false, true);
+                bdpt::render_tiles::<f32x8, 3, _>(&ctx, 7, 4, &(0..4), &[(0, 0)], 16, &mut f, &mut counts);
+                f.film
+            } else {
+                let mut f = ctx.tile_film(0, 0, 16, 16, 0);
+                crate::render::render_tile::<f32x8, 3, _>(
+                    &ctx,
+                    7,
+                    16,
+                    &(0..16),
+                    16,
+                    (0, 0, 16, 16),
+                    &mut f,
+                    &mut counts,
+                );
+                f
+            };
+            let mut t = Transient::zeros_many(1, 16, 16, scene.film.axis, 3);
             film.store_into(&mut t);
             (t.remove(0), counts.rays)
         };
-        let (a, ra) = render(true);
-        let (b, rb) = render(false);
-        let bits = |t: &crate::film::Transient| t.data.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
-        assert!(bits(&a) == bits(&b), "the transients differ");
-        assert!(a.data.iter().any(|&v| v > 0.0), "nothing rendered");
-        assert_eq!(ra.occluded, rb.occluded, "shadow rays");
-        assert!(
-            (ra.intersect as f64) < 0.8 * rb.intersect as f64,
-            "{} bounce rays with the bound, {} without",
-            ra.intersect,
-            rb.intersect
-        );
+        let bits = |t: &Transient| t.data.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+        for (what, with, without) in [
+            ("path tracer", (false, true, true), (false, false, false)),
+            ("BDPT", (true, true, true), (true, false, false)),
+            ("BDPT's light subpaths", (true, false, true), (true, false, false)),
+        ] {
+            let (a, ra) = render(with);
+            let (b, rb) = render(without);
+            assert!(bits(&a) == bits(&b), "{what}: the transients differ");
+            assert!(a.data.iter().any(|&v| v > 0.0), "{what}: nothing rendered");
+            assert_eq!(ra.occluded, rb.occluded, "{what}: shadow rays");
+            assert!(
+                (ra.intersect as f64) < 0.9 * rb.intersect as f64,
+                "{what}: {} bounce rays with the bound, {} without",
+                ra.intersect,
+                rb.intersect
+            );
+        }
     }
 
     #[test]
