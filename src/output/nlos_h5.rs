@@ -25,33 +25,21 @@ use std::path::Path;
 
 /// The `H` array (and its shape and `H_format`) of `film`, in y-tal's axis order.
 pub fn h_array(spec: &NlosSpec, film: &Transient) -> (Vec<usize>, Vec<f32>, i32) {
-    let (t, c) = (film.axis.bins, film.channels);
+    let t = film.axis.bins;
     let grids = !spec.sensors.explicit && !spec.lasers.explicit;
     let (s, l) = (&spec.sensors, &spec.lasers);
-    // film value of (laser j, sensor i) at bin k, channels summed
-    let value = |j: usize, i: usize, k: usize| -> f32 {
-        let (x, y) = if spec.exhaustive() {
-            (i, j)
-        } else {
-            (i % s.nx, i / s.nx)
-        };
-        (0..c).map(|ch| film.at(x, y, k, ch)).sum()
-    };
     let (sensor_order, laser_order) = (order(s, grids), order(l, grids));
-    let mut data = Vec::with_capacity(t * sensor_order.len() * if spec.exhaustive() { l.len() } else { 1 });
-    for k in 0..t {
-        if spec.exhaustive() {
-            for &j in &laser_order {
-                for &i in &sensor_order {
-                    data.push(value(j, i, k));
-                }
-            }
-        } else {
-            for &i in &sensor_order {
-                data.push(value(i, i, k));
-            }
-        }
-    }
+    // the film pixel of each entry of H after its time axis: (sensor i, laser j) of an
+    // exhaustive scan, sensor point i of a confocal one at its place on the grid
+    let pixels: Vec<(usize, usize)> = if spec.exhaustive() {
+        laser_order
+            .iter()
+            .flat_map(|&j| sensor_order.iter().map(move |&i| (i, j)))
+            .collect()
+    } else {
+        sensor_order.iter().map(|&i| (i % s.nx, i / s.nx)).collect()
+    };
+    let data = time_major(film, &pixels);
     let (shape, format) = match (spec.exhaustive(), grids) {
         (false, true) => (vec![t, s.nx, s.ny], 1),
         (true, true) => (vec![t, l.nx, l.ny, s.nx, s.ny], 2),
@@ -59,6 +47,36 @@ pub fn h_array(spec: &NlosSpec, film: &Transient) -> (Vec<usize>, Vec<f32>, i32)
         (true, false) => (vec![t, l.len(), s.len()], 4),
     };
     (shape, data, format)
+}
+
+/// Pixels the time-major transpose reads whole before it writes them bin by bin: 256 time
+/// series of 128 bins are 128 KiB, within a core's L2 cache.
+const TRANSPOSE_BLOCK: usize = 256;
+
+/// `out[k · n + p]` = pixel `pixels[p]`'s bin k, channels summed (n = `pixels.len()`): the
+/// film's pixel-major series in time-major order. Cache-blocked: a block of pixels' series is
+/// read whole, then written as one run per bin. Read in output order, every value was a cache
+/// miss (the film's pixels lie bins × channels floats apart): 38 % of the run of a 32 × 32
+/// exhaustive scan at 16 spp, whose film is 512 MiB.
+fn time_major(film: &Transient, pixels: &[(usize, usize)]) -> Vec<f32> {
+    let (t, c, n) = (film.axis.bins, film.channels, pixels.len());
+    let mut out = vec![0.0f32; t * n];
+    let mut block = vec![0.0f32; TRANSPOSE_BLOCK * t];
+    for (b, chunk) in pixels.chunks(TRANSPOSE_BLOCK).enumerate() {
+        for (q, &(x, y)) in chunk.iter().enumerate() {
+            let series = &film.data[film.index(x, y, 0, 0)..][..t * c];
+            for (k, v) in block[q * t..(q + 1) * t].iter_mut().enumerate() {
+                *v = series[k * c..(k + 1) * c].iter().copied().sum();
+            }
+        }
+        let p0 = b * TRANSPOSE_BLOCK;
+        for k in 0..t {
+            for (q, v) in out[k * n + p0..][..chunk.len()].iter_mut().enumerate() {
+                *v = block[q * t + k];
+            }
+        }
+    }
+    out
 }
 
 /// The points of `g` in y-tal's order: ix major, iy minor (X, Y), or as listed (N).
@@ -161,4 +179,43 @@ fn write(path: &Path, scene: &Scene, spec: &NlosSpec, film: &Transient, what: &s
         .create("scene_info")?
         .write_scalar(&text)?;
     f.close()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::temporal::TimeAxis;
+
+    /// The blocked transpose gives each value as the per-value formula does, to the bit: RGB
+    /// summed over channels, a film whose pixel count crosses several blocks and ends inside
+    /// one, pixels taken in a scrambled order and some twice.
+    #[test]
+    fn time_major_matches_the_value_by_value_order() {
+        let axis = TimeAxis {
+            start_opl: 1.0,
+            bin_width_opl: 0.01,
+            bins: 37,
+        };
+        let (w, h) = (41, 17);
+        let mut film = Transient::zeros(w, h, axis, 3);
+        for (i, v) in film.data.iter_mut().enumerate() {
+            *v = ((i * 2_654_435_761) % 1_000_003) as f32 * 1e-3 - 300.0;
+        }
+        let pixels: Vec<(usize, usize)> = (0..w * h + 50)
+            .map(|p| {
+                let q = (p * 7919) % (w * h);
+                (q % w, q / w)
+            })
+            .collect();
+        assert!(pixels.len() > 2 * TRANSPOSE_BLOCK && pixels.len() % TRANSPOSE_BLOCK != 0);
+        let got = time_major(&film, &pixels);
+        let n = pixels.len();
+        assert_eq!(got.len(), axis.bins * n);
+        for k in 0..axis.bins {
+            for (p, &(x, y)) in pixels.iter().enumerate() {
+                let want: f32 = (0..3).map(|ch| film.at(x, y, k, ch)).sum();
+                assert_eq!(got[k * n + p].to_bits(), want.to_bits(), "bin {k}, entry {p}");
+            }
+        }
+    }
 }
