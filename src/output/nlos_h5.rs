@@ -207,7 +207,7 @@ mod tests {
                 (q % w, q / w)
             })
             .collect();
-        assert!(pixels.len() > 2 * TRANSPOSE_BLOCK && pixels.len() % TRANSPOSE_BLOCK != 0);
+        assert!(pixels.len() > 2 * TRANSPOSE_BLOCK && !pixels.len().is_multiple_of(TRANSPOSE_BLOCK));
         let got = time_major(&film, &pixels);
         let n = pixels.len();
         assert_eq!(got.len(), axis.bins * n);
