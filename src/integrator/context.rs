@@ -36,8 +36,9 @@ pub struct RenderContext<'a> {
     /// Where the emitters lie, for the path tracer's part of the window cut
     /// ([`super::window::EmitterBox`]); used only with a budget.
     pub emitter_box: Option<super::window::EmitterBox>,
-    /// The pinhole as such a box, for BDPT's light subpaths; `None` when the film is
-    /// unwarped (the camera's leg is then not counted).
+    /// The pinhole as such a box, for BDPT's light subpaths and the boundary stage's sensor
+    /// walks (`super::importance`); `None` when the film is unwarped (the camera's leg is
+    /// then not counted).
     pub camera_box: Option<super::window::EmitterBox>,
     /// The relay-wall sensor and laser spots of an NLOS capture (`super::nlos`).
     pub nlos: Option<super::nlos::NlosSensor>,

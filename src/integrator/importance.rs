@@ -171,6 +171,10 @@ pub fn trace_importance_packet<R: Real, const C: usize>(
             break;
         }
         active = active & V::<R>::splat(j as f32).lt(limit);
+        // the window cut ahead of this vertex: the pinhole beyond the OPL left (`super::window`)
+        if let Some(b) = &ctx.camera_box {
+            active = active & b.reachable(ctx.opl_budget, opl.value(), &p);
+        }
         if active.none() {
             break;
         }

@@ -11,10 +11,11 @@
 //! - skip next-event and BDPT connections whose OPL lands past the budget, before their
 //!   shadow ray;
 //! - end a path at a vertex from which no end is near enough ([`EmitterBox`]): whatever
-//!   follows a path tracer's or BDPT camera subpath's vertex ends on an emitter, and a BDPT
-//!   light subpath's at the pinhole, so it adds at least η_min times the distance to the
-//!   nearest such point (the triangle inequality); when even that passes the budget, no
-//!   connection from the vertex or later bounce can land.
+//!   follows a path tracer's or BDPT camera subpath's vertex ends on an emitter, a BDPT
+//!   light subpath's or boundary sensor walk's (`super::importance`) at the pinhole, so it
+//!   adds at least η_min times the distance to the nearest such point (the triangle
+//!   inequality); when even that passes the budget, no connection from the vertex or later
+//!   bounce can land.
 //!
 //! Paths are sampled with counter-based random numbers (`kernel::PathSampler`), so ending one
 //! lane early changes no other lane: the transient and its derivatives are the same bytes as
@@ -338,14 +339,93 @@ mod tests {
             let (b, rb) = render(without);
             assert!(bits(&a) == bits(&b), "{what}: the transients differ");
             assert!(a.data.iter().any(|&v| v > 0.0), "{what}: nothing rendered");
-            assert_eq!(ra.occluded, rb.occluded, "{what}: shadow rays");
-            assert!(
-                (ra.intersect as f64) < 0.9 * rb.intersect as f64,
-                "{what}: {} bounce rays with the bound, {} without",
-                ra.intersect,
-                rb.intersect
-            );
+            fewer_bounce_rays(what, &ra, &rb);
         }
+    }
+
+    /// The boundary stage's sensor walks (`integrator::importance`) with the pinhole box
+    /// against without it, from points on the Cornell box's floor, on a window that ends early:
+    /// the same terms to the bit, the same shadow rays, and fewer bounce rays.
+    #[test]
+    fn importance_walks_end_where_the_pinhole_is_out_of_reach_with_the_same_terms() {
+        use crate::film::SteadyMode;
+        use crate::integrator::RenderContext;
+        use crate::integrator::deposit::PathCounts;
+        use crate::integrator::importance::{ImportanceTerm, trace_importance_packet};
+        use crate::integrator::path::SurfaceStarts;
+        use crate::kernel::f32x8;
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell_box.toml");
+        let mut scene = Scene::load(&path, &[]).unwrap();
+        scene.film.axis.bins = 40;
+        let device = crate::accel::Device::new("").unwrap();
+        let walk = |pinhole: bool| {
+            let mut ctx = RenderContext::new(&scene, &device).unwrap();
+            ctx.cut_to_window(SteadyMode::Window);
+            if !pinhole {
+                ctx.camera_box = None;
+            }
+            let mut terms: Vec<(usize, u64, ImportanceTerm<3>)> = Vec::new();
+            let mut counts = PathCounts::default();
+            for packet in 0..64u64 {
+                // eight points on the floor, found by rays cast down onto it
+                let mut starts = SurfaceStarts {
+                    prim: [0; 8],
+                    p: [Vec3::ZERO; 8],
+                    p64: [glam::DVec3::ZERO; 8],
+                    n: [Vec3::Y; 8],
+                    out: [Vec3::Y; 8],
+                    eta: [scene.eta; 8],
+                    opl: [0.5; 8],
+                    max_scatters: 8,
+                    dim: 0,
+                };
+                for i in 0..8 {
+                    let k = (packet * 8 + i as u64) as f32;
+                    let o = [(k * 0.618).fract() * 1.6 - 0.8, 0.5, (k * 0.382).fract() * 1.6 - 0.8];
+                    let h = ctx.accel.intersect1(o, [0.0, -1.0, 0.0], 0.0, f32::INFINITY).unwrap();
+                    starts.prim[i] = h.prim;
+                    starts.p[i] = Vec3::new(o[0], o[1] - h.t, o[2]);
+                    starts.p64[i] = starts.p[i].as_dvec3();
+                }
+                let ids: Vec<u64> = (0..8).map(|i| packet * 8 + i).collect();
+                trace_importance_packet::<f32x8, 3>(&ctx, 5, &ids, &starts, &[8; 8], &mut counts, |i, t| {
+                    terms.push((i, packet, *t))
+                });
+            }
+            (terms, counts.rays)
+        };
+        let (a, ra) = walk(true);
+        let (b, rb) = walk(false);
+        let key = |(i, packet, t): &(usize, u64, ImportanceTerm<3>)| {
+            let value = t.value.map(f32::to_bits);
+            (
+                *i,
+                *packet,
+                value,
+                t.opl.to_bits(),
+                t.fx.to_bits(),
+                t.fy.to_bits(),
+                t.scatters,
+            )
+        };
+        assert!(a.iter().map(key).eq(b.iter().map(key)), "the terms differ");
+        assert!(a.len() > 100, "{} terms", a.len());
+        fewer_bounce_rays("importance walks", &ra, &rb);
+    }
+
+    /// The same shadow rays with the bound as without it, and at most 0.9× the bounce rays.
+    fn fewer_bounce_rays(
+        what: &str,
+        with: &crate::integrator::trace::RayCounts,
+        without: &crate::integrator::trace::RayCounts,
+    ) {
+        assert_eq!(with.occluded, without.occluded, "{what}: shadow rays");
+        assert!(
+            (with.intersect as f64) < 0.9 * without.intersect as f64,
+            "{what}: {} bounce rays with the bound, {} without",
+            with.intersect,
+            without.intersect
+        );
     }
 
     #[test]
