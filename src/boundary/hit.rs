@@ -26,7 +26,7 @@ pub fn trace(ctx: &RenderContext, o: Vec3, d: Vec3, counts: &mut RayCounts) -> O
     let t0 = counts.clock.start();
     counts.intersect += 1;
     let hit = ctx.accel.intersect1(o.to_array(), d.to_array(), 0.0, f32::INFINITY);
-    counts.trace_ticks += crate::timing::sampled_ticks(t0);
+    counts.trace_ticks += counts.clock.stop(t0);
     let h = hit?;
     let [p0, p1, p2] = ctx.tri_verts[h.prim as usize];
     let p = p0 + (p1 - p0) * h.u + (p2 - p0) * h.v;

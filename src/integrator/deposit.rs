@@ -158,5 +158,5 @@ pub fn for_each_lane<R: Real, const C: usize>(
             None => counts.non_finite += 1,
         }
     }
-    counts.film_ticks += crate::timing::sampled_ticks(t0);
+    counts.film_ticks += counts.film_clock.stop(t0);
 }

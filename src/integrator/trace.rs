@@ -3,7 +3,7 @@
 use super::surface::{offset_origin, self_intersection_eps};
 use crate::accel::{Accel, Ray8};
 use crate::kernel::{Mask, Real, V3};
-use crate::timing::{SampledClock, sampled_ticks};
+use crate::timing::SampledClock;
 
 /// Plain hit lanes: `prim[i] == u32::MAX` where lane `i` missed or was inactive.
 #[derive(Clone, Copy, Debug)]
@@ -83,7 +83,7 @@ pub fn intersect<V: Real>(
         u = h.u;
         v = h.v;
     }
-    counts.trace_ticks += sampled_ticks(t0);
+    counts.trace_ticks += counts.clock.stop(t0);
     HitLanes {
         t: V::from_lanes(&t),
         u: V::from_lanes(&u),
@@ -118,7 +118,7 @@ pub fn unoccluded<V: Real>(
             free[i] = act[i] && !blocked[i];
         }
     }
-    counts.trace_ticks += sampled_ticks(t0);
+    counts.trace_ticks += counts.clock.stop(t0);
     V::Mask::from_bools(&free[..V::LANES])
 }
 
