@@ -117,9 +117,6 @@ impl EmitterBox {
     /// path that could land is ended.
     #[inline(always)]
     pub fn reachable<V: Real>(&self, budget: Option<f32>, opl: V, p: &V3<V>) -> V::Mask {
-        let Some(b) = budget else {
-            return V::Mask::from_bools(&[true; 8][..V::LANES]);
-        };
         let out = |x: V, lo: f32, hi: f32| (V::splat(lo) - x).max(x - V::splat(hi)).max(V::zero());
         let gap = V3::new(
             out(p.x, self.lo.x, self.hi.x),
@@ -127,7 +124,7 @@ impl EmitterBox {
             out(p.z, self.lo.z, self.hi.z),
         );
         let least = gap.length().mul_f(self.eta_min * (1.0 - 1e-5));
-        (opl + least).le(V::splat(b))
+        within(budget, opl + least)
     }
 }
 
@@ -248,8 +245,7 @@ mod tests {
     /// a dielectric's interior below the scene's medium lowers it.
     #[test]
     fn the_emitter_box_covers_the_lights_with_the_least_index() {
-        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell_box.toml");
-        let mut scene = Scene::load(&path, &[]).unwrap();
+        let mut scene = crate::scene::testutil::load_scene("cornell_box.toml");
         let b = EmitterBox::new(&scene, []).unwrap();
         assert_eq!(b.eta_min, scene.eta);
         let geo = &scene.geometry;
@@ -282,7 +278,7 @@ mod tests {
 
     /// The path tracer and BDPT with the bound against without it (both boxes taken away),
     /// on a window that ends early: the same bytes in every bin and the same shadow rays, and
-    /// far fewer bounce rays. `light` switches the path tracer's box off too, so that BDPT's
+    /// far fewer bounce rays. The third case keeps the pinhole's box alone, so that BDPT's
     /// light subpaths are seen to end early on their own.
     #[test]
     fn paths_that_no_end_is_within_reach_of_end_with_the_same_bytes() {
@@ -292,8 +288,7 @@ mod tests {
         use crate::integrator::deposit::PathCounts;
         use crate::integrator::trace::RayCounts;
         use crate::kernel::f32x8;
-        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell_box.toml");
-        let mut scene = Scene::load(&path, &[]).unwrap();
+        let mut scene = crate::scene::testutil::load_scene("cornell_box.toml");
         (scene.film.width, scene.film.height, scene.film.axis.bins) = (16, 16, 40);
         let device = crate::accel::Device::new("").unwrap();
         // (bidirectional, keep the emitter box, keep the pinhole's)
@@ -354,8 +349,7 @@ mod tests {
         use crate::integrator::importance::{ImportanceTerm, trace_importance_packet};
         use crate::integrator::path::SurfaceStarts;
         use crate::kernel::f32x8;
-        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell_box.toml");
-        let mut scene = Scene::load(&path, &[]).unwrap();
+        let mut scene = crate::scene::testutil::load_scene("cornell_box.toml");
         scene.film.axis.bins = 40;
         let device = crate::accel::Device::new("").unwrap();
         let walk = |pinhole: bool| {
