@@ -23,14 +23,21 @@ use crate::film::Transient;
 use crate::scene::{NlosSpec, Scene, WallGrid};
 use std::path::Path;
 
-/// The `H` array (and its shape and `H_format`) of `film`, in y-tal's axis order.
+/// The `H` array (and its shape and `H_format`) of `film`, in y-tal's axis order, whole in
+/// memory. [`write_nlos_h5`] writes it a slab at a time instead.
 pub fn h_array(spec: &NlosSpec, film: &Transient) -> (Vec<usize>, Vec<f32>, i32) {
+    let (shape, pixels, format) = h_layout(spec, film);
+    (shape, time_major(film, &pixels), format)
+}
+
+/// `H`'s shape and `H_format`, and the film pixel of each entry of `H` after its time axis:
+/// (sensor i, laser j) of an exhaustive scan, sensor point i of a confocal one at its place
+/// on the grid.
+fn h_layout(spec: &NlosSpec, film: &Transient) -> (Vec<usize>, Vec<(usize, usize)>, i32) {
     let t = film.axis.bins;
     let grids = !spec.sensors.explicit && !spec.lasers.explicit;
     let (s, l) = (&spec.sensors, &spec.lasers);
     let (sensor_order, laser_order) = (order(s, grids), order(l, grids));
-    // the film pixel of each entry of H after its time axis: (sensor i, laser j) of an
-    // exhaustive scan, sensor point i of a confocal one at its place on the grid
     let pixels: Vec<(usize, usize)> = if spec.exhaustive() {
         laser_order
             .iter()
@@ -39,19 +46,24 @@ pub fn h_array(spec: &NlosSpec, film: &Transient) -> (Vec<usize>, Vec<f32>, i32)
     } else {
         sensor_order.iter().map(|&i| (i % s.nx, i / s.nx)).collect()
     };
-    let data = time_major(film, &pixels);
     let (shape, format) = match (spec.exhaustive(), grids) {
         (false, true) => (vec![t, s.nx, s.ny], 1),
         (true, true) => (vec![t, l.nx, l.ny, s.nx, s.ny], 2),
         (false, false) => (vec![t, s.len()], 3),
         (true, false) => (vec![t, l.len(), s.len()], 4),
     };
-    (shape, data, format)
+    (shape, pixels, format)
 }
 
 /// Pixels the time-major transpose reads whole before it writes them bin by bin: 256 time
 /// series of 128 bins are 128 KiB, within a core's L2 cache.
 const TRANSPOSE_BLOCK: usize = 256;
+
+/// The most bytes of `H` held in memory at once while it is written: `H` goes to the file in
+/// slabs of its first axis after time (at least one index each), so that a large capture
+/// does not need a second film-sized array beside the film (a 32 × 32 exhaustive scan's film
+/// is 512 MiB).
+const H_SLAB_BYTES: usize = 32 << 20;
 
 /// `out[k · n + p]` = pixel `pixels[p]`'s bin k, channels summed (n = `pixels.len()`): the
 /// film's pixel-major series in time-major order. Cache-blocked: a block of pixels' series is
@@ -77,6 +89,39 @@ fn time_major(film: &Transient, pixels: &[(usize, usize)]) -> Vec<f32> {
         }
     }
     out
+}
+
+/// Indices of `H`'s second axis (the first after time) written per slab by [`write_h`]: as
+/// many as fit in `budget` bytes, at least one, at most all `len`; `bytes_per_index` is one
+/// index's share of `H` (all bins).
+fn slab_len(budget: usize, bytes_per_index: usize, len: usize) -> usize {
+    (budget / bytes_per_index.max(1)).clamp(1, len.max(1))
+}
+
+/// Creates `H` in `f` and writes it one slab of its second axis at a time, each at most
+/// `budget` bytes where one index allows (an HDF5 hyperslab [all bins, a..b, all, …]);
+/// returns `H_format`. The file holds the array [`h_array`] gives.
+fn write_h(f: &hdf5::File, spec: &NlosSpec, film: &Transient, budget: usize) -> hdf5::Result<i32> {
+    use hdf5::{Hyperslab, SliceOrIndex};
+    let (shape, pixels, format) = h_layout(spec, film);
+    let dataset = f.new_dataset::<f32>().shape(shape.as_slice()).create("H")?;
+    // the entries after the time axis run over shape[1] first: index a holds `per_index` of them
+    let per_index: usize = shape[2..].iter().product();
+    let step = slab_len(budget, per_index * shape[0] * std::mem::size_of::<f32>(), shape[1]);
+    for a in (0..shape[1]).step_by(step) {
+        let b = (a + step).min(shape[1]);
+        let slab = time_major(film, &pixels[a * per_index..b * per_index]);
+        let mut slab_shape = shape.clone();
+        slab_shape[1] = b - a;
+        let view = ndarray::ArrayViewD::from_shape(ndarray::IxDyn(&slab_shape), &slab)
+            .map_err(|e| hdf5::Error::from(format!("H slab {a}..{b}: {e}")))?;
+        let selection: Vec<SliceOrIndex> = [SliceOrIndex::from(..), SliceOrIndex::from(a..b)]
+            .into_iter()
+            .chain((2..shape.len()).map(|_| SliceOrIndex::from(..)))
+            .collect();
+        dataset.write_slice(view, Hyperslab::from(selection))?;
+    }
+    Ok(format)
 }
 
 /// The points of `g` in y-tal's order: ix major, iy minor (X, Y), or as listed (N).
@@ -130,14 +175,13 @@ pub fn write_nlos_h5(path: &Path, scene: &Scene, film: &Transient, what: &str) -
 fn write(path: &Path, scene: &Scene, spec: &NlosSpec, film: &Transient, what: &str) -> hdf5::Result<()> {
     use hdf5::types::VarLenUnicode;
     let f = hdf5::File::create(path)?;
-    let (shape, data, format) = h_array(spec, film);
+    let format = write_h(&f, spec, film, H_SLAB_BYTES)?;
     let grids = format == 1 || format == 2;
     let array = |name: &str, shape: &[usize], data: &[f32]| -> hdf5::Result<()> {
         f.new_dataset::<f32>().shape(shape).create(name)?.write_raw(data)
     };
     let int = |name: &str, v: i32| -> hdf5::Result<()> { f.new_dataset::<i32>().create(name)?.write_scalar(&v) };
     let float = |name: &str, v: f64| -> hdf5::Result<()> { f.new_dataset::<f64>().create(name)?.write_scalar(&v) };
-    array("H", &shape, &data)?;
     int("H_format", format)?;
     let origin = scene.render_origin;
     let world = |p: glam::Vec3| -> [f32; 3] { std::array::from_fn(|a| (p[a] as f64 + origin[a]) as f32) };
@@ -186,21 +230,27 @@ mod tests {
     use super::*;
     use crate::temporal::TimeAxis;
 
+    /// A film of `w` × `h` pixels whose values all differ (RGB when `channels` is 3).
+    fn numbered_film(w: usize, h: usize, bins: usize, channels: usize) -> Transient {
+        let axis = TimeAxis {
+            start_opl: 1.0,
+            bin_width_opl: 0.01,
+            bins,
+        };
+        let mut film = Transient::zeros(w, h, axis, channels);
+        for (i, v) in film.data.iter_mut().enumerate() {
+            *v = ((i * 2_654_435_761) % 1_000_003) as f32 * 1e-3 - 300.0;
+        }
+        film
+    }
+
     /// The blocked transpose gives each value as the per-value formula does, to the bit: RGB
     /// summed over channels, a film whose pixel count crosses several blocks and ends inside
     /// one, pixels taken in a scrambled order and some twice.
     #[test]
     fn time_major_matches_the_value_by_value_order() {
-        let axis = TimeAxis {
-            start_opl: 1.0,
-            bin_width_opl: 0.01,
-            bins: 37,
-        };
-        let (w, h) = (41, 17);
-        let mut film = Transient::zeros(w, h, axis, 3);
-        for (i, v) in film.data.iter_mut().enumerate() {
-            *v = ((i * 2_654_435_761) % 1_000_003) as f32 * 1e-3 - 300.0;
-        }
+        let (w, h, bins) = (41, 17, 37);
+        let film = numbered_film(w, h, bins, 3);
         let pixels: Vec<(usize, usize)> = (0..w * h + 50)
             .map(|p| {
                 let q = (p * 7919) % (w * h);
@@ -210,11 +260,51 @@ mod tests {
         assert!(pixels.len() > 2 * TRANSPOSE_BLOCK && !pixels.len().is_multiple_of(TRANSPOSE_BLOCK));
         let got = time_major(&film, &pixels);
         let n = pixels.len();
-        assert_eq!(got.len(), axis.bins * n);
-        for k in 0..axis.bins {
+        assert_eq!(got.len(), bins * n);
+        for k in 0..bins {
             for (p, &(x, y)) in pixels.iter().enumerate() {
                 let want: f32 = (0..3).map(|ch| film.at(x, y, k, ch)).sum();
                 assert_eq!(got[k * n + p].to_bits(), want.to_bits(), "bin {k}, entry {p}");
+            }
+        }
+    }
+
+    /// `H` written a slab at a time (slabs of one index of its second axis, of two with a
+    /// partial last one, and all at once) reads back as the array `h_array` holds, to the
+    /// bit, for a confocal scan and an exhaustive one.
+    #[test]
+    fn h_written_in_slabs_reads_back_whole() {
+        use crate::scene::testutil::{load_text, scene_text};
+        let text = scene_text("nlos_occluder.toml").replace("grid = [16, 16]", "grid = [5, 4]");
+        let confocal = load_text("co.toml", &text, &[], &[]).unwrap();
+        let text = text.replace("scan = \"confocal\"", "scan = \"exhaustive\"\nlaser_grid = [3, 2]");
+        let exhaustive = load_text("ex.toml", &text, &[], &[]).unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        for (name, scene, format) in [("confocal", &confocal, 1), ("exhaustive", &exhaustive, 2)] {
+            let spec = scene.nlos.as_ref().unwrap();
+            let (w, h) = if spec.exhaustive() {
+                (spec.sensors.len(), spec.lasers.len())
+            } else {
+                (spec.sensors.nx, spec.sensors.ny)
+            };
+            let film = numbered_film(w, h, 13, 1);
+            let (shape, whole, want_format) = h_array(spec, &film);
+            assert_eq!(want_format, format);
+            // a budget of one index per slab, of two (5 = 2 + 2 + 1 and 3 = 2 + 1), and all
+            let per_index = whole.len() / shape[1];
+            assert!(shape[1] % 2 == 1, "{name}: {shape:?}");
+            for budget in [1, 2 * per_index * 4, usize::MAX / 2] {
+                let path = dir.path().join(format!("{name}_{budget}.h5"));
+                let f = hdf5::File::create(&path).unwrap();
+                assert_eq!(write_h(&f, spec, &film, budget).unwrap(), format);
+                f.close().unwrap();
+                let dataset = hdf5::File::open(&path).unwrap().dataset("H").unwrap();
+                assert_eq!(dataset.shape(), shape, "{name}");
+                let got: Vec<f32> = dataset.read_raw().unwrap();
+                assert!(
+                    got.iter().zip(&whole).all(|(a, b)| a.to_bits() == b.to_bits()),
+                    "{name}, budget {budget}"
+                );
             }
         }
     }
