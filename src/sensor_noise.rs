@@ -70,13 +70,18 @@ fn poisson(mu: f64, rng: &mut SplitMix) -> f64 {
 pub fn photon_counts(data: &[f32], noise: &NoiseSpec) -> Vec<f32> {
     data.par_iter()
         .enumerate()
-        .map(|(i, &v)| {
-            let mut rng = SplitMix(noise.seed ^ (i as u64).wrapping_mul(0xd134_2543_de82_ef95));
-            rng.next_u64();
-            let mu = noise.photons_per_unit * (v.max(0.0) as f64) + noise.dark_counts;
-            poisson(mu, &mut rng) as f32
-        })
+        .map(|(i, &v)| photon_count(noise, i, v))
         .collect()
+}
+
+/// The photon count of bin `i` (its index in the transient's data) of value `v`: element i
+/// of [`photon_counts`], made alone, so that a writer can make the counts as it writes them
+/// (`output::write_npy_mapped`).
+pub fn photon_count(noise: &NoiseSpec, i: usize, v: f32) -> f32 {
+    let mut rng = SplitMix(noise.seed ^ (i as u64).wrapping_mul(0xd134_2543_de82_ef95));
+    rng.next_u64();
+    let mu = noise.photons_per_unit * (v.max(0.0) as f64) + noise.dark_counts;
+    poisson(mu, &mut rng) as f32
 }
 
 #[cfg(test)]

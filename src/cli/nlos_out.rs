@@ -39,20 +39,15 @@ pub(super) fn write(scene: &Scene, film: &Transient, set: &mut OutputSet, sharde
     #[cfg(feature = "hdf5")]
     crate::output::write_nlos_h5(&set.stage("h5")?, scene, film, "noiseless transient (radiance)")?;
     if let Some(noise) = &n.noise {
-        let noisy = Transient {
-            width: film.width,
-            height: film.height,
-            axis: film.axis,
-            channels: film.channels,
-            data: crate::sensor_noise::photon_counts(&film.data, noise),
-            steady: Vec::new(),
-        };
-        crate::output::write_npy(&set.stage("noisy.npy")?, &noisy.shape(), &noisy.data)?;
+        // the counts are made as each file is written, never held whole beside the film
+        let count = |i: usize, v: f32| crate::sensor_noise::photon_count(noise, i, v);
+        crate::output::write_npy_mapped(&set.stage("noisy.npy")?, &film.shape(), &film.data, count)?;
         #[cfg(feature = "hdf5")]
-        crate::output::write_nlos_h5(
+        crate::output::write_nlos_h5_mapped(
             &set.stage("noisy.h5")?,
             scene,
-            &noisy,
+            film,
+            count,
             "photon counts (noise model in noise)",
         )?;
     }

@@ -36,8 +36,8 @@ pub use flight::{
 pub use font::FONT_ENV;
 pub use json::write_json;
 #[cfg(feature = "hdf5")]
-pub use nlos_h5::{h_array, write_nlos_h5};
-pub use npy::write_npy;
+pub use nlos_h5::{h_array, write_nlos_h5, write_nlos_h5_mapped};
+pub use npy::{write_npy, write_npy_mapped};
 pub use plot::write_time_plot;
 pub use preview::{MAX_SHEET_FRAMES, SheetStyle, write_contact_sheet, write_steady_png};
 pub use xy_plot::{write_line_plot, write_loglog_plot};

@@ -27,7 +27,7 @@ use std::path::Path;
 /// memory. [`write_nlos_h5`] writes it a slab at a time instead.
 pub fn h_array(spec: &NlosSpec, film: &Transient) -> (Vec<usize>, Vec<f32>, i32) {
     let (shape, pixels, format) = h_layout(spec, film);
-    (shape, time_major(film, &pixels), format)
+    (shape, time_major(film, &pixels, &|_, v| v), format)
 }
 
 /// `H`'s shape and `H_format`, and the film pixel of each entry of `H` after its time axis:
@@ -65,25 +65,34 @@ const TRANSPOSE_BLOCK: usize = 256;
 /// is 512 MiB).
 const H_SLAB_BYTES: usize = 32 << 20;
 
-/// `out[k · n + p]` = pixel `pixels[p]`'s bin k, channels summed (n = `pixels.len()`): the
-/// film's pixel-major series in time-major order. Cache-blocked: a block of pixels' series is
-/// read whole, then written as one run per bin. Read in output order, every value was a cache
+/// `out[k · n + p]` = pixel `pixels[p]`'s bin k, channels summed, of the film's values mapped
+/// by `map(index in film.data, value)` (n = `pixels.len()`): the film's pixel-major series in
+/// time-major order. Cache-blocked: a block of pixels' series is read whole (blocks in
+/// parallel), then written as one run per bin. Read in output order, every value was a cache
 /// miss (the film's pixels lie bins × channels floats apart): 38 % of the run of a 32 × 32
 /// exhaustive scan at 16 spp, whose film is 512 MiB.
-fn time_major(film: &Transient, pixels: &[(usize, usize)]) -> Vec<f32> {
+fn time_major<M: Fn(usize, f32) -> f32 + Sync>(film: &Transient, pixels: &[(usize, usize)], map: &M) -> Vec<f32> {
+    use rayon::prelude::*;
     let (t, c, n) = (film.axis.bins, film.channels, pixels.len());
-    let mut out = vec![0.0f32; t * n];
-    let mut block = vec![0.0f32; TRANSPOSE_BLOCK * t];
-    for (b, chunk) in pixels.chunks(TRANSPOSE_BLOCK).enumerate() {
-        for (q, &(x, y)) in chunk.iter().enumerate() {
-            let series = &film.data[film.index(x, y, 0, 0)..][..t * c];
-            for (k, v) in block[q * t..(q + 1) * t].iter_mut().enumerate() {
-                *v = series[k * c..(k + 1) * c].iter().copied().sum();
+    let blocks: Vec<Vec<f32>> = pixels
+        .par_chunks(TRANSPOSE_BLOCK)
+        .map(|chunk| {
+            let mut block = vec![0.0f32; chunk.len() * t];
+            for (q, &(x, y)) in chunk.iter().enumerate() {
+                let at = film.index(x, y, 0, 0);
+                for (k, v) in block[q * t..(q + 1) * t].iter_mut().enumerate() {
+                    let bin = at + k * c;
+                    *v = (bin..bin + c).map(|i| map(i, film.data[i])).sum();
+                }
             }
-        }
-        let p0 = b * TRANSPOSE_BLOCK;
+            block
+        })
+        .collect();
+    let mut out = vec![0.0f32; t * n];
+    for (b, block) in blocks.iter().enumerate() {
+        let (p0, len) = (b * TRANSPOSE_BLOCK, block.len() / t.max(1));
         for k in 0..t {
-            for (q, v) in out[k * n + p0..][..chunk.len()].iter_mut().enumerate() {
+            for (q, v) in out[k * n + p0..][..len].iter_mut().enumerate() {
                 *v = block[q * t + k];
             }
         }
@@ -101,7 +110,13 @@ fn slab_len(budget: usize, bytes_per_index: usize, len: usize) -> usize {
 /// Creates `H` in `f` and writes it one slab of its second axis at a time, each at most
 /// `budget` bytes where one index allows (an HDF5 hyperslab [all bins, a..b, all, …]);
 /// returns `H_format`. The file holds the array [`h_array`] gives.
-fn write_h(f: &hdf5::File, spec: &NlosSpec, film: &Transient, budget: usize) -> hdf5::Result<i32> {
+fn write_h<M: Fn(usize, f32) -> f32 + Sync>(
+    f: &hdf5::File,
+    spec: &NlosSpec,
+    film: &Transient,
+    map: &M,
+    budget: usize,
+) -> hdf5::Result<i32> {
     use hdf5::{Hyperslab, SliceOrIndex};
     let (shape, pixels, format) = h_layout(spec, film);
     let dataset = f.new_dataset::<f32>().shape(shape.as_slice()).create("H")?;
@@ -110,7 +125,13 @@ fn write_h(f: &hdf5::File, spec: &NlosSpec, film: &Transient, budget: usize) -> 
     let step = slab_len(budget, per_index * shape[0] * std::mem::size_of::<f32>(), shape[1]);
     for a in (0..shape[1]).step_by(step) {
         let b = (a + step).min(shape[1]);
-        let slab = time_major(film, &pixels[a * per_index..b * per_index]);
+        let slab = time_major(film, &pixels[a * per_index..b * per_index], map);
+        if let Some(bad) = slab.iter().position(|v| !v.is_finite()) {
+            let entry = a * per_index + bad % (slab.len() / shape[0]);
+            return Err(hdf5::Error::from(format!(
+                "entry {entry} of H is not finite; refusing to write"
+            )));
+        }
         let mut slab_shape = shape.clone();
         slab_shape[1] = b - a;
         let view = ndarray::ArrayViewD::from_shape(ndarray::IxDyn(&slab_shape), &slab)
@@ -153,6 +174,19 @@ fn grid_arrays(g: &WallGrid, grids: bool, origin: [f64; 3]) -> (Vec<usize>, Vec<
 
 /// Writes `film` (a render of `scene`'s capture) to `path` in the layout above.
 pub fn write_nlos_h5(path: &Path, scene: &Scene, film: &Transient, what: &str) -> Result<(), OutputError> {
+    write_nlos_h5_mapped(path, scene, film, |_, v| v, what)
+}
+
+/// [`write_nlos_h5`] of the film's values mapped by `map(index in film.data, value)`, made as
+/// `H` is written, so that no second film-sized array is held (a noisy copy,
+/// `crate::sensor_noise::photon_count`). `film` and every mapped value must be finite.
+pub fn write_nlos_h5_mapped(
+    path: &Path,
+    scene: &Scene,
+    film: &Transient,
+    map: impl Fn(usize, f32) -> f32 + Sync,
+    what: &str,
+) -> Result<(), OutputError> {
     let spec = scene.nlos.as_ref().expect("an NLOS scene");
     if let Some(bad) = film.data.iter().position(|v| !v.is_finite()) {
         return Err(OutputError::invalid(
@@ -162,7 +196,7 @@ pub fn write_nlos_h5(path: &Path, scene: &Scene, film: &Transient, what: &str) -
     }
     // written beside the destination and renamed into place, like every writer here
     let tmp = path.with_extension("h5.partial");
-    let result = write(&tmp, scene, spec, film, what).map_err(|e| OutputError::encode(path, "HDF5", e));
+    let result = write(&tmp, scene, spec, film, &map, what).map_err(|e| OutputError::encode(path, "HDF5", e));
     match result.and_then(|()| std::fs::rename(&tmp, path).map_err(|e| OutputError::io(path, e))) {
         Ok(()) => Ok(()),
         Err(e) => {
@@ -172,10 +206,17 @@ pub fn write_nlos_h5(path: &Path, scene: &Scene, film: &Transient, what: &str) -
     }
 }
 
-fn write(path: &Path, scene: &Scene, spec: &NlosSpec, film: &Transient, what: &str) -> hdf5::Result<()> {
+fn write<M: Fn(usize, f32) -> f32 + Sync>(
+    path: &Path,
+    scene: &Scene,
+    spec: &NlosSpec,
+    film: &Transient,
+    map: &M,
+    what: &str,
+) -> hdf5::Result<()> {
     use hdf5::types::VarLenUnicode;
     let f = hdf5::File::create(path)?;
-    let format = write_h(&f, spec, film, H_SLAB_BYTES)?;
+    let format = write_h(&f, spec, film, map, H_SLAB_BYTES)?;
     let grids = format == 1 || format == 2;
     let array = |name: &str, shape: &[usize], data: &[f32]| -> hdf5::Result<()> {
         f.new_dataset::<f32>().shape(shape).create(name)?.write_raw(data)
@@ -258,7 +299,7 @@ mod tests {
             })
             .collect();
         assert!(pixels.len() > 2 * TRANSPOSE_BLOCK && !pixels.len().is_multiple_of(TRANSPOSE_BLOCK));
-        let got = time_major(&film, &pixels);
+        let got = time_major(&film, &pixels, &|_, v| v);
         let n = pixels.len();
         assert_eq!(got.len(), bins * n);
         for k in 0..bins {
@@ -271,7 +312,8 @@ mod tests {
 
     /// `H` written a slab at a time (slabs of one index of its second axis, of two with a
     /// partial last one, and all at once) reads back as the array `h_array` holds, to the
-    /// bit, for a confocal scan and an exhaustive one.
+    /// bit, for a confocal scan and an exhaustive one; with a map, as `h_array` of the mapped
+    /// film; a map that gives a NaN is refused.
     #[test]
     fn h_written_in_slabs_reads_back_whole() {
         use crate::scene::testutil::{load_text, scene_text};
@@ -296,7 +338,7 @@ mod tests {
             for budget in [1, 2 * per_index * 4, usize::MAX / 2] {
                 let path = dir.path().join(format!("{name}_{budget}.h5"));
                 let f = hdf5::File::create(&path).unwrap();
-                assert_eq!(write_h(&f, spec, &film, budget).unwrap(), format);
+                assert_eq!(write_h(&f, spec, &film, &|_, v| v, budget).unwrap(), format);
                 f.close().unwrap();
                 let dataset = hdf5::File::open(&path).unwrap().dataset("H").unwrap();
                 assert_eq!(dataset.shape(), shape, "{name}");
@@ -306,6 +348,31 @@ mod tests {
                     "{name}, budget {budget}"
                 );
             }
+            // values mapped as they are written: H of the mapped film, to the bit
+            let map = |i: usize, v: f32| v * 2.0 + (i % 7) as f32;
+            let mut mapped = film.clone();
+            mapped.data.iter_mut().enumerate().for_each(|(i, v)| *v = map(i, *v));
+            let (_, want, _) = h_array(spec, &mapped);
+            let path = dir.path().join(format!("{name}_mapped.h5"));
+            let f = hdf5::File::create(&path).unwrap();
+            write_h(&f, spec, &film, &map, 2 * per_index * 4).unwrap();
+            f.close().unwrap();
+            let got: Vec<f32> = hdf5::File::open(&path)
+                .unwrap()
+                .dataset("H")
+                .unwrap()
+                .read_raw()
+                .unwrap();
+            assert!(
+                got.iter().zip(&want).all(|(a, b)| a.to_bits() == b.to_bits()),
+                "{name}, mapped"
+            );
+            // a map that gives a NaN is refused, whichever slab it lands in
+            let f = hdf5::File::create(dir.path().join(format!("{name}_nan.h5"))).unwrap();
+            let last = film.data.len() - 1;
+            let nan = |i: usize, v: f32| if i == last { f32::NAN } else { v };
+            let err = write_h(&f, spec, &film, &nan, 2 * per_index * 4).unwrap_err();
+            assert!(err.to_string().contains("not finite"), "{name}: {err}");
         }
     }
 }

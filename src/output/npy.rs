@@ -38,19 +38,63 @@ use std::path::Path;
 /// ```
 pub fn write_npy(path: &Path, shape: &[usize], data: &[f32]) -> Result<(), OutputError> {
     check_data(path, shape, data)?;
-    let shape64: Vec<u64> = shape.iter().map(|&d| d as u64).collect();
     write_atomic(path, |w| {
-        let io = |e: std::io::Error| OutputError::io(path, e);
-        npyz::WriteOptions::new_header_only()
-            .dtype(npyz::DType::new_scalar(
-                "<f4".parse().expect("<f4 is a valid type string"),
-            ))
-            .shape(&shape64)
-            .writer(&mut *w)
-            .write_header_only()
-            .map_err(io)?;
-        super::write_le_sparse(w, data).map_err(io)
+        write_header(w, path, shape)?;
+        super::write_le_sparse(w, data).map_err(|e| OutputError::io(path, e))
     })
+}
+
+/// Values made and written at a time by [`write_npy_mapped`] (16 MiB of f32).
+const MAPPED_BLOCK: usize = 1 << 22;
+
+/// [`write_npy`] of `map(i, data[i])` for every index i: the values are made a block at a time
+/// (in parallel within the block) and written as they are made, so no second array of
+/// `data`'s size is held (a noisy copy of a large NLOS capture, `crate::sensor_noise`).
+/// `data` is checked as [`write_npy`] checks it, and so is every value `map` gives.
+pub fn write_npy_mapped(
+    path: &Path,
+    shape: &[usize],
+    data: &[f32],
+    map: impl Fn(usize, f32) -> f32 + Sync,
+) -> Result<(), OutputError> {
+    write_mapped_in_blocks(path, shape, data, map, MAPPED_BLOCK)
+}
+
+/// [`write_npy_mapped`], making `block_len` values at a time.
+fn write_mapped_in_blocks(
+    path: &Path,
+    shape: &[usize],
+    data: &[f32],
+    map: impl Fn(usize, f32) -> f32 + Sync,
+    block_len: usize,
+) -> Result<(), OutputError> {
+    use rayon::prelude::*;
+    check_data(path, shape, data)?;
+    write_atomic(path, |w| {
+        write_header(w, path, shape)?;
+        let mut block = vec![0.0f32; block_len.min(data.len())];
+        for (b, values) in data.chunks(block_len).enumerate() {
+            let made = &mut block[..values.len()];
+            (made.par_iter_mut().zip(values).enumerate()).for_each(|(j, (out, &v))| *out = map(b * block_len + j, v));
+            super::check_finite(path, made)?;
+            super::write_le_sparse(w, made).map_err(|e| OutputError::io(path, e))?;
+        }
+        Ok(())
+    })
+}
+
+/// The `.npy` header of a float32 (`<f4`), C-order array of `shape`.
+fn write_header(w: &mut super::atomic::AtomicWriter<'_>, path: &Path, shape: &[usize]) -> Result<(), OutputError> {
+    let shape64: Vec<u64> = shape.iter().map(|&d| d as u64).collect();
+    npyz::WriteOptions::new_header_only()
+        .dtype(npyz::DType::new_scalar(
+            "<f4".parse().expect("<f4 is a valid type string"),
+        ))
+        .shape(&shape64)
+        .writer(&mut *w)
+        .write_header_only()
+        .map(drop)
+        .map_err(|e| OutputError::io(path, e))
 }
 
 #[cfg(test)]
@@ -153,6 +197,35 @@ mod tests {
     }
 
     /// numpy itself reads the file (skipped when python3 or numpy is absent).
+    /// Mapped values written a block at a time (blocks of 7 over 40 values: five whole and a
+    /// partial one, and one block for all) are the bytes of `write_npy` of the mapped array;
+    /// a map that gives a NaN is refused and leaves no file.
+    #[test]
+    fn mapped_blocks_give_the_bytes_of_the_mapped_array() {
+        let dir = tempfile::tempdir().unwrap();
+        let data: Vec<f32> = (0..40)
+            .map(|i| if i % 3 == 0 { 0.0 } else { i as f32 * 0.25 - 4.0 })
+            .collect();
+        let map = |i: usize, v: f32| v * 3.0 + (i % 5) as f32;
+        let mapped: Vec<f32> = data.iter().enumerate().map(|(i, &v)| map(i, v)).collect();
+        let want = dir.path().join("want.npy");
+        write_npy(&want, &[5, 8], &mapped).unwrap();
+        for block in [7, 40, 1000] {
+            let got = dir.path().join(format!("got{block}.npy"));
+            write_mapped_in_blocks(&got, &[5, 8], &data, map, block).unwrap();
+            assert_eq!(
+                std::fs::read(&got).unwrap(),
+                std::fs::read(&want).unwrap(),
+                "blocks of {block}"
+            );
+        }
+        let bad = dir.path().join("bad.npy");
+        let err = write_mapped_in_blocks(&bad, &[5, 8], &data, |i, v| if i == 33 { f32::NAN } else { v }, 7);
+        assert!(matches!(err, Err(OutputError::NonFinite { .. })), "{err:?}");
+        assert!(!bad.exists());
+        assert_eq!(entries(dir.path()).len(), 4, "{:?}", entries(dir.path()));
+    }
+
     #[test]
     fn numpy_reads_it() {
         let have_numpy = std::process::Command::new("python3")
