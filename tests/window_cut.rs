@@ -115,6 +115,9 @@ fn a_laser_a_gaussian_pulse_and_an_unwarped_film_keep_their_transients() {
     let mut laser = common::load("laser_room.toml");
     laser.film.axis.bins = 85;
     check_forward("laser, Gaussian pulse", &laser, opts(1, 4, SteadyMode::Window));
+    // gated_laser_room: paths end where the spot, plus the beam's leg, is out of reach
+    let gated = common::load("gated_laser_room.toml");
+    check_forward("gated laser", &gated, opts(1, 4, SteadyMode::Window));
     let mut unwarped = early_cornell();
     unwarped.film.unwarp = true;
     unwarped.film.axis.start_opl = 0.0;

@@ -88,10 +88,18 @@ impl<'a> RenderContext<'a> {
             .map(|e| Correlation::new(scene.film.axis, e.pulse, e.offset_opl, scene.film.gate))
             .collect::<Result<Vec<_>, _>>()?;
         let camera = CameraSampler::new(&scene.camera, scene.film.width, scene.film.height, scene.film.filter);
+        // each spot with the leg its beam adds: always for a scene's laser, for a scan's
+        // laser points where the relay legs count (`emitters::sample_with`)
+        let spot = |s: &super::emitter_table::LaserSpot, leg: bool| {
+            (s.origin + s.direction * s.distance, if leg { s.distance } else { 0.0 })
+        };
         let spots = (0..emitters.count())
             .filter_map(|e| emitters.laser_spot(e))
-            .chain(nlos.iter().flat_map(|n| n.spots.iter().flatten()))
-            .map(|s| s.prim);
+            .map(|s| spot(s, true))
+            .chain(
+                nlos.iter()
+                    .flat_map(|n| n.spots.iter().flatten().map(|s| spot(s, n.laser_leg))),
+            );
         let emitter_box = super::window::EmitterBox::new(scene, spots);
         let camera_box = (!scene.film.unwarp).then(|| super::window::EmitterBox::point(scene, scene.camera.position));
         Ok(Self {

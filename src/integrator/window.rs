@@ -64,42 +64,52 @@ pub fn within<V: Real>(budget: Option<f32>, d: V) -> V::Mask {
 }
 
 /// A box around every point a path can end on (the area emitters' triangles, the point
-/// lights, the triangles of the laser spots, an NLOS scan's included) and the smallest
-/// refractive index of the scene: from a vertex at distance r from the box, any continuation
-/// that ends on an emitter has an OPL of at least η_min·r (a path is at least as long as the
-/// straight line, and each of its segments is weighted by an index ≥ η_min).
+/// lights, the laser spots, an NLOS scan's included), the smallest refractive index of the
+/// scene, and the least length an end adds after its point (a laser's leg to its spot where
+/// the time of flight counts it): from a vertex at distance r from the box, any continuation
+/// that ends on an emitter has an OPL of at least η_min·(r + tail) (a path is at least as long
+/// as the straight line, and each of its segments, the laser's leg included, is weighted by an
+/// index ≥ η_min).
 #[derive(Clone, Copy, Debug)]
 pub struct EmitterBox {
     lo: Vec3,
     hi: Vec3,
     eta_min: f32,
+    tail: f32,
 }
 
 impl EmitterBox {
-    /// The box of `scene`'s emitter points; `spots` are the triangles laser beams land on
-    /// (the scene's lasers and an NLOS scan's laser points). `None` when there is no such
-    /// point: then no path reaches an emitter, and nothing is bounded.
-    pub fn new(scene: &Scene, spots: impl IntoIterator<Item = u32>) -> Option<Self> {
+    /// The box of `scene`'s emitter points; `spots` are the points laser beams land on (the
+    /// scene's lasers and an NLOS scan's laser points), each with the OPL its beam adds to a
+    /// path that ends there (the laser-to-spot length, or 0 where it is left out). A spot is
+    /// a point, not its triangle: where geometry moves, the spot moves along the fixed beam
+    /// (ray form), and the primal path, which alone is cut, ends at the spot found here.
+    /// `None` when there is no such point: then no path reaches an emitter, and nothing is
+    /// bounded.
+    pub fn new(scene: &Scene, spots: impl IntoIterator<Item = (Vec3, f32)>) -> Option<Self> {
         let geo = &scene.geometry;
         let tri = |t: u32| geo.indices[t as usize].map(|i| geo.positions[i as usize]);
-        let mut points: Vec<Vec3> = spots.into_iter().flat_map(tri).collect();
+        let mut points: Vec<(Vec3, f32)> = spots.into_iter().collect();
         for e in &scene.emitters {
             match &e.kind {
                 EmitterKind::Area { shape, .. } => {
                     let s = &scene.shapes[*shape as usize];
-                    points.extend((s.first_tri..s.first_tri + s.tri_count).flat_map(tri));
+                    points.extend((s.first_tri..s.first_tri + s.tri_count).flat_map(tri).map(|p| (p, 0.0)));
                 }
-                EmitterKind::Point { position, .. } => points.push(*position),
+                EmitterKind::Point { position, .. } => points.push((*position, 0.0)),
                 // the spot it lights is among `spots`
                 EmitterKind::Laser { .. } => {}
             }
         }
-        let first = *points.first()?;
-        let (lo, hi) = points
+        let (first, _) = *points.first()?;
+        let (lo, hi, tail) = points
             .iter()
-            .fold((first, first), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
+            .fold((first, first, f32::INFINITY), |(lo, hi, tail), (p, t)| {
+                (lo.min(*p), hi.max(*p), tail.min(*t))
+            });
         let eta_min = least_index(scene);
-        (lo.is_finite() && hi.is_finite() && eta_min > 0.0).then_some(Self { lo, hi, eta_min })
+        let finite = lo.is_finite() && hi.is_finite() && tail.is_finite() && tail >= 0.0;
+        (finite && eta_min > 0.0).then_some(Self { lo, hi, eta_min, tail })
     }
 
     /// One point as the box: the pinhole, where every path of a light subpath ends.
@@ -108,13 +118,14 @@ impl EmitterBox {
             lo: p,
             hi: p,
             eta_min: least_index(scene),
+            tail: 0.0,
         }
     }
 
     /// Lanes at `p` with OPL `opl` from which an emitter may still be reached within the
-    /// budget (all lanes without one): opl + η_min·dist(p, box) ≤ budget. The distance is
-    /// taken a hair short (its f32 rounding is far below the budget's slack), so that no
-    /// path that could land is ended.
+    /// budget (all lanes without one): opl + η_min·(dist(p, box) + tail) ≤ budget. The least
+    /// OPL is taken a hair short (its f32 rounding is far below the budget's slack), so that
+    /// no path that could land is ended.
     #[inline(always)]
     pub fn reachable<V: Real>(&self, budget: Option<f32>, opl: V, p: &V3<V>) -> V::Mask {
         let out = |x: V, lo: f32, hi: f32| (V::splat(lo) - x).max(x - V::splat(hi)).max(V::zero());
@@ -123,7 +134,7 @@ impl EmitterBox {
             out(p.y, self.lo.y, self.hi.y),
             out(p.z, self.lo.z, self.hi.z),
         );
-        let least = gap.length().mul_f(self.eta_min * (1.0 - 1e-5));
+        let least = (gap.length() + V::splat(self.tail)).mul_f(self.eta_min * (1.0 - 1e-5));
         within(budget, opl + least)
     }
 }
@@ -188,19 +199,29 @@ mod tests {
     }
 
     /// The bound never ends a lane that an emitter point lies within reach of: for points p
-    /// and emitter points q (inside the box, on it, and for a box that is one point), a lane
-    /// whose opl + η_min·|p − q| ≤ budget is kept, and lanes far past it are ended.
+    /// and emitter points q (inside the box, on it, for a box that is one point, and for a
+    /// laser spot whose beam adds a leg), a lane whose opl + η_min·(|p − q| + tail) ≤ budget
+    /// is kept, and lanes far past it are ended.
     #[test]
     fn the_emitter_box_keeps_every_lane_an_emitter_point_is_within_reach_of() {
         let b = EmitterBox {
             lo: Vec3::new(-1.0, 2.0, 0.5),
             hi: Vec3::new(1.0, 2.0, 1.5),
             eta_min: 1.25,
+            tail: 0.0,
         };
         let point = EmitterBox {
             lo: Vec3::splat(3.0),
             hi: Vec3::splat(3.0),
             eta_min: 1.0,
+            tail: 0.0,
+        };
+        // a spot whose beam adds 2.5 m to every path that ends on it
+        let spot = EmitterBox {
+            lo: Vec3::new(0.5, -1.0, 0.0),
+            hi: Vec3::new(0.5, -1.0, 0.0),
+            eta_min: 1.1,
+            tail: 2.5,
         };
         let mut state = 0x2545_F491_4F6C_DD1Du64;
         let mut next = move || {
@@ -211,12 +232,12 @@ mod tests {
         };
         let budget = 20.0f32;
         let (mut kept, mut ended) = (0, 0);
-        for bx in [b, point] {
+        for bx in [b, point, spot] {
             for _ in 0..20_000 {
                 let p = Vec3::new(next() * 16.0 - 8.0, next() * 16.0 - 8.0, next() * 16.0 - 8.0);
                 let q = bx.lo + (bx.hi - bx.lo) * Vec3::new(next(), next(), next());
                 let opl = next() * budget;
-                let reach = opl + bx.eta_min * (p - q).length();
+                let reach = opl + bx.eta_min * ((p - q).length() + bx.tail);
                 let pv = V3::new(p.x, p.y, p.z);
                 let r = bx.reachable(Some(budget), opl, &pv);
                 if reach <= budget {
@@ -225,7 +246,7 @@ mod tests {
                 }
                 // the nearest point of the box: ended once it is out of reach
                 let nearest = p.clamp(bx.lo, bx.hi);
-                if opl + bx.eta_min * (p - nearest).length() > budget * 1.001 {
+                if opl + bx.eta_min * ((p - nearest).length() + bx.tail) > budget * 1.001 {
                     assert!(!r, "{bx:?}: p {p}, opl {opl} kept though no point is within reach");
                     ended += 1;
                 }
@@ -274,6 +295,57 @@ mod tests {
         assert_eq!(EmitterBox::new(&scene, []).unwrap().eta_min, 0.8);
         scene.emitters.clear();
         assert!(EmitterBox::new(&scene, []).is_none(), "no emitter, nothing bounded");
+    }
+
+    /// A laser's box is its spot, not the triangle the spot lies on, and the beam's leg is its
+    /// tail: always for a scene's laser, for a scan's laser points only where the relay legs
+    /// count. Where a point light shares the scene, it adds nothing after its point, so
+    /// neither does the box.
+    #[test]
+    fn a_laser_spot_bounds_by_its_point_and_its_leg() {
+        use crate::integrator::RenderContext;
+        let device = crate::accel::Device::new("").unwrap();
+        let scene = crate::scene::testutil::load_scene("gated_laser_room.toml");
+        let ctx = RenderContext::new(&scene, &device).unwrap();
+        let s = ctx.emitters.laser_spot(0).expect("the room's laser lights a spot");
+        let b = ctx.emitter_box.unwrap();
+        let at = s.origin + s.direction * s.distance;
+        assert!((b.hi - b.lo).max_element() < 1e-6, "a point, not a triangle: {b:?}");
+        assert!((b.lo - at).length() < 1e-5, "{b:?} vs the spot {at}");
+        assert!(s.distance > 1.0 && b.tail == s.distance, "{b:?}, leg {}", s.distance);
+        let text = crate::scene::testutil::scene_text("nlos_occluder.toml");
+        let capture = |legs: &str| {
+            let text = text.replace(
+                "scan = \"confocal\"",
+                &format!("scan = \"confocal\"\nrelay_legs = \"{legs}\""),
+            );
+            let scene = crate::scene::testutil::load_text("occ.toml", &text, &[], &[]).unwrap();
+            let ctx = RenderContext::new(&scene, &device).unwrap();
+            let n = ctx.nlos.as_ref().unwrap();
+            let least = n
+                .spots
+                .iter()
+                .flatten()
+                .map(|s| s.distance)
+                .fold(f32::INFINITY, f32::min);
+            (ctx.emitter_box.unwrap(), least)
+        };
+        let (excluded, _) = capture("excluded");
+        assert_eq!(excluded.tail, 0.0, "{excluded:?}");
+        let (included, least) = capture("included");
+        assert!(
+            least > 1.0 && included.tail <= least && included.tail >= 0.99 * least,
+            "{included:?}, {least}"
+        );
+        let mut lit = scene.clone();
+        lit.emitters.push(crate::scene::Emitter {
+            kind: EmitterKind::Point {
+                position: Vec3::new(0.0, 1.0, 0.0),
+                intensity: [1.0; 3],
+            },
+            ..scene.emitters[0].clone()
+        });
+        assert_eq!(EmitterBox::new(&lit, [(at, s.distance)]).unwrap().tail, 0.0);
     }
 
     /// The path tracer and BDPT with the bound against without it (both boxes taken away),
