@@ -34,12 +34,12 @@ pub struct RenderContext<'a> {
     /// trace every path to its end (set with [`Self::cut_to_window`]).
     pub opl_budget: Option<f32>,
     /// Where the emitters lie, for the path tracer's part of the window cut
-    /// ([`super::window::EmitterBox`]); used only with a budget.
-    pub emitter_box: Option<super::window::EmitterBox>,
+    /// ([`super::window::EndBox`]); used only with a budget.
+    pub emitter_box: Option<super::window::EndBox>,
     /// The pinhole as such a box, for BDPT's light subpaths and the boundary stage's sensor
     /// walks (`super::importance`); `None` when the film is unwarped (the camera's leg is
     /// then not counted).
-    pub camera_box: Option<super::window::EmitterBox>,
+    pub camera_box: Option<super::window::EndBox>,
     /// The relay-wall sensor and laser spots of an NLOS capture (`super::nlos`).
     pub nlos: Option<super::nlos::NlosSensor>,
     /// Whether every material is Lambertian (`Scene::diffuse_only`): the kernels then keep
@@ -100,8 +100,8 @@ impl<'a> RenderContext<'a> {
                 nlos.iter()
                     .flat_map(|n| n.spots.iter().flatten().map(|s| spot(s, n.laser_leg))),
             );
-        let emitter_box = super::window::EmitterBox::new(scene, spots);
-        let camera_box = (!scene.film.unwarp).then(|| super::window::EmitterBox::point(scene, scene.camera.position));
+        let emitter_box = super::window::EndBox::new(scene, spots);
+        let camera_box = (!scene.film.unwarp).then(|| super::window::EndBox::point(scene, scene.camera.position));
         Ok(Self {
             scene,
             accel,

@@ -10,7 +10,7 @@
 //!   and the path ends where it would have left the window;
 //! - skip next-event and BDPT connections whose OPL lands past the budget, before their
 //!   shadow ray;
-//! - end a path at a vertex from which no end is near enough ([`EmitterBox`]): whatever
+//! - end a path at a vertex from which no end is near enough ([`EndBox`]): whatever
 //!   follows a path tracer's or BDPT camera subpath's vertex ends on an emitter, a BDPT
 //!   light subpath's or boundary sensor walk's (`super::importance`) at the pinhole, so it
 //!   adds at least η_min times the distance to the nearest such point (the triangle
@@ -63,22 +63,23 @@ pub fn within<V: Real>(budget: Option<f32>, d: V) -> V::Mask {
     }
 }
 
-/// A box around every point a path can end on (the area emitters' triangles, the point
-/// lights, the laser spots, an NLOS scan's included), the smallest refractive index of the
-/// scene, and the least length an end adds after its point (a laser's leg to its spot where
-/// the time of flight counts it): from a vertex at distance r from the box, any continuation
-/// that ends on an emitter has an OPL of at least η_min·(r + tail) (a path is at least as long
-/// as the straight line, and each of its segments, the laser's leg included, is weighted by an
-/// index ≥ η_min).
+/// A box around every point a subpath can end on, the smallest refractive index of the scene,
+/// and the least length an end adds after its point. For camera subpaths the ends are the
+/// emitters (the area emitters' triangles, the point lights, the laser spots, an NLOS scan's
+/// included) and the length is a laser's leg to its spot where the time of flight counts it;
+/// for light subpaths and sensor walks the end is the pinhole ([`EndBox::point`]). From a
+/// vertex at distance r from the box, any continuation has an OPL of at least η_min·(r + tail)
+/// (a path is at least as long as the straight line, and each of its segments, the laser's
+/// leg included, is weighted by an index ≥ η_min).
 #[derive(Clone, Copy, Debug)]
-pub struct EmitterBox {
+pub struct EndBox {
     lo: Vec3,
     hi: Vec3,
     eta_min: f32,
     tail: f32,
 }
 
-impl EmitterBox {
+impl EndBox {
     /// The box of `scene`'s emitter points; `spots` are the points laser beams land on (the
     /// scene's lasers and an NLOS scan's laser points), each with the OPL its beam adds to a
     /// path that ends there (the laser-to-spot length, or 0 where it is left out). A spot is
@@ -204,20 +205,20 @@ mod tests {
     /// is kept, and lanes far past it are ended.
     #[test]
     fn the_emitter_box_keeps_every_lane_an_emitter_point_is_within_reach_of() {
-        let b = EmitterBox {
+        let b = EndBox {
             lo: Vec3::new(-1.0, 2.0, 0.5),
             hi: Vec3::new(1.0, 2.0, 1.5),
             eta_min: 1.25,
             tail: 0.0,
         };
-        let point = EmitterBox {
+        let point = EndBox {
             lo: Vec3::splat(3.0),
             hi: Vec3::splat(3.0),
             eta_min: 1.0,
             tail: 0.0,
         };
         // a spot whose beam adds 2.5 m to every path that ends on it
-        let spot = EmitterBox {
+        let spot = EndBox {
             lo: Vec3::new(0.5, -1.0, 0.0),
             hi: Vec3::new(0.5, -1.0, 0.0),
             eta_min: 1.1,
@@ -267,7 +268,7 @@ mod tests {
     #[test]
     fn the_emitter_box_covers_the_lights_with_the_least_index() {
         let mut scene = crate::scene::testutil::load_scene("cornell_box.toml");
-        let b = EmitterBox::new(&scene, []).unwrap();
+        let b = EndBox::new(&scene, []).unwrap();
         assert_eq!(b.eta_min, scene.eta);
         let geo = &scene.geometry;
         let mut lights = 0;
@@ -292,9 +293,9 @@ mod tests {
                 exterior: None,
             },
         });
-        assert_eq!(EmitterBox::new(&scene, []).unwrap().eta_min, 0.8);
+        assert_eq!(EndBox::new(&scene, []).unwrap().eta_min, 0.8);
         scene.emitters.clear();
-        assert!(EmitterBox::new(&scene, []).is_none(), "no emitter, nothing bounded");
+        assert!(EndBox::new(&scene, []).is_none(), "no emitter, nothing bounded");
     }
 
     /// A laser's box is its spot, not the triangle the spot lies on, and the beam's leg is its
@@ -345,7 +346,7 @@ mod tests {
             },
             ..scene.emitters[0].clone()
         });
-        assert_eq!(EmitterBox::new(&lit, [(at, s.distance)]).unwrap().tail, 0.0);
+        assert_eq!(EndBox::new(&lit, [(at, s.distance)]).unwrap().tail, 0.0);
     }
 
     /// The path tracer and BDPT with the bound against without it (both boxes taken away),
