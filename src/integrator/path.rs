@@ -191,11 +191,15 @@ pub fn trace_packet_from<R: Real, const C: usize, S: Sink<C>>(
     let nlos = ctx.nlos.as_ref().filter(|_| matches!(start, PathStart::Camera));
     let mut sensor = [0usize; 8];
     let mut aim = None;
+    // the OPL every connection of the lane adds beyond its own: the sensor point's leg to
+    // the SPAD where the capture counts it, taken a hair short for the window cut's bound
+    let mut spad_head = [0.0f32; 8];
     if let Some(n) = nlos {
         let mut seen = [false; 8];
         for i in 0..lanes.count.min(R::LANES) {
             sensor[i] = n.sensor_of(lanes.px[i], lanes.py[i]);
             seen[i] = n.seen[sensor[i]];
+            spad_head[i] = (n.spad_leg[sensor[i]] * scene.eta as f64 * (1.0 - 1e-5)) as f32;
         }
         active = active & R::Mask::from_bools(&seen[..R::LANES]);
         let st = super::nlos_start::start::<R, C>(ctx, n, &sensor, f1, f2);
@@ -365,7 +369,8 @@ pub fn trace_packet_from<R: Real, const C: usize, S: Sink<C>>(
         }
         // the window cut ahead of this vertex: no emitter within the OPL left (`super::window`)
         if let Some(b) = &ctx.emitter_box {
-            active = active & b.reachable(ctx.opl_budget, opl.value(), &x.p.value());
+            let head = V::<R>::from_lanes(&spad_head[..R::LANES]);
+            active = active & b.reachable(ctx.opl_budget, opl.value() + head, &x.p.value());
             if active.none() {
                 break;
             }

@@ -14,8 +14,10 @@
 //!   follows a path tracer's or BDPT camera subpath's vertex ends on an emitter, a BDPT
 //!   light subpath's or boundary sensor walk's (`super::importance`) at the pinhole, so it
 //!   adds at least η_min times the distance to the nearest such point (the triangle
-//!   inequality); when even that passes the budget, no connection from the vertex or later
-//!   bounce can land.
+//!   inequality), plus what every end adds after its point (a laser's leg to its spot) and
+//!   what every connection of the path adds (an NLOS capture's leg from the sensor point to
+//!   the SPAD, where they count); when even that passes the budget, no connection from the
+//!   vertex or later bounce can land.
 //!
 //! Paths are sampled with counter-based random numbers (`kernel::PathSampler`), so ending one
 //! lane early changes no other lane: the transient and its derivatives are the same bytes as
