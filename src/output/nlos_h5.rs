@@ -24,10 +24,27 @@ use crate::scene::{NlosSpec, Scene, WallGrid};
 use std::path::Path;
 
 /// The `H` array (and its shape and `H_format`) of `film`, in y-tal's axis order, whole in
-/// memory. [`write_nlos_h5`] writes it a slab at a time instead.
+/// memory (made a slab at a time, as [`write_nlos_h5`] writes it).
 pub fn h_array(spec: &NlosSpec, film: &Transient) -> (Vec<usize>, Vec<f32>, i32) {
+    h_array_in_slabs(spec, film, H_SLAB_BYTES)
+}
+
+/// [`h_array`], made in slabs of at most `budget` bytes where one index allows.
+fn h_array_in_slabs(spec: &NlosSpec, film: &Transient, budget: usize) -> (Vec<usize>, Vec<f32>, i32) {
     let (shape, pixels, format) = h_layout(spec, film);
-    (shape, time_major(film, &pixels, &|_, v| v), format)
+    let (t, n) = (shape[0], pixels.len());
+    let mut h = vec![0.0f32; t * n];
+    let whole = for_each_slab(&shape, &pixels, film, &|_, v| v, budget, |range, slab| {
+        let len = range.len();
+        for k in 0..t {
+            h[k * n + range.start..][..len].copy_from_slice(&slab[k * len..(k + 1) * len]);
+        }
+        Ok::<(), std::convert::Infallible>(())
+    });
+    match whole {
+        Ok(()) => (shape, h, format),
+        Err(never) => match never {},
+    }
 }
 
 /// `H`'s shape and `H_format`, and the film pixel of each entry of `H` after its time axis:
@@ -107,9 +124,31 @@ fn slab_len(budget: usize, bytes_per_index: usize, len: usize) -> usize {
     (budget / bytes_per_index.max(1)).clamp(1, len.max(1))
 }
 
-/// Creates `H` in `f` and writes it one slab of its second axis at a time, each at most
-/// `budget` bytes where one index allows (an HDF5 hyperslab [all bins, a..b, all, …]);
-/// returns `H_format`. The file holds the array [`h_array`] gives.
+/// Calls `put(entries, slab)` for each slab of `H` (shape `shape`, entries after the time axis
+/// at the film pixels `pixels`, values mapped by `map`) in order: the entries `a · m..b · m` of
+/// the indices a..b of `H`'s second axis (m entries per index), as a time-major array of
+/// `shape[0]` rows, each slab at most `budget` bytes where one index allows.
+fn for_each_slab<M: Fn(usize, f32) -> f32 + Sync, E>(
+    shape: &[usize],
+    pixels: &[(usize, usize)],
+    film: &Transient,
+    map: &M,
+    budget: usize,
+    mut put: impl FnMut(std::ops::Range<usize>, &[f32]) -> Result<(), E>,
+) -> Result<(), E> {
+    let per_index: usize = shape[2..].iter().product();
+    let step = slab_len(budget, per_index * shape[0] * std::mem::size_of::<f32>(), shape[1]);
+    for a in (0..shape[1]).step_by(step) {
+        let entries = a * per_index..(a + step).min(shape[1]) * per_index;
+        let slab = time_major(film, &pixels[entries.clone()], map);
+        put(entries, &slab)?;
+    }
+    Ok(())
+}
+
+/// Creates `H` in `f` and writes it one slab of its second axis at a time ([`for_each_slab`]:
+/// an HDF5 hyperslab [all bins, a..b, all, …] each); returns `H_format`. The file holds the
+/// array [`h_array`] gives.
 fn write_h<M: Fn(usize, f32) -> f32 + Sync>(
     f: &hdf5::File,
     spec: &NlosSpec,
@@ -120,28 +159,25 @@ fn write_h<M: Fn(usize, f32) -> f32 + Sync>(
     use hdf5::{Hyperslab, SliceOrIndex};
     let (shape, pixels, format) = h_layout(spec, film);
     let dataset = f.new_dataset::<f32>().shape(shape.as_slice()).create("H")?;
-    // the entries after the time axis run over shape[1] first: index a holds `per_index` of them
     let per_index: usize = shape[2..].iter().product();
-    let step = slab_len(budget, per_index * shape[0] * std::mem::size_of::<f32>(), shape[1]);
-    for a in (0..shape[1]).step_by(step) {
-        let b = (a + step).min(shape[1]);
-        let slab = time_major(film, &pixels[a * per_index..b * per_index], map);
+    for_each_slab(&shape, &pixels, film, map, budget, |entries, slab| {
         if let Some(bad) = slab.iter().position(|v| !v.is_finite()) {
-            let entry = a * per_index + bad % (slab.len() / shape[0]);
+            let entry = entries.start + bad % entries.len();
             return Err(hdf5::Error::from(format!(
                 "entry {entry} of H is not finite; refusing to write"
             )));
         }
+        let (a, b) = (entries.start / per_index, entries.end / per_index);
         let mut slab_shape = shape.clone();
         slab_shape[1] = b - a;
-        let view = ndarray::ArrayViewD::from_shape(ndarray::IxDyn(&slab_shape), &slab)
+        let view = ndarray::ArrayViewD::from_shape(ndarray::IxDyn(&slab_shape), slab)
             .map_err(|e| hdf5::Error::from(format!("H slab {a}..{b}: {e}")))?;
         let selection: Vec<SliceOrIndex> = [SliceOrIndex::from(..), SliceOrIndex::from(a..b)]
             .into_iter()
             .chain((2..shape.len()).map(|_| SliceOrIndex::from(..)))
             .collect();
-        dataset.write_slice(view, Hyperslab::from(selection))?;
-    }
+        dataset.write_slice(view, Hyperslab::from(selection))
+    })?;
     Ok(format)
 }
 
@@ -312,8 +348,8 @@ mod tests {
 
     /// `H` written a slab at a time (slabs of one index of its second axis, of two with a
     /// partial last one, and all at once) reads back as the array `h_array` holds, to the
-    /// bit, for a confocal scan and an exhaustive one; with a map, as `h_array` of the mapped
-    /// film; a map that gives a NaN is refused.
+    /// bit, for a confocal scan and an exhaustive one, and so does `h_array` made in those
+    /// slabs; with a map, as `h_array` of the mapped film; a map that gives a NaN is refused.
     #[test]
     fn h_written_in_slabs_reads_back_whole() {
         use crate::scene::testutil::{load_text, scene_text};
@@ -336,6 +372,11 @@ mod tests {
             let per_index = whole.len() / shape[1];
             assert!(shape[1] % 2 == 1, "{name}: {shape:?}");
             for budget in [1, 2 * per_index * 4, usize::MAX / 2] {
+                let (_, pieced, _) = h_array_in_slabs(spec, &film, budget);
+                assert!(
+                    pieced.iter().zip(&whole).all(|(a, b)| a.to_bits() == b.to_bits()),
+                    "{name}: h_array in slabs of {budget} bytes"
+                );
                 let path = dir.path().join(format!("{name}_{budget}.h5"));
                 let f = hdf5::File::create(&path).unwrap();
                 assert_eq!(write_h(&f, spec, &film, &|_, v| v, budget).unwrap(), format);
