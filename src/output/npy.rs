@@ -196,7 +196,6 @@ mod tests {
         assert!(entries(dir.path()).is_empty());
     }
 
-    /// numpy itself reads the file (skipped when python3 or numpy is absent).
     /// Mapped values written a block at a time (blocks of 7 over 40 values: five whole and a
     /// partial one, and one block for all) are the bytes of `write_npy` of the mapped array;
     /// a map that gives a NaN is refused and leaves no file.
@@ -226,6 +225,7 @@ mod tests {
         assert_eq!(entries(dir.path()).len(), 4, "{:?}", entries(dir.path()));
     }
 
+    /// numpy itself reads the file (skipped when python3 or numpy is absent).
     #[test]
     fn numpy_reads_it() {
         let have_numpy = std::process::Command::new("python3")
