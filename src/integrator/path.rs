@@ -208,6 +208,7 @@ pub fn trace_packet_from<R: Real, const C: usize, S: Sink<C>>(
         active = active & st.alive;
         aim = st.aim;
     }
+    let spad_head = V::<R>::from_lanes(&spad_head[..R::LANES]);
     let mut x64 = prev64;
     // The time term f·Ṡ_e·ḋ from draws on the time edges where they apply
     // (`super::time_edge_nee`): then the ordinary contributions they replace drop it.
@@ -369,8 +370,7 @@ pub fn trace_packet_from<R: Real, const C: usize, S: Sink<C>>(
         }
         // the window cut ahead of this vertex: no emitter within the OPL left (`super::window`)
         if let Some(b) = &ctx.emitter_box {
-            let head = V::<R>::from_lanes(&spad_head[..R::LANES]);
-            active = active & b.reachable(ctx.opl_budget, opl.value() + head, &x.p.value());
+            active = active & b.reachable(ctx.opl_budget, opl.value() + spad_head, &x.p.value());
             if active.none() {
                 break;
             }

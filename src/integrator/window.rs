@@ -131,6 +131,10 @@ impl EndBox {
     /// no path that could land is ended.
     #[inline(always)]
     pub fn reachable<V: Real>(&self, budget: Option<f32>, opl: V, p: &V3<V>) -> V::Mask {
+        if budget.is_none() {
+            // every lane, as `within` gives without a budget, and no distance taken per vertex
+            return within(budget, opl);
+        }
         let out = |x: V, lo: f32, hi: f32| (V::splat(lo) - x).max(x - V::splat(hi)).max(V::zero());
         let gap = V3::new(
             out(p.x, self.lo.x, self.hi.x),
