@@ -58,6 +58,7 @@ mod secondary_fd;
 mod set_params;
 mod shards;
 mod sink;
+mod small_scenes;
 mod sobol_sampler;
 mod time_edges;
 mod window_cut;

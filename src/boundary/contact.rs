@@ -78,7 +78,7 @@ pub(super) fn segment_ends(
     s_o: f32,
     rays: &mut RayCounts,
 ) -> Option<SegmentEnds> {
-    let eps = self_intersection_eps(&V3::<f32>::splat(x_b));
+    let eps = self_intersection_eps(&V3::<f32>::splat(x_b), ctx.scene.offset_scale);
     let back = BACK_OFF * eps;
     let free = (rec.v1 - rec.v0).cross(omega).normalize_or_zero() * -s_o;
     let o = x_b + free * eps;

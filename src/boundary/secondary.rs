@@ -489,7 +489,7 @@ impl<'a> Secondary<'a> {
         else {
             return None;
         };
-        let reach = t_l - self_intersection_eps(&V3::<f32>::splat(y));
+        let reach = t_l - self_intersection_eps(&V3::<f32>::splat(y), self.ctx.scene.offset_scale);
         if !(reach > 0.0) || x_l.is_some_and(|h| h.t < reach) {
             return None;
         }

@@ -132,7 +132,7 @@ pub fn trace_importance_packet<R: Real, const C: usize>(
                 n: V3::zero(),
                 w_in: V3::zero(),
             };
-            let (o, dir, len) = shadow_segment(&here, &pinhole);
+            let (o, dir, len) = shadow_segment(&here, &pinhole, ctx.scene.offset_scale);
             let ok = ok & unoccluded(&ctx.accel, &o, &dir, zero, len, ok, &mut counts.rays);
             let factor = cos_x.abs() * V::<R>::safe_div(proj.importance, proj.dist2);
             let f = match &lobes {
@@ -195,7 +195,7 @@ pub fn trace_importance_packet<R: Real, const C: usize>(
                 (s.wi, V3::select(s.transmitted, V3::zero(), ray_d))
             }
         };
-        let o = spawn_point(&p, &n, &back, &dir);
+        let o = spawn_point(&p, &n, &back, &dir, ctx.scene.offset_scale);
         let (hit, found) = next_hits(
             &ctx.accel,
             ctx.opl_budget,

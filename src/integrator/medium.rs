@@ -52,7 +52,7 @@ pub fn medium_around(ctx: &RenderContext, p: Vec3, dir: Vec3, counts: &mut RayCo
     if !has_dielectric(ctx) {
         return ctx.scene.eta;
     }
-    let eps = self_intersection_eps(&V3::<f32>::splat(p));
+    let eps = self_intersection_eps(&V3::<f32>::splat(p), ctx.scene.offset_scale);
     let mut tnear = 0.0f32;
     for _ in 0..MAX_CROSSINGS {
         counts.intersect += 1;

@@ -54,7 +54,7 @@ pub fn start<R: Real, const C: usize>(
         }
     };
     SensorStart {
-        o: spawn_point(&p, &n, &V3::zero(), &d),
+        o: spawn_point(&p, &n, &V3::zero(), &d, ctx.scene.offset_scale),
         d,
         p: V3::from_value(p),
         n: V3::from_value(n),

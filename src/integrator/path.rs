@@ -449,7 +449,7 @@ pub fn trace_packet_from<R: Real, const C: usize, S: Sink<C>>(
                     n: V3::select(ls.has_cos, ls.n.value(), V3::zero()),
                     w_in: V3::zero(),
                 };
-                let (o, dir, len) = shadow_segment(&here, &light);
+                let (o, dir, len) = shadow_segment(&here, &light, ctx.scene.offset_scale);
                 let visible = unoccluded(&ctx.accel, &o, &dir, V::<R>::zero(), len, lit, &mut counts.rays);
                 let lit = lit & visible;
                 if lit.any() {
@@ -516,7 +516,7 @@ pub fn trace_packet_from<R: Real, const C: usize, S: Sink<C>>(
         let (dir, pdf) = match lobes {
             None => {
                 let (dir, pdf) = scatter(ctx, &mut sampler, &n_v, &-ray_d, &f, &mut beta, &mut active, depth);
-                ray_o = spawn_point(&x.p.value(), &n_v, &ray_d, &dir);
+                ray_o = spawn_point(&x.p.value(), &n_v, &ray_d, &dir, ctx.scene.offset_scale);
                 (dir, pdf)
             }
             Some(l) => {
@@ -533,7 +533,7 @@ pub fn trace_packet_from<R: Real, const C: usize, S: Sink<C>>(
                 );
                 // a refracted ray starts off the far side, not stepped back along its arrival
                 let back = V3::select(s.transmitted, V3::zero(), ray_d);
-                ray_o = spawn_point(&x.p.value(), &n_v, &back, &s.wi);
+                ray_o = spawn_point(&x.p.value(), &n_v, &back, &s.wi, ctx.scene.offset_scale);
                 let inside = n_v.dot(s.wi).lt(V::<R>::zero());
                 eta_med = R::select(s.transmitted, R::select(inside, l.eta_int, l.eta_ext), eta_med);
                 no_mis = s.delta | s.transmitted;

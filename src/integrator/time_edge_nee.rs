@@ -160,7 +160,7 @@ pub fn connect<R: Real, const C: usize, S: Sink<C>>(
             n: n_y.value(),
             w_in: V3::zero(),
         };
-        let (o, dir, len) = shadow_segment(&here, &light);
+        let (o, dir, len) = shadow_segment(&here, &light, ctx.scene.offset_scale);
         let lit = lit & unoccluded(&ctx.accel, &o, &dir, V::<R>::zero(), len, lit, &mut counts.rays);
         if lit.none() {
             continue;

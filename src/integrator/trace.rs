@@ -130,11 +130,12 @@ pub fn unoccluded<V: Real>(
 /// box resting on it, two faces of a closed container): rays that leave a closed object's
 /// inside from such a point then still meet its walls instead of starting outside them.
 /// Point-like ends (n = 0, w_in = 0: the pinhole, a point light) are their own origin.
+/// `scale` is the scene's offset scale ([`self_intersection_eps`]).
 #[inline(always)]
-pub fn spawn_point<V: Real>(p: &V3<V>, n: &V3<V>, w_in: &V3<V>, dir: &V3<V>) -> V3<V> {
-    let o = offset_origin(p, n, dir);
+pub fn spawn_point<V: Real>(p: &V3<V>, n: &V3<V>, w_in: &V3<V>, dir: &V3<V>, scale: f32) -> V3<V> {
+    let o = offset_origin(p, n, dir, scale);
     let back = w_in.dot(*w_in).gt(V::zero());
-    V3::select(back, o.add_scaled(*w_in, -self_intersection_eps(p)), o)
+    V3::select(back, o.add_scaled(*w_in, -self_intersection_eps(p, scale)), o)
 }
 
 /// One end of a shadow segment: the vertex, its unit geometric normal (zero at point-like
@@ -152,11 +153,12 @@ pub struct SegmentEnd<V: Real> {
 /// 2026-11-23) missed any wall crossed within that length of the target: a vertex on a
 /// closed box's inner wall next to an edge was then joined to points outside the box, and
 /// BDPT leaked light out of closed containers (issue 9, part 2; tests/closed_containers.rs).
+/// `scale` is the scene's offset scale ([`self_intersection_eps`]).
 #[inline(always)]
-pub fn shadow_segment<V: Real>(from: &SegmentEnd<V>, to: &SegmentEnd<V>) -> (V3<V>, V3<V>, V) {
+pub fn shadow_segment<V: Real>(from: &SegmentEnd<V>, to: &SegmentEnd<V>, scale: f32) -> (V3<V>, V3<V>, V) {
     let ab = to.p - from.p;
-    let o = spawn_point(&from.p, &from.n, &from.w_in, &ab);
-    let target = spawn_point(&to.p, &to.n, &to.w_in, &-ab);
+    let o = spawn_point(&from.p, &from.n, &from.w_in, &ab, scale);
+    let target = spawn_point(&to.p, &to.n, &to.w_in, &-ab, scale);
     let to_t = target - o;
     let len = to_t.length();
     (o, to_t * V::safe_div(V::one(), len), len)

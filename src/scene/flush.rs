@@ -9,17 +9,33 @@
 //! is moved along its emitting normal until it lies `lift` in front of that surface. Camera
 //! rays, BSDF-sampled rays, shadow rays to the light, BDPT light subpaths and the boundary
 //! stage then all see one well-separated surface, with no per-hit cost. `lift` is 2⁻¹³ of the
-//! coordinates' magnitude (0.12 mm for a room near the render origin): 32× the ray-origin
-//! offset of `integrator::surface::self_intersection_eps`, and far above Embree's f32
-//! distance error, so the emitter is always the nearer hit from its front side.
+//! coordinates' magnitude (0.12 mm for a room near the render origin; the magnitude is taken
+//! at least the scene's offset scale, `super::origin::offset_scale`, so a scene of a few
+//! millimetres gets a lift of its own size, not a room's): 32× the ray-origin offset of
+//! `integrator::surface::self_intersection_eps`, and far above Embree's f32 distance error,
+//! so the emitter is always the nearer hit from its front side.
+//!
+//! Only a surface behind the emitting face (or in its plane, to within that ray-origin
+//! offset) is one it lies flush on. A surface in front of it, however close, covers it: the
+//! emitter is never moved through it, nor past half the gap to it.
 
 use super::{Geometry, Shape};
 use glam::Vec3;
 
+/// Unit normals this close (cosine) count as parallel.
+const COPLANAR_COS: f32 = 1.0 - 1e-6;
+
 /// The separation a flush emitter is given from the surface behind it, at coordinate
-/// magnitude `m` (largest absolute coordinate, at least 1).
+/// magnitude `m` (largest absolute coordinate, at least the scene's offset scale).
 pub fn lift(m: f32) -> f32 {
-    m.max(1.0) / 8192.0
+    m / 8192.0
+}
+
+/// How far in front of an emitting face a parallel surface may lie and still count as in its
+/// plane, at coordinate magnitude `m`: the ray-origin offset there (2⁻¹⁸ m), within which no
+/// ray tells the two apart.
+fn in_plane(m: f32) -> f32 {
+    m / 262_144.0
 }
 
 fn corners(geo: &Geometry, t: usize) -> [Vec3; 3] {
@@ -58,13 +74,14 @@ fn overlap(e: [Vec3; 3], o: [Vec3; 3], n: Vec3) -> bool {
 /// The faces of other shapes that `shape` lies flush on: for each parallel triangle `o` of
 /// another shape that one of its triangles overlaps less than `lift` in front of or behind,
 /// `(o, n, d)` with `n` that triangle's unit normal and `d` its signed distance in front of
-/// `o`'s plane along `n`; and that `lift`.
-fn flush_faces(shape: &Shape, geo: &Geometry) -> (Vec<(usize, Vec3, f32)>, f32) {
+/// `o`'s plane along `n`; and the coordinate magnitude `m` that `lift(m)` was taken at (the
+/// shape's largest coordinate, at least `scale`, the scene's offset scale).
+fn flush_faces(shape: &Shape, geo: &Geometry, scale: f32) -> (Vec<(usize, Vec3, f32)>, f32) {
     let tris = shape.first_tri as usize..(shape.first_tri + shape.tri_count) as usize;
     let verts = shape.first_vertex as usize..(shape.first_vertex + shape.vertex_count) as usize;
     let m = geo.positions[verts.clone()]
         .iter()
-        .fold(1.0f32, |m, p| m.max(p.abs().max_element()));
+        .fold(scale, |m, p| m.max(p.abs().max_element()));
     let delta = lift(m);
     let (lo, hi) = geo.positions[verts]
         .iter()
@@ -86,7 +103,7 @@ fn flush_faces(shape: &Shape, geo: &Geometry) -> (Vec<(usize, Vec3, f32)>, f32) 
         for t in tris.clone() {
             let ec = corners(geo, t);
             let n = (ec[1] - ec[0]).cross(ec[2] - ec[0]).normalize_or_zero();
-            if n == Vec3::ZERO || on == Vec3::ZERO || n.dot(on).abs() < 1.0 - 1e-6 {
+            if n == Vec3::ZERO || on == Vec3::ZERO || n.dot(on).abs() < COPLANAR_COS {
                 continue;
             }
             let d = ec.iter().map(|&p| (p - oc[0]).dot(n)).fold(f32::INFINITY, f32::min);
@@ -95,25 +112,38 @@ fn flush_faces(shape: &Shape, geo: &Geometry) -> (Vec<(usize, Vec3, f32)>, f32) 
             }
         }
     }
-    (found, delta)
+    (found, m)
 }
 
-/// Moves every area-emitter shape that lies flush on (or less than [`lift`] in front of or
-/// behind) a parallel surface it overlaps, along its emitting normal, to `lift` in front of
-/// it. Returns the names of the shapes moved.
-pub(crate) fn lift_flush_emitters(shapes: &mut [Shape], geo: &mut Geometry) -> Vec<String> {
+/// Moves every area-emitter shape that lies flush on (or less than [`lift`] in front of)
+/// a parallel surface behind it that it overlaps, along its emitting normal, to `lift` in
+/// front of that surface, but never past half the gap to a surface in front of it (which
+/// covers it, `in_plane`). `scale` is the scene's offset scale. Returns the names of the
+/// shapes moved.
+pub(crate) fn lift_flush_emitters(shapes: &mut [Shape], geo: &mut Geometry, scale: f32) -> Vec<String> {
     let mut moved = Vec::new();
     for shape in shapes.iter_mut().filter(|s| s.emitter.is_some()) {
-        let (faces, delta) = flush_faces(shape, geo);
-        // the largest shift along each flagged normal
+        let (faces, m) = flush_faces(shape, geo, scale);
+        let (delta, plane) = (lift(m), in_plane(m));
+        // the largest shift along each flagged normal, from the surfaces behind
         let shift = faces
             .iter()
+            .filter(|&&(_, _, d)| d >= -plane)
             .map(|&(_, n, d)| (n, delta - d))
             .fold(None, |best: Option<(Vec3, f32)>, (n, need)| match best {
                 Some((_, k)) if k >= need => best,
                 _ => Some((n, need)),
             });
-        if let Some((n, k)) = shift {
+        // at most half the way to the nearest surface in front along that normal
+        let shift = shift.map(|(n, need)| {
+            let room = faces
+                .iter()
+                .filter(|&&(_, face_n, d)| d < -plane && face_n.dot(n) > COPLANAR_COS)
+                .map(|&(_, _, d)| -d / 2.0)
+                .fold(f32::INFINITY, f32::min);
+            (n, need.min(room))
+        });
+        if let Some((n, k)) = shift.filter(|&(_, k)| k > 0.0) {
             let by = n * k;
             let verts = shape.first_vertex as usize..(shape.first_vertex + shape.vertex_count) as usize;
             for p in &mut geo.positions[verts] {
@@ -137,6 +167,7 @@ pub(crate) fn flush_dielectric(
     shapes: &[Shape],
     geo: &Geometry,
     materials: &[super::NamedMaterial],
+    scale: f32,
 ) -> Option<(usize, usize, f32)> {
     shapes.iter().enumerate().find_map(|(i, shape)| {
         if !matches!(
@@ -145,7 +176,7 @@ pub(crate) fn flush_dielectric(
         ) {
             return None;
         }
-        let (faces, delta) = flush_faces(shape, geo);
-        faces.first().map(|&(o, _, _)| (i, geo.tri_shape[o] as usize, delta))
+        let (faces, m) = flush_faces(shape, geo, scale);
+        faces.first().map(|&(o, _, _)| (i, geo.tri_shape[o] as usize, lift(m)))
     })
 }

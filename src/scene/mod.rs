@@ -325,6 +325,9 @@ pub struct Scene {
     /// struct (geometry, transforms, camera, emitters) is the file's position minus this
     /// origin, subtracted in f64 (`origin.rs`). OPL does not depend on it.
     pub render_origin: [f64; 3],
+    /// The least coordinate magnitude the offsets off surfaces are scaled to: 1 m, or less
+    /// for a scene smaller than that (`origin::offset_scale`).
+    pub offset_scale: f32,
     /// Area-emitter shapes that lay flush on another surface and were moved off it towards
     /// their emitting side (`flush.rs`: the emitting face wins).
     pub lifted_emitters: Vec<String>,

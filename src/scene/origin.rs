@@ -43,9 +43,45 @@ pub(crate) fn choose(bounds: Option<(DVec3, DVec3)>) -> DVec3 {
     o + DVec3::ZERO
 }
 
+/// The length the renderer's offsets off surfaces are scaled to at least (see
+/// `integrator::surface::self_intersection_eps` and `super::flush::lift`): 1 m, or the
+/// scene's extent rounded up to a power of two where that is smaller. Offsets are a fixed
+/// fraction of the coordinates' magnitude, and this floor keeps them from vanishing near the
+/// render origin; a floor of 1 m in a scene of a few millimetres made them a sizeable part of
+/// the scene (a light 0.1 mm from a wall moved off it, edges' boundary rays started 0.2 % of
+/// the scene off their edge). Like the origin, it is taken from the scene as the file
+/// describes it, so `--set` and finite differences never change it.
+pub(crate) fn offset_scale(bounds: Option<(DVec3, DVec3)>) -> f32 {
+    let Some((lo, hi)) = bounds else {
+        return 1.0;
+    };
+    let extent = (hi - lo).max_element();
+    if !(extent.is_finite() && extent > 0.0) {
+        return 1.0;
+    }
+    2f64.powi(extent.log2().ceil() as i32).min(1.0) as f32
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn offsets_scale_down_with_small_scenes_only() {
+        let cube = |e: f64| Some((DVec3::splat(5.0), DVec3::new(5.0 + e, 5.0 + e / 2.0, 5.0)));
+        assert_eq!(offset_scale(None), 1.0);
+        assert_eq!(offset_scale(cube(0.0)), 1.0);
+        for (extent, want) in [
+            (2.0, 1.0),
+            (1.0, 1.0),
+            (0.6, 1.0),
+            (0.5, 0.5),
+            (2e-3, 2f32.powi(-8)),
+            (1e3, 1.0),
+        ] {
+            assert_eq!(offset_scale(cube(extent)), want, "extent {extent}");
+        }
+    }
 
     #[test]
     fn scenes_near_the_origin_keep_it() {

@@ -54,11 +54,9 @@ pub(crate) fn resolve(described: Described, path: &Path) -> Result<Scene, SceneE
         Some(m) => m.clone(),
         None => super::shapes::local_meshes(&desc, &ctx)?.into(),
     };
-    let origin = super::origin::choose(super::shapes::world_bounds(
-        if written_ok { &as_written } else { &desc },
-        &meshes,
-        &ctx,
-    ));
+    let bounds = super::shapes::world_bounds(if written_ok { &as_written } else { &desc }, &meshes, &ctx);
+    let origin = super::origin::choose(bounds);
+    let offset_scale = super::origin::offset_scale(bounds);
 
     let integrator = integrator(&desc, &ctx)?;
     let eta = desc.medium.eta;
@@ -71,8 +69,8 @@ pub(crate) fn resolve(described: Described, path: &Path) -> Result<Scene, SceneE
     let channels = camera_film::channels(&desc, &params, &ctx)?;
     let mut film = camera_film::film(&desc.film, width, height, channels, filter, &ctx)?;
     let (mut shapes, mut geometry) = super::shapes::build(&desc, &names, &emitters, &ctx, &meshes, origin)?;
-    let lifted_emitters = super::flush::lift_flush_emitters(&mut shapes, &mut geometry);
-    if let Some((d, o, delta)) = super::flush::flush_dielectric(&shapes, &geometry, &materials) {
+    let lifted_emitters = super::flush::lift_flush_emitters(&mut shapes, &mut geometry, offset_scale);
+    if let Some((d, o, delta)) = super::flush::flush_dielectric(&shapes, &geometry, &materials, offset_scale) {
         let (name, other) = (&shapes[d].name, &shapes[o].name);
         let index = names.shapes.iter().position(|n| n == name).unwrap_or(d);
         return Err(ctx.invalid(
@@ -120,6 +118,7 @@ pub(crate) fn resolve(described: Described, path: &Path) -> Result<Scene, SceneE
         integrator,
         params,
         render_origin: origin.to_array(),
+        offset_scale,
         lifted_emitters,
         nlos,
         described: Arc::new(Described {

@@ -67,7 +67,11 @@ pub fn connect<R: Real, const C: usize, S: Sink<C>>(pk: &mut Packet<'_, '_, R, C
     if ok.none() {
         return;
     }
-    let (o, ray_d, len) = shadow_segment(&segment_end(pk.camera, t - 1), &segment_end(pk.light, s - 1));
+    let (o, ray_d, len) = shadow_segment(
+        &segment_end(pk.camera, t - 1),
+        &segment_end(pk.light, s - 1),
+        ctx.scene.offset_scale,
+    );
     let ok = ok & unoccluded(&ctx.accel, &o, &ray_d, zero, len, ok, &mut pk.counts.rays);
     if ok.none() {
         return;

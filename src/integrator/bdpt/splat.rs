@@ -61,7 +61,7 @@ pub fn splat_to_camera<R: Real, const C: usize, S: Sink<C>>(pk: &mut Packet<'_, 
         n: V3::zero(),
         w_in: V3::zero(),
     };
-    let (o, ray_d, len) = shadow_segment(&segment_end(pk.light, s - 1), &pinhole);
+    let (o, ray_d, len) = shadow_segment(&segment_end(pk.light, s - 1), &pinhole, ctx.scene.offset_scale);
     let ok = ok & unoccluded(&ctx.accel, &o, &ray_d, zero, len, ok, &mut pk.counts.rays);
     if ok.none() {
         return;

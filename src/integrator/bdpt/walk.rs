@@ -146,7 +146,7 @@ fn random_walk<R: Real, const C: usize>(
         let n_v = x.n.value();
         if ctx.diffuse_only {
             let (dir, pdf) = scatter(ctx, sampler, &n_v, &-ray_d, &f, &mut beta, &mut active, depth as u32);
-            ray_o = spawn_point(&x.p.value(), &n_v, &ray_d, &dir);
+            ray_o = spawn_point(&x.p.value(), &n_v, &ray_d, &dir, ctx.scene.offset_scale);
             ray_d = dir;
             pdf_dir = pdf;
             continue;
@@ -175,7 +175,7 @@ fn random_walk<R: Real, const C: usize>(
             }));
         }
         let back = V3::select(s.transmitted, V3::zero(), ray_d);
-        ray_o = spawn_point(&x.p.value(), &n_v, &back, &s.wi);
+        ray_o = spawn_point(&x.p.value(), &n_v, &back, &s.wi, ctx.scene.offset_scale);
         let inside = n_v.dot(s.wi).lt(V::<R>::zero());
         eta = R::select(s.transmitted, R::select(inside, lobes.eta_int, lobes.eta_ext), eta);
         let k = path.len() - 1;
@@ -302,7 +302,7 @@ pub fn light_subpath<R: Real, const C: usize>(
     let pdf = V::<R>::select(ls.has_cos, pdf_c, pdf_s);
     let cos0 = V::<R>::select(ls.has_cos, n_v.dot(dir).abs(), V::<R>::one());
     let beta = ls.weight.scale(R::from_value(V::<R>::safe_div(cos0, pdf)));
-    let origin = V3::select(ls.has_cos, offset_origin(&p_v, &n_v, &dir), p_v);
+    let origin = V3::select(ls.has_cos, offset_origin(&p_v, &n_v, &dir, ctx.scene.offset_scale), p_v);
     random_walk(
         ctx,
         sampler,
