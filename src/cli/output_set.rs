@@ -120,6 +120,27 @@ fn same_file(_: &std::fs::Metadata, _: &std::fs::Metadata) -> bool {
     false
 }
 
+/// Each of `paths` that exists, with its metadata: the inputs an output is compared with
+/// ([`replaced_input`]), taken before anything is written.
+pub fn input_metadata(paths: &[PathBuf]) -> Vec<(PathBuf, std::fs::Metadata)> {
+    paths
+        .iter()
+        .filter_map(|p| std::fs::metadata(p).ok().map(|m| (p.clone(), m)))
+        .collect()
+}
+
+/// The input that a file at the output `dest` (of metadata `dest_meta`) would replace:
+/// compared by device and inode, so links and other spellings of a path count.
+pub fn replaced_input<'a>(
+    dest_meta: &std::fs::Metadata,
+    inputs: &'a [(PathBuf, std::fs::Metadata)],
+) -> Option<&'a Path> {
+    inputs
+        .iter()
+        .find(|(_, m)| same_file(m, dest_meta))
+        .map(|(p, _)| p.as_path())
+}
+
 /// A render's output set while it is prepared and written.
 pub struct OutputSet {
     prefix: PathBuf,
@@ -151,10 +172,7 @@ impl OutputSet {
                     dir.display()
                 )
             })?;
-        let inputs: Vec<(PathBuf, std::fs::Metadata)> = scene_inputs
-            .iter()
-            .filter_map(|p| std::fs::metadata(p).ok().map(|m| (p.clone(), m)))
-            .collect();
+        let inputs = input_metadata(scene_inputs);
         let name = prefix.file_name().unwrap_or_default().to_string_lossy().into_owned();
         let lock_path = dir.join(format!(".{name}.dtr-lock"));
         let lock = Self::lock(&lock_path, &prefix)?;
@@ -219,7 +237,7 @@ impl OutputSet {
         if meta.is_dir() {
             bail!("output {} is an existing folder; choose another -o", dest.display());
         }
-        if let Some((input, _)) = self.inputs.iter().find(|(_, m)| same_file(m, &meta)) {
+        if let Some(input) = replaced_input(&meta, &self.inputs) {
             bail!(
                 "output {} would replace the input {}; nothing was rendered. Choose another -o",
                 dest.display(),
@@ -329,7 +347,7 @@ impl OutputSet {
             .map(|n| dir.join(n))
             .filter(|p| {
                 std::fs::symlink_metadata(p).is_ok_and(|m| m.is_file())
-                    && std::fs::metadata(p).is_ok_and(|m| !self.inputs.iter().any(|(_, i)| same_file(i, &m)))
+                    && std::fs::metadata(p).is_ok_and(|m| replaced_input(&m, &self.inputs).is_none())
             })
             .collect()
     }
