@@ -139,6 +139,28 @@ fn nonpositive_spp_is_refused() {
     );
 }
 
+/// `--checkpoint` takes seconds in (0, 1e9]: 0, NaN and Inf were refused, but 1e20 and
+/// 1e300 panicked converting to a `Duration` ("cannot convert float seconds to Duration").
+#[test]
+fn checkpoint_interval_out_of_range_is_refused() {
+    for bad in ["0", "-1", "nan", "inf", "1e20", "1e300"] {
+        let dir = tempfile::tempdir().unwrap();
+        let out = dtr()
+            .arg("render")
+            .arg(scenes().join("confocal_plane.toml"))
+            .arg("-o")
+            .arg(dir.path().join("ck"))
+            .args(["--threads", "1", "--spp", "1", "--quiet"])
+            .arg(format!("--checkpoint={bad}"))
+            .output()
+            .unwrap();
+        let e = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "--checkpoint {bad}: {e}");
+        assert!(e.contains("--checkpoint") && e.contains("at most 1e9"), "{bad}: {e}");
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0, "{bad}: files left");
+    }
+}
+
 #[test]
 fn unknown_set_name_lists_the_parameters() {
     let (e, _o) = render_fails(&scenes().join("occluder_shadow.toml"), &["--set", "no_such_param=1"]);
