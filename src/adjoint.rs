@@ -178,6 +178,40 @@ pub fn render_adjoint(
     Ok((grad, stats))
 }
 
+/// Checks, without rendering, that [`render_adjoint`] takes `params` on `scene` with `opts`:
+/// the names, their number per render, and time derivatives the estimators cannot take
+/// (`Motion::check_time_derivatives`). A caller refuses them with it before it creates
+/// anything (`dtr optimize`, before its output folder).
+pub fn check_params(scene: &crate::Scene, params: &[String], opts: &crate::RenderOptions) -> Result<(), crate::Error> {
+    if params.is_empty() {
+        return Err(crate::Error::Invalid(
+            "an adjoint render needs at least one parameter".into(),
+        ));
+    }
+    for group in params.chunks(MAX_PARAMS) {
+        group_motion(scene, group, opts)?;
+    }
+    Ok(())
+}
+
+/// The derivative lanes of one render's group of parameters, refused as [`check_params`]
+/// says.
+fn group_motion(
+    scene: &crate::Scene,
+    params: &[String],
+    opts: &crate::RenderOptions,
+) -> Result<crate::params::lanes::Motion, crate::Error> {
+    let motion = crate::params::lanes::Motion::build(scene, params)?;
+    if motion.len() > MAX_PARAMS || motion.is_empty() {
+        return Err(crate::Error::Invalid(format!(
+            "an adjoint render takes 1 to {MAX_PARAMS} parameters (asked for {})",
+            motion.len()
+        )));
+    }
+    motion.check_time_derivatives(scene, params, crate::render::delta_draws(scene, &motion, opts))?;
+    Ok(motion)
+}
+
 /// [`render_adjoint`] for at most `MAX_PARAMS` parameters: one render.
 fn render_adjoint_group(
     scene: &crate::Scene,
@@ -210,14 +244,7 @@ fn render_adjoint_group(
     if opts.checkpoint.is_some() {
         return Err(Error::Invalid("adjoint renders are not checkpointed".into()));
     }
-    let motion = crate::params::lanes::Motion::build(scene, params)?;
-    if motion.len() > MAX_PARAMS || motion.is_empty() {
-        return Err(Error::Invalid(format!(
-            "an adjoint render takes 1 to {MAX_PARAMS} parameters (asked for {})",
-            motion.len()
-        )));
-    }
-    motion.check_time_derivatives(scene, params, crate::render::delta_draws(scene, &motion, opts))?;
+    let motion = group_motion(scene, params, opts)?;
     let t0 = std::time::Instant::now();
     // no derivative film is stored: the memory check counts the primal's alone
     let run = Run::with_films(scene, motion, opts, false, false)?;

@@ -14,9 +14,10 @@ pub enum Error {
     /// Embree failed to create a device or build the scene's BVH.
     #[error("Embree: {0}")]
     Accel(#[from] AccelError),
-    /// The film's time axis, the pulse or the gate is invalid.
+    /// The film's time axis, the pulse or the gate is invalid. Not a `#[source]`: its
+    /// message is already in this one, and a chain (`{:#}`) would print it twice.
     #[error("temporal model: {0}")]
-    Temporal(#[from] TemporalError),
+    Temporal(TemporalError),
     /// An output file could not be written or its data is not writable as asked.
     #[error(transparent)]
     Output(#[from] OutputError),
@@ -24,4 +25,10 @@ pub enum Error {
     /// adjoint of the wrong shape, a malformed shard); the message says what was expected.
     #[error("{0}")]
     Invalid(String),
+}
+
+impl From<TemporalError> for Error {
+    fn from(e: TemporalError) -> Self {
+        Error::Temporal(e)
+    }
 }

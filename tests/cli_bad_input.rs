@@ -139,6 +139,64 @@ fn nonpositive_spp_is_refused() {
     );
 }
 
+/// `--checkpoint` takes seconds in (0, 1e9]: 0, NaN and Inf were refused, but 1e20 and
+/// 1e300 panicked converting to a `Duration` ("cannot convert float seconds to Duration").
+#[test]
+fn checkpoint_interval_out_of_range_is_refused() {
+    for bad in ["0", "-1", "nan", "inf", "1e20", "1e300"] {
+        let dir = tempfile::tempdir().unwrap();
+        let out = dtr()
+            .arg("render")
+            .arg(scenes().join("confocal_plane.toml"))
+            .arg("-o")
+            .arg(dir.path().join("ck"))
+            .args(["--threads", "1", "--spp", "1", "--quiet"])
+            .arg(format!("--checkpoint={bad}"))
+            .output()
+            .unwrap();
+        let e = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "--checkpoint {bad}: {e}");
+        assert!(e.contains("--checkpoint") && e.contains("at most 1e9"), "{bad}: {e}");
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0, "{bad}: files left");
+    }
+}
+
+/// A pulse or gate width that is a subnormal 32-bit float is refused by the loader, naming
+/// the file, the emitter or film and the field, once. Before, it passed the loader and the
+/// renderer's threads (which flush subnormals to zero) failed with "temporal model:
+/// emitter.pulse.sigma_opl: expected a finite number > 0, got 0" twice, without the file.
+#[test]
+fn subnormal_pulse_and_gate_widths_name_the_field_once() {
+    let d = tempfile::tempdir().unwrap();
+    let room = std::fs::read_to_string(scenes().join("diff_room.toml")).unwrap();
+    let pulse = r#"pulse = { type = "gaussian", sigma_opl = 0.1 }"#;
+    assert!(room.contains(pulse) && room.contains("gate = \"box\""));
+    let cases = [
+        (
+            room.replace(pulse, r#"pulse = { type = "gaussian", sigma_opl = 1e-45 }"#),
+            r#"emitter[0] "lamp": field 'pulse.sigma_opl'"#,
+        ),
+        (
+            room.replace(pulse, r#"pulse = { type = "box", width_opl = 1e-45 }"#),
+            r#"emitter[0] "lamp": field 'pulse.width_opl'"#,
+        ),
+        (
+            room.replace("gate = \"box\"", r#"gate = { type = "gaussian", sigma_opl = 1e-45 }"#),
+            "film: field 'gate.sigma_opl'",
+        ),
+    ];
+    for (text, field) in cases {
+        let p = write(d.path(), "tiny.toml", &text);
+        let (e, _o) = render_fails(&p, &["--threads", "1"]);
+        assert!(e.contains(&format!("tiny.toml: {field}")), "{e}");
+        assert!(
+            e.contains("smallest normal 32-bit float") && e.contains("got 1e-45"),
+            "{e}"
+        );
+        assert_eq!(e.matches("1e-45").count(), 1, "said more than once: {e}");
+    }
+}
+
 #[test]
 fn unknown_set_name_lists_the_parameters() {
     let (e, _o) = render_fails(&scenes().join("occluder_shadow.toml"), &["--set", "no_such_param=1"]);

@@ -136,6 +136,89 @@ fn optimize_refuses_bad_input_before_rendering() {
     }
 }
 
+/// Options and parameters that would stop the run are refused before the output folder is
+/// made, so nothing blocks a rerun. Before, `--lr-end 0` or `nan` and a
+/// parameter that shifts paths in time under a delta pulse and a box gate (refused by the
+/// first adjoint render) left `out/log.csv` behind, and the rerun was refused as the folder
+/// was not empty.
+#[test]
+fn optimize_refuses_before_making_its_folder() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path();
+    let confocal = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/confocal_plane.toml");
+    let o = dtr(
+        &["render", confocal, "--spp", "1", "--threads", "1", "-q", "-o", "t"],
+        dir,
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let base = [
+        "optimize",
+        confocal,
+        "--target",
+        "t.npy",
+        "--threads",
+        "1",
+        "--spp",
+        "1",
+    ];
+    let cases: [(&[&str], &str); 3] = [
+        (&["--params", "plane_z", "--lr-end", "0"], "--lr-end 0"),
+        (&["--params", "plane_z", "--lr-end", "nan"], "--lr-end NaN"),
+        (&["--params", "plane_z"], "delta pulse and the film a box gate"),
+    ];
+    for (args, message) in cases {
+        let v = [&base[..], args, &["--iters", "2", "-o", "out"]].concat();
+        let o = dtr(&v, dir);
+        assert_eq!(o.status.code(), Some(2), "{v:?}: {}", stderr(&o));
+        assert!(stderr(&o).contains(message), "{v:?}: {}", stderr(&o));
+        assert!(!dir.join("out").exists(), "{v:?}: the output folder was made");
+    }
+}
+
+/// A run that fails after some iterations keeps their log, as Ctrl-C does, and says so: here
+/// a learning rate of 5 takes the albedo out of [0, 1] at the second iteration.
+#[test]
+fn optimize_says_what_a_failed_run_kept() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path();
+    let room = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/diff_room.toml");
+    let o = dtr(&["render", room, "--spp", "1", "--threads", "1", "-q", "-o", "t"], dir);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = dtr(
+        &[
+            "optimize",
+            room,
+            "--target",
+            "t.npy",
+            "--threads",
+            "1",
+            "--spp",
+            "1",
+            "--params",
+            "albedo",
+            "--set",
+            "albedo=0.3",
+            "--lr",
+            "5",
+            "--iters",
+            "3",
+            "-o",
+            "out",
+            "-q",
+        ],
+        dir,
+    );
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{e}");
+    assert!(
+        e.contains("stopped after 1 iteration;") && e.contains("are kept") && e.contains("albedo"),
+        "{e}"
+    );
+    let log = std::fs::read_to_string(dir.join("out/log.csv")).unwrap();
+    assert_eq!(log.lines().count(), 2, "the header and the one iteration: {log}");
+    assert!(dir.join("out/best.json").is_file());
+}
+
 /// A smooth dielectric's index has no boundary term (edges seen through it move: refused,
 /// supplemental assumption A.4), so `dtr optimize` recovers it only with `--estimators
 /// interior`, which it passes on to every adjoint render (scenes/slab_ior.toml, whose view

@@ -247,3 +247,30 @@ fn a_second_render_to_a_prefix_removes_what_the_first_left_and_it_does_not_write
         ["room.json", "room.toml", "x.json", "x.notes.txt", "x.npy"]
     );
 }
+
+/// The old JSON's `"files"` is a file anyone can edit: names it lists that dtr never writes
+/// for the prefix (`p.toml`, `p.victim.npy`) are not removed as stale. Before the cleanup
+/// checked the names' form, both were deleted.
+#[test]
+fn stale_cleanup_removes_only_names_dtr_writes() {
+    let dir = workdir();
+    let render = || {
+        let o = dtr(&["render", "room.toml", "-o", "od/p", "--spp", "1", "-q"], dir.path());
+        assert!(o.status.success(), "{}", stderr(&o));
+    };
+    render();
+    let json = dir.path().join("od/p.json");
+    let mut j: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    j["files"]
+        .as_array_mut()
+        .unwrap()
+        .extend(["p.toml".into(), "p.victim.npy".into()].map(serde_json::Value::String));
+    std::fs::write(&json, j.to_string()).unwrap();
+    std::fs::write(dir.path().join("od/p.toml"), "not an output").unwrap();
+    std::fs::write(dir.path().join("od/p.victim.npy"), "not an output either").unwrap();
+    render();
+    assert_eq!(
+        listing(&dir.path().join("od")),
+        ["p.json", "p.npy", "p.toml", "p.victim.npy"]
+    );
+}

@@ -53,3 +53,36 @@ fn a_field_set_on_the_command_line_equals_the_same_field_in_the_file() {
         assert!(err.contains(says) && err.contains("diff_room.toml"), "{set}: {err}");
     }
 }
+
+/// A `--set` value outside the range of 32-bit floats is refused, naming the file, the name
+/// and the range, as the same value in the file is. Before, the overrides checked only that
+/// the value was finite in 64 bits: these renders exited 0 with an all-zero transient, or
+/// failed late.
+#[test]
+fn a_value_outside_the_f32_range_is_refused_as_in_the_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    for (scene, set) in [
+        ("confocal_plane.toml", "emitter.lamp.intensity=1e39"),
+        ("confocal_plane.toml", "emitter.lamp.offset_opl=1e39"),
+        ("diff_room.toml", "intensity=1e39"),
+        ("diff_room.toml", "eta=1e39"),
+        ("diff_room.toml", "lamp_offset=-1e39"),
+        ("nlos_occluder.toml", "nlos.noise.photons_per_unit=1e300"),
+        ("nlos_occluder.toml", "nlos.noise.dark_counts=1e300"),
+    ] {
+        let s = common::scene_path(scene);
+        let args = ["render", s.to_str().unwrap(), "--threads", "1", "--spp", "1", "-q"];
+        let o = common::dtr(&[&args[..], &["--set", set, "-o", "x"]].concat(), d);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{set}: {err}");
+        let name = set.split('=').next().unwrap();
+        assert!(
+            err.contains(scene)
+                && err.contains(&format!("--set {name}"))
+                && err.contains("outside the range of 32-bit floats"),
+            "{set}: {err}"
+        );
+        assert_eq!(std::fs::read_dir(d).unwrap().count(), 0, "{set}: files left");
+    }
+}

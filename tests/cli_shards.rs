@@ -120,3 +120,46 @@ fn shards_that_do_not_belong_together_are_refused() {
         assert!(stderr(&o).contains("I/N"), "{}", stderr(&o));
     }
 }
+
+/// A shard's JSON whose tallies were changed or damaged is refused, naming the file and the
+/// field, before anything is written. Before, a shard with `"paths": -5` and a negative
+/// energy total merged with exit 0 (the negative count read as 0, the energy summed).
+#[test]
+fn a_shard_with_tampered_tallies_is_refused() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path();
+    for i in 0..2 {
+        render(dir, &format!("s{i}"), &["--shard", &format!("{i}/2")]);
+    }
+    let original = std::fs::read_to_string(dir.join("s1.json")).unwrap();
+    let cases: [(&str, serde_json::Value, &str); 5] = [
+        ("/paths", serde_json::json!(-5), "field \"paths\": expected a count"),
+        ("/rays", serde_json::json!(1.5), "field \"rays\": expected a count"),
+        ("/wall_seconds", serde_json::json!(-1.0), "field \"wall_seconds\""),
+        (
+            "/energy/primal/total",
+            serde_json::json!(-3.0),
+            "field \"energy.primal.total\": expected a finite number >= 0",
+        ),
+        (
+            "/energy/derivatives/0/inside",
+            serde_json::json!("many"),
+            "field \"energy.derivatives.0.inside\"",
+        ),
+    ];
+    for (pointer, value, message) in cases {
+        let mut j: serde_json::Value = serde_json::from_str(&original).unwrap();
+        *j.pointer_mut(pointer).unwrap_or_else(|| panic!("no {pointer}")) = value;
+        std::fs::write(dir.join("s1.json"), j.to_string()).unwrap();
+        let o = dtr(&["merge", "s0", "s1", "-o", "out"], dir);
+        assert_eq!(o.status.code(), Some(2), "{pointer}: {}", stderr(&o));
+        assert!(
+            stderr(&o).contains("s1.json") && stderr(&o).contains(message),
+            "{pointer}: {}",
+            stderr(&o)
+        );
+        assert!(!dir.join("out.npy").exists() && !dir.join("out.json").exists());
+    }
+    std::fs::write(dir.join("s1.json"), original).unwrap();
+    ok(dtr(&["merge", "s0", "s1", "-o", "out", "-q"], dir));
+}

@@ -654,6 +654,54 @@ fn cli_renders_xml_and_imports_it_to_toml() {
     assert_eq!(o.status.code(), Some(2));
 }
 
+/// `dtr import -o` refuses an output that is a mesh the XML names, as `dtr render` refuses an
+/// output that would replace an input: before, the mesh was replaced by the TOML (exit 0).
+#[test]
+fn import_never_replaces_a_mesh_it_reads() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // a mesh file whose name ends in .toml, as the output must
+    std::fs::copy(common::scene_path("meshes/pyramid.obj"), d.join("mesh.toml")).unwrap();
+    std::fs::write(
+        d.join("mm.xml"),
+        scene_text(r#"<shape type="obj" id="pyr"><string name="filename" value="mesh.toml"/></shape>"#),
+    )
+    .unwrap();
+    let before = std::fs::read(d.join("mesh.toml")).unwrap();
+    let o = common::dtr(&["import", "mm.xml", "-o", "mesh.toml"], d);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("would replace the input") && err.contains("mesh.toml"),
+        "{err}"
+    );
+    assert_eq!(std::fs::read(d.join("mesh.toml")).unwrap(), before);
+    // another spelling of the same file, from another folder, is refused too
+    std::fs::create_dir(d.join("sub")).unwrap();
+    let o = common::dtr(&["import", "../mm.xml", "-o", "../mesh.toml"], &d.join("sub"));
+    assert_eq!(o.status.code(), Some(2), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(std::fs::read(d.join("mesh.toml")).unwrap(), before);
+}
+
+/// An error found when the converted description is resolved names the XML file, not the
+/// output that was never written (before: "out.toml: <sensor ...> (line 5) ...").
+#[test]
+fn import_errors_name_the_xml_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let text = scene_text("").replace(
+        r#"<integer name="width" value="8"/>"#,
+        r#"<integer name="width" value="-64"/>"#,
+    );
+    std::fs::write(d.join("in.xml"), text).unwrap();
+    let o = common::dtr(&["import", "in.xml", "-o", "out.toml"], d);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("in.xml: <sensor"), "{err}");
+    assert!(!err.contains("out.toml"), "{err}");
+    assert!(!d.join("out.toml").exists());
+}
+
 #[test]
 fn truncated_and_mutated_xml_never_panics() {
     use difftransient::scene::{Format, mitsuba};

@@ -12,6 +12,24 @@ use std::time::Duration;
 /// How often a resumed render checkpoints when `--checkpoint` is not given.
 const DEFAULT_SECONDS: f64 = 300.0;
 
+/// The longest `--checkpoint` interval, in seconds (about 31 years): far beyond any render,
+/// and well inside what a `Duration` holds (1e20 s is not).
+const MAX_SECONDS: f64 = 1e9;
+
+/// Refuses a `--checkpoint` interval that is not a number of seconds in (0, [`MAX_SECONDS`]].
+pub fn check_interval(seconds: f64) -> anyhow::Result<()> {
+    if !(seconds > 0.0 && seconds <= MAX_SECONDS) {
+        // 1e300 as 1e300, not as its 301 digits
+        let shown = if seconds.abs() < MAX_SECONDS {
+            seconds.to_string()
+        } else {
+            format!("{seconds:e}")
+        };
+        bail!("--checkpoint {shown}: expected a number of seconds > 0 and at most {MAX_SECONDS:e}");
+    }
+    Ok(())
+}
+
 /// How a checkpoint's units are cut, kept in its identity so that a checkpoint of another
 /// cut (an earlier dtr's) is refused by name rather than resumed into the wrong units. 3:
 /// the path tracer's units are (tile, sample block) pairs, several per tile on a film of few

@@ -1,6 +1,7 @@
 //! `dtr import scene.xml -o scene.toml`: a Mitsuba 3 XML scene converted to our TOML
 //! description (checked by loading it first), written atomically, or printed.
 
+use super::output_set::{input_metadata, replaced_input};
 use crate::scene::{Format, Scene, mitsuba};
 use anyhow::{Context, bail};
 use std::io::Write;
@@ -25,9 +26,11 @@ pub fn run(a: ImportArgs) -> anyhow::Result<()> {
     }
     let out_dir = a.output.as_deref().map(|o| o.parent().unwrap_or(Path::new("")));
     let imported = mitsuba::import_for(&a.scene, out_dir)?;
-    // the description must load as it is written: resolve it now (meshes read, values checked)
-    let as_written = a.output.clone().unwrap_or_else(|| a.scene.clone());
-    Scene::from_str(&imported.toml, Format::Toml, &as_written, &[]).map_err(|e| imported.annotate(e))?;
+    // The description must load as it is written: resolve it now (meshes read, values
+    // checked). Its mesh names resolve from the XML file's folder as from the output's (they
+    // are made absolute when the folders differ), so it is loaded as the XML file's: an
+    // error names the file the user wrote, not the output that is not written yet.
+    let scene = Scene::from_str(&imported.toml, Format::Toml, &a.scene, &[]).map_err(|e| imported.annotate(e))?;
     match &a.output {
         None => std::io::stdout()
             .write_all(imported.toml.as_bytes())
@@ -46,11 +49,16 @@ pub fn run(a: ImportArgs) -> anyhow::Result<()> {
                     out.display()
                 );
             }
-            if std::fs::canonicalize(out)
-                .ok()
-                .is_some_and(|o| Some(o) == std::fs::canonicalize(&a.scene).ok())
+            // the XML file, the files it includes and the meshes it names (as `dtr render` checks)
+            let inputs: Vec<PathBuf> = scene.inputs.iter().chain(&imported.included).cloned().collect();
+            if let Ok(meta) = std::fs::metadata(out)
+                && let Some(input) = replaced_input(&meta, &input_metadata(&inputs))
             {
-                bail!("{}: the output would replace the input", out.display());
+                bail!(
+                    "{}: the output would replace the input {}; nothing was written. Choose another -o",
+                    out.display(),
+                    input.display()
+                );
             }
             crate::output::write_atomic(out, |w| {
                 w.write_all(imported.toml.as_bytes())

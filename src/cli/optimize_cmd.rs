@@ -5,7 +5,10 @@
 //! values), `recovered.toml` or `.json` (the scene with the recovered values: the best so
 //! far while running, the last iterate at the end, or the mean of the last iterates with
 //! `--average`), and the plots `loss.png` and `param_NAME.png`. An interrupted run (Ctrl-C)
-//! keeps the log and the best values so far.
+//! keeps the log and the best values so far. Everything that can be checked before the first
+//! render (options, the target, the parameters at their start) is checked before the folder
+//! is made; a run that fails before it logs an iteration removes what it made, and one that
+//! fails later keeps its log as Ctrl-C does and says so ([`abandon`]).
 
 use crate::film::Transient;
 use crate::optimize::{Problem, Step, loss::Loss};
@@ -172,6 +175,12 @@ pub fn run(a: OptimizeArgs) -> anyhow::Result<()> {
     if !(a.lr.is_finite() && a.lr > 0.0) {
         bail!("--lr {}: expected a positive number", a.lr);
     }
+    if !(a.lr_end > 0.0 && a.lr_end <= 1.0) {
+        bail!(
+            "--lr-end {}: expected a fraction of the learning rate in (0, 1]",
+            a.lr_end
+        );
+    }
     if !(0.0..=1.0).contains(&a.average) {
         bail!(
             "--average {}: expected a fraction of the iterations in [0, 1]",
@@ -225,7 +234,10 @@ pub fn run(a: OptimizeArgs) -> anyhow::Result<()> {
         let k = a.params.iter().position(|p| p == n).expect("partitioned by name");
         start[k] = *v;
     }
-    let dir = prepare_dir(&a.output, &[&a.scene, &a.target])?;
+    // everything that can stop the run before its first iteration is refused before the
+    // folder is made (a parameter whose time derivative cannot be taken, ...)
+    problem.check(&start, &lr, a.lr_end)?;
+    let (dir, created) = prepare_dir(&a.output, &[&a.scene, &a.target])?;
     let recovered = dir.join(if a.scene.extension().and_then(|e| e.to_str()) == Some("json") {
         "recovered.json"
     } else {
@@ -244,6 +256,7 @@ pub fn run(a: OptimizeArgs) -> anyhow::Result<()> {
         "{elapsed_precise} [{bar:30}] {pos}/{len} {msg}",
     );
     let mut best = f64::INFINITY;
+    let mut logged = 0;
     let mut failure: Option<anyhow::Error> = None;
     let steps = problem.optimize(&start, a.iters, &lr, a.lr_end, |s: &Step| {
         let row = |v: &[f64]| v.iter().map(|x| format!("{x:e}")).collect::<Vec<_>>().join(",");
@@ -258,6 +271,9 @@ pub fn run(a: OptimizeArgs) -> anyhow::Result<()> {
         )
         .and_then(|_| log.flush())
         .map_err(anyhow::Error::from);
+        if ok.is_ok() {
+            logged += 1;
+        }
         if ok.is_ok() && s.loss < best {
             best = s.loss;
             ok = write_best(&dir, &recovered, &a, s);
@@ -269,11 +285,13 @@ pub fn run(a: OptimizeArgs) -> anyhow::Result<()> {
             return false;
         }
         true
-    })?;
+    });
     bar.finish_and_clear();
-    if let Some(e) = failure {
-        return Err(e);
-    }
+    let steps = match (steps, failure) {
+        (Ok(steps), None) => steps,
+        (Err(e), _) => return Err(abandon(&dir, created, logged, e.into())),
+        (Ok(_), Some(e)) => return Err(abandon(&dir, created, logged, e)),
+    };
     let last = steps.last().context("no iteration ran")?;
     let result = crate::optimize::tail_average(&steps, a.average).context("no iteration ran")?;
     let values: Vec<(String, f64)> = a.params.iter().cloned().zip(result.iter().copied()).collect();
@@ -338,10 +356,33 @@ fn write_plots(dir: &Path, params: &[String], steps: &[Step]) -> anyhow::Result<
     Ok(())
 }
 
+/// The error of a run that failed after its folder was made. With no iteration logged, its
+/// `log.csv` is removed, and the folder too when this run created it, so that the folder does
+/// not refuse a rerun. With some, the log and the best values so far are kept, as Ctrl-C
+/// keeps them, and the error says so.
+fn abandon(dir: &Path, created: bool, logged: usize, e: anyhow::Error) -> anyhow::Error {
+    if logged == 0 {
+        let _ = std::fs::remove_file(dir.join("log.csv"));
+        if created {
+            let _ = std::fs::remove_dir(dir);
+        }
+        return e;
+    }
+    let iterations = if logged == 1 { "iteration" } else { "iterations" };
+    e.context(format!(
+        "{}: the run stopped after {logged} {iterations}; the log.csv and the best values so far \
+         (best.json and the recovered scene) are kept, as an interrupted run keeps them. Give \
+         another -o (or remove the folder) to run again",
+        dir.display()
+    ))
+}
+
 /// Creates `dir` (or accepts it empty): an optimisation never mixes its files with another
-/// run's, and never writes where its inputs are.
-fn prepare_dir(dir: &Path, inputs: &[&Path]) -> anyhow::Result<PathBuf> {
-    if dir.exists() {
+/// run's, and never writes where its inputs are. Returns the folder and whether it was
+/// created.
+fn prepare_dir(dir: &Path, inputs: &[&Path]) -> anyhow::Result<(PathBuf, bool)> {
+    let created = !dir.exists();
+    if !created {
         let mut entries =
             std::fs::read_dir(dir).with_context(|| format!("-o {}: not a readable folder", dir.display()))?;
         if entries.next().is_some() {
@@ -363,5 +404,5 @@ fn prepare_dir(dir: &Path, inputs: &[&Path]) -> anyhow::Result<PathBuf> {
             bail!("-o {}: holds the input {}", dir.display(), input.display());
         }
     }
-    Ok(canon)
+    Ok((canon, created))
 }

@@ -20,7 +20,8 @@
 //!   folder). A render to a prefix that already holds a set removes the files of the old set
 //!   (as its JSON lists them) that the new one does not write, before the new JSON lands: a
 //!   `-o x --diff a` render followed by `-o x` leaves no `x.d_a.npy` behind. Only plain names
-//!   of the old set's own prefix in the same folder are removed, never an input.
+//!   in the same folder that have the form of one of dtr's own outputs for that prefix are
+//!   removed (an edited JSON cannot name a scene), never an input.
 
 use crate::output::OutputError;
 use anyhow::{Context, bail};
@@ -119,6 +120,27 @@ fn same_file(_: &std::fs::Metadata, _: &std::fs::Metadata) -> bool {
     false
 }
 
+/// Each of `paths` that exists, with its metadata: the inputs an output is compared with
+/// ([`replaced_input`]), taken before anything is written.
+pub fn input_metadata(paths: &[PathBuf]) -> Vec<(PathBuf, std::fs::Metadata)> {
+    paths
+        .iter()
+        .filter_map(|p| std::fs::metadata(p).ok().map(|m| (p.clone(), m)))
+        .collect()
+}
+
+/// The input that a file at the output `dest` (of metadata `dest_meta`) would replace:
+/// compared by device and inode, so links and other spellings of a path count.
+pub fn replaced_input<'a>(
+    dest_meta: &std::fs::Metadata,
+    inputs: &'a [(PathBuf, std::fs::Metadata)],
+) -> Option<&'a Path> {
+    inputs
+        .iter()
+        .find(|(_, m)| same_file(m, dest_meta))
+        .map(|(p, _)| p.as_path())
+}
+
 /// A render's output set while it is prepared and written.
 pub struct OutputSet {
     prefix: PathBuf,
@@ -150,10 +172,7 @@ impl OutputSet {
                     dir.display()
                 )
             })?;
-        let inputs: Vec<(PathBuf, std::fs::Metadata)> = scene_inputs
-            .iter()
-            .filter_map(|p| std::fs::metadata(p).ok().map(|m| (p.clone(), m)))
-            .collect();
+        let inputs = input_metadata(scene_inputs);
         let name = prefix.file_name().unwrap_or_default().to_string_lossy().into_owned();
         let lock_path = dir.join(format!(".{name}.dtr-lock"));
         let lock = Self::lock(&lock_path, &prefix)?;
@@ -218,7 +237,7 @@ impl OutputSet {
         if meta.is_dir() {
             bail!("output {} is an existing folder; choose another -o", dest.display());
         }
-        if let Some((input, _)) = self.inputs.iter().find(|(_, m)| same_file(m, &meta)) {
+        if let Some(input) = replaced_input(&meta, &self.inputs) {
             bail!(
                 "output {} would replace the input {}; nothing was rendered. Choose another -o",
                 dest.display(),
@@ -295,9 +314,9 @@ impl OutputSet {
     }
 
     /// The files the JSON already at `PREFIX.json` lists (an earlier render's set) that this
-    /// set does not write: plain names starting with the prefix's own name, in the output
-    /// folder, regular files, not inputs. Nothing when there is no such JSON or it lists no
-    /// files (sets written before the list existed are left alone).
+    /// set does not write: plain names of the prefix's own outputs ([`is_own_output`]), in
+    /// the output folder, regular files, not inputs. Nothing when there is no such JSON or it
+    /// lists no files (sets written before the list existed are left alone).
     fn stale_files(&self) -> Vec<PathBuf> {
         let json = with_suffix(&self.prefix, "json");
         let Ok(text) = std::fs::read_to_string(&json) else {
@@ -322,16 +341,40 @@ impl OutputSet {
             .filter_map(|v| v.as_str())
             .filter(|n| {
                 let plain = Path::new(n).file_name().is_some_and(|f| f == std::ffi::OsStr::new(n));
-                plain && n.starts_with(&format!("{stem}.")) && !n.ends_with(".json")
+                plain && is_own_output(n, &stem)
             })
             .filter(|n| !new.contains(&std::ffi::OsStr::new(n)))
             .map(|n| dir.join(n))
             .filter(|p| {
                 std::fs::symlink_metadata(p).is_ok_and(|m| m.is_file())
-                    && std::fs::metadata(p).is_ok_and(|m| !self.inputs.iter().any(|(_, i)| same_file(i, &m)))
+                    && std::fs::metadata(p).is_ok_and(|m| replaced_input(&m, &self.inputs).is_none())
             })
             .collect()
     }
+}
+
+/// Whether `name` is a file dtr writes for the prefix whose file name is `stem` (`STEM.npy`,
+/// `STEM.d_NAME.npy`, the previews, …; not the JSON itself). The old JSON's `"files"` is a
+/// file anyone can edit, so a name it lists is removed as stale only when it has the form of
+/// one of dtr's own outputs: `"STEM.toml"` there never deletes a scene.
+fn is_own_output(name: &str, stem: &str) -> bool {
+    let Some(suffix) = name.strip_prefix(stem).and_then(|s| s.strip_prefix('.')) else {
+        return false;
+    };
+    // the render's fixed outputs (render_cmd, nlos_out, shard_set)
+    const FIXED: [&str; 6] = ["npy", "exr", "steady.npy", "h5", "noisy.npy", "noisy.h5"];
+    let derivative = suffix
+        .strip_prefix("d_")
+        .and_then(|s| s.strip_suffix(".npy").or_else(|| s.strip_suffix(".png")))
+        .is_some_and(|param| !param.is_empty());
+    let digits = |s: &str| !s.is_empty() && s.bytes().all(|b| b.is_ascii_digit());
+    // `--strategies`: PREFIX.s{s}_t{t}.npy
+    let strategy = suffix
+        .strip_prefix('s')
+        .and_then(|s| s.strip_suffix(".npy"))
+        .and_then(|s| s.split_once("_t"))
+        .is_some_and(|(s, t)| digits(s) && digits(t));
+    FIXED.contains(&suffix) || super::render_cmd::PREVIEWS.contains(&suffix) || derivative || strategy
 }
 
 impl Drop for OutputSet {
@@ -348,6 +391,36 @@ impl Drop for OutputSet {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn own_outputs_are_recognised_by_their_form() {
+        for own in [
+            "p.npy",
+            "p.exr",
+            "p.steady.npy",
+            "p.d_plane_z.npy",
+            "p.d_plane_z.png",
+            "p.s2_t1.npy",
+            "p.frames.png",
+            "p.flight.gif",
+            "p.h5",
+            "p.noisy.npy",
+        ] {
+            assert!(is_own_output(own, "p"), "{own}");
+        }
+        for other in [
+            "p.toml",
+            "p.victim.npy",
+            "p.json",
+            "p.d_.npy",
+            "p.sx_t1.npy",
+            "q.npy",
+            "pp.npy",
+            "p.checkpoint",
+        ] {
+            assert!(!is_own_output(other, "p"), "{other}");
+        }
+    }
 
     #[test]
     fn prefix_rules() {

@@ -255,8 +255,8 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
             TimeEdges::Off => TimeEdgeMode::Off,
         },
     };
-    if let Some(t) = a.checkpoint.filter(|t| !(t.is_finite() && *t > 0.0)) {
-        bail!("--checkpoint {t}: expected a positive number of seconds");
+    if let Some(t) = a.checkpoint {
+        super::checkpoint_cmd::check_interval(t)?;
     }
     if (a.checkpoint.is_some() || a.resume) && a.strategies {
         bail!("--strategies cannot be checkpointed; render it without --checkpoint/--resume");

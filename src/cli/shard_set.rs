@@ -118,11 +118,86 @@ fn read_shard(prefix: &Path) -> anyhow::Result<ShardFiles> {
     };
     let shard = Shard::new(index, count).with_context(|| format!("{}: field \"shard\"", path.display()))?;
     field("identity")?;
+    check_tallies(&meta, &path)?;
     Ok(ShardFiles {
         prefix: prefix.to_path_buf(),
         meta,
         shard,
     })
+}
+
+/// The counts of a shard's JSON that the merge adds up.
+const COUNTS: [&str; 6] = [
+    "paths",
+    "rays",
+    "intersect_rays",
+    "occluded_rays",
+    "non_finite_samples",
+    "boundary_samples",
+];
+
+/// The seconds of a shard's JSON that the merge adds up.
+const SECONDS: [&str; 6] = [
+    "wall_seconds",
+    "cpu_seconds",
+    "total_wall_seconds",
+    "total_cpu_seconds",
+    "boundary_seconds",
+    "bvh_build_seconds",
+];
+
+/// The phases of a shard's `phase_seconds`.
+const PHASES: [&str; 3] = ["tracing", "shading", "film"];
+
+/// What a tally of a shard's JSON must be for the merge to add it up.
+#[derive(Clone, Copy)]
+enum Tally {
+    /// paths, rays, samples: an integer >= 0
+    Count,
+    /// seconds, a primal energy (radiance is never negative): a number >= 0
+    NonNegative,
+    /// a derivative's energy: a number of either sign, or null where it was not measured
+    NumberOrNull,
+}
+
+/// Refuses a tally of the shard JSON `path` that the merge would add up into nonsense (a
+/// negative count of paths, a negative energy, a string), naming the file and the field: a
+/// damaged or edited JSON is refused rather than merged. An absent tally counts 0, as in
+/// [`merged_metadata`].
+fn check_tallies(meta: &Value, path: &Path) -> anyhow::Result<()> {
+    use Tally::*;
+    let mut tallies: Vec<(String, Tally)> = COUNTS.iter().map(|k| (k.to_string(), Count)).collect();
+    tallies.extend(SECONDS.iter().map(|k| (k.to_string(), NonNegative)));
+    tallies.extend(PHASES.iter().map(|k| (format!("phase_seconds.{k}"), NonNegative)));
+    tallies.extend(["before", "inside", "after", "total"].map(|k| (format!("energy.primal.{k}"), NonNegative)));
+    tallies.push(("energy.primal.after_pilot_paths".into(), Count));
+    let derivatives = meta["energy"]["derivatives"].as_array().map_or(0, Vec::len);
+    for k in 0..derivatives {
+        tallies.extend(["total", "inside", "outside"].map(|f| (format!("energy.derivatives.{k}.{f}"), NumberOrNull)));
+    }
+    for (field, tally) in tallies {
+        let Some(v) = meta.pointer(&format!("/{}", field.replace('.', "/"))) else {
+            continue;
+        };
+        let (ok, expected) = match tally {
+            Count => (v.as_u64().is_some(), "a count (an integer >= 0)"),
+            NonNegative => (
+                v.as_f64().is_some_and(|x| x.is_finite() && x >= 0.0),
+                "a finite number >= 0",
+            ),
+            NumberOrNull => (
+                v.is_null() || v.as_f64().is_some_and(f64::is_finite),
+                "a finite number or null",
+            ),
+        };
+        if !ok {
+            bail!(
+                "{}: field \"{field}\": expected {expected}, got {v}: the shard's JSON was changed or damaged",
+                path.display()
+            );
+        }
+    }
+    Ok(())
 }
 
 /// The shards, checked to be exactly the shards 0..N of one render.
@@ -304,27 +379,13 @@ pub fn run(a: MergeArgs) -> anyhow::Result<()> {
 fn merged_metadata(shards: &[ShardFiles], prefix: &Path, diff: &[String]) -> Value {
     let mut meta = shards[0].meta.clone();
     let sum = |k: &str| -> f64 { shards.iter().map(|s| s.meta[k].as_f64().unwrap_or(0.0)).sum() };
-    for k in [
-        "paths",
-        "rays",
-        "intersect_rays",
-        "occluded_rays",
-        "non_finite_samples",
-        "boundary_samples",
-    ] {
+    for k in COUNTS {
         meta[k] = json!(sum(k) as u64);
     }
-    for k in [
-        "wall_seconds",
-        "cpu_seconds",
-        "total_wall_seconds",
-        "total_cpu_seconds",
-        "boundary_seconds",
-        "bvh_build_seconds",
-    ] {
+    for k in SECONDS {
         meta[k] = json!(sum(k));
     }
-    for k in ["tracing", "shading", "film"] {
+    for k in PHASES {
         meta["phase_seconds"][k] = json!(
             shards
                 .iter()

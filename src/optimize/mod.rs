@@ -143,6 +143,32 @@ impl Problem {
         Ok((l, grad))
     }
 
+    /// Refuses, without rendering, what would stop a run from `start` with learning rates
+    /// `lr` decaying to `lr · lr_end` before its first iteration: the schedule, one start
+    /// value, bound and rate per parameter, and the parameters on the scene at `start`
+    /// (names, and time derivatives the estimators cannot take: `adjoint::check_params`).
+    /// `dtr optimize` calls it before it creates its output folder.
+    pub fn check(&self, start: &[f64], lr: &[f64], lr_end: f64) -> Result<(), Error> {
+        self.check_schedule(start, lr, lr_end)?;
+        crate::adjoint::check_params(&self.scene_at(start)?, &self.params, &self.opts)
+    }
+
+    /// The part of [`Problem::check`] that needs no scene.
+    fn check_schedule(&self, start: &[f64], lr: &[f64], lr_end: f64) -> Result<(), Error> {
+        let n = self.params.len();
+        if !(lr_end > 0.0 && lr_end <= 1.0) {
+            return Err(Error::Invalid(format!(
+                "the final learning-rate fraction {lr_end} must be in (0, 1]"
+            )));
+        }
+        if self.bounds.len() != n || start.len() != n || lr.len() != n {
+            return Err(Error::Invalid(
+                "one start value, one bound and one learning rate per parameter".into(),
+            ));
+        }
+        Ok(())
+    }
+
     /// Runs `iters` iterations of Adam from `start` with learning rates `lr` (one per
     /// parameter) that decay geometrically to `lr · lr_end` at the last iteration (with noisy
     /// gradients a constant rate leaves the iterates wandering around the answer; `lr_end = 1`
@@ -156,17 +182,7 @@ impl Problem {
         lr_end: f64,
         mut on_step: impl FnMut(&Step) -> bool,
     ) -> Result<Vec<Step>, Error> {
-        let n = self.params.len();
-        if !(lr_end > 0.0 && lr_end <= 1.0) {
-            return Err(Error::Invalid(format!(
-                "the final learning-rate fraction {lr_end} must be in (0, 1]"
-            )));
-        }
-        if self.bounds.len() != n || start.len() != n || lr.len() != n {
-            return Err(Error::Invalid(
-                "one start value, one bound and one learning rate per parameter".into(),
-            ));
-        }
+        self.check_schedule(start, lr, lr_end)?;
         let mut x = start.to_vec();
         let mut adam = adam::Adam::new(lr.to_vec());
         let base = self.opts.seed.unwrap_or(0);

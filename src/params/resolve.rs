@@ -30,9 +30,7 @@ pub(crate) fn apply_overrides(
                 format!("no parameter named {name:?} (parameters: {})", names.params.join(", "))
             }));
         };
-        if !value.is_finite() {
-            return Err(err(format!("value must be a finite number (got {value})")));
-        }
+        crate::scene::load::check_override_value(*value).map_err(err)?;
         desc.param[i].value = *value;
         overridden[i] = true;
     }

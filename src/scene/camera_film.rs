@@ -2,7 +2,7 @@
 //! origin), image size and pixel filter, then the film's time axis, gate and colour channels
 //! (`mono`, `rgb`, or `auto` from the colours and parameters of the scene).
 
-use super::context::{Ctx, count, positive};
+use super::context::{Ctx, count, positive, time_width};
 use super::desc::{CameraDesc, Channels, FilmDesc, FilterType, GateType, NameOr, SceneDesc, Triple};
 use super::error::{item_field, table_field};
 use super::{Camera, FilmSpec, Param, ParamKind, PixelFilter, SceneError};
@@ -163,7 +163,7 @@ fn gate(g: &NameOr<super::desc::GateTable>, ctx: &Ctx) -> Result<Gate, SceneErro
         }
         GateType::Gaussian => match sigma {
             Some(s) => Gate::Gaussian {
-                sigma_opl: positive(ctx, at("gate.sigma_opl"), s)?,
+                sigma_opl: time_width(ctx, at("gate.sigma_opl"), s)?,
             },
             None => {
                 return Err(ctx.invalid(at("gate.sigma_opl"), "missing: a gaussian gate needs sigma_opl > 0"));

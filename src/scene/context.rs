@@ -99,6 +99,23 @@ pub(super) fn positive(ctx: &Ctx, at: String, v: f32) -> Result<f32, SceneError>
     }
 }
 
+/// A pulse's or gate's width: > 0, and a normal 32-bit float. The renderer's threads flush
+/// subnormal numbers to zero (`accel::set_flush_denormals`), so a width such as 1e-45 would
+/// reach the temporal model there as 0.
+pub(super) fn time_width(ctx: &Ctx, at: String, v: f32) -> Result<f32, SceneError> {
+    let v = positive(ctx, at.clone(), v)?;
+    if v < f32::MIN_POSITIVE {
+        return Err(ctx.invalid(
+            at,
+            format!(
+                "must be at least {:e}, the smallest normal 32-bit float (got {v:e}): the renderer flushes smaller numbers to zero",
+                f32::MIN_POSITIVE
+            ),
+        ));
+    }
+    Ok(v)
+}
+
 /// Checks each channel of a colour is in `[lo, hi]`.
 pub(crate) fn check_colour(ctx: &Ctx, at: String, c: Triple, lo: f32, hi: f32) -> Result<[f32; 3], SceneError> {
     let v = c.to_array();

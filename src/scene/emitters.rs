@@ -2,7 +2,7 @@
 //! material), point lights and lasers (positions relative to the render origin, the beam's
 //! direction normalised), each with its pulse. A field that only another type takes is refused.
 
-use super::context::{Ctx, Names, check_colour, no_such, positive};
+use super::context::{Ctx, Names, check_colour, no_such, time_width};
 use super::desc::{EmitterDesc, EmitterType, NameOr, PulseType, SceneDesc};
 use super::error::item_field;
 use super::{Emitter, EmitterKind, SceneError};
@@ -88,7 +88,7 @@ fn pulse(ctx: &Ctx, i: usize, e: &EmitterDesc) -> Result<Pulse, SceneError> {
             let s = sigma
                 .ok_or_else(|| ctx.invalid(at("pulse.sigma_opl"), "missing: a gaussian pulse needs sigma_opl > 0"))?;
             Pulse::Gaussian {
-                sigma_opl: positive(ctx, at("pulse.sigma_opl"), s)?,
+                sigma_opl: time_width(ctx, at("pulse.sigma_opl"), s)?,
             }
         }
         PulseType::Box => {
@@ -98,7 +98,7 @@ fn pulse(ctx: &Ctx, i: usize, e: &EmitterDesc) -> Result<Pulse, SceneError> {
             let w =
                 width.ok_or_else(|| ctx.invalid(at("pulse.width_opl"), "missing: a box pulse needs width_opl > 0"))?;
             Pulse::Box {
-                width_opl: positive(ctx, at("pulse.width_opl"), w)?,
+                width_opl: time_width(ctx, at("pulse.width_opl"), w)?,
             }
         }
     })

@@ -20,7 +20,7 @@ mod flush;
 #[doc(hidden)]
 pub mod fuzzing;
 mod info;
-mod load;
+pub(crate) mod load;
 mod materials;
 pub mod mitsuba;
 pub mod nlos;
