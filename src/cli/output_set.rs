@@ -353,6 +353,10 @@ impl OutputSet {
     }
 }
 
+/// The preview files `dtr render --preview` writes (`render_cmd::write_previews`; suffixes of
+/// the prefix).
+pub(super) const PREVIEWS: [&str; 5] = ["frames.png", "steady.png", "plot.png", "flight.gif", "streak.png"];
+
 /// Whether `name` is a file dtr writes for the prefix whose file name is `stem` (`STEM.npy`,
 /// `STEM.d_NAME.npy`, the previews, …; not the JSON itself). The old JSON's `"files"` is a
 /// file anyone can edit, so a name it lists is removed as stale only when it has the form of
@@ -374,7 +378,7 @@ fn is_own_output(name: &str, stem: &str) -> bool {
         .and_then(|s| s.strip_suffix(".npy"))
         .and_then(|s| s.split_once("_t"))
         .is_some_and(|(s, t)| digits(s) && digits(t));
-    FIXED.contains(&suffix) || super::render_cmd::PREVIEWS.contains(&suffix) || derivative || strategy
+    FIXED.contains(&suffix) || PREVIEWS.contains(&suffix) || derivative || strategy
 }
 
 impl Drop for OutputSet {

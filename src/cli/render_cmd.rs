@@ -274,7 +274,7 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
         planned.push("exr".into());
     }
     if a.preview {
-        planned.extend(PREVIEWS.map(String::from));
+        planned.extend(super::output_set::PREVIEWS.map(String::from));
         planned.extend(a.diff.iter().map(|n| format!("d_{n}.png")));
     }
     if a.shard.is_some() || a.preview {
@@ -443,9 +443,6 @@ fn parse_pixel(s: &str, scene: &Scene) -> anyhow::Result<(usize, usize)> {
     }
     Ok((x, y))
 }
-
-/// The files [`write_previews`] writes (suffixes of the prefix).
-pub(super) const PREVIEWS: [&str; 5] = ["frames.png", "steady.png", "plot.png", "flight.gif", "streak.png"];
 
 pub(super) fn write_previews(
     film: &Transient,

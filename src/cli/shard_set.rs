@@ -321,7 +321,7 @@ pub fn run(a: MergeArgs) -> anyhow::Result<()> {
         planned.push("exr".into());
     }
     if a.preview {
-        planned.extend(super::render_cmd::PREVIEWS.map(String::from));
+        planned.extend(super::output_set::PREVIEWS.map(String::from));
     }
     let mut set = OutputSet::prepare(&a.output, &inputs, &scene_path, &planned)?;
     // one shard's films in memory at a time, added in shard order (`shard::FilmSum`)

@@ -30,7 +30,7 @@ pub(crate) fn apply_overrides(
                 format!("no parameter named {name:?} (parameters: {})", names.params.join(", "))
             }));
         };
-        crate::scene::load::check_override_value(*value).map_err(err)?;
+        crate::scene::f32_value::check_override_value(*value).map_err(err)?;
         desc.param[i].value = *value;
         overridden[i] = true;
     }

@@ -28,7 +28,7 @@ pub(crate) fn apply(raw: &mut Value, sets: &[(String, f64)], source: &Path) -> R
             name: name.clone(),
             message,
         };
-        super::load::check_override_value(*value).map_err(err)?;
+        super::f32_value::check_override_value(*value).map_err(err)?;
         let segs: Vec<&str> = name.split('.').collect();
         if segs.iter().any(|s| s.is_empty()) {
             return Err(err(

@@ -3,6 +3,7 @@
 
 use super::desc::SceneDesc;
 use super::error::{Seg, line_column, location};
+use super::f32_value::not_finite_f32;
 use super::read::{MAX_SCENE_BYTES, read_regular_file};
 use super::{Scene, SceneError};
 use std::path::Path;
@@ -263,31 +264,6 @@ fn segments(path: &serde_path_to_error::Path) -> Vec<Seg> {
             Segment::Unknown => None,
         })
         .collect()
-}
-
-/// What is wrong with `f` as a number of the description ("nan", "1e39, which is outside the
-/// range of 32-bit floats"), or `None` when it is a finite 32-bit float.
-fn not_finite_f32(f: f64) -> Option<String> {
-    if (f as f32).is_finite() {
-        return None;
-    }
-    Some(if f.is_nan() {
-        "nan".to_string()
-    } else if f.is_infinite() {
-        if f > 0.0 { "inf".to_string() } else { "-inf".to_string() }
-    } else {
-        format!("{f:e}, which is outside the range of 32-bit floats")
-    })
-}
-
-/// Refuses a `--set` value the file could not hold either (a number that is not a finite
-/// 32-bit float), with the message the file's value would get: both kinds of override
-/// (`field_set`, `params::resolve`) check their values here.
-pub(crate) fn check_override_value(value: f64) -> Result<(), String> {
-    match not_finite_f32(value) {
-        Some(got) => Err(format!("expected a finite number, got {got}")),
-        None => Ok(()),
-    }
 }
 
 fn check_float(f: f64, path: &[Seg], bad: &mut Option<(Vec<Seg>, String)>) {

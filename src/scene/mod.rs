@@ -15,6 +15,7 @@ pub(crate) mod desc;
 mod described;
 mod emitters;
 pub(crate) mod error;
+pub(crate) mod f32_value;
 pub(crate) mod field_set;
 mod flush;
 #[doc(hidden)]
