@@ -14,8 +14,13 @@
 //! overrides, sample counts, seed: `cli::shard_set::identity`) and nothing that depends on
 //! the thread count.
 //!
-//! File: `DTRCKPT1`, the header's length (u64 LE), the header (JSON: identity, stage, which
-//! units are done, tallies, the blob list), then the blobs (f32 or f64 LE arrays). A blob of
+//! File: `DTRCKPT2`, the header's length (u64 LE), the header (JSON: identity, stage, which
+//! units are done, tallies, the blob list), the blobs (f32 or f64 LE arrays), then the CRC-32
+//! of everything before it (u32 LE). The lengths alone let a damaged file through: bytes of
+//! the bins flipped on disk resumed into a film of 1e28 where the true values were 5e-7, and
+//! an edited tally into a negative energy, so a file whose checksum, tallies or values are not
+//! what a render writes is refused by name (`DTRCKPT1`, the layout before the checksum,
+//! included: it cannot be told from a damaged file). A blob of
 //! bins is stored by runs (`"runs": true`): the written bits of its runs of 16 values (u64
 //! LE words, as `film::bins` keeps them), then the values of the marked runs, in order; the
 //! rest is +0. A transient is sparse in time, so this is what a checkpoint of a large film
@@ -35,7 +40,9 @@ use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
-const MAGIC: &[u8; 8] = b"DTRCKPT1";
+const MAGIC: &[u8; 8] = b"DTRCKPT2";
+/// The layout before the checksum, refused by name.
+const MAGIC_UNCHECKED: &[u8; 8] = b"DTRCKPT1";
 /// Largest header a checkpoint may have (the tallies of every tile of a 16k² film fit).
 const HEADER_CAP: u64 = 1 << 30;
 
@@ -269,19 +276,76 @@ fn write(path: &Path, identity: &serde_json::Value, s: &Saved) -> Result<(), Err
     let text = serde_json::to_vec(&header).map_err(|e| Error::Invalid(format!("checkpoint header: {e}")))?;
     crate::output::write_atomic(path, |w| {
         let io = |e: std::io::Error| crate::output::OutputError::io(path, e);
+        let mut w = Summed {
+            w,
+            crc: crc32fast::Hasher::new(),
+        };
         w.write_all(MAGIC).map_err(io)?;
         w.write_all(&(text.len() as u64).to_le_bytes()).map_err(io)?;
         w.write_all(&text).map_err(io)?;
         for (_, d) in &blobs {
-            d.write(w).map_err(io)?;
+            d.write(&mut w).map_err(io)?;
         }
-        Ok(())
+        let crc = w.crc.finalize();
+        w.w.write_all(&crc.to_le_bytes()).map_err(io)
     })
     .map_err(|e| Error::Invalid(e.to_string()))
 }
 
+/// A writer that keeps the CRC-32 of what passes through it (the checkpoint's trailer).
+struct Summed<W> {
+    w: W,
+    crc: crc32fast::Hasher,
+}
+
+impl<W: Write> Write for Summed<W> {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        let n = self.w.write(buf)?;
+        self.crc.update(&buf[..n]);
+        Ok(n)
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.w.flush()
+    }
+}
+
+/// Refuses tallies no render writes (the checksum catches damage; these catch a file written
+/// with its checksum after an edit, or by a faulty dtr): a primal energy outside the window
+/// that is negative or not finite, a block sum that is not finite or, for the primal (the
+/// first block: radiance is never negative), negative. Named by field.
+fn check_tallies(h: &Header) -> Result<(), String> {
+    let energy = |field: String, v: f64| {
+        if v.is_finite() && v >= 0.0 {
+            Ok(())
+        } else {
+            Err(format!("{field}: expected a finite energy >= 0, got {v}"))
+        }
+    };
+    for (i, t) in h.tallies.iter().enumerate() {
+        let Some((_, tails, sums)) = t else { continue };
+        for (k, &v) in tails.iter().enumerate() {
+            energy(format!("tallies[{i}] primal energy {}", ["before", "after"][k]), v)?;
+        }
+        for (k, &v) in sums.iter().enumerate() {
+            if k == 0 {
+                energy(format!("tallies[{i}] block sum 0 (the primal)"), v)?;
+            } else if !v.is_finite() {
+                return Err(format!("tallies[{i}] block sum {k}: expected a finite number, got {v}"));
+            }
+        }
+    }
+    for (c, tails) in h.chunks.iter().enumerate() {
+        for (k, &v) in tails.iter().flatten().enumerate() {
+            energy(format!("chunks[{c}] primal energy {}", ["before", "after"][k]), v)?;
+        }
+    }
+    Ok(())
+}
+
 /// Reads a checkpoint: its identity and what it saved. Every length is checked against the
-/// file, so a truncated or foreign file is refused with its name.
+/// file, its checksum against its bytes, and its tallies and values for what a render
+/// writes, so a truncated, damaged or foreign file is refused with its name.
 pub fn read(path: &Path) -> Result<(serde_json::Value, Saved), Error> {
     let bad = |what: &str| Error::Invalid(format!("{}: not a usable dtr checkpoint: {what}", path.display()));
     let meta = std::fs::metadata(path)
@@ -291,8 +355,19 @@ pub fn read(path: &Path) -> Result<(serde_json::Value, Saved), Error> {
     }
     let bytes = std::fs::read(path)
         .map_err(|e| Error::Invalid(format!("{}: cannot read the checkpoint: {e}", path.display())))?;
-    if bytes.len() < 16 || &bytes[..8] != MAGIC {
-        return Err(bad("it does not start with DTRCKPT1"));
+    if bytes.starts_with(MAGIC_UNCHECKED) {
+        return Err(bad(
+            "it was written by an earlier dtr, without a checksum (render again without --resume)",
+        ));
+    }
+    if bytes.len() < 20 || &bytes[..8] != MAGIC {
+        return Err(bad("it does not start with DTRCKPT2"));
+    }
+    let (bytes, crc) = bytes.split_at(bytes.len() - 4);
+    if crc32fast::hash(bytes).to_le_bytes() != crc {
+        return Err(bad(
+            "its checksum does not match its bytes (the file was damaged or changed)",
+        ));
     }
     let hlen = u64::from_le_bytes(bytes[8..16].try_into().expect("8 bytes"));
     if hlen > HEADER_CAP || 16 + hlen > bytes.len() as u64 {
@@ -300,6 +375,7 @@ pub fn read(path: &Path) -> Result<(serde_json::Value, Saved), Error> {
     }
     let header: Header =
         serde_json::from_slice(&bytes[16..16 + hlen as usize]).map_err(|e| bad(&format!("header: {e}")))?;
+    check_tallies(&header).map_err(|e| bad(&e))?;
     let mut at = 16 + hlen as usize;
     // each blob: its entry, its written bits (stored by runs; else none) and its values' bytes
     let mut blobs = std::collections::HashMap::new();
@@ -349,19 +425,33 @@ pub fn read(path: &Path) -> Result<(serde_json::Value, Saved), Error> {
         Some((crate::film::unpack_written(b.len, bits, &parsed)?, bits.clone()))
     }
     let no_room = |name: &str, len: usize| bad(&format!("blob {name}: {len} values do not fit in memory"));
-    let f32s = |name: &str, len: Option<usize>| -> Result<(Vec<f32>, Vec<u64>), Error> {
-        match blobs.get(name) {
-            Some(blob) if !blob.0.f64 && len.is_none_or(|n| n == blob.0.len) => {
-                values(blob, f32::from_le_bytes).ok_or_else(|| no_room(name, blob.0.len))
-            }
-            _ => Err(bad(&format!("blob {name} is missing or of the wrong size"))),
+    // a render never saves a NaN or an infinity (it would fail at its end, without the file)
+    fn finite<T: Copy + Into<f64>>(name: &str, v: &[T]) -> Result<(), String> {
+        match v.iter().position(|&x| !x.into().is_finite()) {
+            Some(i) => Err(format!(
+                "blob {name}: value {i} is {}, expected a finite number",
+                v[i].into()
+            )),
+            None => Ok(()),
         }
+    }
+    let f32s = |name: &str, len: Option<usize>| -> Result<(Vec<f32>, Vec<u64>), Error> {
+        let got = match blobs.get(name) {
+            Some(blob) if !blob.0.f64 && len.is_none_or(|n| n == blob.0.len) => {
+                values(blob, f32::from_le_bytes).ok_or_else(|| no_room(name, blob.0.len))?
+            }
+            _ => return Err(bad(&format!("blob {name} is missing or of the wrong size"))),
+        };
+        finite(name, &got.0).map_err(|e| bad(&e))?;
+        Ok(got)
     };
     let f64s = |name: &str| -> Result<(Vec<f64>, Vec<u64>), Error> {
-        match blobs.get(name) {
-            Some(blob) if blob.0.f64 => values(blob, f64::from_le_bytes).ok_or_else(|| no_room(name, blob.0.len)),
-            _ => Err(bad(&format!("blob {name} is missing"))),
-        }
+        let got = match blobs.get(name) {
+            Some(blob) if blob.0.f64 => values(blob, f64::from_le_bytes).ok_or_else(|| no_room(name, blob.0.len))?,
+            _ => return Err(bad(&format!("blob {name} is missing"))),
+        };
+        finite(name, &got.0).map_err(|e| bad(&e))?;
+        Ok(got)
     };
     // a film of the header's shape, allocated only as its blobs come back
     let film = |name: &str, (width, height, axis, channels): (usize, usize, crate::temporal::TimeAxis, usize)| {
@@ -655,18 +745,22 @@ mod tests {
         assert!(size < arrays * 15 / 100, "{size} bytes for {arrays} bytes of bins");
     }
 
-    /// A checkpoint of an earlier dtr (every blob a whole array) still reads; blobs whose
-    /// written bits do not fit their length, or which are cut short, are refused by name.
+    /// The file of `header` and `body`, with its checksum.
+    fn file(header: &serde_json::Value, body: &[u8]) -> Vec<u8> {
+        let text = serde_json::to_vec(header).unwrap();
+        let mut b = MAGIC.to_vec();
+        b.extend((text.len() as u64).to_le_bytes());
+        b.extend(text);
+        b.extend(body);
+        b.extend(crc32fast::hash(&b).to_le_bytes());
+        b
+    }
+
+    /// Blobs in the layout of earlier checkpoints (every blob a whole array) still read; blobs
+    /// whose written bits do not fit their length, or which are cut short, are refused by name.
     #[test]
     fn whole_arrays_read_and_bad_runs_are_refused() {
-        let bytes = |header: serde_json::Value, body: &[u8]| {
-            let text = serde_json::to_vec(&header).unwrap();
-            let mut b = MAGIC.to_vec();
-            b.extend((text.len() as u64).to_le_bytes());
-            b.extend(text);
-            b.extend(body);
-            b
-        };
+        let bytes = |header: serde_json::Value, body: &[u8]| file(&header, body);
         let header = |blobs: serde_json::Value| {
             serde_json::json!({
                 "identity": {}, "units": 1, "done": [true], "tallies": [null], "frame": [],
@@ -727,6 +821,74 @@ mod tests {
             std::fs::write(&path, runs(word, values)).unwrap();
             let e = read(&path).unwrap_err().to_string();
             assert!(e.contains(says) && e.contains("r.checkpoint"), "{e}");
+        }
+    }
+
+    /// A damaged or edited checkpoint is refused by name, never resumed: bytes of its bins
+    /// flipped (resumed into a film of 1e28 before the checksum), a NaN in a blob or a
+    /// negative tally behind a valid checksum (a faulty writer), and a file of the layout
+    /// before the checksum.
+    #[test]
+    fn damaged_or_edited_checkpoints_are_refused() {
+        use crate::temporal::TimeAxis;
+        let axis = TimeAxis {
+            start_opl: 0.0,
+            bin_width_opl: 0.1,
+            bins: 50,
+        };
+        let mut t = Transient::zeros(8, 8, axis, 1);
+        t.data
+            .iter_mut()
+            .enumerate()
+            .for_each(|(i, v)| *v = (i % 7) as f32 * 1e-7);
+        let saved = Saved {
+            units: 1,
+            done: vec![true],
+            tallies: vec![Some((PathCounts::default(), [0.5, 0.25], vec![3.0]))],
+            frame: vec![t],
+            ..Default::default()
+        };
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("r.checkpoint");
+        write(&path, &serde_json::json!({}), &saved).unwrap();
+        let good = std::fs::read(&path).unwrap();
+        read(&path).expect("as written");
+        let refused = |bytes: &[u8], says: &str| {
+            std::fs::write(&path, bytes).unwrap();
+            let e = read(&path).expect_err(says).to_string();
+            assert!(
+                e.contains("r.checkpoint: not a usable dtr checkpoint") && e.contains(says),
+                "{e}"
+            );
+        };
+        let hlen = u64::from_le_bytes(good[8..16].try_into().unwrap()) as usize;
+        let mut flipped = good.clone();
+        flipped[16 + hlen + 100..16 + hlen + 200]
+            .iter_mut()
+            .for_each(|b| *b ^= 0x5a);
+        refused(&flipped, "checksum does not match");
+        let mut unchecked = good[..good.len() - 4].to_vec();
+        unchecked[..8].copy_from_slice(b"DTRCKPT1");
+        refused(&unchecked, "earlier dtr, without a checksum");
+        // the same with a valid checksum: the values and tallies are checked by field
+        let header: serde_json::Value = serde_json::from_slice(&good[16..16 + hlen]).unwrap();
+        let mut body = good[16 + hlen..good.len() - 4].to_vec();
+        let steady = 4 * 64;
+        let at = body.len() - steady - 8; // a value of the bins' runs
+        body[at..at + 4].copy_from_slice(&f32::NAN.to_le_bytes());
+        refused(&file(&header, &body), "blob frame0.data: value");
+        let body = &good[16 + hlen..good.len() - 4];
+        for (pointer, value, says) in [
+            (
+                "/tallies/0/1/0",
+                -5.0,
+                "tallies[0] primal energy before: expected a finite energy >= 0, got -5",
+            ),
+            ("/tallies/0/2/0", -5.0, "tallies[0] block sum 0 (the primal)"),
+        ] {
+            let mut h = header.clone();
+            *h.pointer_mut(pointer).unwrap() = serde_json::json!(value);
+            refused(&file(&h, body), says);
         }
     }
 }
