@@ -504,9 +504,8 @@ fn check_materials(scene: &Scene, motion: &Motion, kind: IntegratorKind, boundar
     {
         let smooth = |why: &str| {
             refuse(format!(
-                "material {:?} (type {}) is smooth (a Dirac lobe): {why}",
-                d.name,
-                d.material.type_name(),
+                "{} is smooth (a Dirac lobe): {why}",
+                describe_material(scene, d)
             ))
         };
         if kind == IntegratorKind::Bdpt && (motion.moves_geometry() || bends_smooth_dielectric(scene, motion).is_some())
@@ -523,9 +522,8 @@ fn check_materials(scene: &Scene, motion: &Motion, kind: IntegratorKind, boundar
             }
             if let Some(g) = bends_smooth_dielectric(scene, motion) {
                 return refuse(format!(
-                    "material {:?} (type {}) is a smooth dielectric whose index a requested parameter changes: edges seen through it move on the film, a boundary term that is not computed; pass --estimators interior for the interior term alone",
-                    g.name,
-                    g.material.type_name(),
+                    "{} is a smooth dielectric whose index a requested parameter changes: edges seen through it move on the film, a boundary term that is not computed; pass --estimators interior for the interior term alone",
+                    describe_material(scene, g),
                 ));
             }
         }
@@ -533,15 +531,31 @@ fn check_materials(scene: &Scene, motion: &Motion, kind: IntegratorKind, boundar
     Ok(())
 }
 
+/// `material "NAME" (type T)` for messages; a rough dielectric that renders as a smooth one
+/// because its index equals the one outside it ([`Scene::is_dirac`]) says so, and how to
+/// keep it rough.
+fn describe_material(scene: &Scene, m: &crate::scene::NamedMaterial) -> String {
+    let rough_matched = match m.material {
+        crate::scene::Material::Dielectric { roughness, int_ior, .. } if roughness > 0.0 => {
+            let i = scene.materials.iter().position(|x| std::ptr::eq(x, m)).unwrap_or(0) as u32;
+            scene.is_dirac(i).then_some(int_ior)
+        }
+        _ => None,
+    };
+    match rough_matched {
+        Some(ior) => format!(
+            "material {:?} (type roughdielectric, int_ior {ior} equal to the index outside it, so every microfacet refracts straight through; set int_ior a little off it to keep the surface rough)",
+            m.name
+        ),
+        None => format!("material {:?} (type {})", m.name, m.material.type_name()),
+    }
+}
+
 /// The first smooth dielectric whose relative index a parameter of `motion` changes: its own
 /// `ior`, the `ior` of the material it names as exterior, or the medium's η when it has none.
 fn bends_smooth_dielectric<'s>(scene: &'s Scene, motion: &Motion) -> Option<&'s crate::scene::NamedMaterial> {
     scene.materials.iter().enumerate().find_map(|(i, m)| match m.material {
-        crate::scene::Material::Dielectric {
-            roughness: 0.0,
-            exterior,
-            ..
-        } => {
+        crate::scene::Material::Dielectric { exterior, .. } if scene.is_dirac(i as u32) => {
             let bends = (0..motion.len()).any(|k| {
                 motion.ior[k] == Some(i as u32)
                     || (exterior.is_some() && motion.ior[k] == exterior)

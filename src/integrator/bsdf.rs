@@ -146,7 +146,9 @@ impl LaneMaterial {
             Material::Dielectric { roughness, int_ior, .. } => {
                 l.kind = 2;
                 l.alpha = roughness;
-                l.delta = roughness == 0.0;
+                // index-matched, a rough surface bends nothing: every microfacet refracts
+                // straight through (`Scene::is_dirac`; the weight is `Lobes::sample`'s)
+                l.delta = roughness == 0.0 || int_ior == eta_ext;
                 (l.eta_int, l.eta_ext) = (int_ior, eta_ext);
             }
         }
@@ -336,11 +338,16 @@ impl<V: Real<Value = V>, const C: usize> Lobes<V, C> {
             s.transmitted = self.dielectric & crossed;
             s.pdf = s.pdf.masked(!wrong_side);
             let smooth = self.dielectric & self.delta;
+            // an index-matched rough lane (delta, α > 0) passes what its rough lobe passes as
+            // η' → 1: every visible microfacet sends o on to −o, masked by Smith's G1 of that
+            // direction and faded as the lobe is at grazing microfacets, for the one drawn
+            // (`dielectric::grazing_taper`); both are 1 at α = 0
+            let masking = ggx::g1(self.alpha, co.abs(), co.abs()) * dielectric::grazing_taper(ml.z);
             let t_weight = if radiance {
                 V::safe_div(V::one(), eta_l * eta_l)
             } else {
                 V::one()
-            };
+            } * masking;
             s.weight = Spectrum::select(smooth, Spectrum::splat(V::select(refl, V::one(), t_weight)), s.weight);
             s.pdf = V::select(smooth, V::select(refl, f, V::one() - f), s.pdf);
         }

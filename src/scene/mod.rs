@@ -358,8 +358,21 @@ impl Scene {
         self.materials.iter().all(|m| m.material.is_diffuse())
     }
 
-    /// The first material whose lobe is a Dirac delta, if any.
+    /// Whether material `m`'s lobe is a Dirac delta in this scene: a smooth conductor or
+    /// dielectric, or a rough dielectric whose index equals the one outside it. Index-matched,
+    /// every microfacet refracts straight through, so the rough lobe collapses onto −ω_o with
+    /// weight 1 (its width goes as |η' − 1|); the kernels render it as the smooth interface.
+    pub fn is_dirac(&self, m: u32) -> bool {
+        match self.materials[m as usize].material {
+            Material::Dielectric { int_ior, .. } if int_ior == self.exterior_eta(m) => true,
+            ref other => other.is_delta(),
+        }
+    }
+
+    /// The first material whose lobe is a Dirac delta in this scene ([`Self::is_dirac`]).
     pub fn first_delta_material(&self) -> Option<&NamedMaterial> {
-        self.materials.iter().find(|m| m.material.is_delta())
+        (0..self.materials.len() as u32)
+            .find(|&m| self.is_dirac(m))
+            .map(|m| &self.materials[m as usize])
     }
 }

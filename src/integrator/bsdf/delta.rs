@@ -11,14 +11,15 @@
 //! derivative then follows by the chain rule (`integrator::path`); a material-form x_{k+1}
 //! would keep the direction from x_k fixed on the surface and miss how ω_s turns.
 
-use super::{Lobes, conductor, dielectric, fresnel};
+use super::{Lobes, conductor, dielectric, fresnel, ggx};
 use crate::kernel::{Mask, Real, Spectrum, V3};
 
 impl<R: Real, const C: usize> Lobes<R, C> {
     /// On the delta lanes of a vertex with unit normal `n`, reached from unit direction `wo`
     /// (towards the previous vertex): the direction the sampled lobe continues in (refraction
     /// on lanes `transmitted`, else reflection) and its weight over the weight's value (value
-    /// 1, with the derivatives of F, the tint and 1/η'²), for `radiance` or importance
+    /// 1, with the derivatives of F, the tint, 1/η'² and an index-matched rough lane's masking
+    /// G1), for `radiance` or importance
     /// transport. The values are those of [`Lobes::sample`] on the same lanes.
     pub fn delta_dual(&self, n: &V3<R>, wo: &V3<R>, transmitted: R::Mask, radiance: bool) -> (V3<R>, Spectrum<R, C>) {
         let co = n.dot(*wo);
@@ -38,7 +39,9 @@ impl<R: Real, const C: usize> Lobes<R, C> {
             let f = fresnel::dielectric(c, eta_l);
             let t = self.dielectric & transmitted;
             dir = V3::select(t, dielectric::refract(wo, &nn, c, eta_l), dir);
-            let mut wt = relative(R::one() - f);
+            // Smith's masking of an index-matched rough lane (1 on smooth lanes: α = 0); the
+            // fade of the microfacet `sample` drew stays a constant of the path
+            let mut wt = relative(R::one() - f) * relative(ggx::g1(self.alpha, c, c));
             if radiance {
                 wt *= relative(R::safe_div(R::one(), eta_l * eta_l));
             }
