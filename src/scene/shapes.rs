@@ -392,17 +392,21 @@ fn local_mesh(ctx: &Ctx, i: usize, d: &ShapeDesc) -> Result<LocalMesh, SceneErro
                 ));
             };
             let mesh_path = obj_path(ctx.path, file);
-            let loaded = match d.ty {
-                ShapeType::Obj => load_obj(&mesh_path),
-                _ => super::ply::load_ply(&mesh_path).map(|m| LocalMesh {
-                    positions: m.positions,
-                    tris: m.tris,
-                }),
+            let (format, loaded) = match d.ty {
+                ShapeType::Obj => ("OBJ", load_obj(&mesh_path)),
+                _ => (
+                    "PLY",
+                    super::ply::load_ply(&mesh_path).map(|m| LocalMesh {
+                        positions: m.positions,
+                        tris: m.tris,
+                    }),
+                ),
             };
-            loaded.map_err(|message| SceneError::Obj {
+            loaded.map_err(|message| SceneError::Mesh {
                 path: ctx.path.to_path_buf(),
                 at: at("file"),
-                obj: mesh_path,
+                format,
+                mesh: mesh_path,
                 message,
             })?
         }
