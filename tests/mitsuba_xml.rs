@@ -745,3 +745,42 @@ fn truncated_and_mutated_xml_never_panics() {
         starts.len()
     );
 }
+
+/// A `max_depth` past our largest depth (max_bounces 1024, the TOML loader's limit) is
+/// refused naming the XML file, the element and its line, by `dtr import` and `dtr render`
+/// alike; -1 (Mitsuba's unbounded) still imports as max_bounces = 1024. Before, 100000 was
+/// quietly clamped to 1024 and imported with exit 0.
+#[test]
+fn import_refuses_a_max_depth_beyond_the_largest() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let depth = |v: &str| {
+        scene_text(r#"<shape type="rectangle"/>"#).replace(
+            r#"name="max_depth" value="3""#,
+            &format!(r#"name="max_depth" value="{v}""#),
+        )
+    };
+    std::fs::write(d.join("deep.xml"), depth("100000")).unwrap();
+    for args in [
+        &["import", "deep.xml", "-o", "deep.toml"][..],
+        &["render", "deep.xml", "-o", "deep", "-q"],
+    ] {
+        let o = common::dtr(args, d);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{err}");
+        assert!(
+            err.contains("deep.xml: <integer name=\"max_depth\"> (line 2)")
+                && err.contains("max_depth 100000")
+                && err.contains("1025"),
+            "{err}"
+        );
+    }
+    assert!(!d.join("deep.toml").exists() && !d.join("deep.npy").exists());
+    // the largest depth and -1 import as our largest max_bounces
+    for v in ["1025", "-1"] {
+        std::fs::write(d.join("ok.xml"), depth(v)).unwrap();
+        let o = common::dtr(&["import", "ok.xml"], d);
+        let out = String::from_utf8_lossy(&o.stdout);
+        assert!(out.contains("max_bounces = 1024"), "{v}: {out}");
+    }
+}
