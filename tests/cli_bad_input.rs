@@ -378,3 +378,50 @@ fn bdpt_with_many_bounces_warns() {
         .unwrap();
     assert!(!String::from_utf8_lossy(&out.stderr).contains("max_bounces³"));
 }
+
+/// Runs `dtr info` on `scene` with `extra` args: it must fail with exit status 2 (bad input);
+/// returns stderr.
+fn info_refuses(scene: &Path, extra: &[&str]) -> String {
+    let o = dtr().arg("info").arg(scene).args(extra).output().unwrap();
+    let e = String::from_utf8_lossy(&o.stderr).to_string();
+    assert_eq!(o.status.code(), Some(2), "{e}");
+    assert!(e.starts_with("error: ") && !e.contains("panicked"), "{e}");
+    e
+}
+
+/// A bin width the time axis cannot hold is refused naming the file and the field: one that
+/// is zero or subnormal as a 32-bit float (the time plot of --preview and the kernel's window
+/// bound use f32), or one so small next to film.start_opl that a bin ends where it starts.
+/// Before, bin_width_opl = 1e-300 rendered with exit 0 into the window [3, 3] m (only a
+/// "holds no energy" warning), and --preview then failed with an internal error (exit 1).
+#[test]
+fn a_bin_width_the_time_axis_cannot_hold_is_refused() {
+    let d = tempfile::tempdir().unwrap();
+    let room = std::fs::read_to_string(scenes().join("diff_room.toml")).unwrap();
+    let (start, width) = ("start_opl = 3.0", "bin_width_opl = 0.1");
+    assert!(room.contains(start) && room.contains(width));
+    let cases = [
+        (room.replace(width, "bin_width_opl = 1e-300"), "1e-300"),
+        (
+            room.replace(width, "bin_width_opl = 1e-40"),
+            "smallest normal 32-bit float",
+        ),
+        (
+            room.replace(start, "start_opl = 0.0")
+                .replace(width, "bin_width_opl = 1e-300"),
+            "smallest normal 32-bit float",
+        ),
+        (
+            room.replace(start, "start_opl = 1e6")
+                .replace(width, "bin_width_opl = 1e-12"),
+            "ends where it starts",
+        ),
+    ];
+    for (text, what) in cases {
+        let p = write(d.path(), "tiny.toml", &text);
+        let (e, _o) = render_fails(&p, &["--threads", "1", "--preview"]);
+        assert!(e.contains("tiny.toml: film: field 'bin_width_opl'"), "{e}");
+        assert!(e.contains(what), "{e}");
+        info_refuses(&p, &[]);
+    }
+}
