@@ -29,6 +29,25 @@ pub(super) fn camera(d: &CameraDesc, origin: DVec3, ctx: &Ctx) -> Result<(Camera
             ),
         ));
     }
+    // 32-bit arithmetic squares the distance: past sqrt(f32::MAX) ≈ 1.8e19 m it is infinite
+    // (and glam's normalize gives zero, which the up check below took for a parallel up)
+    if !view.length_squared().is_finite() {
+        let (p, l) = (DVec3::from(d.position) - origin, DVec3::from(d.look_at) - origin);
+        // the one farther from the render origin (look_at when they are as far)
+        let (field, value, other) = if p.length() > l.length() {
+            ("position", d.position, "look_at")
+        } else {
+            ("look_at", d.look_at, "position")
+        };
+        return Err(ctx.invalid(
+            at(field),
+            format!(
+                "{value:?} is {:e} m from camera.{other}, too far for 32-bit arithmetic (it squares that distance); expected the two within {:.1e} m of each other",
+                (DVec3::from(d.look_at) - DVec3::from(d.position)).length(),
+                f32::MAX.sqrt()
+            ),
+        ));
+    }
     if view == Vec3::ZERO || !view.normalize().is_finite() {
         return Err(ctx.invalid(
             at("look_at"),
