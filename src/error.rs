@@ -11,9 +11,10 @@ pub enum Error {
     /// The scene description could not be read or is invalid.
     #[error(transparent)]
     Scene(#[from] SceneError),
-    /// Embree failed to create a device or build the scene's BVH.
+    /// Embree failed to create a device or build the scene's BVH. Not a `#[source]`, as
+    /// [`Error::Temporal`]: its message is already in this one.
     #[error("Embree: {0}")]
-    Accel(#[from] AccelError),
+    Accel(AccelError),
     /// The film's time axis, the pulse or the gate is invalid. Not a `#[source]`: its
     /// message is already in this one, and a chain (`{:#}`) would print it twice.
     #[error("temporal model: {0}")]
@@ -27,8 +28,61 @@ pub enum Error {
     Invalid(String),
 }
 
+impl From<AccelError> for Error {
+    fn from(e: AccelError) -> Self {
+        Error::Accel(e)
+    }
+}
+
 impl From<TemporalError> for Error {
     fn from(e: TemporalError) -> Self {
         Error::Temporal(e)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `dtr` prints an error with its chain (`{:#}`: each source after a colon). A variant
+    /// that writes its cause into its own message must not also give it as its source, or
+    /// the cause is printed twice ("Embree: invalid mesh: m: invalid mesh: m"; an output's
+    /// "No such file or directory" twice). Every variant says its cause once.
+    #[test]
+    fn no_error_says_its_cause_twice() {
+        let io = std::io::Error::new(std::io::ErrorKind::NotFound, "no such folder");
+        let cases: Vec<(Error, &str)> = vec![
+            (
+                AccelError::InvalidMesh("a triangle of 4 vertices".into()).into(),
+                "a triangle of 4 vertices",
+            ),
+            (
+                TemporalError::Invalid {
+                    field: "film.bins",
+                    expected: "at least 1",
+                    got: "0".into(),
+                }
+                .into(),
+                "film.bins",
+            ),
+            (
+                crate::output::OutputError::io(std::path::Path::new("out/x.npy"), io).into(),
+                "no such folder",
+            ),
+            (
+                SceneError::Invalid {
+                    path: "s.toml".into(),
+                    at: "camera: field 'fov'".into(),
+                    message: "must be in (0, 180)".into(),
+                }
+                .into(),
+                "must be in (0, 180)",
+            ),
+            (Error::Invalid("no parameter named x".into()), "no parameter named x"),
+        ];
+        for (e, cause) in cases {
+            let chain = format!("{:#}", anyhow::Error::from(e));
+            assert_eq!(chain.matches(cause).count(), 1, "said more than once: {chain}");
+        }
     }
 }

@@ -378,3 +378,113 @@ fn bdpt_with_many_bounces_warns() {
         .unwrap();
     assert!(!String::from_utf8_lossy(&out.stderr).contains("max_bounces³"));
 }
+
+/// Runs `dtr info` on `scene` with `extra` args: it must fail with exit status 2 (bad input);
+/// returns stderr.
+fn info_refuses(scene: &Path, extra: &[&str]) -> String {
+    let o = dtr().arg("info").arg(scene).args(extra).output().unwrap();
+    let e = String::from_utf8_lossy(&o.stderr).to_string();
+    assert_eq!(o.status.code(), Some(2), "{e}");
+    assert!(e.starts_with("error: ") && !e.contains("panicked"), "{e}");
+    e
+}
+
+/// A bin width the time axis cannot hold is refused naming the file and the field: one that
+/// is zero or subnormal as a 32-bit float (the time plot of --preview and the kernel's window
+/// bound use f32), or one so small next to film.start_opl that a bin ends where it starts.
+/// Before, bin_width_opl = 1e-300 rendered with exit 0 into the window [3, 3] m (only a
+/// "holds no energy" warning), and --preview then failed with an internal error (exit 1).
+#[test]
+fn a_bin_width_the_time_axis_cannot_hold_is_refused() {
+    let d = tempfile::tempdir().unwrap();
+    let room = std::fs::read_to_string(scenes().join("diff_room.toml")).unwrap();
+    let (start, width) = ("start_opl = 3.0", "bin_width_opl = 0.1");
+    assert!(room.contains(start) && room.contains(width));
+    let cases = [
+        (room.replace(width, "bin_width_opl = 1e-300"), "1e-300"),
+        (
+            room.replace(width, "bin_width_opl = 1e-40"),
+            "smallest normal 32-bit float",
+        ),
+        (
+            room.replace(start, "start_opl = 0.0")
+                .replace(width, "bin_width_opl = 1e-300"),
+            "smallest normal 32-bit float",
+        ),
+        (
+            room.replace(start, "start_opl = 1e6")
+                .replace(width, "bin_width_opl = 1e-12"),
+            "ends where it starts",
+        ),
+    ];
+    for (text, what) in cases {
+        let p = write(d.path(), "tiny.toml", &text);
+        let (e, _o) = render_fails(&p, &["--threads", "1", "--preview"]);
+        assert!(e.contains("tiny.toml: film: field 'bin_width_opl'"), "{e}");
+        assert!(e.contains(what), "{e}");
+        info_refuses(&p, &[]);
+    }
+}
+
+/// A pose that sends a vertex outside the range of 32-bit floats names the field that did it
+/// (scale, rotate or translate) and the param that set it; a camera too far from its target
+/// for 32-bit arithmetic names camera.position (or look_at). Before, an overflowing scale or
+/// rotate was reported as field 'translate', with the note of the shape's translate param
+/// (another param), and a camera 1e20 m away as "up is parallel to the view direction".
+#[test]
+fn an_overflowing_pose_or_a_far_camera_names_its_own_field() {
+    let d = tempfile::tempdir().unwrap();
+    // the pyramid (vertex 4 at y = 1.5) with a translate param too
+    let turn = std::fs::read_to_string(scenes().join("pyramid_turn.toml")).unwrap()
+        + "\n[[param]]\nname = \"pyramid_x\"\nkind = \"translate\"\nshape = \"pyramid\"\naxis = \"x\"\nvalue = 0.0\n";
+    std::fs::create_dir(d.path().join("meshes")).unwrap();
+    std::fs::copy(scenes().join("meshes/pyramid.obj"), d.path().join("meshes/pyramid.obj")).unwrap();
+    let turn = write(d.path(), "turn.toml", &turn);
+    let e = info_refuses(&turn, &["--set", "pyramid_height=3e38"]);
+    assert!(
+        e.contains(r#"turn.toml: shape[1] "pyramid": field 'scale'"#)
+            && e.contains(r#"value from param "pyramid_height""#),
+        "{e}"
+    );
+    assert!(!e.contains("translate") && !e.contains("pyramid_x"), "{e}");
+    // a finite scale of each axis that the rotation adds into one beyond the range
+    let room = scenes().join("diff_room.toml");
+    let e = info_refuses(
+        &room,
+        &[
+            "--set",
+            "room_scale_z=3e38",
+            "--set",
+            "shape.room.scale.0=3e38",
+            "--set",
+            "room_rot_y=45",
+        ],
+    );
+    assert!(
+        e.contains(r#"shape[0] "room": field 'rotate'"#) && e.contains(r#"value from param "room_rot_y""#),
+        "{e}"
+    );
+    assert!(!e.contains("'translate'") && !e.contains("room_z"), "{e}");
+    // the translate itself still names translate and its param
+    let e = info_refuses(&room, &["--set", "room_scale_z=3.4e38", "--set", "room_z=1e38"]);
+    assert!(
+        e.contains(r#"shape[0] "room": field 'translate'"#) && e.contains(r#"value from param "room_z""#),
+        "{e}"
+    );
+    // a camera 1e20 m from its target, and a target 1e20 m from the camera
+    let text = std::fs::read_to_string(&room).unwrap();
+    let (pos, look) = ("position = [0.0, 0.0, 1.0]", "look_at = [0.0, 0.0, -3.0]");
+    assert!(text.contains(pos) && text.contains(look));
+    for (text, field) in [
+        (text.replace(pos, "position = [0.0, 0.0, 1e20]"), "position"),
+        (text.replace(look, "look_at = [0.0, 0.0, -1e20]"), "look_at"),
+    ] {
+        let p = write(d.path(), "far.toml", &text);
+        let e = info_refuses(&p, &[]);
+        assert!(
+            e.contains(&format!("far.toml: camera: field '{field}'")) && e.contains("32-bit"),
+            "{e}"
+        );
+        assert!(!e.contains("parallel"), "{e}");
+    }
+}

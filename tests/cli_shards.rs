@@ -121,17 +121,37 @@ fn shards_that_do_not_belong_together_are_refused() {
     }
 }
 
-/// A shard's JSON whose tallies were changed or damaged is refused, naming the file and the
-/// field, before anything is written. Before, a shard with `"paths": -5` and a negative
-/// energy total merged with exit 0 (the negative count read as 0, the energy summed).
-#[test]
-fn a_shard_with_tampered_tallies_is_refused() {
+/// Renders shards 0/2 and 1/2, then merges them with s1.json replaced by each edit `edits`
+/// makes of it (a label, the edited JSON, what stderr must say): each is refused with exit
+/// status 2 naming s1.json and the message, and nothing is written; the shards as rendered
+/// then merge.
+fn edited_shards_are_refused(edits: impl Fn(&serde_json::Value) -> Vec<(String, serde_json::Value, String)>) {
     let tmp = tempfile::tempdir().unwrap();
     let dir = tmp.path();
     for i in 0..2 {
         render(dir, &format!("s{i}"), &["--shard", &format!("{i}/2")]);
     }
     let original = std::fs::read_to_string(dir.join("s1.json")).unwrap();
+    for (label, j, message) in edits(&serde_json::from_str(&original).unwrap()) {
+        std::fs::write(dir.join("s1.json"), j.to_string()).unwrap();
+        let o = dtr(&["merge", "s0", "s1", "-o", "out"], dir);
+        assert_eq!(o.status.code(), Some(2), "{label}: {}", stderr(&o));
+        assert!(
+            stderr(&o).contains("s1.json") && stderr(&o).contains(&message),
+            "{label}: {}",
+            stderr(&o)
+        );
+        assert!(!dir.join("out.npy").exists() && !dir.join("out.json").exists());
+    }
+    std::fs::write(dir.join("s1.json"), original).unwrap();
+    ok(dtr(&["merge", "s0", "s1", "-o", "out", "-q"], dir));
+}
+
+/// A shard's JSON whose tallies were changed or damaged is refused, naming the file and the
+/// field, before anything is written. Before, a shard with `"paths": -5` and a negative
+/// energy total merged with exit 0 (the negative count read as 0, the energy summed).
+#[test]
+fn a_shard_with_tampered_tallies_is_refused() {
     let cases: [(&str, serde_json::Value, &str); 5] = [
         ("/paths", serde_json::json!(-5), "field \"paths\": expected a count"),
         ("/rays", serde_json::json!(1.5), "field \"rays\": expected a count"),
@@ -147,19 +167,47 @@ fn a_shard_with_tampered_tallies_is_refused() {
             "field \"energy.derivatives.0.inside\"",
         ),
     ];
-    for (pointer, value, message) in cases {
-        let mut j: serde_json::Value = serde_json::from_str(&original).unwrap();
-        *j.pointer_mut(pointer).unwrap_or_else(|| panic!("no {pointer}")) = value;
-        std::fs::write(dir.join("s1.json"), j.to_string()).unwrap();
-        let o = dtr(&["merge", "s0", "s1", "-o", "out"], dir);
-        assert_eq!(o.status.code(), Some(2), "{pointer}: {}", stderr(&o));
-        assert!(
-            stderr(&o).contains("s1.json") && stderr(&o).contains(message),
-            "{pointer}: {}",
-            stderr(&o)
-        );
-        assert!(!dir.join("out.npy").exists() && !dir.join("out.json").exists());
-    }
-    std::fs::write(dir.join("s1.json"), original).unwrap();
-    ok(dtr(&["merge", "s0", "s1", "-o", "out", "-q"], dir));
+    edited_shards_are_refused(|original| {
+        cases
+            .iter()
+            .map(|(pointer, value, message)| {
+                let mut j = original.clone();
+                *j.pointer_mut(pointer).unwrap_or_else(|| panic!("no {pointer}")) = value.clone();
+                (pointer.to_string(), j, message.to_string())
+            })
+            .collect()
+    });
+}
+
+/// A shard's JSON that lacks a tally the merge adds up is refused, naming the file and the
+/// field, before anything is written. Before, a missing tally counted 0: without "paths" or
+/// "energy.primal.total" two shards merged with exit 0 into a record of half the render.
+#[test]
+fn a_shard_with_a_missing_tally_is_refused() {
+    let cases = [
+        ("", "paths"),
+        ("", "wall_seconds"),
+        ("/phase_seconds", "tracing"),
+        ("/energy/primal", "total"),
+        ("/energy/primal", "after_pilot_paths"),
+        ("/energy/derivatives/0", "inside"),
+        ("/energy", "derivatives"),
+    ];
+    edited_shards_are_refused(|original| {
+        cases
+            .iter()
+            .map(|(parent, key)| {
+                let mut j = original.clone();
+                let removed = j
+                    .pointer_mut(parent)
+                    .and_then(|p| p.as_object_mut())
+                    .and_then(|o| o.remove(*key));
+                assert!(removed.is_some(), "no {parent}/{key}");
+                let field = format!("{}.{key}", parent.trim_start_matches('/').replace('/', "."));
+                let field = field.trim_start_matches('.').to_string();
+                let message = format!("field \"{field}\": missing");
+                (field, j, message)
+            })
+            .collect()
+    });
 }

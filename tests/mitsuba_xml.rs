@@ -607,10 +607,9 @@ fn cli_renders_xml_and_imports_it_to_toml() {
     let xml = xml.to_str().unwrap();
     let o = common::dtr(&["render", xml, "--spp", "1", "-o", "x", "-q"], d);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    // the converter's TOML, written elsewhere, renders the same bytes
-    let o = common::dtr(&["import", xml, "-o", "sub/cornell.toml"], d);
-    assert!(!o.status.success(), "a missing folder is an output error");
-    std::fs::create_dir(d.join("sub")).unwrap();
+    // the converter's TOML, written elsewhere (a folder it makes, as dtr render does),
+    // renders the same bytes
+    assert!(!d.join("sub").exists());
     let o = common::dtr(&["import", xml, "-o", "sub/cornell.toml"], d);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let o = common::dtr(&["render", "sub/cornell.toml", "--spp", "1", "-o", "y", "-q"], d);
@@ -744,4 +743,68 @@ fn truncated_and_mutated_xml_never_panics() {
         "{} numbers, {refused} refused",
         starts.len()
     );
+}
+
+/// A `max_depth` past our largest depth (max_bounces 1024, the TOML loader's limit) is
+/// refused naming the XML file, the element and its line, by `dtr import` and `dtr render`
+/// alike; -1 (Mitsuba's unbounded) still imports as max_bounces = 1024. Before, 100000 was
+/// quietly clamped to 1024 and imported with exit 0.
+#[test]
+fn import_refuses_a_max_depth_beyond_the_largest() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let depth = |v: &str| {
+        scene_text(r#"<shape type="rectangle"/>"#).replace(
+            r#"name="max_depth" value="3""#,
+            &format!(r#"name="max_depth" value="{v}""#),
+        )
+    };
+    std::fs::write(d.join("deep.xml"), depth("100000")).unwrap();
+    for args in [
+        &["import", "deep.xml", "-o", "deep.toml"][..],
+        &["render", "deep.xml", "-o", "deep", "-q"],
+    ] {
+        let o = common::dtr(args, d);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{err}");
+        assert!(
+            err.contains("deep.xml: <integer name=\"max_depth\"> (line 2)")
+                && err.contains("max_depth 100000")
+                && err.contains("1025"),
+            "{err}"
+        );
+    }
+    assert!(!d.join("deep.toml").exists() && !d.join("deep.npy").exists());
+    // the largest depth and -1 import as our largest max_bounces
+    for v in ["1025", "-1"] {
+        std::fs::write(d.join("ok.xml"), depth(v)).unwrap();
+        let o = common::dtr(&["import", "ok.xml"], d);
+        let out = String::from_utf8_lossy(&o.stdout);
+        assert!(out.contains("max_bounces = 1024"), "{v}: {out}");
+    }
+}
+
+/// `dtr import -o` makes a missing output folder, as `dtr render -o` does; an output it cannot
+/// write is exit 3 with the operating system's reason said once. Before, a missing folder was
+/// exit 3 and its reason was printed twice.
+#[test]
+fn import_makes_the_output_folder_and_says_a_failure_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let xml = common::scene_path("cornell_box.xml");
+    let xml = xml.to_str().unwrap();
+    let o = common::dtr(&["import", xml, "-o", "new/deeper/cornell.toml"], d);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let text = std::fs::read_to_string(d.join("new/deeper/cornell.toml")).unwrap();
+    assert!(text.contains("[[shape]]"));
+    // a folder that cannot be made: its parent is a file
+    std::fs::write(d.join("plain"), "not a folder").unwrap();
+    let o = common::dtr(&["import", xml, "-o", "plain/cornell.toml"], d);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(3), "{err}");
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(err.contains("plain"), "{err}");
+    let reason = err.rsplit(": ").next().unwrap();
+    assert_eq!(err.matches(reason).count(), 1, "said twice: {err}");
+    assert_eq!(std::fs::read_to_string(d.join("plain")).unwrap(), "not a folder");
 }

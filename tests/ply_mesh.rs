@@ -42,3 +42,25 @@ fn a_broken_ply_is_refused_with_its_file_and_field() {
         "{err}"
     );
 }
+
+/// An error about a PLY mesh calls it a PLY file, as an error about an OBJ mesh calls it an
+/// OBJ file. Before, every mesh error said "OBJ file" (the path was the PLY's).
+#[test]
+fn a_broken_ply_is_called_a_ply_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(common::scene_path("ply_mesh.toml")).unwrap();
+    std::fs::create_dir(dir.path().join("meshes")).unwrap();
+    let scene = dir.path().join("s.toml");
+    std::fs::write(&scene, text).unwrap();
+    // missing, then not a PLY at all
+    let missing = Scene::load(&scene, &[]).unwrap_err().to_string();
+    std::fs::write(dir.path().join("meshes/pyramid.ply"), "v 0 0 0\n").unwrap();
+    let garbage = Scene::load(&scene, &[]).unwrap_err().to_string();
+    for err in [missing, garbage] {
+        assert!(
+            err.contains("field 'file': PLY file ") && err.contains("pyramid.ply"),
+            "{err}"
+        );
+        assert!(!err.contains("OBJ"), "{err}");
+    }
+}

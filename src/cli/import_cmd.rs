@@ -11,8 +11,9 @@ use std::path::{Path, PathBuf};
 pub struct ImportArgs {
     /// The Mitsuba 3 scene (.xml).
     pub scene: PathBuf,
-    /// Where to write the TOML description (default: print it). Relative mesh file names
-    /// are made absolute when it lies in another folder than the XML file.
+    /// Where to write the TOML description (default: print it); a missing folder is made.
+    /// Relative mesh file names are made absolute when it lies in another folder than the
+    /// XML file.
     #[arg(short, long)]
     pub output: Option<PathBuf>,
 }
@@ -59,6 +60,12 @@ pub fn run(a: ImportArgs) -> anyhow::Result<()> {
                     out.display(),
                     input.display()
                 );
+            }
+            // a missing folder is made, as `dtr render -o` makes its output folder
+            if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
+                std::fs::create_dir_all(dir)
+                    .map_err(|e| crate::output::OutputError::io(dir, e))
+                    .with_context(|| format!("-o {}: cannot create the output folder", out.display()))?;
             }
             crate::output::write_atomic(out, |w| {
                 w.write_all(imported.toml.as_bytes())

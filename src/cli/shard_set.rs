@@ -161,9 +161,9 @@ enum Tally {
 }
 
 /// Refuses a tally of the shard JSON `path` that the merge would add up into nonsense (a
-/// negative count of paths, a negative energy, a string), naming the file and the field: a
-/// damaged or edited JSON is refused rather than merged. An absent tally counts 0, as in
-/// [`merged_metadata`].
+/// negative count of paths, a negative energy, a string) or that is missing (every render
+/// writes all of them; [`merged_metadata`] would count it 0), naming the file and the field:
+/// a damaged or edited JSON is refused rather than merged.
 fn check_tallies(meta: &Value, path: &Path) -> anyhow::Result<()> {
     use Tally::*;
     let mut tallies: Vec<(String, Tally)> = COUNTS.iter().map(|k| (k.to_string(), Count)).collect();
@@ -171,13 +171,31 @@ fn check_tallies(meta: &Value, path: &Path) -> anyhow::Result<()> {
     tallies.extend(PHASES.iter().map(|k| (format!("phase_seconds.{k}"), NonNegative)));
     tallies.extend(["before", "inside", "after", "total"].map(|k| (format!("energy.primal.{k}"), NonNegative)));
     tallies.push(("energy.primal.after_pilot_paths".into(), Count));
-    let derivatives = meta["energy"]["derivatives"].as_array().map_or(0, Vec::len);
+    // one energy record per derivative the render wrote
+    let derivatives = meta["derivatives"].as_array().map_or(0, Vec::len);
+    match meta.pointer("/energy/derivatives") {
+        Some(Value::Array(a)) if a.len() == derivatives => {}
+        v => bail!(
+            "{}: field \"energy.derivatives\": {}: the shard's JSON was changed or damaged",
+            path.display(),
+            match v {
+                None => "missing".to_string(),
+                Some(v) => format!(
+                    "expected a list of {derivatives} (one per entry of \"derivatives\"), got {}",
+                    v.as_array().map_or(v.to_string(), |a| format!("{} entries", a.len()))
+                ),
+            }
+        ),
+    }
     for k in 0..derivatives {
         tallies.extend(["total", "inside", "outside"].map(|f| (format!("energy.derivatives.{k}.{f}"), NumberOrNull)));
     }
     for (field, tally) in tallies {
         let Some(v) = meta.pointer(&format!("/{}", field.replace('.', "/"))) else {
-            continue;
+            bail!(
+                "{}: field \"{field}\": missing: the shard's JSON was changed or damaged",
+                path.display()
+            );
         };
         let (ok, expected) = match tally {
             Count => (v.as_u64().is_some(), "a count (an integer >= 0)"),

@@ -67,14 +67,15 @@ pub enum OutputError {
         detail: String,
     },
 
-    /// The file system refused (missing folder, no permission, disk full, ...).
-    #[error("cannot write {}: {source}", .path.display())]
+    /// The file system refused (missing folder, no permission, disk full, ...). The
+    /// operating system's error is in the message and is not also a `#[source]` (so not a
+    /// field called `source`): a chain (`{:#}`, as `dtr` prints errors) would say it twice.
+    #[error("cannot write {}: {err}", .path.display())]
     Io {
         /// The destination file.
         path: PathBuf,
         /// The operating system's error.
-        #[source]
-        source: std::io::Error,
+        err: std::io::Error,
     },
 
     /// The encoder of a file format failed.
@@ -128,10 +129,10 @@ impl OutputError {
         }
     }
 
-    pub(crate) fn io(path: &std::path::Path, source: std::io::Error) -> Self {
+    pub(crate) fn io(path: &std::path::Path, err: std::io::Error) -> Self {
         OutputError::Io {
             path: path.to_path_buf(),
-            source,
+            err,
         }
     }
 

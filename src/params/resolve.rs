@@ -356,7 +356,16 @@ pub(crate) fn apply_params(
             }
         }
         claimed.extend(components.iter().map(|&c| (quantity.clone(), c, i)));
-        ctx.set_by.insert(loc, origin);
+        // a field whose components several params set (rotate.x and rotate.y) names them all
+        match ctx.set_by.get_mut(&loc) {
+            Some(note) => {
+                note.push_str("; ");
+                note.push_str(&origin);
+            }
+            None => {
+                ctx.set_by.insert(loc, origin);
+            }
+        }
         out.push(Param {
             name: p.name.clone(),
             kind,

@@ -29,6 +29,25 @@ pub(super) fn camera(d: &CameraDesc, origin: DVec3, ctx: &Ctx) -> Result<(Camera
             ),
         ));
     }
+    // 32-bit arithmetic squares the distance: past sqrt(f32::MAX) ≈ 1.8e19 m it is infinite
+    // (and glam's normalize gives zero, which the up check below took for a parallel up)
+    if !view.length_squared().is_finite() {
+        let (p, l) = (DVec3::from(d.position) - origin, DVec3::from(d.look_at) - origin);
+        // the one farther from the render origin (look_at when they are as far)
+        let (field, value, other) = if p.length() > l.length() {
+            ("position", d.position, "look_at")
+        } else {
+            ("look_at", d.look_at, "position")
+        };
+        return Err(ctx.invalid(
+            at(field),
+            format!(
+                "{value:?} is {:e} m from camera.{other}, too far for 32-bit arithmetic (it squares that distance); expected the two within {:.1e} m of each other",
+                (DVec3::from(d.look_at) - DVec3::from(d.position)).length(),
+                f32::MAX.sqrt()
+            ),
+        ));
+    }
     if view == Vec3::ZERO || !view.normalize().is_finite() {
         return Err(ctx.invalid(
             at("look_at"),
@@ -186,12 +205,35 @@ pub(super) fn film(
     if bin_width_opl <= 0.0 || bin_width_opl.is_nan() {
         return Err(ctx.invalid(at("bin_width_opl"), format!("must be > 0 (got {bin_width_opl})")));
     }
+    // the time plot of --preview and the kernel's window bound hold it as a 32-bit float too
+    if (bin_width_opl as f32) < f32::MIN_POSITIVE {
+        return Err(ctx.invalid(
+            at("bin_width_opl"),
+            format!(
+                "must be at least {:e}, the smallest normal 32-bit float (got {bin_width_opl:e}): the time axis is also held in 32-bit floats, where a narrower bin is zero wide",
+                f32::MIN_POSITIVE
+            ),
+        ));
+    }
     let bins = count(ctx, at("bins"), d.bins, 1, MAX_BINS)? as usize;
     let end = d.start_opl + bin_width_opl * bins as f64;
     if !((end as f32).is_finite()) {
         return Err(ctx.invalid(
             at("bins"),
             format!("the time axis ends at OPL {end:e}, beyond the range of 32-bit floats"),
+        ));
+    }
+    // Every bin must end after it starts. The edges start + l·w are spaced most coarsely (in
+    // ulps) at the end farthest from 0: the first bin or the last.
+    let last_start = d.start_opl + bin_width_opl * (bins - 1) as f64;
+    if !(d.start_opl + bin_width_opl > d.start_opl && end > last_start) {
+        let ulp = d.start_opl.abs().max(end.abs()) * f64::EPSILON;
+        return Err(ctx.invalid(
+            at("bin_width_opl"),
+            format!(
+                "{bin_width_opl:e} m is too narrow for a time axis from OPL {}: a bin ends where it starts in 64-bit floats; expected a width of more than about {ulp:.1e} m there (or film.start_opl nearer 0)",
+                d.start_opl
+            ),
         ));
     }
     Ok(FilmSpec {

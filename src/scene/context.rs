@@ -12,7 +12,8 @@ use std::path::Path;
 /// Where errors go: the file, and which locations got their value from a parameter.
 pub(crate) struct Ctx<'a> {
     pub path: &'a Path,
-    /// location → note such as `value from param "occluder_x" (--set)`.
+    /// location → note such as `value from param "occluder_x" (--set)`; the notes of several
+    /// params that set components of one field are joined by "; ".
     pub set_by: HashMap<String, String>,
 }
 

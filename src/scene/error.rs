@@ -57,15 +57,17 @@ pub enum SceneError {
         /// What was wrong and what was expected.
         message: String,
     },
-    /// An OBJ mesh referenced by a shape is missing or malformed.
-    #[error("{}: {at}: OBJ file {}: {message}", path.display(), obj.display())]
-    Obj {
+    /// An OBJ or PLY mesh referenced by a shape is missing or malformed.
+    #[error("{}: {at}: {format} file {}: {message}", path.display(), mesh.display())]
+    Mesh {
         /// The scene file.
         path: PathBuf,
         /// The shape that names the mesh, e.g. `shape[0] "bunny": field 'file'`.
         at: String,
+        /// The format the mesh was read as: "OBJ" or "PLY" (the shape's type).
+        format: &'static str,
         /// The mesh file.
-        obj: PathBuf,
+        mesh: PathBuf,
         /// What was wrong with it.
         message: String,
     },
@@ -80,7 +82,7 @@ impl SceneError {
             | SceneError::Syntax { path, .. }
             | SceneError::Invalid { path, .. }
             | SceneError::Override { path, .. }
-            | SceneError::Obj { path, .. } => path,
+            | SceneError::Mesh { path, .. } => path,
         }
     }
 }

@@ -392,21 +392,68 @@ fn local_mesh(ctx: &Ctx, i: usize, d: &ShapeDesc) -> Result<LocalMesh, SceneErro
                 ));
             };
             let mesh_path = obj_path(ctx.path, file);
-            let loaded = match d.ty {
-                ShapeType::Obj => load_obj(&mesh_path),
-                _ => super::ply::load_ply(&mesh_path).map(|m| LocalMesh {
-                    positions: m.positions,
-                    tris: m.tris,
-                }),
+            let (format, loaded) = match d.ty {
+                ShapeType::Obj => ("OBJ", load_obj(&mesh_path)),
+                _ => (
+                    "PLY",
+                    super::ply::load_ply(&mesh_path).map(|m| LocalMesh {
+                        positions: m.positions,
+                        tris: m.tris,
+                    }),
+                ),
             };
-            loaded.map_err(|message| SceneError::Obj {
+            loaded.map_err(|message| SceneError::Mesh {
                 path: ctx.path.to_path_buf(),
                 at: at("file"),
-                obj: mesh_path,
+                format,
+                mesh: mesh_path,
                 message,
             })?
         }
     })
+}
+
+/// The error for vertex `k` (local `p`) of a shape whose transform sends it outside the range
+/// of 32-bit floats, at the step of `translate + R · (scale ∘ p)` that left the range: its
+/// field (`scale`, `rotate` or `translate`) is named, and with it the param that set it.
+fn out_of_range(ctx: &Ctx, at: &dyn Fn(&str) -> String, t: &Transform, p: DVec3, k: usize, world: Vec3) -> SceneError {
+    let scaled = t.scale.as_dvec3() * p;
+    let rotated = t.rotation_f64() * scaled;
+    let v = |x: DVec3| format!("{:?}", x.to_array());
+    let (field, what, expected) = if !scaled.as_vec3().is_finite() {
+        (
+            "scale",
+            format!("{:?} sends vertex {k} {} to {}", t.scale.to_array(), v(p), v(scaled)),
+            "a smaller scale",
+        )
+    } else if !rotated.as_vec3().is_finite() {
+        (
+            "rotate",
+            format!(
+                "{:?} deg turns vertex {k}, scaled to {}, to {}",
+                t.rotate_deg.to_array(),
+                v(scaled),
+                v(rotated)
+            ),
+            "a rotate that keeps every vertex within the range (or a smaller scale)",
+        )
+    } else {
+        (
+            "translate",
+            format!(
+                "the translation sends vertex {k} to the non-finite position {:?}",
+                world.to_array()
+            ),
+            "a smaller translate",
+        )
+    };
+    ctx.invalid(
+        at(field),
+        format!(
+            "{what}, outside the range of 32-bit floats (±{:e}); expected {expected}",
+            f32::MAX
+        ),
+    )
 }
 
 /// `file` relative to the scene file's folder (absolute paths stay).
@@ -463,13 +510,7 @@ pub(crate) fn build(
             .collect();
         let local: Vec<Vec3> = mesh.positions.iter().map(|p| p.as_vec3()).collect();
         if let Some(k) = world.iter().position(|p| !p.is_finite()) {
-            return Err(ctx.invalid(
-                at("translate"),
-                format!(
-                    "the transform sends vertex {k} to a non-finite position {:?}; scale or translation too large",
-                    world[k].to_array()
-                ),
-            ));
+            return Err(out_of_range(ctx, &at, &transform, mesh.positions[k], k, world[k]));
         }
         let mirror = transform.scale.x * transform.scale.y * transform.scale.z < 0.0;
         let first_vertex = geo.positions.len();

@@ -10,15 +10,26 @@ use toml::Table;
 /// Our `max_bounces` and `rr_depth` from Mitsuba's `max_depth` and `rr_depth`. Mitsuba's
 /// `max_depth` counts the camera segment (1 = emitters seen directly, 2 = direct
 /// illumination), so `max_bounces = max_depth − 1`; −1 (unbounded) becomes our largest
-/// depth. Both count the first surface hit as depth 1 for Russian roulette; an `rr_depth`
-/// past the last bounce never fires, and then none is written (no roulette).
+/// depth. A finite `max_depth` past it (max_bounces over [`MAX_BOUNCES`], which the TOML
+/// loader refuses too) is refused rather than cut down to it: the scene asked for paths
+/// we would not trace. Both count the first surface hit as depth 1 for Russian roulette; an
+/// `rr_depth` past the last bounce never fires, and then none is written (no roulette).
 pub(crate) fn depths(max_depth: i64, rr_depth: i64) -> Result<(i64, Option<i64>), String> {
     let max_bounces = match max_depth {
         -1 => MAX_BOUNCES,
-        d if d >= 2 => (d - 1).min(MAX_BOUNCES),
+        d if d >= 2 && d - 1 <= MAX_BOUNCES => d - 1,
+        d if d >= 2 => {
+            return Err(format!(
+                "max_depth {d} is more than dtr traces: expected 2..={} (max_bounces = max_depth - 1 \
+                 is at most {MAX_BOUNCES}, as in a TOML scene), or -1 (unbounded, imported as \
+                 max_bounces = {MAX_BOUNCES})",
+                MAX_BOUNCES + 1
+            ));
+        }
         d => {
             return Err(format!(
-                "max_depth {d} is not supported: 2 or more (2 = direct illumination), or -1 (unbounded)"
+                "max_depth {d} is not supported: expected 2..={} (2 = direct illumination), or -1 (unbounded)",
+                MAX_BOUNCES + 1
             ));
         }
     };
@@ -86,6 +97,9 @@ mod tests {
         assert_eq!(depths(6, 5).unwrap(), (5, Some(5)));
         assert_eq!(depths(6, 6).unwrap(), (5, None));
         assert_eq!(depths(-1, 5).unwrap(), (1024, Some(5)));
+        assert_eq!(depths(1025, 5).unwrap(), (1024, Some(5)));
+        assert!(depths(1026, 5).unwrap_err().contains("max_depth 1026"));
+        assert!(depths(i64::MAX, 5).unwrap_err().contains("2..=1025"));
         assert!(depths(1, 5).unwrap_err().contains("max_depth 1"));
         assert!(depths(0, 5).is_err());
         assert!(depths(-2, 5).is_err());
