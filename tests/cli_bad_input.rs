@@ -488,3 +488,33 @@ fn an_overflowing_pose_or_a_far_camera_names_its_own_field() {
         assert!(!e.contains("parallel"), "{e}");
     }
 }
+
+/// Emission so strong that the film overflows 32-bit floats is bad input, named by emitter and
+/// field (exit 2, nothing written). Before, it was "internal error: 2 non-finite values in the
+/// transient; nothing written" (exit 1), naming no input.
+#[test]
+fn an_emission_that_overflows_the_film_is_named() {
+    let d = tempfile::tempdir().unwrap();
+    let prefix = d.path().join("x");
+    let o = dtr()
+        .args(["render"])
+        .arg(scenes().join("cornell_box.toml"))
+        .args(["--spp", "16", "--threads", "1"])
+        .args(["--set", "camera.resolution.0=8", "--set", "camera.resolution.1=8"])
+        .args(["--set", "emitter.light.radiance.0=3.4e38", "-o"])
+        .arg(&prefix)
+        .output()
+        .unwrap();
+    let e = String::from_utf8_lossy(&o.stderr).to_string();
+    assert_eq!(o.status.code(), Some(2), "{e}");
+    assert!(
+        e.contains("cornell_box.toml") && e.contains("emitter \"light\"") && e.contains("field 'radiance'"),
+        "{e}"
+    );
+    assert!(!e.contains("internal error") && !e.contains("panicked"), "{e}");
+    assert_eq!(
+        std::fs::read_dir(d.path()).unwrap().count(),
+        0,
+        "nothing may be written"
+    );
+}

@@ -314,7 +314,7 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
             .map(Transient::non_finite_count)
             .sum::<usize>();
     if bad > 0 {
-        bail!("internal error: {bad} non-finite values in the transient; nothing written");
+        bail!("{}", non_finite_message(&scene, bad));
     }
     output::write_npy(&set.stage("npy")?, &film.shape(), &film.data)?;
     for (name, d) in a.diff.iter().zip(&derivs) {
@@ -394,6 +394,37 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
 }
 
 /// The first item that occurs twice.
+/// Emission at or above this, in any channel, can overflow 32-bit floats as light adds up.
+const OVERFLOWING_EMISSION: f32 = 1e30;
+
+/// What a render whose numbers came out non-finite says (nothing is written). The kernel keeps
+/// every sample finite (non-finite ones are counted and dropped), so what is left is sums past
+/// the range of 32-bit floats: bad input when an emitter's strength is near that range (exit
+/// 2, naming the emitter and its field), an internal error otherwise (exit 1).
+fn non_finite_message(scene: &Scene, bad: usize) -> String {
+    use crate::scene::EmitterKind;
+    let strongest = scene
+        .emitters
+        .iter()
+        .map(|e| {
+            let (field, v) = match e.kind {
+                EmitterKind::Area { radiance, .. } => ("radiance", radiance),
+                EmitterKind::Point { intensity, .. } => ("intensity", intensity),
+                EmitterKind::Laser { power, .. } => ("power", power),
+            };
+            (e, field, v.iter().fold(0.0f32, |a, &b| a.max(b.abs())))
+        })
+        .max_by(|a, b| a.2.total_cmp(&b.2));
+    match strongest {
+        Some((e, field, v)) if v >= OVERFLOWING_EMISSION => format!(
+            "{}: emitter {:?}: field '{field}': {v:e} is too strong to add up in 32-bit floats: {bad} values of the transient overflowed, nothing written; scale the emission down (below {OVERFLOWING_EMISSION:e}) and the result up",
+            scene.source.display(),
+            e.name
+        ),
+        _ => format!("internal error: {bad} non-finite values in the transient; nothing written"),
+    }
+}
+
 fn first_repeat<'a>(items: impl Iterator<Item = &'a str>) -> Option<&'a str> {
     let mut seen = std::collections::HashSet::new();
     items.into_iter().find(|&n| !seen.insert(n))
