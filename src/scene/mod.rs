@@ -360,8 +360,9 @@ impl Scene {
 
     /// Whether material `m`'s lobe is a Dirac delta in this scene: a smooth conductor or
     /// dielectric, or a rough dielectric whose index equals the one outside it. Index-matched,
-    /// every microfacet refracts straight through, so the rough lobe collapses onto −ω_o with
-    /// weight 1 (its width goes as |η' − 1|); the kernels render it as the smooth interface.
+    /// every microfacet refracts straight through, so the rough lobe (its width goes as
+    /// |η' − 1|) collapses onto −ω_o; the kernels render it as a smooth interface that passes
+    /// what the rough lobe passes in that limit (Smith's G1 of ω_o, `Lobes::sample`).
     pub fn is_dirac(&self, m: u32) -> bool {
         match self.materials[m as usize].material {
             Material::Dielectric { int_ior, .. } if int_ior == self.exterior_eta(m) => true,

@@ -19,8 +19,8 @@ impl<R: Real, const C: usize> Lobes<R, C> {
     /// (towards the previous vertex): the direction the sampled lobe continues in (refraction
     /// on lanes `transmitted`, else reflection) and its weight over the weight's value (value
     /// 1, with the derivatives of F, the tint, 1/η'² and an index-matched rough lane's masking
-    /// G1), for `radiance` or importance
-    /// transport. The values are those of [`Lobes::sample`] on the same lanes.
+    /// G1), for `radiance` or importance transport. The values are those of [`Lobes::sample`]
+    /// on the same lanes.
     pub fn delta_dual(&self, n: &V3<R>, wo: &V3<R>, transmitted: R::Mask, radiance: bool) -> (V3<R>, Spectrum<R, C>) {
         let co = n.dot(*wo);
         let nn = V3::select(co.lt(R::zero()), -*n, *n);
