@@ -341,8 +341,12 @@ impl<V: Real<Value = V>, const C: usize> Lobes<V, C> {
             // an index-matched rough lane (delta, α > 0) passes what its rough lobe passes as
             // η' → 1: every visible microfacet sends o on to −o, masked by Smith's G1 of that
             // direction and faded as the lobe is at grazing microfacets, for the one drawn
-            // (`dielectric::grazing_taper`); both are 1 at α = 0
-            let masking = ggx::g1(self.alpha, co.abs(), co.abs()) * dielectric::grazing_taper(ml.z);
+            // (`dielectric::grazing_taper`); smooth lanes (α = 0) pass 1, whatever was drawn
+            let masking = V::select(
+                self.alpha.gt(V::zero()),
+                ggx::g1(self.alpha, co.abs(), co.abs()) * dielectric::grazing_taper(ml.z),
+                V::one(),
+            );
             let t_weight = if radiance {
                 V::safe_div(V::one(), eta_l * eta_l)
             } else {
