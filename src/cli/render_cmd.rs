@@ -393,7 +393,6 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// The first item that occurs twice.
 /// Emission at or above this, in any channel, can overflow 32-bit floats as light adds up.
 const OVERFLOWING_EMISSION: f32 = 1e30;
 
@@ -425,6 +424,7 @@ fn non_finite_message(scene: &Scene, bad: usize) -> String {
     }
 }
 
+/// The first item that occurs twice.
 fn first_repeat<'a>(items: impl Iterator<Item = &'a str>) -> Option<&'a str> {
     let mut seen = std::collections::HashSet::new();
     items.into_iter().find(|&n| !seen.insert(n))
