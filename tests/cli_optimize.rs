@@ -273,3 +273,41 @@ fn optimize_recovers_a_smooth_dielectric_index_with_estimators_interior() {
         assert!((ior - 1.5).abs() < 0.02, "from {start}: ended at {ior} (truth 1.5)");
     }
 }
+
+/// An `-o` folder that cannot be made is an output error (exit 3), named once, as for
+/// `dtr render` and `dtr import`. Before, optimize made its folder with its own code and
+/// exited 2, as if the input were bad.
+#[test]
+fn optimize_names_an_output_folder_it_cannot_make() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path();
+    let o = dtr(
+        &["render", SCENE, "--spp", "1", "--threads", "1", "-q", "-o", "target"],
+        dir,
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    std::fs::write(dir.join("plain"), "not a folder").unwrap();
+    let o = dtr(
+        &[
+            "optimize",
+            SCENE,
+            "--target",
+            "target.npy",
+            "--params",
+            "plate_x",
+            "--iters",
+            "1",
+            "--threads",
+            "1",
+            "-o",
+            "plain/run",
+        ],
+        dir,
+    );
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(3), "{err}");
+    assert!(err.contains("-o plain/run: cannot create the output folder"), "{err}");
+    let reason = err.trim_end().rsplit(": ").next().unwrap();
+    assert_eq!(err.matches(reason).count(), 1, "said twice: {err}");
+    assert_eq!(std::fs::read_to_string(dir.join("plain")).unwrap(), "not a folder");
+}

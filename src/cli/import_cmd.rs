@@ -1,7 +1,7 @@
 //! `dtr import scene.xml -o scene.toml`: a Mitsuba 3 XML scene converted to our TOML
 //! description (checked by loading it first), written atomically, or printed.
 
-use super::output_set::{input_metadata, replaced_input};
+use super::output_set::{input_metadata, make_output_folder, replaced_input};
 use crate::scene::{Format, Scene, mitsuba};
 use anyhow::{Context, bail};
 use std::io::Write;
@@ -62,11 +62,7 @@ pub fn run(a: ImportArgs) -> anyhow::Result<()> {
                 );
             }
             // a missing folder is made, as `dtr render -o` makes its output folder
-            if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
-                std::fs::create_dir_all(dir)
-                    .map_err(|e| crate::output::OutputError::io(dir, e))
-                    .with_context(|| format!("-o {}: cannot create the output folder", out.display()))?;
-            }
+            make_output_folder(out, out)?;
             crate::output::write_atomic(out, |w| {
                 w.write_all(imported.toml.as_bytes())
                     .map_err(|e| crate::output::OutputError::io(out, e))

@@ -392,7 +392,7 @@ fn prepare_dir(dir: &Path, inputs: &[&Path]) -> anyhow::Result<(PathBuf, bool)> 
             );
         }
     } else {
-        std::fs::create_dir_all(dir).with_context(|| format!("-o {}: cannot create the folder", dir.display()))?;
+        super::output_set::create_folder(dir, dir)?;
     }
     let canon = std::fs::canonicalize(dir)?;
     for input in inputs {

@@ -152,6 +152,35 @@ pub struct OutputSet {
     files: Vec<(PathBuf, PathBuf)>,
 }
 
+/// Makes the folder that will hold `file` (the output an `-o` path names) when it is missing,
+/// as every dtr command does, and returns it (`.` for a bare file name). A failure is an
+/// output error (exit 3) naming `-o` and the folder.
+pub fn make_output_folder(output: &Path, file: &Path) -> anyhow::Result<PathBuf> {
+    let dir = match file.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    create_folder(output, &dir)?;
+    Ok(dir)
+}
+
+/// Makes `dir` and the folders above it, naming `-o output` when it cannot.
+pub fn create_folder(output: &Path, dir: &Path) -> anyhow::Result<()> {
+    std::fs::create_dir_all(dir)
+        .map_err(|e| OutputError::io(dir, e))
+        .with_context(|| {
+            if dir == output {
+                format!("-o {}: cannot create the output folder", output.display())
+            } else {
+                format!(
+                    "-o {}: cannot create the output folder {}",
+                    output.display(),
+                    dir.display()
+                )
+            }
+        })
+}
+
 impl OutputSet {
     /// Resolves `-o`, creates the folder, takes the prefix's lock and checks that none of
     /// `suffixes` (`"npy"`, `"json"`, …) would replace an input or a folder. Call it before
@@ -159,19 +188,7 @@ impl OutputSet {
     pub fn prepare(output: &Path, scene_inputs: &[PathBuf], scene: &Path, suffixes: &[String]) -> anyhow::Result<Self> {
         install_signal_cleanup()?;
         let prefix = resolve_prefix(output, scene)?;
-        let dir = match prefix.parent() {
-            Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-            _ => PathBuf::from("."),
-        };
-        std::fs::create_dir_all(&dir)
-            .map_err(|e| OutputError::io(&dir, e))
-            .with_context(|| {
-                format!(
-                    "-o {}: cannot create the output folder {}",
-                    output.display(),
-                    dir.display()
-                )
-            })?;
+        let dir = make_output_folder(output, &prefix)?;
         let inputs = input_metadata(scene_inputs);
         let name = prefix.file_name().unwrap_or_default().to_string_lossy().into_owned();
         let lock_path = dir.join(format!(".{name}.dtr-lock"));
