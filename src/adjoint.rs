@@ -247,7 +247,7 @@ fn render_adjoint_group(
     let motion = group_motion(scene, params, opts)?;
     let t0 = std::time::Instant::now();
     // no derivative film is stored: the memory check counts the primal's alone
-    let run = Run::with_films(scene, motion, opts, false, false)?;
+    let mut run = Run::with_films(scene, motion, opts, false, false)?;
     let (ctx, spp, seed, derivs) = (&run.ctx, run.spp, run.seed, run.derivs);
     let samples = &run.samples;
     let (w, h) = (f.width as usize, f.height as usize);
@@ -324,7 +324,7 @@ fn render_adjoint_group(
             // the optimizer shows its own progress per iteration
             progress: indicatif::ProgressBar::hidden(),
         };
-        let (g, b) = crate::boundary::boundary_adjoint(ctx, &settings, &run.pool, adjoint);
+        let (g, b) = crate::boundary::boundary_adjoint(&mut run.ctx, &settings, &run.pool, adjoint);
         grad.iter_mut().zip(g).for_each(|(a, b)| *a += b);
         stats.non_finite_samples += b.non_finite();
         stats.boundary = Some(b);

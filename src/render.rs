@@ -1233,7 +1233,7 @@ impl<'s> Run<'s> {
 
     /// The boundary integral (primary + secondary edges, Algorithm 2), when some parameter
     /// moves geometry and the options ask for it.
-    fn boundary(&self, opts: &RenderOptions) -> Option<crate::boundary::BoundaryParts> {
+    fn boundary(&mut self, opts: &RenderOptions) -> Option<crate::boundary::BoundaryParts> {
         self.boundary_wanted.then(|| {
             let resumed = lock(&self.saved).as_ref().and_then(|s| s.boundary.clone());
             if let Some((primary, secondary, stats)) = resumed {
@@ -1255,7 +1255,7 @@ impl<'s> Run<'s> {
                 ),
             };
             let (t_b, cpu_b) = (Instant::now(), cpu_seconds());
-            let mut parts = crate::boundary::render_boundary(&self.ctx, &settings, &self.pool);
+            let mut parts = crate::boundary::render_boundary(&mut self.ctx, &settings, &self.pool);
             settings.progress.finish_and_clear();
             parts.stats.wall_seconds = t_b.elapsed().as_secs_f64();
             parts.stats.cpu_seconds = cpu_seconds() - cpu_b;

@@ -23,7 +23,7 @@ fn the_secondary_pass_advances_its_bar_to_the_end() {
             shard,
             progress: bar.clone(),
         };
-        render_boundary(&ctx, &settings, &pool);
+        render_boundary(&mut ctx, &settings, &pool);
         let len = bar.length().unwrap();
         assert!(len > 0, "{shard:?}: no chunks");
         assert_eq!(bar.position(), len, "{shard:?}");

@@ -160,6 +160,13 @@ fn derivative_films_interior_and_boundary_are_the_same_bytes() {
     // [4, 4.3] m: 2-bounce paths reach 6 m, so the cut ends many of them
     scene.film.axis.bins = 3;
     check_derivatives(&scene, &["occluder_x", "light_x"]);
+    // a window ending before most secondary-edge paths land ([3.6, 5.4] m): the secondary
+    // pass's pilot, which splits its budget between the two strategies, must see the same
+    // paths with and without the cut (before, it ran cut in one mode and uncut in the other,
+    // split the budget differently and drew other samples)
+    let mut scene = common::load("narrow_pulse_box.toml");
+    scene.film.axis.bins = 30;
+    check_derivatives(&scene, &["tall_box_x"]);
 }
 
 fn check_derivatives(scene: &Scene, params: &[&str]) {

@@ -32,7 +32,7 @@ mod silhouette_tests;
 pub mod subpaths;
 pub mod velocity;
 
-use crate::film::Transient;
+use crate::film::{SteadyMode, Transient};
 use crate::integrator::context::RenderContext;
 use std::time::Instant;
 
@@ -113,7 +113,11 @@ impl BoundaryStats {
 }
 
 /// Runs the primary and secondary estimators for the parameters in `ctx.motion`.
-pub fn render_boundary(ctx: &RenderContext, settings: &BoundarySettings, pool: &rayon::ThreadPool) -> BoundaryParts {
+pub fn render_boundary(
+    ctx: &mut RenderContext,
+    settings: &BoundarySettings,
+    pool: &rayon::ThreadPool,
+) -> BoundaryParts {
     let t0 = Instant::now();
     let (primary, pstats) = primary::render_primary_with_stats(
         ctx,
@@ -123,8 +127,8 @@ pub fn render_boundary(ctx: &RenderContext, settings: &BoundarySettings, pool: &
         pool,
     );
     let primary_seconds = t0.elapsed().as_secs_f64();
-    let sec = secondary::Secondary::new(ctx);
-    let (secondary, sstats) = sec.render(settings, pool);
+    let (sec, pilot) = secondary_with_pilot(ctx, settings, pool);
+    let (secondary, sstats) = sec.render(settings, pilot.as_ref(), pool);
     BoundaryParts {
         primary,
         secondary,
@@ -143,7 +147,7 @@ pub fn render_boundary(ctx: &RenderContext, settings: &BoundarySettings, pool: &
 /// samples as [`render_boundary`], each path's derivative contracted with ∂L/∂I on the fly.
 /// Returns Σ ⟨∂L/∂I, primary_k + secondary_k⟩ per parameter and the stage's record.
 pub fn boundary_adjoint(
-    ctx: &RenderContext,
+    ctx: &mut RenderContext,
     settings: &BoundarySettings,
     pool: &rayon::ThreadPool,
     adjoint: &Transient,
@@ -158,8 +162,8 @@ pub fn boundary_adjoint(
         adjoint,
     );
     let primary_seconds = t0.elapsed().as_secs_f64();
-    let sec = secondary::Secondary::new(ctx);
-    let (g2, sstats) = sec.adjoint(settings, pool, adjoint);
+    let (sec, pilot) = secondary_with_pilot(ctx, settings, pool);
+    let (g2, sstats) = sec.adjoint(settings, pilot.as_ref(), pool, adjoint);
     grad.iter_mut().zip(g2).for_each(|(a, b)| *a += b);
     let stats = BoundaryStats {
         spp_boundary: settings.spp_boundary,
@@ -171,4 +175,24 @@ pub fn boundary_adjoint(
         ..Default::default()
     };
     (grad, stats)
+}
+
+/// The secondary pass over `ctx` and its pilot ([`secondary::Secondary::plan`]). The pilot
+/// always runs with the window cut (`crate::integrator::window`), whatever `ctx`'s steady
+/// mode: it measures each strategy's rays per sample, which the cut lowers, and splits the
+/// budget by them. Run uncut under `--steady full`, it split the budget otherwise and the
+/// pass drew other samples, so the derivative films were not the bytes of the default mode.
+/// `ctx` is left as it came.
+fn secondary_with_pilot<'c>(
+    ctx: &'c mut RenderContext,
+    settings: &BoundarySettings,
+    pool: &rayon::ThreadPool,
+) -> (secondary::Secondary<'c>, Option<pass::Pilot>) {
+    let (steady, budget) = (ctx.steady, ctx.opl_budget);
+    ctx.cut_to_window(SteadyMode::Window);
+    let sec = secondary::Secondary::new(ctx);
+    let pilot = sec.plan(settings, pool);
+    let edges = sec.into_edges();
+    (ctx.steady, ctx.opl_budget) = (steady, budget);
+    (secondary::Secondary::with_edges(ctx, edges), pilot)
 }

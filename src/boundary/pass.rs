@@ -60,8 +60,8 @@ pub struct SecondaryStats {
     pub seconds: f64,
 }
 
-/// What a pilot pass learned.
-struct Pilot {
+/// What a pilot pass learned ([`Secondary::plan`]).
+pub struct Pilot {
     /// Guiding grids of the edge-directed and the light-directed strategy.
     grid: GuideGrid,
     grid_light: GuideGrid,
@@ -74,6 +74,8 @@ struct Pilot {
     /// grids are fitted to the pilot's unrotated samples).
     shadow_shares: Vec<f32>,
     rays: u64,
+    /// Wall seconds the pilot took.
+    seconds: f64,
 }
 
 /// Boundary samples of one strategy waiting for their subpaths, run 8 at a time
@@ -284,6 +286,7 @@ fn magnitude(p: &BoundaryPath, params: usize) -> f64 {
 
 impl Secondary<'_> {
     fn pilot(&self, samples: u64, seed: u64, guiding: bool, pool: &rayon::ThreadPool) -> Pilot {
+        let t0 = Instant::now();
         let uniform = GuideGrid::uniform(RESOLUTION);
         let cells = uniform.cells();
         let shapes = self.edges.edges.iter().map(|r| r.shape as usize + 1).max().unwrap_or(0);
@@ -377,6 +380,7 @@ impl Secondary<'_> {
             },
             shadow_shares: if guiding { Vec::new() } else { shares.means() },
             rays: rays[0] + rays[1],
+            seconds: t0.elapsed().as_secs_f64(),
         }
     }
 
@@ -384,7 +388,12 @@ impl Secondary<'_> {
     /// pilot, guided or not, on the secondary seed stream) returning one derivative transient
     /// per parameter. With a shard, only its part of the sample indices is traced (every
     /// shard runs the same pilot), still normalised by all the samples.
-    pub fn render(&self, settings: &BoundarySettings, pool: &rayon::ThreadPool) -> (Vec<Transient>, SecondaryStats) {
+    pub fn render(
+        &self,
+        settings: &BoundarySettings,
+        pilot: Option<&Pilot>,
+        pool: &rayon::ThreadPool,
+    ) -> (Vec<Transient>, SecondaryStats) {
         let film = &self.ctx.scene.film;
         let (w, h) = (film.width as usize, film.height as usize);
         let mut out = Transient::zeros_many(1 + self.params, w, h, film.axis, film.channels);
@@ -400,6 +409,7 @@ impl Secondary<'_> {
             .collect();
         let (stats, samples) = self.trace(
             settings,
+            pilot,
             pool,
             |paths| paths,
             |paths| {
@@ -432,6 +442,7 @@ impl Secondary<'_> {
     pub fn adjoint(
         &self,
         settings: &BoundarySettings,
+        pilot: Option<&Pilot>,
         pool: &rayon::ThreadPool,
         adjoint: &Transient,
     ) -> ([f64; MAX_PARAMS], SecondaryStats) {
@@ -444,7 +455,7 @@ impl Secondary<'_> {
             (acc.grad, dropped)
         };
         let mut grad = [0.0f64; MAX_PARAMS];
-        let (stats, samples) = self.trace(settings, pool, contract, |(part, dropped)| {
+        let (stats, samples) = self.trace(settings, pilot, pool, contract, |(part, dropped)| {
             grad.iter_mut().zip(part).for_each(|(g, p)| *g += p);
             *dropped
         });
@@ -452,37 +463,54 @@ impl Secondary<'_> {
         (grad, stats)
     }
 
-    /// The pilot, then every boundary sample of the settings' shard in chunks of a fixed size
-    /// traced in parallel; each chunk's paths are mapped by `per_chunk` on the thread that
-    /// traced them, and the results go to `consume` in chunk order, which returns how many
-    /// paths it dropped as not finite. Returns the pass's record and its sample count (the
-    /// normalisation of every shard).
+    /// The boundary samples of `settings`' pass (all shards), and its pilot's (1/8 of them
+    /// when the pilot fits guiding grids, else 1/16 for the budget split alone, at least 1024).
+    fn sample_counts(&self, settings: &BoundarySettings) -> (u64, u64) {
+        let film = &self.ctx.scene.film;
+        let samples = settings.spp_boundary as u64 * film.width as u64 * film.height as u64;
+        (samples, (samples / if settings.guiding { 8 } else { 16 }).max(1024))
+    }
+
+    /// The pilot of `settings`' pass, `None` when the pass has nothing to trace. The render
+    /// driver runs it with the window cut whatever the steady mode (`super::secondary_pilot`),
+    /// so that `--steady full` draws the same boundary samples.
+    pub fn plan(&self, settings: &BoundarySettings, pool: &rayon::ThreadPool) -> Option<Pilot> {
+        let (samples, pilot) = self.sample_counts(settings);
+        if self.edges.is_empty() || samples == 0 || self.params == 0 {
+            return None;
+        }
+        let seed = settings.seed ^ SECONDARY_SEED ^ PILOT_STREAM;
+        Some(self.pilot(pilot, seed, settings.guiding, pool))
+    }
+
+    /// Every boundary sample of the settings' shard, drawn as `pilot` (of [`Self::plan`])
+    /// says, in chunks of a fixed size traced in parallel; each chunk's paths are mapped by
+    /// `per_chunk` on the thread that traced them, and the results go to `consume` in chunk
+    /// order, which returns how many paths it dropped as not finite. Returns the pass's
+    /// record (the pilot's rays included) and its sample count (the normalisation of every
+    /// shard).
     fn trace<T: Send>(
         &self,
         settings: &BoundarySettings,
+        pilot: Option<&Pilot>,
         pool: &rayon::ThreadPool,
         per_chunk: impl Fn(Vec<BoundaryPath>) -> T + Sync,
         mut consume: impl FnMut(&T) -> u64,
     ) -> (SecondaryStats, u64) {
-        let film = &self.ctx.scene.film;
-        let samples = settings.spp_boundary as u64 * film.width as u64 * film.height as u64;
-        // the pilot: 1/8 of the samples when it fits guiding grids, else 1/16 (only the budget
-        // split), at least 1024
-        let (guiding, shard) = (settings.guiding, settings.shard);
-        let pilot = (samples / if guiding { 8 } else { 16 }).max(1024);
+        let (samples, pilot_samples) = self.sample_counts(settings);
+        let shard = settings.shard;
         let seed = settings.seed ^ SECONDARY_SEED;
         let t0 = Instant::now();
         let own = shard.range(samples);
         let mut stats = SecondaryStats {
             // this shard's share (the shards' counts add up to `samples`)
             samples: own.end - own.start,
-            pilot_samples: pilot,
+            pilot_samples,
             ..Default::default()
         };
-        if self.edges.is_empty() || samples == 0 || self.params == 0 {
+        let Some(pl) = pilot else {
             return (stats, samples);
-        }
-        let pl = self.pilot(pilot.max(1), seed ^ PILOT_STREAM, guiding, pool);
+        };
         stats.rays += pl.rays;
         let budget = 2 * samples;
         let n_a = ((budget as f64 * pl.share_a).round() as u64).clamp(1, budget - 1);
@@ -544,7 +572,7 @@ impl Secondary<'_> {
                 .inc(batch.iter().filter(|&&c| c * CHUNK < mine.end).count() as u64);
             batch0 += batch_len;
         }
-        stats.seconds = t0.elapsed().as_secs_f64();
+        stats.seconds = t0.elapsed().as_secs_f64() + pl.seconds;
         (stats, samples)
     }
 

@@ -214,9 +214,15 @@ pub struct Secondary<'a> {
 
 impl<'a> Secondary<'a> {
     pub fn new(ctx: &'a RenderContext<'a>) -> Self {
+        Self::with_edges(ctx, edge_sampler(ctx))
+    }
+
+    /// The pass over `ctx` with the edge table of another pass over the same scene and
+    /// parameters ([`Self::into_edges`]).
+    pub fn with_edges(ctx: &'a RenderContext<'a>, edges: EdgeSampler) -> Self {
         Self {
             ctx,
-            edges: edge_sampler(ctx),
+            edges,
             params: ctx.motion.len().min(MAX_PARAMS),
             laser_spots: (0..ctx.scene.emitters.len())
                 .map(|e| {
@@ -586,6 +592,12 @@ impl<'a> Secondary<'a> {
 
     pub fn edge_count(&self) -> usize {
         self.edges.edges.len()
+    }
+
+    /// The edge table, for a pass over the same scene with another context
+    /// ([`Self::with_edges`]).
+    pub fn into_edges(self) -> EdgeSampler {
+        self.edges
     }
 }
 
