@@ -1359,7 +1359,9 @@ impl<'s> Run<'s> {
         }
         let n = spp as f64;
         let films = &interior.films;
-        stats.energy = match self.ctx.steady {
+        // the render's mode (the window-energy pilot below leaves the context uncut)
+        let steady = self.ctx.steady;
+        stats.energy = match steady {
             SteadyMode::Full => WindowEnergy::of(&films[0], inside[0] / n, tails[0] / n, tails[1] / n),
             // paths were cut at the window: what arrives after it comes from an uncut pilot
             SteadyMode::Window if interior.ran => {
@@ -1379,7 +1381,7 @@ impl<'s> Run<'s> {
             .enumerate()
             .map(|(k, (t, &i))| {
                 let boundary_steady = steady_sums.get(k).copied().unwrap_or(0.0);
-                DerivWindowEnergy::of(t, boundary_steady, i / n, self.ctx.steady)
+                DerivWindowEnergy::of(t, boundary_steady, i / n, steady)
             })
             .collect();
         stats

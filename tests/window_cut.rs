@@ -179,6 +179,14 @@ fn check_derivatives(scene: &Scene, params: &[&str]) {
         };
         let (p, d, sa) = render_diff(scene, &params, &o).unwrap();
         let (q, e, sb) = render_diff(scene, &params, &full).unwrap();
+        // a cut render's derivative energy integrates the window alone and says so (before,
+        // the window-energy pilot left the context uncut and the report read it as full:
+        // `outside` a number and the total from the cut steady images)
+        for (k, (x, y)) in sa.deriv_energy.iter().zip(&sb.deriv_energy).enumerate() {
+            assert_eq!(x.outside, None, "d/d{}: {x:?}", params[k]);
+            assert_eq!(x.total, x.inside, "d/d{}: {x:?}", params[k]);
+            assert!(y.outside.is_some(), "d/d{}: {y:?}", params[k]);
+        }
         assert_same_bytes("primal", &p, &q);
         for (k, (x, y)) in d.iter().zip(&e).enumerate() {
             assert_same_bytes(&format!("d/d{}", params[k]), x, y);
