@@ -10,6 +10,38 @@ fn stderr(o: &std::process::Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
 }
 
+/// `dtr optimize` of `params` in `scene` towards `target`, one iteration at 1 spp on one
+/// thread, quiet, into `out`.
+fn one_iteration<'a>(scene: &'a str, target: &'a str, params: &'a str, out: &'a str) -> Vec<&'a str> {
+    vec![
+        "optimize",
+        scene,
+        "--target",
+        target,
+        "--params",
+        params,
+        "--iters",
+        "1",
+        "--spp",
+        "1",
+        "--threads",
+        "1",
+        "-q",
+        "-o",
+        out,
+    ]
+}
+
+/// Renders `scene` at 1 spp on one thread to `dir/NAME.npy`: a target for runs that test
+/// what optimize writes or refuses, not what it recovers.
+fn rough_target(scene: &str, dir: &std::path::Path, name: &str) {
+    let o = dtr(
+        &["render", scene, "--spp", "1", "--threads", "1", "-q", "-o", name],
+        dir,
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+}
+
 #[test]
 fn optimize_recovers_the_pose_and_writes_its_files() {
     let tmp = tempfile::tempdir().unwrap();
@@ -146,11 +178,7 @@ fn optimize_refuses_before_making_its_folder() {
     let tmp = tempfile::tempdir().unwrap();
     let dir = tmp.path();
     let confocal = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/confocal_plane.toml");
-    let o = dtr(
-        &["render", confocal, "--spp", "1", "--threads", "1", "-q", "-o", "t"],
-        dir,
-    );
-    assert!(o.status.success(), "{}", stderr(&o));
+    rough_target(confocal, dir, "t");
     let base = [
         "optimize",
         confocal,
@@ -182,8 +210,7 @@ fn optimize_says_what_a_failed_run_kept() {
     let tmp = tempfile::tempdir().unwrap();
     let dir = tmp.path();
     let room = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/diff_room.toml");
-    let o = dtr(&["render", room, "--spp", "1", "--threads", "1", "-q", "-o", "t"], dir);
-    assert!(o.status.success(), "{}", stderr(&o));
+    rough_target(room, dir, "t");
     let o = dtr(
         &[
             "optimize",
@@ -281,33 +308,31 @@ fn optimize_recovers_a_smooth_dielectric_index_with_estimators_interior() {
 fn optimize_names_an_output_folder_it_cannot_make() {
     let tmp = tempfile::tempdir().unwrap();
     let dir = tmp.path();
-    let o = dtr(
-        &["render", SCENE, "--spp", "1", "--threads", "1", "-q", "-o", "target"],
-        dir,
-    );
-    assert!(o.status.success(), "{}", stderr(&o));
+    rough_target(SCENE, dir, "target");
     std::fs::write(dir.join("plain"), "not a folder").unwrap();
-    let o = dtr(
-        &[
-            "optimize",
-            SCENE,
-            "--target",
-            "target.npy",
-            "--params",
-            "plate_x",
-            "--iters",
-            "1",
-            "--threads",
-            "1",
-            "-o",
-            "plain/run",
-        ],
-        dir,
-    );
+    let o = dtr(&one_iteration(SCENE, "target.npy", "plate_x", "plain/run"), dir);
     let err = stderr(&o);
     assert_eq!(o.status.code(), Some(3), "{err}");
     assert!(err.contains("-o plain/run: cannot create the output folder"), "{err}");
     let reason = err.trim_end().rsplit(": ").next().unwrap();
     assert_eq!(err.matches(reason).count(), 1, "said twice: {err}");
     assert_eq!(std::fs::read_to_string(dir.join("plain")).unwrap(), "not a folder");
+}
+
+/// The recovered scene of a scene with a mesh renders: `recovered.toml` lies in the run's
+/// folder, so its relative mesh file name is made absolute, as `dtr import` makes it. Before,
+/// it kept `file = "meshes/pyramid.obj"`, which `dtr render run/recovered.toml` looked for in
+/// `run/meshes/` (exit 2).
+#[test]
+fn the_recovered_scene_of_a_mesh_scene_renders() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path();
+    let mesh = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/obj_mesh.toml");
+    rough_target(mesh, dir, "t");
+    let o = dtr(&one_iteration(mesh, "t.npy", "pyramid_yaw", "run"), dir);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = std::fs::read_to_string(dir.join("run/recovered.toml")).unwrap();
+    assert!(text.contains("pyramid.obj"), "{text}");
+    rough_target("run/recovered.toml", dir, "again");
+    assert!(dir.join("again.npy").is_file());
 }

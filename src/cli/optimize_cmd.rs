@@ -122,8 +122,10 @@ fn read_target(path: &Path, scene: &Scene) -> anyhow::Result<Transient> {
     Ok(t)
 }
 
-/// The scene file's text with each `[[param]]` named in `values` set to its value.
-fn scene_with(path: &Path, values: &[(String, f64)]) -> anyhow::Result<String> {
+/// The scene file's text with each `[[param]]` named in `values` set to its value, for a file
+/// in the folder `out_dir`: relative file names (meshes) are made absolute when that is
+/// another folder than the scene's, as `dtr import` makes them, so that it renders.
+fn scene_with(path: &Path, values: &[(String, f64)], out_dir: &Path) -> anyhow::Result<String> {
     let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {} again", path.display()))?;
     let json = path.extension().and_then(|e| e.to_str()) == Some("json");
     let mut doc: serde_json::Value = if json {
@@ -131,6 +133,7 @@ fn scene_with(path: &Path, values: &[(String, f64)]) -> anyhow::Result<String> {
     } else {
         serde_json::to_value(toml::from_str::<toml::Value>(&text)?)?
     };
+    crate::scene::shapes::rebase_file_names(&mut doc, path, out_dir);
     if let Some(list) = doc.get_mut("param").and_then(|p| p.as_array_mut()) {
         for p in list {
             let name = p.get("name").and_then(|n| n.as_str()).map(str::to_string);
@@ -295,7 +298,7 @@ pub fn run(a: OptimizeArgs) -> anyhow::Result<()> {
     let last = steps.last().context("no iteration ran")?;
     let result = crate::optimize::tail_average(&steps, a.average).context("no iteration ran")?;
     let values: Vec<(String, f64)> = a.params.iter().cloned().zip(result.iter().copied()).collect();
-    write_text(&recovered, &scene_with(&a.scene, &values)?)?;
+    write_text(&recovered, &scene_with(&a.scene, &values, &dir)?)?;
     write_plots(&dir, &a.params, &steps)?;
     log::info!(
         "{}: {} iterations, loss {:.3e} → {:.3e}; {}{}",
@@ -331,7 +334,7 @@ fn write_best(dir: &Path, recovered: &Path, a: &OptimizeArgs, s: &Step) -> anyho
         "params": values.iter().map(|(n, v)| (n.clone(), serde_json::json!(v))).collect::<serde_json::Map<_, _>>(),
     });
     crate::output::write_json(&dir.join("best.json"), &json)?;
-    write_text(recovered, &scene_with(&a.scene, &values)?)
+    write_text(recovered, &scene_with(&a.scene, &values, dir)?)
 }
 
 fn write_plots(dir: &Path, params: &[String], steps: &[Step]) -> anyhow::Result<()> {
