@@ -336,3 +336,33 @@ fn the_recovered_scene_of_a_mesh_scene_renders() {
     rough_target("run/recovered.toml", dir, "again");
     assert!(dir.join("again.npy").is_file());
 }
+
+/// A `--target` in Fortran order (or of another type) is refused with a sentence naming the
+/// file, what it holds and what is expected. Before, the message showed npyz's debug value
+/// (`Plain(TypeStr { .. })`).
+#[test]
+fn optimize_names_what_a_fortran_order_target_should_be() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path();
+    rough_target(SCENE, dir, "target");
+    // the same values, with a header that says Fortran order
+    let bytes = std::fs::read(dir.join("target.npy")).unwrap();
+    let header_len = u16::from_le_bytes([bytes[8], bytes[9]]) as usize;
+    let header = std::str::from_utf8(&bytes[10..10 + header_len]).unwrap();
+    assert!(header.contains("'fortran_order': False"), "{header}");
+    let fortran = header.replace("'fortran_order': False", "'fortran_order': True ");
+    let mut f = bytes[..10].to_vec();
+    f.extend_from_slice(fortran.as_bytes());
+    f.extend_from_slice(&bytes[10 + header_len..]);
+    std::fs::write(dir.join("fortran.npy"), f).unwrap();
+    let o = dtr(&one_iteration(SCENE, "fortran.npy", "plate_x", "run"), dir);
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{e}");
+    assert!(
+        e.contains("fortran.npy") && e.contains("'<f4'") && e.contains("in Fortran order"),
+        "{e}"
+    );
+    assert!(e.contains("expected float32 [") && e.contains("in C order"), "{e}");
+    assert!(!e.contains("Plain(") && !e.contains("TypeStr"), "{e}");
+    assert!(!dir.join("run").exists());
+}
