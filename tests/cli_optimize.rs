@@ -366,3 +366,46 @@ fn optimize_names_what_a_fortran_order_target_should_be() {
     assert!(!e.contains("Plain(") && !e.contains("TypeStr"), "{e}");
     assert!(!dir.join("run").exists());
 }
+
+/// A log that the file system refuses (here a file size limit of 0 bytes: its first write
+/// fails, as on a full disk) is exit 3 naming `log.csv`, and the run leaves nothing: the
+/// folder it made is removed, so the rerun is not refused. Before, it exited 2 with the
+/// system's error naming no file and left an empty `log.csv`, and the rerun was refused as
+/// the folder was not empty.
+#[cfg(unix)]
+#[test]
+fn optimize_that_cannot_write_its_log_names_it_and_leaves_nothing() {
+    use std::os::unix::process::CommandExt;
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path();
+    rough_target(SCENE, dir, "target");
+    let args = one_iteration(SCENE, "target.npy", "plate_x", "opt");
+    let mut limited = std::process::Command::new(env!("CARGO_BIN_EXE_dtr"));
+    limited.current_dir(dir).args(&args);
+    // SAFETY: only async-signal-safe calls between fork and exec
+    unsafe {
+        limited.pre_exec(|| {
+            // a write past the limit fails with EFBIG instead of raising SIGXFSZ
+            libc::signal(libc::SIGXFSZ, libc::SIG_IGN);
+            let limit = libc::rlimit {
+                rlim_cur: 0,
+                rlim_max: libc::RLIM_INFINITY,
+            };
+            if libc::setrlimit(libc::RLIMIT_FSIZE, &limit) != 0 {
+                return Err(std::io::Error::last_os_error());
+            }
+            Ok(())
+        });
+    }
+    let o = limited.output().unwrap();
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(3), "{e}");
+    assert!(e.contains("log.csv"), "{e}");
+    assert!(
+        !dir.join("opt").exists(),
+        "left {:?}",
+        std::fs::read_dir(dir.join("opt")).map(|d| d.count())
+    );
+    let o = dtr(&args, dir);
+    assert!(o.status.success(), "the rerun: {}", stderr(&o));
+}

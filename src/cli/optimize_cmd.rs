@@ -246,13 +246,23 @@ pub fn run(a: OptimizeArgs) -> anyhow::Result<()> {
     } else {
         "recovered.toml"
     });
-    let mut log = std::io::BufWriter::new(
-        std::fs::File::create(dir.join("log.csv")).with_context(|| format!("cannot write {}", dir.display()))?,
-    );
+    // a log the file system refuses (a full disk) is an output error naming it, and leaves
+    // nothing behind, as any failure before the first logged iteration
+    let log_path = dir.join("log.csv");
+    let log_error = |e: std::io::Error| anyhow::Error::new(crate::output::OutputError::io(&log_path, e));
     let names = a.params.join(",");
     let grads: Vec<String> = a.params.iter().map(|p| format!("d_{p}")).collect();
-    writeln!(log, "iteration,loss,{names},{},seconds", grads.join(","))?;
-    log.flush()?;
+    let header = format!("iteration,loss,{names},{},seconds\n", grads.join(","));
+    let mut log = match std::fs::File::create(&log_path)
+        .map(std::io::BufWriter::new)
+        .and_then(|mut log| {
+            log.write_all(header.as_bytes())?;
+            log.flush()?;
+            Ok(log)
+        }) {
+        Ok(log) => log,
+        Err(e) => return Err(abandon(&dir, created, 0, log_error(e))),
+    };
     let bar = crate::render::progress_bar(
         super::logging::chatty(),
         a.iters as u64,
@@ -273,7 +283,7 @@ pub fn run(a: OptimizeArgs) -> anyhow::Result<()> {
             s.seconds
         )
         .and_then(|_| log.flush())
-        .map_err(anyhow::Error::from);
+        .map_err(log_error);
         if ok.is_ok() {
             logged += 1;
         }
