@@ -409,3 +409,26 @@ fn optimize_that_cannot_write_its_log_names_it_and_leaves_nothing() {
     let o = dtr(&args, dir);
     assert!(o.status.success(), "the rerun: {}", stderr(&o));
 }
+
+/// An existing, empty output folder that the file system refuses (read-only, root included)
+/// is exit 3 naming the log, and `-o ro/run` (a folder that cannot be made there) too. Before,
+/// the first was exit 2, as if the input were bad.
+#[cfg(unix)]
+#[test]
+fn optimize_into_a_read_only_folder_is_an_output_error() {
+    let Some(ro) = common::ReadOnlyFolder::new() else {
+        return;
+    };
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path();
+    rough_target(SCENE, dir, "target");
+    for (out, named) in [(ro.path.clone(), "log.csv"), (ro.path.join("run"), "run")] {
+        let o = dtr(
+            &one_iteration(SCENE, "target.npy", "plate_x", out.to_str().unwrap()),
+            dir,
+        );
+        let e = stderr(&o);
+        assert_eq!(o.status.code(), Some(3), "-o {}: {e}", out.display());
+        assert!(e.contains(named), "{e}");
+    }
+}

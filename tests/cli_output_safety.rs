@@ -349,3 +349,26 @@ fn a_render_removes_the_staging_folders_a_killed_render_left() {
         ]
     );
 }
+
+/// An output folder that the file system refuses (read-only, root included) is exit 3,
+/// whichever output is refused first: the lock file of `-o ro/out`, the folder of
+/// `-o ro/new/x`. Before, the lock file's refusal was exit 2, as if the input were bad.
+#[cfg(unix)]
+#[test]
+fn a_read_only_output_folder_is_an_output_error() {
+    let Some(ro) = crate::common::ReadOnlyFolder::new() else {
+        return;
+    };
+    let dir = workdir();
+    for out in ["out", "new/x"] {
+        let out = ro.path.join(out);
+        let o = dtr(
+            &["render", "room.toml", "-o", out.to_str().unwrap(), "--spp", "1", "-q"],
+            dir.path(),
+        );
+        let e = stderr(&o);
+        assert_eq!(o.status.code(), Some(3), "-o {}: {e}", out.display());
+        assert!(e.contains(ro.path.to_str().unwrap()), "{e}");
+    }
+    assert!(listing(&ro.path).is_empty());
+}

@@ -245,13 +245,8 @@ impl OutputSet {
                 .truncate(false)
                 .write(true)
                 .open(path)
-                .with_context(|| {
-                    format!(
-                        "cannot write to the output folder of {} (creating {})",
-                        prefix.display(),
-                        path.display()
-                    )
-                })?;
+                .map_err(|e| OutputError::io(path, e))
+                .with_context(|| format!("cannot lock the output prefix {}", prefix.display()))?;
             match f.try_lock() {
                 Ok(()) => {}
                 Err(std::fs::TryLockError::WouldBlock) => bail!(
@@ -260,7 +255,8 @@ impl OutputSet {
                     path.display()
                 ),
                 Err(std::fs::TryLockError::Error(e)) => {
-                    return Err(e).with_context(|| format!("cannot lock {}", path.display()));
+                    return Err(OutputError::io(path, e))
+                        .with_context(|| format!("cannot lock the output prefix {}", prefix.display()));
                 }
             }
             let still_there = match (f.metadata(), std::fs::metadata(path)) {
