@@ -10,6 +10,38 @@ fn stderr(o: &std::process::Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
 }
 
+/// `dtr optimize` of `params` in `scene` towards `target`, one iteration at 1 spp on one
+/// thread, quiet, into `out`.
+fn one_iteration<'a>(scene: &'a str, target: &'a str, params: &'a str, out: &'a str) -> Vec<&'a str> {
+    vec![
+        "optimize",
+        scene,
+        "--target",
+        target,
+        "--params",
+        params,
+        "--iters",
+        "1",
+        "--spp",
+        "1",
+        "--threads",
+        "1",
+        "-q",
+        "-o",
+        out,
+    ]
+}
+
+/// Renders `scene` at 1 spp on one thread to `dir/NAME.npy`: a target for runs that test
+/// what optimize writes or refuses, not what it recovers.
+fn rough_target(scene: &str, dir: &std::path::Path, name: &str) {
+    let o = dtr(
+        &["render", scene, "--spp", "1", "--threads", "1", "-q", "-o", name],
+        dir,
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+}
+
 #[test]
 fn optimize_recovers_the_pose_and_writes_its_files() {
     let tmp = tempfile::tempdir().unwrap();
@@ -146,11 +178,7 @@ fn optimize_refuses_before_making_its_folder() {
     let tmp = tempfile::tempdir().unwrap();
     let dir = tmp.path();
     let confocal = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/confocal_plane.toml");
-    let o = dtr(
-        &["render", confocal, "--spp", "1", "--threads", "1", "-q", "-o", "t"],
-        dir,
-    );
-    assert!(o.status.success(), "{}", stderr(&o));
+    rough_target(confocal, dir, "t");
     let base = [
         "optimize",
         confocal,
@@ -182,8 +210,7 @@ fn optimize_says_what_a_failed_run_kept() {
     let tmp = tempfile::tempdir().unwrap();
     let dir = tmp.path();
     let room = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/diff_room.toml");
-    let o = dtr(&["render", room, "--spp", "1", "--threads", "1", "-q", "-o", "t"], dir);
-    assert!(o.status.success(), "{}", stderr(&o));
+    rough_target(room, dir, "t");
     let o = dtr(
         &[
             "optimize",
@@ -281,33 +308,127 @@ fn optimize_recovers_a_smooth_dielectric_index_with_estimators_interior() {
 fn optimize_names_an_output_folder_it_cannot_make() {
     let tmp = tempfile::tempdir().unwrap();
     let dir = tmp.path();
-    let o = dtr(
-        &["render", SCENE, "--spp", "1", "--threads", "1", "-q", "-o", "target"],
-        dir,
-    );
-    assert!(o.status.success(), "{}", stderr(&o));
+    rough_target(SCENE, dir, "target");
     std::fs::write(dir.join("plain"), "not a folder").unwrap();
-    let o = dtr(
-        &[
-            "optimize",
-            SCENE,
-            "--target",
-            "target.npy",
-            "--params",
-            "plate_x",
-            "--iters",
-            "1",
-            "--threads",
-            "1",
-            "-o",
-            "plain/run",
-        ],
-        dir,
-    );
+    let o = dtr(&one_iteration(SCENE, "target.npy", "plate_x", "plain/run"), dir);
     let err = stderr(&o);
     assert_eq!(o.status.code(), Some(3), "{err}");
     assert!(err.contains("-o plain/run: cannot create the output folder"), "{err}");
     let reason = err.trim_end().rsplit(": ").next().unwrap();
     assert_eq!(err.matches(reason).count(), 1, "said twice: {err}");
     assert_eq!(std::fs::read_to_string(dir.join("plain")).unwrap(), "not a folder");
+}
+
+/// The recovered scene of a scene with a mesh renders: `recovered.toml` lies in the run's
+/// folder, so its relative mesh file name is made absolute, as `dtr import` makes it. Before,
+/// it kept `file = "meshes/pyramid.obj"`, which `dtr render run/recovered.toml` looked for in
+/// `run/meshes/` (exit 2).
+#[test]
+fn the_recovered_scene_of_a_mesh_scene_renders() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path();
+    let mesh = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/obj_mesh.toml");
+    rough_target(mesh, dir, "t");
+    let o = dtr(&one_iteration(mesh, "t.npy", "pyramid_yaw", "run"), dir);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = std::fs::read_to_string(dir.join("run/recovered.toml")).unwrap();
+    assert!(text.contains("pyramid.obj"), "{text}");
+    rough_target("run/recovered.toml", dir, "again");
+    assert!(dir.join("again.npy").is_file());
+}
+
+/// A `--target` in Fortran order (or of another type) is refused with a sentence naming the
+/// file, what it holds and what is expected. Before, the message showed npyz's debug value
+/// (`Plain(TypeStr { .. })`).
+#[test]
+fn optimize_names_what_a_fortran_order_target_should_be() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path();
+    rough_target(SCENE, dir, "target");
+    // the same values, with a header that says Fortran order
+    let bytes = std::fs::read(dir.join("target.npy")).unwrap();
+    let header_len = u16::from_le_bytes([bytes[8], bytes[9]]) as usize;
+    let header = std::str::from_utf8(&bytes[10..10 + header_len]).unwrap();
+    assert!(header.contains("'fortran_order': False"), "{header}");
+    let fortran = header.replace("'fortran_order': False", "'fortran_order': True ");
+    let mut f = bytes[..10].to_vec();
+    f.extend_from_slice(fortran.as_bytes());
+    f.extend_from_slice(&bytes[10 + header_len..]);
+    std::fs::write(dir.join("fortran.npy"), f).unwrap();
+    let o = dtr(&one_iteration(SCENE, "fortran.npy", "plate_x", "run"), dir);
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{e}");
+    assert!(
+        e.contains("fortran.npy") && e.contains("'<f4'") && e.contains("in Fortran order"),
+        "{e}"
+    );
+    assert!(e.contains("expected float32 [") && e.contains("in C order"), "{e}");
+    assert!(!e.contains("Plain(") && !e.contains("TypeStr"), "{e}");
+    assert!(!dir.join("run").exists());
+}
+
+/// A log that the file system refuses (here a file size limit of 0 bytes: its first write
+/// fails, as on a full disk) is exit 3 naming `log.csv`, and the run leaves nothing: the
+/// folder it made is removed, so the rerun is not refused. Before, it exited 2 with the
+/// system's error naming no file and left an empty `log.csv`, and the rerun was refused as
+/// the folder was not empty.
+#[cfg(unix)]
+#[test]
+fn optimize_that_cannot_write_its_log_names_it_and_leaves_nothing() {
+    use std::os::unix::process::CommandExt;
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path();
+    rough_target(SCENE, dir, "target");
+    let args = one_iteration(SCENE, "target.npy", "plate_x", "opt");
+    let mut limited = std::process::Command::new(env!("CARGO_BIN_EXE_dtr"));
+    limited.current_dir(dir).args(&args);
+    // SAFETY: only async-signal-safe calls between fork and exec
+    unsafe {
+        limited.pre_exec(|| {
+            // a write past the limit fails with EFBIG instead of raising SIGXFSZ
+            libc::signal(libc::SIGXFSZ, libc::SIG_IGN);
+            let limit = libc::rlimit {
+                rlim_cur: 0,
+                rlim_max: libc::RLIM_INFINITY,
+            };
+            if libc::setrlimit(libc::RLIMIT_FSIZE, &limit) != 0 {
+                return Err(std::io::Error::last_os_error());
+            }
+            Ok(())
+        });
+    }
+    let o = limited.output().unwrap();
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(3), "{e}");
+    assert!(e.contains("log.csv"), "{e}");
+    assert!(
+        !dir.join("opt").exists(),
+        "left {:?}",
+        std::fs::read_dir(dir.join("opt")).map(|d| d.count())
+    );
+    let o = dtr(&args, dir);
+    assert!(o.status.success(), "the rerun: {}", stderr(&o));
+}
+
+/// An existing, empty output folder that the file system refuses (read-only, root included)
+/// is exit 3 naming the log, and `-o ro/run` (a folder that cannot be made there) too. Before,
+/// the first was exit 2, as if the input were bad.
+#[cfg(unix)]
+#[test]
+fn optimize_into_a_read_only_folder_is_an_output_error() {
+    let Some(ro) = common::ReadOnlyFolder::new() else {
+        return;
+    };
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path();
+    rough_target(SCENE, dir, "target");
+    for (out, named) in [(ro.path.clone(), "log.csv"), (ro.path.join("run"), "run")] {
+        let o = dtr(
+            &one_iteration(SCENE, "target.npy", "plate_x", out.to_str().unwrap()),
+            dir,
+        );
+        let e = stderr(&o);
+        assert_eq!(o.status.code(), Some(3), "-o {}: {e}", out.display());
+        assert!(e.contains(named), "{e}");
+    }
 }

@@ -274,3 +274,101 @@ fn stale_cleanup_removes_only_names_dtr_writes() {
         ["p.json", "p.npy", "p.toml", "p.victim.npy"]
     );
 }
+
+/// SIGINT while the set is written (after the render: the writes into the staging folder and
+/// the moves into place) ends with 130 and leaves nothing, or, when it comes after the set is
+/// in place, with 0 and the whole set; never anything between. Each try waits for the staging
+/// folder to appear, then interrupts at a later moment of the writes. Before, the signal
+/// thread removed the staging folder while the main thread went on writing: some runs exited
+/// 3 ("cannot move big.npy into place"), others left `.big.dtr-staging-*/` behind.
+#[cfg(unix)]
+#[test]
+fn a_signal_while_the_set_is_written_leaves_nothing_or_the_whole_set() {
+    let scene = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell_box.toml");
+    let mut outcomes = Vec::new();
+    for k in 0..8u64 {
+        let dir = tempfile::tempdir().unwrap();
+        let mut child = Command::new(env!("CARGO_BIN_EXE_dtr"))
+            .current_dir(dir.path())
+            .args(["render", scene.to_str().unwrap(), "--spp", "1", "--threads", "1", "-q"])
+            .args(["--set", "camera.resolution.0=32", "--set", "camera.resolution.1=32"])
+            .args(["--set", "film.bins=3000", "--set", "film.bin_width_opl=0.001"])
+            .args(["--exr", "-o", "out/big"])
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap();
+        let out = dir.path().join("out");
+        let staging = || {
+            std::fs::read_dir(&out)
+                .map(|d| {
+                    d.flatten()
+                        .any(|e| e.file_name().to_string_lossy().starts_with(".big.dtr-staging-"))
+                })
+                .unwrap_or(false)
+        };
+        let t0 = std::time::Instant::now();
+        while !staging() && child.try_wait().unwrap().is_none() && t0.elapsed().as_secs() < 60 {
+            std::thread::sleep(std::time::Duration::from_micros(500));
+        }
+        std::thread::sleep(std::time::Duration::from_millis(70 * k));
+        unsafe { libc::kill(child.id() as i32, libc::SIGINT) };
+        let o = child.wait_with_output().unwrap();
+        let left = listing(&out);
+        match o.status.code() {
+            Some(130) => assert!(left.is_empty(), "try {k}: exit 130 left {left:?}"),
+            Some(0) => assert_eq!(left, ["big.exr", "big.json", "big.npy"], "try {k}"),
+            other => panic!("try {k}: exit {other:?}, left {left:?}: {}", stderr(&o)),
+        }
+        outcomes.push(o.status.code().unwrap());
+    }
+    assert!(outcomes.contains(&130), "no try was interrupted: {outcomes:?}");
+}
+
+/// A render removes the staging folders that an earlier, killed render to the same prefix
+/// left (under the prefix's lock), and nothing else. Before, they stayed for good.
+#[test]
+fn a_render_removes_the_staging_folders_a_killed_render_left() {
+    let dir = workdir();
+    let out = dir.path().join("out");
+    std::fs::create_dir_all(out.join(".x.dtr-staging-Ab3dE9")).unwrap();
+    std::fs::write(out.join(".x.dtr-staging-Ab3dE9/npy"), "half").unwrap();
+    // another prefix's, and names that are not a staging folder's
+    std::fs::create_dir_all(out.join(".y.dtr-staging-Ab3dE9")).unwrap();
+    std::fs::create_dir_all(out.join(".x.dtr-staging-mine")).unwrap();
+    std::fs::write(out.join(".x.dtr-staging-Zz9zz9"), "a file").unwrap();
+    let o = dtr(&["render", "room.toml", "-o", "out/x", "--spp", "1", "-q"], dir.path());
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(
+        listing(&out),
+        [
+            ".x.dtr-staging-Zz9zz9",
+            ".x.dtr-staging-mine",
+            ".y.dtr-staging-Ab3dE9",
+            "x.json",
+            "x.npy"
+        ]
+    );
+}
+
+/// An output folder that the file system refuses (read-only, root included) is exit 3,
+/// whichever output is refused first: the lock file of `-o ro/out`, the folder of
+/// `-o ro/new/x`. Before, the lock file's refusal was exit 2, as if the input were bad.
+#[cfg(unix)]
+#[test]
+fn a_read_only_output_folder_is_an_output_error() {
+    let Some(ro) = crate::common::ReadOnlyFolder::new() else {
+        return;
+    };
+    let dir = workdir();
+    for out in ["out", "new/x"] {
+        let out = ro.path.join(out);
+        let o = dtr(
+            &["render", "room.toml", "-o", out.to_str().unwrap(), "--spp", "1", "-q"],
+            dir.path(),
+        );
+        let e = stderr(&o);
+        assert_eq!(o.status.code(), Some(3), "-o {}: {e}", out.display());
+        assert!(e.contains(ro.path.to_str().unwrap()), "{e}");
+    }
+    assert!(listing(&ro.path).is_empty());
+}

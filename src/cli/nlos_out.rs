@@ -37,19 +37,19 @@ pub(super) fn write(scene: &Scene, film: &Transient, set: &mut OutputSet, sharde
         return Ok(());
     };
     #[cfg(feature = "hdf5")]
-    crate::output::write_nlos_h5(&set.stage("h5")?, scene, film, "noiseless transient (radiance)")?;
+    set.write("h5", |p| {
+        crate::output::write_nlos_h5(p, scene, film, "noiseless transient (radiance)")
+    })?;
     if let Some(noise) = &n.noise {
         // the counts are made as each file is written, never held whole beside the film
         let count = |i: usize, v: f32| crate::sensor_noise::photon_count(noise, i, v);
-        crate::output::write_npy_mapped(&set.stage("noisy.npy")?, &film.shape(), &film.data, count)?;
+        set.write("noisy.npy", |p| {
+            crate::output::write_npy_mapped(p, &film.shape(), &film.data, count)
+        })?;
         #[cfg(feature = "hdf5")]
-        crate::output::write_nlos_h5_mapped(
-            &set.stage("noisy.h5")?,
-            scene,
-            film,
-            count,
-            "photon counts (noise model in noise)",
-        )?;
+        set.write("noisy.h5", |p| {
+            crate::output::write_nlos_h5_mapped(p, scene, film, count, "photon counts (noise model in noise)")
+        })?;
     }
     Ok(())
 }

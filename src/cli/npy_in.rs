@@ -20,10 +20,15 @@ pub fn read_f32(path: &Path, shape: &[usize], what: &str) -> anyhow::Result<Vec<
     let got: Vec<usize> = npy.shape().iter().map(|&d| d as usize).collect();
     let f4 = npyz::DType::new_scalar("<f4".parse().expect("<f4 is a type string"));
     if got != shape || npy.dtype() != f4 || npy.order() != npyz::Order::C {
+        let order = match npy.order() {
+            npyz::Order::C => "C order",
+            npyz::Order::Fortran => "Fortran order",
+        };
         bail!(
-            "{}: {what} holds {:?} of shape {got:?}, expected float32 {shape:?} in C order",
+            "{}: {what} holds {} of shape {got:?} in {order}, expected float32 {shape:?} in C \
+             order (little-endian '<f4'; numpy: np.ascontiguousarray(a, dtype='<f4'))",
             path.display(),
-            npy.dtype()
+            dtype_name(&npy.dtype())
         );
     }
     // the values straight from the file into the film's memory (npyz parsed the header; its
@@ -43,6 +48,14 @@ pub fn read_f32(path: &Path, shape: &[usize], what: &str) -> anyhow::Result<Vec<
         bail!("{}: value {i} of {what} is not finite", path.display());
     }
     Ok(data)
+}
+
+/// A .npy element type as numpy writes it (`'<f8'`, `'|u1'`, ...), or "a structured type".
+fn dtype_name(dtype: &npyz::DType) -> String {
+    match dtype {
+        npyz::DType::Plain(t) => format!("'{t}'"),
+        _ => "a structured type".to_string(),
+    }
 }
 
 #[cfg(test)]

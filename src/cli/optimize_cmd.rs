@@ -122,8 +122,10 @@ fn read_target(path: &Path, scene: &Scene) -> anyhow::Result<Transient> {
     Ok(t)
 }
 
-/// The scene file's text with each `[[param]]` named in `values` set to its value.
-fn scene_with(path: &Path, values: &[(String, f64)]) -> anyhow::Result<String> {
+/// The scene file's text with each `[[param]]` named in `values` set to its value, for a file
+/// in the folder `out_dir`: relative file names (meshes) are made absolute when that is
+/// another folder than the scene's, as `dtr import` makes them, so that it renders.
+fn scene_with(path: &Path, values: &[(String, f64)], out_dir: &Path) -> anyhow::Result<String> {
     let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {} again", path.display()))?;
     let json = path.extension().and_then(|e| e.to_str()) == Some("json");
     let mut doc: serde_json::Value = if json {
@@ -131,6 +133,7 @@ fn scene_with(path: &Path, values: &[(String, f64)]) -> anyhow::Result<String> {
     } else {
         serde_json::to_value(toml::from_str::<toml::Value>(&text)?)?
     };
+    crate::scene::shapes::rebase_file_names(&mut doc, path, out_dir);
     if let Some(list) = doc.get_mut("param").and_then(|p| p.as_array_mut()) {
         for p in list {
             let name = p.get("name").and_then(|n| n.as_str()).map(str::to_string);
@@ -243,13 +246,23 @@ pub fn run(a: OptimizeArgs) -> anyhow::Result<()> {
     } else {
         "recovered.toml"
     });
-    let mut log = std::io::BufWriter::new(
-        std::fs::File::create(dir.join("log.csv")).with_context(|| format!("cannot write {}", dir.display()))?,
-    );
+    // a log the file system refuses (a full disk) is an output error naming it, and leaves
+    // nothing behind, as any failure before the first logged iteration
+    let log_path = dir.join("log.csv");
+    let log_error = |e: std::io::Error| anyhow::Error::new(crate::output::OutputError::io(&log_path, e));
     let names = a.params.join(",");
     let grads: Vec<String> = a.params.iter().map(|p| format!("d_{p}")).collect();
-    writeln!(log, "iteration,loss,{names},{},seconds", grads.join(","))?;
-    log.flush()?;
+    let header = format!("iteration,loss,{names},{},seconds\n", grads.join(","));
+    let mut log = match std::fs::File::create(&log_path)
+        .map(std::io::BufWriter::new)
+        .and_then(|mut log| {
+            log.write_all(header.as_bytes())?;
+            log.flush()?;
+            Ok(log)
+        }) {
+        Ok(log) => log,
+        Err(e) => return Err(abandon(&dir, created, 0, log_error(e))),
+    };
     let bar = crate::render::progress_bar(
         super::logging::chatty(),
         a.iters as u64,
@@ -270,7 +283,7 @@ pub fn run(a: OptimizeArgs) -> anyhow::Result<()> {
             s.seconds
         )
         .and_then(|_| log.flush())
-        .map_err(anyhow::Error::from);
+        .map_err(log_error);
         if ok.is_ok() {
             logged += 1;
         }
@@ -295,7 +308,7 @@ pub fn run(a: OptimizeArgs) -> anyhow::Result<()> {
     let last = steps.last().context("no iteration ran")?;
     let result = crate::optimize::tail_average(&steps, a.average).context("no iteration ran")?;
     let values: Vec<(String, f64)> = a.params.iter().cloned().zip(result.iter().copied()).collect();
-    write_text(&recovered, &scene_with(&a.scene, &values)?)?;
+    write_text(&recovered, &scene_with(&a.scene, &values, &dir)?)?;
     write_plots(&dir, &a.params, &steps)?;
     log::info!(
         "{}: {} iterations, loss {:.3e} → {:.3e}; {}{}",
@@ -331,7 +344,7 @@ fn write_best(dir: &Path, recovered: &Path, a: &OptimizeArgs, s: &Step) -> anyho
         "params": values.iter().map(|(n, v)| (n.clone(), serde_json::json!(v))).collect::<serde_json::Map<_, _>>(),
     });
     crate::output::write_json(&dir.join("best.json"), &json)?;
-    write_text(recovered, &scene_with(&a.scene, &values)?)
+    write_text(recovered, &scene_with(&a.scene, &values, dir)?)
 }
 
 fn write_plots(dir: &Path, params: &[String], steps: &[Step]) -> anyhow::Result<()> {

@@ -15,7 +15,13 @@
 //!   moved into place only when all of them are written, the JSON last (its presence marks a
 //!   complete set). A failure before that removes the staging folder.
 //! - **Signals.** SIGINT and SIGTERM remove the staging folder and the lock file and exit
-//!   with 128 + the signal number; no temporary file is left behind.
+//!   with 128 + the signal number; no temporary file is left behind. The writes into the
+//!   staging folder and the moves into place each hold one lock (`WRITING`) that the signal
+//!   thread takes before it removes anything and keeps until the process exits: a signal
+//!   during a write waits for that file to be whole, then the set is removed and nothing more
+//!   is written. A signal after the set is in place is let pass: the run ends with 0. Staging
+//!   folders that a killed render left (`.NAME.dtr-staging-*`) are removed by the next render
+//!   to the prefix, under its lock.
 //! - **No stale files.** The JSON lists the set's files (`"files"`, names in the output
 //!   folder). A render to a prefix that already holds a set removes the files of the old set
 //!   (as its JSON lists them) that the new one does not write, before the new JSON lands: a
@@ -28,9 +34,23 @@ use anyhow::{Context, bail};
 use std::fs::File;
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 /// Paths that the signal thread removes before exiting (staging folders, lock files).
 static ON_SIGNAL: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
+
+/// Held by the main thread while it makes or removes a watched path, writes a file into the
+/// staging folder or moves the set into place, and by the signal thread from the signal until
+/// the process exits: the two never work on the set at once (module docs).
+static WRITING: Mutex<()> = Mutex::new(());
+
+/// Set, under [`WRITING`], once an output set is in place: a signal after that has nothing to
+/// undo.
+static IN_PLACE: AtomicBool = AtomicBool::new(false);
+
+fn writing() -> std::sync::MutexGuard<'static, ()> {
+    WRITING.lock().unwrap_or_else(|e| e.into_inner())
+}
 
 /// Starts the thread that cleans up on SIGINT/SIGTERM (once per process).
 fn install_signal_cleanup() -> anyhow::Result<()> {
@@ -41,7 +61,13 @@ fn install_signal_cleanup() -> anyhow::Result<()> {
         match signal_hook::iterator::Signals::new([SIGINT, SIGTERM]) {
             Ok(mut signals) => {
                 std::thread::spawn(move || {
-                    if let Some(sig) = signals.forever().next() {
+                    for sig in signals.forever() {
+                        // kept until the exit: the main thread writes nothing more
+                        let _writing = writing();
+                        if IN_PLACE.load(Ordering::SeqCst) {
+                            // the set is whole and in place; the run ends with 0
+                            continue;
+                        }
                         let paths = ON_SIGNAL.lock().map(|p| p.clone()).unwrap_or_default();
                         for p in paths {
                             let _ = if p.is_dir() {
@@ -193,6 +219,7 @@ impl OutputSet {
         let name = prefix.file_name().unwrap_or_default().to_string_lossy().into_owned();
         let lock_path = dir.join(format!(".{name}.dtr-lock"));
         let lock = Self::lock(&lock_path, &prefix)?;
+        remove_stale_staging(&dir, &name);
         let set = Self {
             prefix,
             inputs,
@@ -212,18 +239,14 @@ impl OutputSet {
     /// finished), so that two renders never both hold a lock on the same prefix.
     fn lock(path: &Path, prefix: &Path) -> anyhow::Result<File> {
         loop {
+            let _writing = writing();
             let f = std::fs::OpenOptions::new()
                 .create(true)
                 .truncate(false)
                 .write(true)
                 .open(path)
-                .with_context(|| {
-                    format!(
-                        "cannot write to the output folder of {} (creating {})",
-                        prefix.display(),
-                        path.display()
-                    )
-                })?;
+                .map_err(|e| OutputError::io(path, e))
+                .with_context(|| format!("cannot lock the output prefix {}", prefix.display()))?;
             match f.try_lock() {
                 Ok(()) => {}
                 Err(std::fs::TryLockError::WouldBlock) => bail!(
@@ -232,7 +255,8 @@ impl OutputSet {
                     path.display()
                 ),
                 Err(std::fs::TryLockError::Error(e)) => {
-                    return Err(e).with_context(|| format!("cannot lock {}", path.display()));
+                    return Err(OutputError::io(path, e))
+                        .with_context(|| format!("cannot lock the output prefix {}", prefix.display()));
                 }
             }
             let still_there = match (f.metadata(), std::fs::metadata(path)) {
@@ -269,11 +293,24 @@ impl OutputSet {
         &self.prefix
     }
 
-    /// Where to write the output `PREFIX.suffix` now; it reaches its place in [`commit`],
-    /// which checks every destination.
+    /// Writes the output `PREFIX.suffix` with `write`, given the path to write it to (in the
+    /// staging folder): it reaches its place in [`commit`], which checks every destination.
+    /// A signal during the write waits for it to end (module docs).
     ///
     /// [`commit`]: Self::commit
-    pub fn stage(&mut self, suffix: &str) -> anyhow::Result<PathBuf> {
+    pub fn write<T, E: Into<anyhow::Error>>(
+        &mut self,
+        suffix: &str,
+        write: impl FnOnce(&Path) -> Result<T, E>,
+    ) -> anyhow::Result<T> {
+        let _writing = writing();
+        let staged = self.stage(suffix)?;
+        write(&staged).map_err(Into::into)
+    }
+
+    /// Where to write `PREFIX.suffix` in the staging folder (made on first use); called with
+    /// [`WRITING`] held.
+    fn stage(&mut self, suffix: &str) -> anyhow::Result<PathBuf> {
         if self.staging.is_none() {
             let dir = self.lock_path.parent().unwrap_or(Path::new("."));
             let name = self
@@ -309,6 +346,7 @@ impl OutputSet {
     /// once more; files of the set the old JSON at this prefix listed and this one does not
     /// write are removed before the new JSON lands (module docs).
     pub fn commit(mut self) -> anyhow::Result<PathBuf> {
+        let _writing = writing();
         for (_, dest) in &self.files {
             self.check_destination(dest)?;
         }
@@ -327,6 +365,7 @@ impl OutputSet {
                 .map_err(|e| OutputError::io(dest, e))
                 .with_context(|| format!("cannot move {} into place", dest.display()))?;
         }
+        IN_PLACE.store(true, Ordering::SeqCst);
         Ok(self.prefix.clone())
     }
 
@@ -398,8 +437,29 @@ fn is_own_output(name: &str, stem: &str) -> bool {
     FIXED.contains(&suffix) || PREVIEWS.contains(&suffix) || derivative || strategy
 }
 
+/// Removes the staging folders of earlier renders to the prefix named `name` in `dir`
+/// (`.NAME.dtr-staging-` and tempfile's six characters), which a killed render leaves; called
+/// with the prefix's lock held, so no render is writing them.
+fn remove_stale_staging(dir: &Path, name: &str) {
+    let start = format!(".{name}.dtr-staging-");
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return;
+    };
+    for e in entries.flatten() {
+        let file_name = e.file_name();
+        let Some(rest) = file_name.to_str().and_then(|n| n.strip_prefix(start.as_str())) else {
+            continue;
+        };
+        let random = rest.len() == 6 && rest.bytes().all(|b| b.is_ascii_alphanumeric());
+        if random && e.file_type().is_ok_and(|t| t.is_dir()) {
+            let _ = std::fs::remove_dir_all(e.path());
+        }
+    }
+}
+
 impl Drop for OutputSet {
     fn drop(&mut self) {
+        let _writing = writing();
         if let Some(s) = self.staging.take() {
             unwatch(s.path());
             drop(s);

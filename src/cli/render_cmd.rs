@@ -316,16 +316,18 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
     if bad > 0 {
         bail!("{}", non_finite_message(&scene, bad));
     }
-    output::write_npy(&set.stage("npy")?, &film.shape(), &film.data)?;
+    set.write("npy", |p| output::write_npy(p, &film.shape(), &film.data))?;
     for (name, d) in a.diff.iter().zip(&derivs) {
-        output::write_npy(&set.stage(&format!("d_{name}.npy"))?, &d.shape(), &d.data)?;
+        set.write(&format!("d_{name}.npy"), |p| output::write_npy(p, &d.shape(), &d.data))?;
     }
     for ((s, t), f) in &strategies {
-        output::write_npy(&set.stage(&format!("s{s}_t{t}.npy"))?, &f.shape(), &f.data)?;
+        set.write(&format!("s{s}_t{t}.npy"), |p| output::write_npy(p, &f.shape(), &f.data))?;
     }
     if a.exr {
         let axis = (film.axis.start_opl, film.axis.bin_width_opl);
-        output::write_exr_layers_with_axis(&set.stage("exr")?, view(&film), &film.steady, axis)?;
+        set.write("exr", |p| {
+            output::write_exr_layers_with_axis(p, view(&film), &film.steady, axis)
+        })?;
     }
     if a.preview {
         let normalise = match a.normalise.as_str() {
@@ -334,12 +336,12 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
         };
         write_previews(&film, &mut set, pixel, normalise)?;
         for (name, d) in a.diff.iter().zip(&derivs) {
-            output::write_derivative_png(&set.stage(&format!("d_{name}.png"))?, view(d))?;
+            set.write(&format!("d_{name}.png"), |p| output::write_derivative_png(p, view(d)))?;
         }
     }
     if a.shard.is_some() || a.preview {
         let shape = [film.height, film.width, film.channels];
-        output::write_npy(&set.stage("steady.npy")?, &shape, &film.steady)?;
+        set.write("steady.npy", |p| output::write_npy(p, &shape, &film.steady))?;
     }
     super::nlos_out::write(&scene, &film, &mut set, a.shard.is_some())?;
     let mut meta = metadata(&scene, &film, &stats, &a, set.prefix());
@@ -360,7 +362,7 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
         meta["auto_window"] = serde_json::to_value(w)?;
     }
     meta["files"] = serde_json::json!(set.names_with("json"));
-    output::write_json(&set.stage("json")?, &meta)?;
+    set.write("json", |p| output::write_json(p, &meta))?;
     let prefix_path = set.commit()?;
     if let Some(ck) = &checkpoint {
         // the render is whole: its checkpoint has served
@@ -486,30 +488,30 @@ pub(super) fn write_previews(
         normalise,
         exposure: None,
     };
-    output::write_contact_sheet(&set.stage("frames.png")?, view(film), &style)?;
-    output::write_flight_gif(&set.stage("flight.gif")?, view(film), normalise, Some(&film.axis))?;
-    output::write_steady_png(
-        &set.stage("steady.png")?,
-        &film.steady,
-        film.height,
-        film.width,
-        film.channels,
-    )?;
+    set.write("frames.png", |p| output::write_contact_sheet(p, view(film), &style))?;
+    set.write("flight.gif", |p| {
+        output::write_flight_gif(p, view(film), normalise, Some(&film.axis))
+    })?;
+    set.write("steady.png", |p| {
+        output::write_steady_png(p, &film.steady, film.height, film.width, film.channels)
+    })?;
     let (px, py) = pixel.unwrap_or((film.width / 2, film.height / 2));
-    output::write_streak_png(&set.stage("streak.png")?, view(film), py)?;
+    set.write("streak.png", |p| output::write_streak_png(p, view(film), py))?;
     let series = vec![
         ("whole image".to_string(), film.bin_totals()),
         (format!("pixel ({px}, {py})"), film.pixel_series(px, py)),
     ];
-    output::write_time_plot(
-        &set.stage("plot.png")?,
-        (
-            film.axis.start_opl as f32,
-            film.axis.bin_width_opl as f32,
-            film.axis.bins,
-        ),
-        &series,
-    )?;
+    set.write("plot.png", |p| {
+        output::write_time_plot(
+            p,
+            (
+                film.axis.start_opl as f32,
+                film.axis.bin_width_opl as f32,
+                film.axis.bins,
+            ),
+            &series,
+        )
+    })?;
     Ok(())
 }
 

@@ -356,18 +356,17 @@ pub fn run(a: MergeArgs) -> anyhow::Result<()> {
     let (film_sum, deriv_sums) = sums.context("no shards to merge")?;
     let film = film_sum.finish();
     let derivs: Vec<Transient> = deriv_sums.into_iter().map(FilmSum::finish).collect();
-    crate::output::write_npy(&set.stage("npy")?, &film.shape(), &film.data)?;
+    set.write("npy", |p| crate::output::write_npy(p, &film.shape(), &film.data))?;
     for (name, d) in diff.iter().zip(&derivs) {
-        crate::output::write_npy(&set.stage(&format!("d_{name}.npy"))?, &d.shape(), &d.data)?;
+        set.write(&format!("d_{name}.npy"), |p| {
+            crate::output::write_npy(p, &d.shape(), &d.data)
+        })?;
     }
     if a.exr {
         let axis = (film.axis.start_opl, film.axis.bin_width_opl);
-        crate::output::write_exr_layers_with_axis(
-            &set.stage("exr")?,
-            super::render_cmd::view(&film),
-            &film.steady,
-            axis,
-        )?;
+        set.write("exr", |p| {
+            crate::output::write_exr_layers_with_axis(p, super::render_cmd::view(&film), &film.steady, axis)
+        })?;
     }
     if a.preview {
         super::render_cmd::write_previews(&film, &mut set, None, crate::output::Normalise::Global)?;
@@ -375,7 +374,7 @@ pub fn run(a: MergeArgs) -> anyhow::Result<()> {
     let mut meta = merged_metadata(&shards, set.prefix(), &diff);
     meta["files"] = json!(set.names_with("json"));
     let warning = meta["energy"]["warning"].as_str().map(str::to_string);
-    crate::output::write_json(&set.stage("json")?, &meta)?;
+    set.write("json", |p| crate::output::write_json(p, &meta))?;
     let prefix = set.commit()?;
     if let Some(w) = warning {
         log::warn!("{}: {w}", scene_path.display());

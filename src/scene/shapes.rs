@@ -461,6 +461,36 @@ pub fn obj_path(scene: &Path, file: &str) -> PathBuf {
     scene.parent().unwrap_or(Path::new("")).join(file)
 }
 
+/// The folder that the relative file names of `source` (a scene file; its names are relative
+/// to its folder) must be joined to so that a description written into `out_dir` names the
+/// same files: `source`'s folder, made absolute, when `out_dir` is another folder (or does
+/// not exist yet); `None` when it is the same folder or `source`'s cannot be resolved (the
+/// names are then kept as they are). `dtr import` and `dtr optimize`'s recovered scene use it.
+pub fn file_base_for(source: &Path, out_dir: &Path) -> Option<PathBuf> {
+    let canon = |p: &Path| std::fs::canonicalize(if p.as_os_str().is_empty() { Path::new(".") } else { p }).ok();
+    let source_dir = canon(source.parent().unwrap_or(Path::new(".")))?;
+    (canon(out_dir).as_ref() != Some(&source_dir)).then_some(source_dir)
+}
+
+/// Makes the relative file names in the scene document `doc` (a scene file's TOML or JSON as
+/// a value; `[[shape]] file`, the only files a scene names) name the same files from a
+/// description written into `out_dir` ([`file_base_for`]).
+pub fn rebase_file_names(doc: &mut serde_json::Value, source: &Path, out_dir: &Path) {
+    let Some(base) = file_base_for(source, out_dir) else {
+        return;
+    };
+    let Some(shapes) = doc.get_mut("shape").and_then(|s| s.as_array_mut()) else {
+        return;
+    };
+    for shape in shapes {
+        if let Some(file) = shape.get_mut("file")
+            && let Some(name) = file.as_str().filter(|n| Path::new(n).is_relative())
+        {
+            *file = serde_json::Value::String(base.join(name).to_string_lossy().into_owned());
+        }
+    }
+}
+
 /// Exactly zero area (in either space).
 fn degenerate(a: Vec3, b: Vec3, c: Vec3) -> bool {
     (b - a).cross(c - a) == Vec3::ZERO

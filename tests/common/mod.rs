@@ -208,3 +208,55 @@ pub fn small_problem(
         bounds,
     }
 }
+
+/// An empty folder that nobody may write in, root included (the tests run as root in CI,
+/// where permissions block nothing): a read-only tmpfs mounted on a temporary folder when
+/// running as root, a folder without write permission otherwise. `None` (the caller skips,
+/// saying so) when root may not mount.
+#[cfg(unix)]
+pub struct ReadOnlyFolder {
+    pub path: std::path::PathBuf,
+    mounted: bool,
+    _tmp: tempfile::TempDir,
+}
+
+#[cfg(unix)]
+impl ReadOnlyFolder {
+    pub fn new() -> Option<Self> {
+        use std::os::unix::fs::PermissionsExt;
+        let tmp = tempfile::tempdir().unwrap();
+        let path = tmp.path().join("ro");
+        std::fs::create_dir(&path).unwrap();
+        let root = unsafe { libc::geteuid() } == 0;
+        if root {
+            let mounted = std::process::Command::new("mount")
+                .args(["-t", "tmpfs", "-o", "ro,size=64k", "tmpfs"])
+                .arg(&path)
+                .status()
+                .is_ok_and(|s| s.success());
+            if !mounted {
+                eprintln!("skipped: root here may not mount a read-only tmpfs");
+                return None;
+            }
+        } else {
+            std::fs::set_permissions(&path, std::fs::Permissions::from_mode(0o555)).unwrap();
+        }
+        Some(Self {
+            path,
+            mounted: root,
+            _tmp: tmp,
+        })
+    }
+}
+
+#[cfg(unix)]
+impl Drop for ReadOnlyFolder {
+    fn drop(&mut self) {
+        use std::os::unix::fs::PermissionsExt;
+        if self.mounted {
+            let _ = std::process::Command::new("umount").arg(&self.path).status();
+        } else {
+            let _ = std::fs::set_permissions(&self.path, std::fs::Permissions::from_mode(0o755));
+        }
+    }
+}

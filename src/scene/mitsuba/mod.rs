@@ -186,12 +186,7 @@ pub fn import_for(path: &Path, out_dir: Option<&Path>) -> Result<Imported, Scene
         path: path.to_path_buf(),
         err,
     })?;
-    let canon = |p: &Path| std::fs::canonicalize(if p.as_os_str().is_empty() { Path::new(".") } else { p }).ok();
-    let xml_dir = canon(path.parent().unwrap_or(Path::new(".")));
-    let base = match (out_dir.map(canon), &xml_dir) {
-        (Some(out), Some(x)) if out.as_ref() != Some(x) => Some(x.clone()),
-        _ => None,
-    };
+    let base = out_dir.and_then(|out| crate::scene::shapes::file_base_for(path, out));
     import_str_for(&text, path, base.as_deref())
 }
 
