@@ -2,7 +2,8 @@
 //!
 //! Writes into a new (or empty) folder: `log.csv` (one row per iteration: loss, values,
 //! gradient, seconds; flushed as it goes), `best.json` (the lowest loss so far and its
-//! values), `recovered.toml` or `.json` (the scene with the recovered values: the best so
+//! values), `recovered.toml` or `.json` (the scene with the run's `--set` overrides and the
+//! recovered values: the best so
 //! far while running, the last iterate at the end, or the mean of the last iterates with
 //! `--average`), and the plots `loss.png` and `param_NAME.png`. An interrupted run (Ctrl-C)
 //! keeps the log and the best values so far. Everything that can be checked before the first
@@ -122,10 +123,13 @@ fn read_target(path: &Path, scene: &Scene) -> anyhow::Result<Transient> {
     Ok(t)
 }
 
-/// The scene file's text with each `[[param]]` named in `values` set to its value, for a file
-/// in the folder `out_dir`: relative file names (meshes) are made absolute when that is
-/// another folder than the scene's, as `dtr import` makes them, so that it renders.
-fn scene_with(path: &Path, values: &[(String, f64)], out_dir: &Path) -> anyhow::Result<String> {
+/// The scene the run fitted, as a file in the folder `out_dir`: the scene file's text with
+/// the run's `--set` overrides (fields and `[[param]]` values, so that the scene renders as
+/// the run rendered it), then each `[[param]]` named in `values` set to its recovered value.
+/// Relative file names (meshes) are made absolute when `out_dir` is another folder than the
+/// scene's, as `dtr import` makes them, so that it renders.
+fn scene_with(a: &OptimizeArgs, values: &[(String, f64)], out_dir: &Path) -> anyhow::Result<String> {
+    let path = &a.scene;
     let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {} again", path.display()))?;
     let json = path.extension().and_then(|e| e.to_str()) == Some("json");
     let mut doc: serde_json::Value = if json {
@@ -134,6 +138,15 @@ fn scene_with(path: &Path, values: &[(String, f64)], out_dir: &Path) -> anyhow::
         serde_json::to_value(toml::from_str::<toml::Value>(&text)?)?
     };
     crate::scene::shapes::rebase_file_names(&mut doc, path, out_dir);
+    let (fields, param_sets): (Vec<_>, Vec<_>) = super::parse_sets(&a.set)?
+        .into_iter()
+        .partition(|(n, _)| crate::scene::field_set::is_field_path(n));
+    crate::scene::field_set::apply(&mut doc, &fields, path)?;
+    let values: Vec<(String, f64)> = param_sets
+        .into_iter()
+        .filter(|(n, _)| !values.iter().any(|(m, _)| m == n))
+        .chain(values.iter().cloned())
+        .collect();
     if let Some(list) = doc.get_mut("param").and_then(|p| p.as_array_mut()) {
         for p in list {
             let name = p.get("name").and_then(|n| n.as_str()).map(str::to_string);
@@ -308,7 +321,7 @@ pub fn run(a: OptimizeArgs) -> anyhow::Result<()> {
     let last = steps.last().context("no iteration ran")?;
     let result = crate::optimize::tail_average(&steps, a.average).context("no iteration ran")?;
     let values: Vec<(String, f64)> = a.params.iter().cloned().zip(result.iter().copied()).collect();
-    write_text(&recovered, &scene_with(&a.scene, &values, &dir)?)?;
+    write_text(&recovered, &scene_with(&a, &values, &dir)?)?;
     write_plots(&dir, &a.params, &steps)?;
     log::info!(
         "{}: {} iterations, loss {:.3e} → {:.3e}; {}{}",
@@ -344,7 +357,7 @@ fn write_best(dir: &Path, recovered: &Path, a: &OptimizeArgs, s: &Step) -> anyho
         "params": values.iter().map(|(n, v)| (n.clone(), serde_json::json!(v))).collect::<serde_json::Map<_, _>>(),
     });
     crate::output::write_json(&dir.join("best.json"), &json)?;
-    write_text(recovered, &scene_with(&a.scene, &values, dir)?)
+    write_text(recovered, &scene_with(a, &values, dir)?)
 }
 
 fn write_plots(dir: &Path, params: &[String], steps: &[Step]) -> anyhow::Result<()> {
