@@ -534,10 +534,10 @@ fn check_materials(scene: &Scene, motion: &Motion, kind: IntegratorKind, boundar
 /// `material "NAME" (type T)` for messages; a rough dielectric that renders as a smooth one
 /// because its index equals the one outside it ([`Scene::is_dirac`]) says so, and how to
 /// keep it rough.
-fn describe_material(scene: &Scene, m: &crate::scene::NamedMaterial) -> String {
+fn describe_material(scene: &Scene, i: u32) -> String {
+    let m = &scene.materials[i as usize];
     let rough_matched = match m.material {
         crate::scene::Material::Dielectric { roughness, int_ior, .. } if roughness > 0.0 => {
-            let i = scene.materials.iter().position(|x| std::ptr::eq(x, m)).unwrap_or(0) as u32;
             scene.is_dirac(i).then_some(int_ior)
         }
         _ => None,
@@ -551,9 +551,10 @@ fn describe_material(scene: &Scene, m: &crate::scene::NamedMaterial) -> String {
     }
 }
 
-/// The first smooth dielectric whose relative index a parameter of `motion` changes: its own
-/// `ior`, the `ior` of the material it names as exterior, or the medium's η when it has none.
-fn bends_smooth_dielectric<'s>(scene: &'s Scene, motion: &Motion) -> Option<&'s crate::scene::NamedMaterial> {
+/// The index of the first smooth dielectric whose relative index a parameter of `motion`
+/// changes: its own `ior`, the `ior` of the material it names as exterior, or the medium's η
+/// when it has none.
+fn bends_smooth_dielectric(scene: &Scene, motion: &Motion) -> Option<u32> {
     scene.materials.iter().enumerate().find_map(|(i, m)| match m.material {
         crate::scene::Material::Dielectric { exterior, .. } if scene.is_dirac(i as u32) => {
             let bends = (0..motion.len()).any(|k| {
@@ -561,7 +562,7 @@ fn bends_smooth_dielectric<'s>(scene: &'s Scene, motion: &Motion) -> Option<&'s 
                     || (exterior.is_some() && motion.ior[k] == exterior)
                     || (exterior.is_none() && motion.eta[k])
             });
-            bends.then_some(m)
+            bends.then_some(i as u32)
         }
         _ => None,
     })

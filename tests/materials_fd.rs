@@ -252,6 +252,19 @@ fn derivatives_through_dirac_lobes_refuse_what_is_not_computed() {
         &opts(IntegratorKind::Bdpt, BoundaryMode::InteriorOnly),
     );
     assert!(e.contains("BDPT") && e.contains("kind = \"path\""), "{e}");
+    // a rough dielectric at the index outside it renders as a smooth one, and the refusal
+    // says so and how to keep it rough
+    let matched = difftransient::Scene::load(
+        &common::scene_path("rough_dielectric.toml"),
+        &[("glass_ior".to_string(), 1.0)],
+    )
+    .unwrap();
+    let e = err(&matched, "glass_ior", &opts(IntegratorKind::Path, BoundaryMode::Full));
+    assert!(
+        e.contains("material \"glass\" (type roughdielectric, int_ior 1 equal to the index outside it")
+            && e.contains("a little off"),
+        "{e}"
+    );
     let glass = scene("glass_slab.toml");
     let e = err(&glass, "slab_x", &opts(IntegratorKind::Path, BoundaryMode::Full));
     assert!(e.contains("A.4") && e.contains("--estimators interior"), "{e}");

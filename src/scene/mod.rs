@@ -370,10 +370,9 @@ impl Scene {
         }
     }
 
-    /// The first material whose lobe is a Dirac delta in this scene ([`Self::is_dirac`]).
-    pub fn first_delta_material(&self) -> Option<&NamedMaterial> {
-        (0..self.materials.len() as u32)
-            .find(|&m| self.is_dirac(m))
-            .map(|m| &self.materials[m as usize])
+    /// The index of the first material whose lobe is a Dirac delta in this scene
+    /// ([`Self::is_dirac`]).
+    pub fn first_delta_material(&self) -> Option<u32> {
+        (0..self.materials.len() as u32).find(|&m| self.is_dirac(m))
     }
 }
