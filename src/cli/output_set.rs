@@ -219,6 +219,9 @@ impl OutputSet {
         let name = prefix.file_name().unwrap_or_default().to_string_lossy().into_owned();
         let lock_path = dir.join(format!(".{name}.dtr-lock"));
         let lock = Self::lock(&lock_path, &prefix)?;
+        // a set of its own: a signal from now on undoes it, whatever sets this process put
+        // in place before (library use may write several)
+        IN_PLACE.store(false, Ordering::SeqCst);
         remove_stale_staging(&dir, &name);
         let set = Self {
             prefix,
