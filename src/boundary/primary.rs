@@ -48,11 +48,40 @@ use crate::integrator::path::{PacketLanes, PathStart, PrimaryRays, trace_packet_
 use crate::kernel::{PathSampler, f32x8};
 use crate::params::MAX_PARAMS;
 use crate::shard::Shard;
-use glam::{DVec2, Vec3};
+use glam::{DVec2, DVec3, Vec3};
 use rayon::prelude::*;
 
 /// Offset of the two side rays from the projected edge, pixels.
 pub const SIDE_OFFSET_PX: f64 = 1e-3;
+/// Per shape, whether a parameter moves it: the shapes whose edges the primary stage samples.
+pub(super) fn moving_shapes(ctx: &RenderContext) -> Vec<bool> {
+    let mut moving = vec![false; ctx.scene.shapes.len()];
+    for (s, _) in ctx.motion.fields.iter().flatten() {
+        moving[*s] = true;
+    }
+    moving
+}
+
+/// Whether the primary stage's side rays step over the film point of `behind` at a silhouette
+/// of the edge through `x_b` (direction `along`): `behind` lies farther from the eye than x_B
+/// and its film point within [`SIDE_OFFSET_PX`] of the edge's projected line at x_B. Such a
+/// point's discontinuity (a shadow edge the eye sees right beside the silhouette that casts
+/// it, as under a light at the camera) is already inside the primary term's jump, whose far
+/// side ray lands past it; the secondary term must not count it a second time.
+pub(super) fn steps_over(pin: &Pinhole, x_b: DVec3, along: DVec3, behind: DVec3) -> bool {
+    let (z_b, z_s) = (pin.depth(x_b), pin.depth(behind));
+    if !(z_b >= Z_NEAR && z_s > z_b) {
+        return false;
+    }
+    let d = pin.film(behind) - pin.film(x_b);
+    let t = pin.film_velocity(x_b, along).normalize_or_zero();
+    let off = if t == DVec2::ZERO {
+        d.length()
+    } else {
+        d.perp_dot(t).abs()
+    };
+    off < SIDE_OFFSET_PX
+}
 /// Samples per chunk (the unit of parallel work and of the fixed merge order).
 const CHUNK: u64 = 2048;
 /// Seed streams: edge points and side paths are independent of the interior's paths.
@@ -171,10 +200,7 @@ fn for_each_wave<T: Send>(
     if spp_boundary == 0 || derivs == 0 || !ctx.motion.moves_geometry() {
         return stats;
     }
-    let mut moving = vec![false; scene.shapes.len()];
-    for (s, _) in ctx.motion.fields.iter().flatten() {
-        moving[*s] = true;
-    }
+    let moving = moving_shapes(ctx);
     let edges = build_edges(&scene.geometry);
     let pin = Pinhole::new(&scene.camera, scene.film.width, scene.film.height);
     let margin = ctx.camera.filter().radius() as f64;

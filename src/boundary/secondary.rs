@@ -71,6 +71,8 @@ use super::contact::{SegmentEnds, segment_ends};
 use super::edge_sampler::{EdgeRecord, EdgeSampler};
 use super::guiding::GuideGrid;
 use super::hit::{SurfaceHit, pre_length};
+use super::primary::{moving_shapes, steps_over};
+use super::silhouette::Pinhole;
 use super::subpaths::{SegmentSample, SourceTerm, Terms, subpaths};
 use super::velocity::{Crossing, ray_form_velocity};
 use crate::integrator::context::RenderContext;
@@ -199,6 +201,10 @@ pub(super) struct Prepared {
     pub(super) u: [f32; 3],
     /// The edge it was drawn on (its index in the pass's edge table).
     pub(super) edge: usize,
+    /// The eye sees x_S right beside the silhouette of the edge that casts its discontinuity
+    /// (`primary::steps_over`): the primary term holds that jump, so the paths that join x_S
+    /// itself to the camera add nothing here.
+    beside_silhouette: bool,
 }
 
 /// The estimator's fixed inputs.
@@ -210,6 +216,10 @@ pub struct Secondary<'a> {
     laser_spots: Vec<Option<SourceMotion>>,
     /// Whether the scene has dielectrics (else every segment is in the scene's medium).
     dielectrics: bool,
+    /// The camera as the primary stage projects it, and the shapes whose edges that stage
+    /// samples (`primary::moving_shapes`).
+    pin: Pinhole,
+    moving: Vec<bool>,
 }
 
 impl<'a> Secondary<'a> {
@@ -236,7 +246,36 @@ impl<'a> Secondary<'a> {
                 })
                 .collect(),
             dielectrics: has_dielectric(ctx),
+            pin: Pinhole::new(&ctx.scene.camera, ctx.scene.film.width, ctx.scene.film.height),
+            moving: moving_shapes(ctx),
         }
+    }
+
+    /// Whether the eye sees x_S within the primary stage's side offset beside the silhouette
+    /// of `rec` at x_B, farther than x_B (`primary::steps_over`).
+    ///
+    /// Under a light at the camera, a shadow edge lies exactly behind the silhouette that
+    /// casts it: on a surface point x the eye sees, the light's visibility and the eye's jump
+    /// together, and their product jumps once. The primary term takes that jump with the light
+    /// seen from its far side ray (lit, `SIDE_OFFSET_PX` past the silhouette); by the product
+    /// rule [V_L·V_E] = V_L⁺·[V_E] + V_E⁻·[V_L] the secondary term must then take the eye's
+    /// visibility from the blocked side, which is 0. A light a hair off the camera casts a
+    /// shadow sliver narrower than the side offset: the side ray steps over it in the same way.
+    /// Counting both doubled the derivative of the wall behind a moving plate (issue 11 note,
+    /// tests/secondary_fd.rs
+    /// `a_light_at_the_camera_counts_each_silhouette_once`).
+    ///
+    /// x_S is taken on the boundary line itself (through x_B along `dir`, in f64): the ray
+    /// that found it started ε off the edge, which moves its film point by a few percent of
+    /// the side offset at millimetre scales, enough to blur the test where a shadow sliver is
+    /// about as wide as the offset (an object hovering a tenth of a millimetre over a floor).
+    fn beside_silhouette(&self, rec: &EdgeRecord, x_b: Vec3, dir: DVec3, x_s: &SurfaceHit) -> bool {
+        if !self.moving.get(rec.shape as usize).copied().unwrap_or(false) {
+            return false;
+        }
+        let x_b = x_b.as_dvec3();
+        let on_line = on_plane64(self.ctx, x_s.prim, x_b, dir);
+        steps_over(&self.pin, x_b, (rec.v1 - rec.v0).as_dvec3(), on_line)
     }
 
     /// The silhouette side test of Eq. 32 for edge `rec` and direction ω: s_o = ±1, the side
@@ -331,6 +370,9 @@ impl<'a> Secondary<'a> {
         }
         for (i, p) in group.iter().enumerate() {
             for sen in &terms.sensor[i] {
+                if sen.scatters == 1 && p.beside_silhouette {
+                    continue;
+                }
                 let r = if sen.scatters == 1 {
                     &p.rates.ray
                 } else {
@@ -427,6 +469,7 @@ impl<'a> Secondary<'a> {
             common: common * scale / (br.pdf_edge_dir * p_guide),
             u,
             edge: br.index,
+            beside_silhouette: self.beside_silhouette(rec, br.x_b, omega64, &x_s),
         })
     }
 
@@ -506,6 +549,8 @@ impl<'a> Secondary<'a> {
             return None;
         }
         let y64 = ls.p64[0];
+        // the light point in f64 where the render keeps one, else as drawn
+        let y_line = if ctx.opl.f64_paths { y64 } else { y.as_dvec3() };
         self.on_boundary_line(rec, x_b, |x_b64| (x_b64 - y64).normalize(), None, &mut x_s);
         let eta = self.segment_eta(None, &x_s, x_b, omega, &mut scratch.counts.rays);
         let d_b = eta as f64 * segment(ctx, y64, x_s.p64, seg);
@@ -537,6 +582,7 @@ impl<'a> Secondary<'a> {
             common,
             u,
             edge,
+            beside_silhouette: self.beside_silhouette(rec, x_b, (x_b.as_dvec3() - y_line).normalize(), &x_s),
         })
     }
 
