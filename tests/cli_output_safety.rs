@@ -74,6 +74,52 @@ fn an_obj_input_is_never_replaced() {
     assert!(stderr(&o).contains("pyramid.obj"), "{}", stderr(&o));
 }
 
+/// `-o notes` where the user keeps `notes.json` (or `notes.npy`, a measurement) that no dtr
+/// render wrote: refused before rendering, naming the file, which stays as it was. A set a
+/// render wrote there is replaced as before, and so is one whose JSON predates the `"files"`
+/// list (its files known by their names). Before, the user's file was silently replaced.
+#[test]
+fn a_file_that_no_render_wrote_is_never_replaced() {
+    let dir = workdir();
+    for (name, text) in [("notes.json", "{\"mine\": true}"), ("meas.npy", "not dtr's")] {
+        std::fs::write(dir.path().join(name), text).unwrap();
+        let prefix = name.split('.').next().unwrap();
+        let o = dtr(&["render", "room.toml", "-o", prefix, "--spp", "1", "-q"], dir.path());
+        assert_eq!(o.status.code(), Some(2), "{name}: {}", stderr(&o));
+        let e = stderr(&o);
+        assert!(
+            e.contains(name) && e.contains("not a file of an earlier dtr render"),
+            "{e}"
+        );
+        assert_eq!(std::fs::read_to_string(dir.path().join(name)).unwrap(), text);
+    }
+    assert_eq!(
+        listing(dir.path()),
+        ["meas.npy", "notes.json", "room.json", "room.toml"]
+    );
+    // a dtr set is replaced, and so is one from before the list of files
+    let ok = |args: &[&str]| {
+        let o = dtr(args, dir.path());
+        assert!(o.status.success(), "{args:?}: {}", stderr(&o));
+    };
+    ok(&["render", "room.toml", "-o", "x", "--spp", "1", "-q"]);
+    ok(&["render", "room.toml", "-o", "x", "--spp", "2", "-q"]);
+    let json = dir.path().join("x.json");
+    let mut j: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    j.as_object_mut().unwrap().remove("files");
+    std::fs::write(&json, j.to_string()).unwrap();
+    ok(&["render", "room.toml", "-o", "x", "--spp", "1", "-q"]);
+    // a file the set does not list is the user's, even beside a dtr set
+    std::fs::write(dir.path().join("x.exr"), "mine").unwrap();
+    let o = dtr(
+        &["render", "room.toml", "-o", "x", "--spp", "1", "-q", "--exr"],
+        dir.path(),
+    );
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("does not list it"), "{}", stderr(&o));
+    assert_eq!(std::fs::read_to_string(dir.path().join("x.exr")).unwrap(), "mine");
+}
+
 #[test]
 fn output_prefix_rules() {
     let dir = workdir();

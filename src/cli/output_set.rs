@@ -28,6 +28,10 @@
 //!   `-o x --diff a` render followed by `-o x` leaves no `x.d_a.npy` behind. Only plain names
 //!   in the same folder that have the form of one of dtr's own outputs for that prefix are
 //!   removed (an edited JSON cannot name a scene), never an input.
+//! - **Only its own files.** An existing file at an output's name is replaced only when the
+//!   set at the prefix holds it (its JSON, or a file that JSON lists); anything else (a user's
+//!   `notes.json` under `-o notes`, a measurement `meas.npy` under `-o meas`) is refused
+//!   before rendering, naming it.
 
 use crate::output::OutputError;
 use anyhow::{Context, bail};
@@ -176,6 +180,60 @@ pub struct OutputSet {
     staging: Option<tempfile::TempDir>,
     /// (staged file, destination), in the order they were added.
     files: Vec<(PathBuf, PathBuf)>,
+    /// What the JSON at the prefix said before this render: which existing files it may
+    /// replace.
+    earlier: EarlierSet,
+}
+
+/// The set an earlier render left at a prefix, as its JSON (`PREFIX.json`) describes it.
+#[derive(Debug, PartialEq)]
+enum EarlierSet {
+    /// No JSON there: no earlier set, so no file there is dtr's.
+    None,
+    /// A JSON that is not a dtr set's (not an object with dtr's `"version"`): someone
+    /// else's file.
+    Foreign,
+    /// A dtr set; `files` its list of file names (None: written before the list existed,
+    /// its files known by their form, [`is_own_output`]).
+    Dtr { files: Option<Vec<String>> },
+}
+
+impl EarlierSet {
+    fn read(json: &Path) -> Self {
+        let Ok(text) = std::fs::read_to_string(json) else {
+            return if std::fs::symlink_metadata(json).is_ok() {
+                Self::Foreign
+            } else {
+                Self::None
+            };
+        };
+        let Ok(serde_json::Value::Object(map)) = serde_json::from_str::<serde_json::Value>(&text) else {
+            return Self::Foreign;
+        };
+        if !map.get("version").is_some_and(|v| v.is_string()) {
+            return Self::Foreign;
+        }
+        let files = map
+            .get("files")
+            .and_then(|f| f.as_array())
+            .map(|list| list.iter().filter_map(|v| v.as_str().map(str::to_string)).collect());
+        Self::Dtr { files }
+    }
+
+    /// Whether the file `name` (a plain name in the prefix's folder; `stem` the prefix's) is
+    /// part of this set: the JSON itself, or a file its list names (or, for a set without a
+    /// list, a name of the form of dtr's own outputs).
+    fn holds(&self, name: &str, stem: &str) -> bool {
+        match self {
+            Self::Dtr { files } => {
+                name == format!("{stem}.json")
+                    || files
+                        .as_ref()
+                        .map_or_else(|| is_own_output(name, stem), |f| f.iter().any(|n| n == name))
+            }
+            _ => false,
+        }
+    }
 }
 
 /// Makes the folder that will hold `file` (the output an `-o` path names) when it is missing,
@@ -223,6 +281,7 @@ impl OutputSet {
         // in place before (library use may write several)
         IN_PLACE.store(false, Ordering::SeqCst);
         remove_stale_staging(&dir, &name);
+        let earlier = EarlierSet::read(&with_suffix(&prefix, "json"));
         let set = Self {
             prefix,
             inputs,
@@ -230,6 +289,7 @@ impl OutputSet {
             _lock: lock,
             staging: None,
             files: Vec::new(),
+            earlier,
         };
         for s in suffixes {
             set.check_destination(&with_suffix(&set.prefix, s))?;
@@ -273,22 +333,49 @@ impl OutputSet {
         }
     }
 
-    /// Refuses a destination that is an input or an existing folder.
+    /// Refuses a destination that is an input, an existing folder, or an existing file that
+    /// no earlier dtr set at this prefix holds (a user's `notes.json` under `-o notes`).
     fn check_destination(&self, dest: &Path) -> anyhow::Result<()> {
-        let Ok(meta) = std::fs::metadata(dest) else {
+        if std::fs::symlink_metadata(dest).is_err() {
             return Ok(());
-        };
-        if meta.is_dir() {
+        }
+        if std::fs::metadata(dest).is_ok_and(|m| m.is_dir()) {
             bail!("output {} is an existing folder; choose another -o", dest.display());
         }
-        if let Some(input) = replaced_input(&meta, &self.inputs) {
+        if let Some(input) = std::fs::metadata(dest)
+            .ok()
+            .and_then(|m| replaced_input(&m, &self.inputs))
+        {
             bail!(
                 "output {} would replace the input {}; nothing was rendered. Choose another -o",
                 dest.display(),
                 input.display()
             );
         }
+        let name = dest.file_name().unwrap_or_default().to_string_lossy();
+        if !self.earlier.holds(&name, &self.stem()) {
+            let json = with_suffix(&self.prefix, "json");
+            let why = match self.earlier {
+                EarlierSet::None => format!("no dtr render's set is at this prefix ({} is missing)", json.display()),
+                EarlierSet::Foreign => format!("{} is not a dtr render's JSON", json.display()),
+                EarlierSet::Dtr { .. } => format!("the set at this prefix ({}) does not list it", json.display()),
+            };
+            bail!(
+                "output {} already exists and is not a file of an earlier dtr render ({why}); \
+                 dtr replaces only the files it wrote, so nothing was rendered. Move it away or choose another -o",
+                dest.display()
+            );
+        }
         Ok(())
+    }
+
+    /// The file name of the prefix.
+    fn stem(&self) -> String {
+        self.prefix
+            .file_name()
+            .unwrap_or_default()
+            .to_string_lossy()
+            .into_owned()
     }
 
     /// The prefix the outputs are named after.
@@ -377,27 +464,15 @@ impl OutputSet {
     /// the output folder, regular files, not inputs. Nothing when there is no such JSON or it
     /// lists no files (sets written before the list existed are left alone).
     fn stale_files(&self) -> Vec<PathBuf> {
-        let json = with_suffix(&self.prefix, "json");
-        let Ok(text) = std::fs::read_to_string(&json) else {
-            return Vec::new();
-        };
-        let Ok(old) = serde_json::from_str::<serde_json::Value>(&text) else {
-            return Vec::new();
-        };
-        let Some(list) = old.get("files").and_then(|f| f.as_array()) else {
+        let EarlierSet::Dtr { files: Some(list) } = &self.earlier else {
             return Vec::new();
         };
         let dir = self.lock_path.parent().unwrap_or(Path::new("."));
-        let stem = self
-            .prefix
-            .file_name()
-            .unwrap_or_default()
-            .to_string_lossy()
-            .into_owned();
+        let stem = self.stem();
         // compared by name: the destinations all lie in `dir`
         let new: Vec<&std::ffi::OsStr> = self.files.iter().filter_map(|(_, d)| d.file_name()).collect();
         list.iter()
-            .filter_map(|v| v.as_str())
+            .map(String::as_str)
             .filter(|n| {
                 let plain = Path::new(n).file_name().is_some_and(|f| f == std::ffi::OsStr::new(n));
                 plain && is_own_output(n, &stem)
