@@ -651,6 +651,18 @@ fn cli_renders_xml_and_imports_it_to_toml() {
     // the output must be TOML and must not replace the input
     let o = common::dtr(&["import", "m.xml", "-o", "m.xml"], d);
     assert_eq!(o.status.code(), Some(2));
+    // an earlier import is replaced; a TOML file of the user's is not (before: replaced, exit 0)
+    let o = common::dtr(&["import", "m.xml", "-o", "sub/m.toml"], d);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    std::fs::write(d.join("mine.toml"), "# my scene\n").unwrap();
+    let o = common::dtr(&["import", "m.xml", "-o", "mine.toml"], d);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("mine.toml") && err.contains("not a description dtr import wrote"),
+        "{err}"
+    );
+    assert_eq!(std::fs::read_to_string(d.join("mine.toml")).unwrap(), "# my scene\n");
 }
 
 /// `dtr import -o` refuses an output that is a mesh the XML names, as `dtr render` refuses an

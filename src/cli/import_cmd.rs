@@ -61,6 +61,16 @@ pub fn run(a: ImportArgs) -> anyhow::Result<()> {
                     input.display()
                 );
             }
+            // only an earlier import is replaced: a file of the user's under that name is not
+            // dtr's to overwrite (as `dtr render` replaces only its own sets)
+            if std::fs::symlink_metadata(out).is_ok() && !is_earlier_import(out) {
+                bail!(
+                    "{}: the output exists and is not a description dtr import wrote (its first line does not \
+                     begin \"{}\"); nothing was written. Move it away or choose another -o",
+                    out.display(),
+                    mitsuba::IMPORT_HEADER.trim_end()
+                );
+            }
             // a missing folder is made, as `dtr render -o` makes its output folder
             make_output_folder(out, out)?;
             crate::output::write_atomic(out, |w| {
@@ -71,4 +81,14 @@ pub fn run(a: ImportArgs) -> anyhow::Result<()> {
         }
     }
     Ok(())
+}
+
+/// Whether `path` is a file an earlier `dtr import` wrote: its first line begins with
+/// [`mitsuba::IMPORT_HEADER`].
+fn is_earlier_import(path: &Path) -> bool {
+    use std::io::Read;
+    let mut head = vec![0u8; mitsuba::IMPORT_HEADER.len()];
+    std::fs::File::open(path)
+        .and_then(|mut f| f.read_exact(&mut head))
+        .is_ok_and(|()| head == mitsuba::IMPORT_HEADER.as_bytes())
 }

@@ -26,6 +26,10 @@ use std::path::{Path, PathBuf};
 use toml::{Table, Value};
 use xml::Doc;
 
+/// The first line of every description `dtr import` writes begins so: it marks a file that a
+/// later import may replace (`cli::import_cmd`).
+pub const IMPORT_HEADER: &str = "# Converted from the Mitsuba 3 scene ";
+
 /// An element the importer cannot convert: where (`<tag type=".." id=".."> (line N)`) and why.
 #[derive(Debug)]
 pub(crate) struct ImportError {
@@ -420,7 +424,7 @@ impl<'d, 'a, 'input> Converter<'d, 'a, 'input> {
         let mut film = s.film;
         film.insert("unwarp".into(), unwarp.into());
         let mut text = format!(
-            "# Converted from the Mitsuba 3 scene {} by dtr import (scenes/README.md, \"Mitsuba 3 XML\").\n",
+            "{IMPORT_HEADER}{} by dtr import (scenes/README.md, \"Mitsuba 3 XML\").\n",
             source.display()
         );
         for (at, el) in &self.origins {
