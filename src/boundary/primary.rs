@@ -51,8 +51,11 @@ use crate::shard::Shard;
 use glam::{DVec2, DVec3, Vec3};
 use rayon::prelude::*;
 
-/// Offset of the two side rays from the projected edge, pixels.
+/// Offset of the two side rays from the projected edge, pixels. A discontinuity the eye sees
+/// closer than this to the silhouette is inside the jump the side rays measure; the secondary
+/// term leaves the shadow edges there to this term (`steps_over`).
 pub const SIDE_OFFSET_PX: f64 = 1e-3;
+
 /// Per shape, whether a parameter moves it: the shapes whose edges the primary stage samples.
 pub(super) fn moving_shapes(ctx: &RenderContext) -> Vec<bool> {
     let mut moving = vec![false; ctx.scene.shapes.len()];
