@@ -339,13 +339,12 @@ impl OutputSet {
         if std::fs::symlink_metadata(dest).is_err() {
             return Ok(());
         }
-        if std::fs::metadata(dest).is_ok_and(|m| m.is_dir()) {
+        // what the name leads to (None: a dangling link)
+        let target = std::fs::metadata(dest).ok();
+        if target.as_ref().is_some_and(|m| m.is_dir()) {
             bail!("output {} is an existing folder; choose another -o", dest.display());
         }
-        if let Some(input) = std::fs::metadata(dest)
-            .ok()
-            .and_then(|m| replaced_input(&m, &self.inputs))
-        {
+        if let Some(input) = target.and_then(|m| replaced_input(&m, &self.inputs)) {
             bail!(
                 "output {} would replace the input {}; nothing was rendered. Choose another -o",
                 dest.display(),
