@@ -655,14 +655,24 @@ fn cli_renders_xml_and_imports_it_to_toml() {
     let o = common::dtr(&["import", "m.xml", "-o", "sub/m.toml"], d);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     std::fs::write(d.join("mine.toml"), "# my scene\n").unwrap();
-    let o = common::dtr(&["import", "m.xml", "-o", "mine.toml"], d);
+    import_is_refused(
+        d,
+        &["m.xml", "-o", "mine.toml"],
+        "mine.toml",
+        "not a description dtr import wrote",
+    );
+}
+
+/// `dtr import ARGS` run in `d` exits 2 with a message naming `file` and saying `says`, and
+/// leaves `file` (in `d`) as it was.
+fn import_is_refused(d: &Path, args: &[&str], file: &str, says: &str) {
+    let before = std::fs::read(d.join(file)).unwrap();
+    let args: Vec<&str> = std::iter::once("import").chain(args.iter().copied()).collect();
+    let o = common::dtr(&args, d);
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(2), "{err}");
-    assert!(
-        err.contains("mine.toml") && err.contains("not a description dtr import wrote"),
-        "{err}"
-    );
-    assert_eq!(std::fs::read_to_string(d.join("mine.toml")).unwrap(), "# my scene\n");
+    assert!(err.contains(file) && err.contains(says), "{err}");
+    assert_eq!(std::fs::read(d.join(file)).unwrap(), before);
 }
 
 /// `dtr import -o` refuses an output that is a mesh the XML names, as `dtr render` refuses an
@@ -679,14 +689,12 @@ fn import_never_replaces_a_mesh_it_reads() {
     )
     .unwrap();
     let before = std::fs::read(d.join("mesh.toml")).unwrap();
-    let o = common::dtr(&["import", "mm.xml", "-o", "mesh.toml"], d);
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(o.status.code(), Some(2), "{err}");
-    assert!(
-        err.contains("would replace the input") && err.contains("mesh.toml"),
-        "{err}"
+    import_is_refused(
+        d,
+        &["mm.xml", "-o", "mesh.toml"],
+        "mesh.toml",
+        "would replace the input",
     );
-    assert_eq!(std::fs::read(d.join("mesh.toml")).unwrap(), before);
     // another spelling of the same file, from another folder, is refused too
     std::fs::create_dir(d.join("sub")).unwrap();
     let o = common::dtr(&["import", "../mm.xml", "-o", "../mesh.toml"], &d.join("sub"));
