@@ -261,9 +261,8 @@ impl<'a> Secondary<'a> {
     /// rule [V_L·V_E] = V_L⁺·[V_E] + V_E⁻·[V_L] the secondary term must then take the eye's
     /// visibility from the blocked side, which is 0. A light a hair off the camera casts a
     /// shadow sliver narrower than the side offset: the side ray steps over it in the same way.
-    /// Counting both doubled the derivative of the wall behind a moving plate (issue 11 note,
-    /// tests/secondary_fd.rs
-    /// `a_light_at_the_camera_counts_each_silhouette_once`).
+    /// Counting both doubled the derivative of the wall behind a moving plate
+    /// (tests/secondary_fd.rs, `a_light_at_the_camera_counts_each_silhouette_once`).
     ///
     /// x_S is taken on the boundary line itself (through x_B along `dir`, in f64): the ray
     /// that found it started ε off the edge, which moves its film point by a few percent of
