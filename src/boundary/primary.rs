@@ -27,7 +27,9 @@
 //! of the concatenated length; an edge point hidden from the eye is skipped (both
 //! sides would see the same occluder, ΔL = 0): hidden when the eye ray meets a surface clearly
 //! before it, or a face other than the edge's own before it at all (a back crease just behind
-//! a silhouette, which a relative margin alone would call seen). Otherwise two camera rays
+//! a silhouette, which a relative margin alone would call seen), unless that face passes
+//! through the edge point itself (within 2ε: the floor under the bottom edge of a box resting
+//! on it, a contact edge). Otherwise two camera rays
 //! through u ∓ ε_∓·n are traced by the ordinary path kernel with common random numbers
 //! (`trace_packet_from`, four samples per packet of eight lanes). ε_∓ is [`SIDE_OFFSET_PX`],
 //! shortened to half the width of the edge's own face on that side along n: a face seen
@@ -45,7 +47,8 @@ use crate::film::{TileFilm, Transient};
 use crate::integrator::RenderContext;
 use crate::integrator::deposit::PathCounts;
 use crate::integrator::path::{PacketLanes, PathStart, PrimaryRays, trace_packet_from};
-use crate::kernel::{PathSampler, f32x8};
+use crate::integrator::surface::self_intersection_eps;
+use crate::kernel::{PathSampler, V3, f32x8};
 use crate::params::MAX_PARAMS;
 use crate::shard::Shard;
 use glam::{DVec2, DVec3, Vec3};
@@ -427,10 +430,15 @@ impl Estimator<'_> {
         {
             let t = hit.t as f64;
             let own = hit.prim == edge.face0 || Some(hit.prim) == edge.face1;
+            // A surface met at the edge point itself (within 2ε) supports it: the floor under
+            // a box resting on it. Its hit lands on either side of x_B by rounding; it hides
+            // nothing (each side ray sees what is there), so it never skips the point.
+            let eps = self_intersection_eps(&V3::<f32>::splat(x), self.ctx.scene.offset_scale) as f64;
+            let supports = dist - t <= 2.0 * eps;
             // Hidden: a surface clearly in front, or another face than the edge's own in front
             // of it within the margin (a back crease just behind a silhouette: its side rays
             // would straddle that silhouette and count its jump a second time).
-            if t < dist * (1.0 - VISIBILITY_MARGIN) || (!own && t < dist) {
+            if t < dist * (1.0 - VISIBILITY_MARGIN) || (!own && !supports && t < dist) {
                 return None;
             }
         }
