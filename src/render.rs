@@ -531,6 +531,33 @@ fn check_materials(scene: &Scene, motion: &Motion, kind: IntegratorKind, boundar
     Ok(())
 }
 
+/// Refuses a boundary stage whose moving shapes cross another surface or themselves: the
+/// crossing curve is a discontinuity on no mesh edge, which the boundary stage does not sample
+/// (`boundary::interpenetration`).
+fn check_crossings(ctx: &RenderContext, device: &Device, pool: &rayon::ThreadPool) -> Result<(), Error> {
+    let Some(c) = crate::boundary::interpenetration::find_crossing(ctx, device, pool)? else {
+        return Ok(());
+    };
+    let scene = ctx.scene;
+    let name = |s: u32| &scene.shapes[s as usize].name;
+    let o = scene.render_origin;
+    let at = [c.at.x + o[0], c.at.y + o[1], c.at.z + o[2]];
+    let other = if c.edge_shape == c.face_shape {
+        "itself".to_string()
+    } else {
+        format!("shape {:?}", name(c.face_shape))
+    };
+    Err(Error::Invalid(format!(
+        "{}: shape {:?} crosses {other} (an edge passes through a face at ({:.6}, {:.6}, {:.6})), and a requested parameter moves {:?}: the curve where two surfaces cross is a discontinuity on no mesh edge, which the boundary stage does not sample, so the derivative would miss its boundary term. Move the shapes apart, or let them only touch (a face, edge or vertex resting on a surface is supported), or pass --estimators interior for the interior term alone",
+        scene.source.display(),
+        name(c.edge_shape),
+        at[0],
+        at[1],
+        at[2],
+        name(c.moved),
+    )))
+}
+
 /// `material "NAME" (type T)` for messages; a rough dielectric that renders as a smooth one
 /// because its index equals the one outside it ([`Scene::is_dirac`]) says so, and how to
 /// keep it rough.
@@ -814,9 +841,13 @@ impl<'s> Run<'s> {
         }
         ctx.cut_to_window(opts.steady);
         let boundary_wanted = derivs > 0 && ctx.motion.moves_geometry() && opts.boundary != BoundaryMode::InteriorOnly;
+        let pool = thread_pool(opts.threads)?;
+        if boundary_wanted {
+            check_crossings(&ctx, &device, &pool)?;
+        }
         Ok(Self {
             ctx,
-            pool: thread_pool(opts.threads)?,
+            pool,
             spp,
             samples: opts.shard.range(spp as u64),
             seed: opts.seed.unwrap_or(scene.integrator.seed),

@@ -39,6 +39,7 @@ mod fuzz_corpus;
 mod hard_cases;
 mod interior_fd;
 mod interior_time_shift;
+mod interpenetration;
 mod materials_fd;
 mod materials_forward;
 mod mitsuba_xml;

@@ -8,6 +8,8 @@
 //! - [`guiding`]: a grid over the sampler's inputs fitted by a pilot pass.
 //! - [`velocity`]: how fast a discontinuity sweeps over a path vertex (V_∂Ω).
 //! - [`hit`]: plain rays for the boundary segment's ends.
+//! - [`interpenetration`]: moving shapes that cross a surface (refused: their crossing curve is
+//!   on no mesh edge).
 //! - [`subpaths`]: source and sensor subpaths without derivatives, eight boundary samples at
 //!   a time on the interior's kernel (the path tracer from x_L, the importance walk from x_S).
 //! - [`secondary`]: secondary edges, Algorithm 2 with Eqs. 18–19 and 30–32: two strategies.
@@ -23,6 +25,7 @@ pub mod edge_sampler;
 pub mod edges;
 pub mod guiding;
 pub mod hit;
+pub mod interpenetration;
 pub mod pass;
 pub mod primary;
 pub mod secondary;
