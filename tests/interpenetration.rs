@@ -41,6 +41,12 @@ fn refusal(scene: &Scene, param: &str) -> String {
 
 #[test]
 fn a_moving_box_sunk_into_the_floor_is_refused_by_name() {
+    // sunk 20 µm (more than 2ε) is refused as well
+    let msg = refusal(&box_at(0.19998), "box_x");
+    assert!(
+        msg.contains("crosses shape") && msg.contains("\"floor\"") && msg.contains("\"box\""),
+        "{msg}"
+    );
     let sunk = box_at(0.15);
     for param in ["box_x", "box_yaw"] {
         let msg = refusal(&sunk, param);
@@ -61,8 +67,9 @@ fn a_moving_box_sunk_into_the_floor_is_refused_by_name() {
 
 #[test]
 fn touching_is_not_crossing() {
-    // resting (bottom face in the floor's plane), 0.1 mm and 5 cm above it
-    for y in [0.2, 0.2001, 0.25] {
+    // resting (bottom face in the floor's plane), sunk 5 µm (less than 2ε, handled as
+    // resting: tests/boundary_primary.rs), 0.1 mm and 5 cm above it
+    for y in [0.2, 0.199995, 0.2001, 0.25] {
         diff(&box_at(y), "box_x", BoundaryMode::Full).unwrap_or_else(|e| panic!("y = {y}: {e}"));
     }
     // the shipped scenes whose moving shapes rest on a surface: a pyramid's base on the floor

@@ -14,8 +14,8 @@
 //! through the other, so it suffices to trace every edge of the moving shapes against the
 //! whole scene and every edge of the others against the moving shapes alone (a second, small
 //! BVH). A hit counts when the edge's ends lie on opposite sides of the hit triangle's plane,
-//! each farther than twice the self-intersection ε there, and the hit lies inside the triangle
-//! by more than that: shapes that only touch (a face or an edge resting on a surface, a vertex
+//! each farther than twice the self-intersection ε there (`TOUCH`), and the hit lies inside
+//! the triangle by more than that: shapes that only touch (a face or an edge resting on a surface, a vertex
 //! on it, a floor's edge running under a pyramid's base edge) are the contact edges' business
 //! and are not crossings. Hits on triangles that share an end point with the edge (its own fan) are
 //! stepped over.
@@ -26,6 +26,13 @@ use crate::integrator::surface::self_intersection_eps;
 use crate::kernel::V3;
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
+
+/// How far (in units of the self-intersection ε) an edge's end may reach past a face, or a
+/// crossing lie from the face's border, and still be a touch: the 2ε within which the
+/// boundary stage takes a surface for an edge's support (`contact.rs`, `primary.rs`), so a
+/// shape sunk by less is handled as resting on it (tests/boundary_primary.rs: a cube sunk
+/// 5 µm), and one sunk deeper is refused.
+const TOUCH: f64 = 2.0;
 
 /// Hits stepped over along one edge before it is given up (its own fan, coplanar faces).
 const MAX_STEPS: usize = 16;
@@ -112,7 +119,7 @@ fn crossing_along(
             let n = (p1 - p0).cross(p2 - p0).normalize_or_zero();
             let (da, db) = (n.dot(a.as_dvec3() - p0), n.dot(b.as_dvec3() - p0));
             let at = a + dir * hit.t;
-            let tol = 2.0 * self_intersection_eps(&V3::<f32>::splat(at), ctx.scene.offset_scale) as f64;
+            let tol = TOUCH * self_intersection_eps(&V3::<f32>::splat(at), ctx.scene.offset_scale) as f64;
             let at = at.as_dvec3();
             let inside = [(p0, p1), (p1, p2), (p2, p0)]
                 .iter()

@@ -27,9 +27,9 @@
 //! of the concatenated length; an edge point hidden from the eye is skipped (both
 //! sides would see the same occluder, ΔL = 0): hidden when the eye ray meets a surface clearly
 //! before it, or a face other than the edge's own before it at all (a back crease just behind
-//! a silhouette, which a relative margin alone would call seen), unless that face passes
-//! through the edge point itself (within 2ε: the floor under the bottom edge of a box resting
-//! on it, a contact edge). Otherwise two camera rays
+//! a silhouette, which a relative margin alone would call seen), unless that face's plane
+//! passes through the edge point itself (within 2ε: the floor under the bottom edge of a box
+//! resting on it, a contact edge). Otherwise two camera rays
 //! through u ∓ ε_∓·n are traced by the ordinary path kernel with common random numbers
 //! (`trace_packet_from`, four samples per packet of eight lanes). ε_∓ is [`SIDE_OFFSET_PX`],
 //! shortened to half the width of the edge's own face on that side along n: a face seen
@@ -430,11 +430,14 @@ impl Estimator<'_> {
         {
             let t = hit.t as f64;
             let own = hit.prim == edge.face0 || Some(hit.prim) == edge.face1;
-            // A surface met at the edge point itself (within 2ε) supports it: the floor under
-            // a box resting on it. Its hit lands on either side of x_B by rounding; it hides
-            // nothing (each side ray sees what is there), so it never skips the point.
+            // A face whose plane passes through the edge point itself (within 2ε) supports it:
+            // the floor under a box resting on it. Its hit lands on either side of x_B by
+            // rounding, and at a grazing view farther than 2ε along the ray; it hides nothing
+            // (each side ray sees what is there), so it never skips the point.
             let eps = self_intersection_eps(&V3::<f32>::splat(x), self.ctx.scene.offset_scale) as f64;
-            let supports = dist - t <= 2.0 * eps;
+            let [p0, p1, p2] = self.ctx.tri_verts[hit.prim as usize].map(|p| p.as_dvec3());
+            let normal = (p1 - p0).cross(p2 - p0).normalize_or_zero();
+            let supports = normal.dot(e.world - p0).abs() <= 2.0 * eps;
             // Hidden: a surface clearly in front, or another face than the edge's own in front
             // of it within the margin (a back crease just behind a silhouette: its side rays
             // would straddle that silhouette and count its jump a second time).
