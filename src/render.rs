@@ -547,8 +547,15 @@ fn check_crossings(ctx: &RenderContext, device: &Device, pool: &rayon::ThreadPoo
     } else {
         format!("shape {:?}", name(c.face_shape))
     };
+    // an emitter flush with a face was lifted off it at load (scene::flush): say so, since
+    // the file shows the two merely touching
+    let lifted = [c.edge_shape, c.face_shape]
+        .into_iter()
+        .find(|&s| scene.lifted_emitters.contains(name(s)))
+        .map(|s| format!(" (shape {:?} is an area emitter, lifted at load off a face of another shape in its plane, so that its light wins: an object resting on an emitter is not supported)", name(s)))
+        .unwrap_or_default();
     Err(Error::Invalid(format!(
-        "{}: shape {:?} crosses {other} (an edge passes through a face at ({:.6}, {:.6}, {:.6})), and a requested parameter moves {:?}: the curve where two surfaces cross is a discontinuity on no mesh edge, which the boundary stage does not sample, so the derivative would miss its boundary term. Move the shapes apart, or let them only touch (a face, edge or vertex resting on a surface is supported), or pass --estimators interior for the interior term alone",
+        "{}: shape {:?} crosses {other}{lifted} (an edge passes through a face at ({:.6}, {:.6}, {:.6})), and a requested parameter moves {:?}: the curve where two surfaces cross is a discontinuity on no mesh edge, which the boundary stage does not sample, so the derivative would miss its boundary term. Move the shapes apart, or let them only touch (a face, edge or vertex resting on a surface is supported), or pass --estimators interior for the interior term alone",
         scene.source.display(),
         name(c.edge_shape),
         at[0],

@@ -172,3 +172,27 @@ fn a_static_plate_through_a_moving_box_is_refused() {
     let apart = shapes.replace("translate = [0.2, 0.3, 0.0]", "translate = [0.35, 0.3, 0.0]");
     diff(&scene_with(dir.path(), &apart, "box"), "x", BoundaryMode::Full).unwrap();
 }
+
+/// A box resting on an area light: the light is lifted off the box's bottom face at load
+/// (src/scene/flush.rs, so that its light wins), which makes the two cross; the refusal says
+/// why, since the file shows them merely touching.
+#[test]
+fn a_box_resting_on_an_area_light_is_refused_with_the_reason() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(crate::common::scene_path("resting_box.toml")).unwrap();
+    let point = "type = \"point\"\nposition = [0.0, 1.2, 2.2]\nintensity = 10.0";
+    assert!(text.contains(point));
+    let path = dir.path().join("on_light.toml");
+    std::fs::write(
+        &path,
+        text.replace(point, "type = \"area\"\nshape = \"floor\"\nradiance = 1.0"),
+    )
+    .unwrap();
+    let scene = Scene::load(&path, &[]).unwrap();
+    assert_eq!(scene.lifted_emitters, ["floor"]);
+    let msg = refusal(&scene, "box_x");
+    assert!(
+        msg.contains("an object resting on an emitter is not supported"),
+        "{msg}"
+    );
+}
