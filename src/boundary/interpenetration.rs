@@ -15,10 +15,10 @@
 //! whole scene and every edge of the others against the moving shapes alone (a second, small
 //! BVH). A hit counts when the edge's ends lie on opposite sides of the hit triangle's plane,
 //! each farther than twice the self-intersection ε there (`TOUCH`), and the hit lies inside
-//! the triangle by more than that: shapes that only touch (a face or an edge resting on a surface, a vertex
-//! on it, a floor's edge running under a pyramid's base edge) are the contact edges' business
-//! and are not crossings. Hits on triangles that share an end point with the edge (its own fan) are
-//! stepped over.
+//! the triangle by more than that: shapes that only touch (a face or an edge resting on a
+//! surface, a vertex on it, a floor's edge running under a pyramid's base edge) are the
+//! contact edges' business and are not crossings. Hits on triangles that share an end point
+//! with the edge (its own fan) are stepped over.
 use super::primary::moving_shapes;
 use crate::accel::{Accel, AccelError, Device};
 use crate::integrator::context::RenderContext;
@@ -95,8 +95,7 @@ pub fn find_crossing(
 }
 
 /// The first triangle (global index) that the edge a→b passes through, with the crossing
-/// point. `faces` maps the accel's primitives to global triangles (`None`: the
-/// same).
+/// point. `faces` maps the accel's primitives to global triangles (`None`: the same).
 fn crossing_along(
     ctx: &RenderContext,
     accel: &Accel,

@@ -29,9 +29,9 @@
 //! before it, or a face other than the edge's own before it at all (a back crease just behind
 //! a silhouette, which a relative margin alone would call seen), unless that face's plane
 //! passes through the edge point itself (within 2ε: the floor under the bottom edge of a box
-//! resting on it, a contact edge). Otherwise two camera rays
-//! through u ∓ ε_∓·n are traced by the ordinary path kernel with common random numbers
-//! (`trace_packet_from`, four samples per packet of eight lanes). ε_∓ is [`SIDE_OFFSET_PX`],
+//! resting on it, a contact edge). Otherwise two camera rays through u ∓ ε_∓·n are traced
+//! by the ordinary path kernel with common random numbers (`trace_packet_from`, four samples
+//! per packet of eight lanes). ε_∓ is [`SIDE_OFFSET_PX`],
 //! shortened to half the width of the edge's own face on that side along n: a face seen
 //! nearly edge-on beside a silhouette projects to a sliver thinner than a fixed offset, and a
 //! side ray past it would take the silhouette's jump for the crease's. Their difference is
