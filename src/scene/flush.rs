@@ -42,6 +42,16 @@ fn corners(geo: &Geometry, t: usize) -> [Vec3; 3] {
     geo.indices[t].map(|i| geo.positions[i as usize])
 }
 
+/// The corners (lowest, highest) of the box around `shape`'s vertices.
+fn bounds(shape: &Shape, geo: &Geometry) -> (Vec3, Vec3) {
+    let verts = shape.first_vertex as usize..(shape.first_vertex + shape.vertex_count) as usize;
+    geo.positions[verts]
+        .iter()
+        .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), &p| {
+            (lo.min(p), hi.max(p))
+        })
+}
+
 /// Orientation of (a, b, c) seen along the plane normal `n` (twice the signed area).
 fn orient(a: Vec3, b: Vec3, c: Vec3, n: Vec3) -> f32 {
     (b - a).cross(c - a).dot(n)
@@ -83,11 +93,7 @@ fn flush_faces(shape: &Shape, geo: &Geometry, scale: f32) -> (Vec<(usize, Vec3, 
         .iter()
         .fold(scale, |m, p| m.max(p.abs().max_element()));
     let delta = lift(m);
-    let (lo, hi) = geo.positions[verts]
-        .iter()
-        .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), &p| {
-            (lo.min(p), hi.max(p))
-        });
+    let (lo, hi) = bounds(shape, geo);
     let (lo, hi) = (lo - delta, hi + delta);
     let mut found = Vec::new();
     for o in 0..geo.indices.len() {
@@ -179,4 +185,78 @@ pub(crate) fn flush_dielectric(
         let (faces, m) = flush_faces(shape, geo, scale);
         faces.first().map(|&(o, _, _)| (i, geo.tri_shape[o] as usize, lift(m)))
     })
+}
+
+/// Candidate triangle pairs beyond which [`flush_surfaces`] gives up on a pair of shapes (two
+/// large meshes overlapping in space): the check is a warning, not worth minutes of loading.
+const MAX_PAIRS: usize = 1 << 24;
+
+/// Pairs of shapes of different materials with faces that lie in one plane, facing the same
+/// way, and overlap (a decal modelled on a floor): which of the two a ray meets there is left
+/// to rounding, so the picture shows a speckled mix of both. Emitters (lifted off such faces
+/// by [`lift_flush_emitters`]) and dielectrics (refused: [`flush_dielectric`]) are not
+/// looked at. Faces that face each other, as a box's bottom on the floor it rests on, are
+/// not a clash: the overlap lies inside the box. Returns (shape, other shape) index pairs,
+/// each once.
+pub(crate) fn flush_surfaces(
+    shapes: &[Shape],
+    geo: &Geometry,
+    materials: &[super::NamedMaterial],
+    scale: f32,
+) -> Vec<(usize, usize)> {
+    let skip = |s: &Shape| {
+        s.emitter.is_some()
+            || matches!(
+                materials[s.material as usize].material,
+                super::Material::Dielectric { .. }
+            )
+    };
+    let tris = |s: &Shape| s.first_tri as usize..(s.first_tri + s.tri_count) as usize;
+    let mut found = Vec::new();
+    for (i, a) in shapes.iter().enumerate() {
+        for (j, b) in shapes.iter().enumerate().skip(i + 1) {
+            if skip(a) || skip(b) || materials[a.material as usize].material == materials[b.material as usize].material
+            {
+                continue;
+            }
+            let ((alo, ahi), (blo, bhi)) = (bounds(a, geo), bounds(b, geo));
+            let m = alo
+                .abs()
+                .max(ahi.abs())
+                .max(blo.abs())
+                .max(bhi.abs())
+                .max_element()
+                .max(scale);
+            let plane = in_plane(m);
+            let (lo, hi) = (alo.max(blo) - plane, ahi.min(bhi) + plane);
+            if lo.cmpgt(hi).any() {
+                continue;
+            }
+            let near = |t: &usize| {
+                let c = corners(geo, *t);
+                let (clo, chi) = (c[0].min(c[1]).min(c[2]), c[0].max(c[1]).max(c[2]));
+                !(clo.cmpgt(hi).any() || chi.cmplt(lo).any())
+            };
+            let (ta, tb): (Vec<usize>, Vec<usize>) = (tris(a).filter(near).collect(), tris(b).filter(near).collect());
+            if ta.len().saturating_mul(tb.len()) > MAX_PAIRS {
+                continue;
+            }
+            let clash = ta.iter().any(|&s| {
+                let sc = corners(geo, s);
+                let n = (sc[1] - sc[0]).cross(sc[2] - sc[0]).normalize_or_zero();
+                n != Vec3::ZERO
+                    && tb.iter().any(|&o| {
+                        let oc = corners(geo, o);
+                        let on = (oc[1] - oc[0]).cross(oc[2] - oc[0]).normalize_or_zero();
+                        n.dot(on) >= COPLANAR_COS
+                            && oc.iter().all(|&p| (p - sc[0]).dot(n).abs() <= plane)
+                            && overlap(sc, oc, n)
+                    })
+            });
+            if clash {
+                found.push((i, j));
+            }
+        }
+    }
+    found
 }
