@@ -89,7 +89,7 @@ fn overlap(e: [Vec3; 3], o: [Vec3; 3], n: Vec3) -> bool {
 fn flush_faces(shape: &Shape, geo: &Geometry, scale: f32) -> (Vec<(usize, Vec3, f32)>, f32) {
     let tris = shape.first_tri as usize..(shape.first_tri + shape.tri_count) as usize;
     let verts = shape.first_vertex as usize..(shape.first_vertex + shape.vertex_count) as usize;
-    let m = geo.positions[verts.clone()]
+    let m = geo.positions[verts]
         .iter()
         .fold(scale, |m, p| m.max(p.abs().max_element()));
     let delta = lift(m);
@@ -212,6 +212,7 @@ pub(crate) fn flush_surfaces(
             )
     };
     let tris = |s: &Shape| s.first_tri as usize..(s.first_tri + s.tri_count) as usize;
+    let boxes: Vec<(Vec3, Vec3)> = shapes.iter().map(|s| bounds(s, geo)).collect();
     let mut found = Vec::new();
     for (i, a) in shapes.iter().enumerate() {
         for (j, b) in shapes.iter().enumerate().skip(i + 1) {
@@ -219,7 +220,7 @@ pub(crate) fn flush_surfaces(
             {
                 continue;
             }
-            let ((alo, ahi), (blo, bhi)) = (bounds(a, geo), bounds(b, geo));
+            let ((alo, ahi), (blo, bhi)) = (boxes[i], boxes[j]);
             let m = alo
                 .abs()
                 .max(ahi.abs())
