@@ -62,3 +62,44 @@ fn completions_cover_the_subcommands_and_options() {
     }
     assert_eq!(common::dtr(&["completions", "nosh"], dir.path()).status.code(), Some(2));
 }
+
+/// `dtr info … | head`: a reader that closes the pipe early is not an error. `info` printed
+/// with `print!`, which panics on a closed pipe ("failed printing to stdout: Broken pipe",
+/// with a backtrace); it now writes as `import` and `completions` do and exits 0.
+#[test]
+fn a_reader_that_stops_early_is_not_an_error() {
+    let dir = tempfile::tempdir().unwrap();
+    // 2000 shapes: far more text than a pipe's buffer holds, so the writes meet the closed end
+    let mut text = String::from(
+        "[camera]\nposition = [0.0, 5.0, 30.0]\nlook_at = [0.0, 0.0, 0.0]\nresolution = [8, 8]\n\
+         [film]\nstart_opl = 0\nbin_width_opl = 1\nbins = 80\n\
+         [[material]]\nname = \"a\"\ntype = \"diffuse\"\nalbedo = 0.5\n",
+    );
+    for k in 0..2000 {
+        text += &format!(
+            "[[shape]]\nname = \"cube{k}\"\ntype = \"cube\"\nmaterial = \"a\"\ntranslate = [{}, 0.3, {}]\nscale = 0.1\n",
+            (k % 50) as f64 * 0.5,
+            (k / 50) as f64 * 0.5
+        );
+    }
+    text += "[[emitter]]\nname = \"l\"\ntype = \"point\"\nposition = [0.0, 5.0, 30.0]\nintensity = 100.0\n";
+    let scene = dir.path().join("many.toml");
+    std::fs::write(&scene, text).unwrap();
+    for json in [false, true] {
+        let mut cmd = std::process::Command::new(env!("CARGO_BIN_EXE_dtr"));
+        cmd.arg("info").arg(&scene);
+        if json {
+            cmd.arg("--json");
+        }
+        let mut child = cmd
+            .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap();
+        drop(child.stdout.take()); // the reader goes away before reading anything
+        let out = child.wait_with_output().unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!err.contains("panicked"), "json {json}: {err}");
+        assert_eq!(out.status.code(), Some(0), "json {json}: {err}");
+    }
+}

@@ -33,16 +33,7 @@ pub fn run(a: ImportArgs) -> anyhow::Result<()> {
     // error names the file the user wrote, not the output that is not written yet.
     let scene = Scene::from_str(&imported.toml, Format::Toml, &a.scene, &[]).map_err(|e| imported.annotate(e))?;
     match &a.output {
-        None => std::io::stdout()
-            .write_all(imported.toml.as_bytes())
-            .or_else(|e| {
-                if e.kind() == std::io::ErrorKind::BrokenPipe {
-                    Ok(())
-                } else {
-                    Err(e)
-                }
-            })
-            .context("writing to standard output")?,
+        None => super::write_stdout(imported.toml.as_bytes()).context("writing to standard output")?,
         Some(out) => {
             if out.extension().and_then(|e| e.to_str()) != Some("toml") {
                 bail!(

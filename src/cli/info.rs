@@ -6,10 +6,10 @@ use std::path::Path;
 pub fn run(path: &Path, json: bool, set: &[String]) -> anyhow::Result<()> {
     let overrides = super::parse_sets(set)?;
     let scene = Scene::load(path, &overrides)?;
-    if json {
-        println!("{}", serde_json::to_string_pretty(&scene.summary())?);
+    let text = if json {
+        serde_json::to_string_pretty(&scene.summary())? + "\n"
     } else {
-        print!("{scene}");
-    }
-    Ok(())
+        scene.to_string()
+    };
+    Ok(super::write_stdout(text.as_bytes())?)
 }

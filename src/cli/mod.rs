@@ -73,15 +73,21 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Import(args) => import_cmd::run(args),
         Command::Completions { shell } => {
             use clap::CommandFactory;
-            use std::io::Write;
             let mut script = Vec::new();
             clap_complete::generate(shell, &mut Cli::command(), "dtr", &mut script);
-            match std::io::stdout().write_all(&script) {
-                // a reader that stops early (`| head`) is not an error
-                Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => Err(e.into()),
-                _ => Ok(()),
-            }
+            Ok(write_stdout(&script)?)
         }
+    }
+}
+
+/// Writes `bytes` to standard output. A reader that stops early (`dtr info … | head`) is not
+/// an error: the rest is dropped and the command still succeeds.
+pub(crate) fn write_stdout(bytes: &[u8]) -> std::io::Result<()> {
+    use std::io::Write;
+    let mut out = std::io::stdout().lock();
+    match out.write_all(bytes).and_then(|()| out.flush()) {
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(()),
+        r => r,
     }
 }
 
