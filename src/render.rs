@@ -540,8 +540,7 @@ fn check_crossings(ctx: &RenderContext, device: &Device, pool: &rayon::ThreadPoo
     };
     let scene = ctx.scene;
     let name = |s: u32| &scene.shapes[s as usize].name;
-    let o = scene.render_origin;
-    let at = [c.at.x + o[0], c.at.y + o[1], c.at.z + o[2]];
+    let at = scene.to_world(c.at);
     let other = if c.edge_shape == c.face_shape {
         "itself".to_string()
     } else {
@@ -558,9 +557,9 @@ fn check_crossings(ctx: &RenderContext, device: &Device, pool: &rayon::ThreadPoo
         "{}: shape {:?} crosses {other}{lifted} (an edge passes through a face at ({:.6}, {:.6}, {:.6})), and a requested parameter moves {:?}: the curve where two surfaces cross is a discontinuity on no mesh edge, which the boundary stage does not sample, so the derivative would miss its boundary term. Move the shapes apart, or let them only touch (a face, edge or vertex resting on a surface is supported), or pass --estimators interior for the interior term alone",
         scene.source.display(),
         name(c.edge_shape),
-        at[0],
-        at[1],
-        at[2],
+        at.x,
+        at.y,
+        at.z,
         name(c.moved),
     )))
 }

@@ -63,8 +63,7 @@ pub fn build_edges(geo: &Geometry) -> Vec<Edge> {
 }
 
 fn face_normal(geo: &Geometry, f: u32) -> glam::Vec3 {
-    let [a, b, c] = geo.indices[f as usize].map(|i| geo.positions[i as usize]);
-    (b - a).cross(c - a).normalize_or_zero()
+    crate::scene::triangle_normal(geo.indices[f as usize].map(|i| geo.positions[i as usize]))
 }
 
 /// Two faces in one plane, facing the same way: the edge is invisible to visibility.

@@ -37,7 +37,7 @@ pub fn trace(ctx: &RenderContext, o: Vec3, d: Vec3, counts: &mut RayCounts) -> O
         } else {
             p.as_dvec3()
         },
-        n: (p1 - p0).cross(p2 - p0).normalize_or_zero(),
+        n: ctx.face_normal(h.prim),
         prim: h.prim,
         t: h.t,
     })

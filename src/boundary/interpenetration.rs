@@ -115,7 +115,7 @@ fn crossing_along(
         let tri = ctx.tri_verts[face];
         if !tri.contains(&a) && !tri.contains(&b) {
             let [p0, p1, p2] = tri.map(|p| p.as_dvec3());
-            let n = (p1 - p0).cross(p2 - p0).normalize_or_zero();
+            let n = ctx.face_normal64(face as u32);
             let (da, db) = (n.dot(a.as_dvec3() - p0), n.dot(b.as_dvec3() - p0));
             let at = a + dir * hit.t;
             let tol = TOUCH * self_intersection_eps(&V3::<f32>::splat(at), ctx.scene.offset_scale) as f64;

@@ -435,9 +435,8 @@ impl Estimator<'_> {
             // rounding, and at a grazing view farther than 2ε along the ray; it hides nothing
             // (each side ray sees what is there), so it never skips the point.
             let eps = self_intersection_eps(&V3::<f32>::splat(x), self.ctx.scene.offset_scale) as f64;
-            let [p0, p1, p2] = self.ctx.tri_verts[hit.prim as usize].map(|p| p.as_dvec3());
-            let normal = (p1 - p0).cross(p2 - p0).normalize_or_zero();
-            let supports = normal.dot(e.world - p0).abs() <= 2.0 * eps;
+            let p0 = self.ctx.tri_verts[hit.prim as usize][0].as_dvec3();
+            let supports = self.ctx.face_normal64(hit.prim).dot(e.world - p0).abs() <= 2.0 * eps;
             // Hidden: a surface clearly in front, or another face than the edge's own in front
             // of it within the margin (a back crease just behind a silhouette: its side rays
             // would straddle that silhouette and count its jump a second time).

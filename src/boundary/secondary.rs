@@ -237,11 +237,10 @@ impl<'a> Secondary<'a> {
             laser_spots: (0..ctx.scene.emitters.len())
                 .map(|e| {
                     let spot = ctx.emitters.laser_spot(e)?;
-                    let [p0, p1, p2] = ctx.tri_verts[spot.prim as usize];
                     Some(SourceMotion::Ray {
                         shape: ctx.scene.geometry.tri_shape[spot.prim as usize] as usize,
                         dir: spot.direction,
-                        n: (p1 - p0).cross(p2 - p0).normalize_or_zero(),
+                        n: ctx.face_normal(spot.prim),
                     })
                 })
                 .collect(),

@@ -123,6 +123,19 @@ impl<'a> RenderContext<'a> {
         })
     }
 
+    /// Unit geometric normal of triangle `prim` (the winding's front side; zero for a
+    /// degenerate triangle).
+    pub fn face_normal(&self, prim: u32) -> glam::Vec3 {
+        crate::scene::triangle_normal(self.tri_verts[prim as usize])
+    }
+
+    /// [`Self::face_normal`] computed in f64 from the f32 vertices, for tests against
+    /// distances of a few ε.
+    pub fn face_normal64(&self, prim: u32) -> glam::DVec3 {
+        let [p0, p1, p2] = self.tri_verts[prim as usize].map(|p| p.as_dvec3());
+        (p1 - p0).cross(p2 - p0).normalize_or_zero()
+    }
+
     /// Draws the path tracer's time term on the time edges where they apply to this
     /// render's parameters ([`Self::motion`], set first) and emitters.
     pub fn use_time_edges(&mut self) {

@@ -59,8 +59,7 @@ pub fn medium_around(ctx: &RenderContext, p: Vec3, dir: Vec3, counts: &mut RayCo
         let Some(h) = ctx.accel.intersect1(p.to_array(), dir.to_array(), tnear, f32::INFINITY) else {
             break;
         };
-        let [p0, p1, p2] = ctx.tri_verts[h.prim as usize];
-        let n = (p1 - p0).cross(p2 - p0).normalize_or_zero();
+        let n = ctx.face_normal(h.prim);
         // the side `p` is on: the one the ray arrives from
         if let Some(eta) = side_eta(ctx, h.prim, n, -dir) {
             return eta;

@@ -193,16 +193,14 @@ fn order(g: &WallGrid, grids: bool) -> Vec<usize> {
 }
 
 /// Grid positions and normals in y-tal's order ((X, Y, 3) or (N, 3)), file coordinates.
-fn grid_arrays(g: &WallGrid, grids: bool, origin: [f64; 3]) -> (Vec<usize>, Vec<f32>, Vec<f32>) {
+fn grid_arrays(g: &WallGrid, grids: bool, scene: &Scene) -> (Vec<usize>, Vec<f32>, Vec<f32>) {
     let order = order(g, grids);
     let mut xyz = Vec::with_capacity(order.len() * 3);
     let mut nrm = Vec::with_capacity(order.len() * 3);
     for &i in &order {
         let p = g.points[i];
-        for a in 0..3 {
-            xyz.push((p.p[a] as f64 + origin[a]) as f32);
-            nrm.push(p.n[a]);
-        }
+        xyz.extend(scene.to_world(p.p.as_dvec3()).as_vec3().to_array());
+        nrm.extend(p.n.to_array());
     }
     let shape = if grids { vec![g.nx, g.ny, 3] } else { vec![g.len(), 3] };
     (shape, xyz, nrm)
@@ -260,15 +258,14 @@ fn write<M: Fn(usize, f32) -> f32 + Sync>(
     let int = |name: &str, v: i32| -> hdf5::Result<()> { f.new_dataset::<i32>().create(name)?.write_scalar(&v) };
     let float = |name: &str, v: f64| -> hdf5::Result<()> { f.new_dataset::<f64>().create(name)?.write_scalar(&v) };
     int("H_format", format)?;
-    let origin = scene.render_origin;
-    let world = |p: glam::Vec3| -> [f32; 3] { std::array::from_fn(|a| (p[a] as f64 + origin[a]) as f32) };
+    let world = |p: glam::Vec3| -> [f32; 3] { scene.to_world(p.as_dvec3()).as_vec3().to_array() };
     array("sensor_xyz", &[3], &world(scene.camera.position))?;
     let crate::scene::EmitterKind::Laser { position, .. } = scene.emitters[spec.laser as usize].kind else {
         unreachable!("scene::nlos checks that the scan's emitter is a laser")
     };
     array("laser_xyz", &[3], &world(position))?;
     for (name, g) in [("sensor", &spec.sensors), ("laser", &spec.lasers)] {
-        let (gs, xyz, nrm) = grid_arrays(g, grids, origin);
+        let (gs, xyz, nrm) = grid_arrays(g, grids, scene);
         array(&format!("{name}_grid_xyz"), &gs, &xyz)?;
         array(&format!("{name}_grid_normals"), &gs, &nrm)?;
         int(&format!("{name}_grid_format"), if grids { 2 } else { 1 })?;

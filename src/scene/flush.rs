@@ -19,7 +19,7 @@
 //! offset) is one it lies flush on. A surface in front of it, however close, covers it: the
 //! emitter is never moved through it, nor past half the gap to it.
 
-use super::{Geometry, Shape};
+use super::{Geometry, Shape, triangle_normal};
 use glam::Vec3;
 
 /// Unit normals this close (cosine) count as parallel.
@@ -105,10 +105,10 @@ fn flush_faces(shape: &Shape, geo: &Geometry, scale: f32) -> (Vec<(usize, Vec3, 
         if olo.cmpgt(hi).any() || ohi.cmplt(lo).any() {
             continue;
         }
-        let on = (oc[1] - oc[0]).cross(oc[2] - oc[0]).normalize_or_zero();
+        let on = triangle_normal(oc);
         for t in tris.clone() {
             let ec = corners(geo, t);
-            let n = (ec[1] - ec[0]).cross(ec[2] - ec[0]).normalize_or_zero();
+            let n = triangle_normal(ec);
             if n == Vec3::ZERO || on == Vec3::ZERO || n.dot(on).abs() < COPLANAR_COS {
                 continue;
             }
@@ -244,12 +244,11 @@ pub(crate) fn flush_surfaces(
             }
             let clash = ta.iter().any(|&s| {
                 let sc = corners(geo, s);
-                let n = (sc[1] - sc[0]).cross(sc[2] - sc[0]).normalize_or_zero();
+                let n = triangle_normal(sc);
                 n != Vec3::ZERO
                     && tb.iter().any(|&o| {
                         let oc = corners(geo, o);
-                        let on = (oc[1] - oc[0]).cross(oc[2] - oc[0]).normalize_or_zero();
-                        n.dot(on) >= COPLANAR_COS
+                        n.dot(triangle_normal(oc)) >= COPLANAR_COS
                             && oc.iter().all(|&p| (p - sc[0]).dot(n).abs() <= plane)
                             && overlap(sc, oc, n)
                     })

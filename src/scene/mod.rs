@@ -340,7 +340,18 @@ pub struct Scene {
     pub(crate) described: std::sync::Arc<described::Described>,
 }
 
+/// Unit geometric normal of the triangle with corners `c` (the winding's front side; zero
+/// for a degenerate triangle).
+pub fn triangle_normal(c: [Vec3; 3]) -> Vec3 {
+    (c[1] - c[0]).cross(c[2] - c[0]).normalize_or_zero()
+}
+
 impl Scene {
+    /// World coordinates of a position stored relative to [`Scene::render_origin`].
+    pub fn to_world(&self, p: glam::DVec3) -> glam::DVec3 {
+        p + glam::DVec3::from_array(self.render_origin)
+    }
+
     /// Refractive index outside dielectric material `m`: the interior of its `exterior`
     /// material, or the scene's medium (also for a material that is not a dielectric).
     pub fn exterior_eta(&self, m: u32) -> f32 {
