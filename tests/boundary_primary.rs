@@ -24,6 +24,24 @@ use difftransient::params::lanes::Motion;
 use difftransient::render::thread_pool;
 use difftransient::{BoundaryMode, RenderOptions, Scene, Transient, render, render_diff};
 
+/// The usual settings: 12 seeds, 16 spp for the interior, 256 for the finite differences,
+/// 8 boundary samples per pixel, Richardson's reference at the tangent.
+impl Case {
+    fn tangent(scene: &'static str, param: &'static str, value: f32, h: f32) -> Self {
+        Case {
+            scene,
+            param,
+            value,
+            h,
+            seeds: 12,
+            spp: 16,
+            spp_fd: 256,
+            spp_boundary: 8,
+            reference: Reference::Tangent,
+        }
+    }
+}
+
 struct Case {
     scene: &'static str,
     param: &'static str,
@@ -243,62 +261,22 @@ fn check(case: &Case) {
 
 #[test]
 fn sliding_cube_silhouette_matches_finite_differences() {
-    check(&Case {
-        scene: "silhouette_slide.toml",
-        param: "cube_x",
-        value: 0.1,
-        h: 0.01,
-        seeds: 12,
-        spp: 16,
-        spp_fd: 256,
-        spp_boundary: 8,
-        reference: Reference::Tangent,
-    });
+    check(&Case::tangent("silhouette_slide.toml", "cube_x", 0.1, 0.01));
 }
 
 #[test]
 fn approaching_plate_matches_finite_differences() {
-    check(&Case {
-        scene: "plate_approach.toml",
-        param: "plate_z",
-        value: 0.0,
-        h: 0.01,
-        seeds: 12,
-        spp: 16,
-        spp_fd: 256,
-        spp_boundary: 8,
-        reference: Reference::Tangent,
-    });
+    check(&Case::tangent("plate_approach.toml", "plate_z", 0.0, 0.01));
 }
 
 #[test]
 fn turning_obj_pyramid_matches_finite_differences() {
-    check(&Case {
-        scene: "pyramid_turn.toml",
-        param: "pyramid_yaw",
-        value: 30.0,
-        h: 1.0,
-        seeds: 12,
-        spp: 16,
-        spp_fd: 256,
-        spp_boundary: 8,
-        reference: Reference::Tangent,
-    });
+    check(&Case::tangent("pyramid_turn.toml", "pyramid_yaw", 30.0, 1.0));
 }
 
 #[test]
 fn stretching_obj_pyramid_matches_finite_differences() {
-    check(&Case {
-        scene: "pyramid_turn.toml",
-        param: "pyramid_height",
-        value: 0.5,
-        h: 0.01,
-        seeds: 12,
-        spp: 16,
-        spp_fd: 256,
-        spp_boundary: 8,
-        reference: Reference::Tangent,
-    });
+    check(&Case::tangent("pyramid_turn.toml", "pyramid_height", 0.5, 0.01));
 }
 
 /// Same seed, same bytes, for 1 and 2 threads (chunks merged in a fixed order); another seed
@@ -325,17 +303,7 @@ fn primary_term_is_deterministic_and_per_parameter() {
 /// Creases seen from inside a closed mesh (back-facing edges that are not hidden).
 #[test]
 fn room_corner_creases_match_finite_differences() {
-    check(&Case {
-        scene: "room_corner.toml",
-        param: "room_x",
-        value: 0.0,
-        h: 0.01,
-        seeds: 12,
-        spp: 16,
-        spp_fd: 256,
-        spp_boundary: 8,
-        reference: Reference::Tangent,
-    });
+    check(&Case::tangent("room_corner.toml", "room_x", 0.0, 0.01));
 }
 
 /// Edges crossing the camera's plane are clipped at the near plane and to the film.
@@ -371,17 +339,7 @@ fn panel_crossing_the_camera_plane_matches_finite_differences() {
 /// silhouette's jump again at such creases (1.2–1.8× the finite difference in some pixels).
 #[test]
 fn sliding_ball_silhouette_matches_finite_differences() {
-    check(&Case {
-        scene: "ball_slide.toml",
-        param: "ball_x",
-        value: 0.1,
-        h: 0.01,
-        seeds: 12,
-        spp: 16,
-        spp_fd: 256,
-        spp_boundary: 8,
-        reference: Reference::Tangent,
-    });
+    check(&Case::tangent("ball_slide.toml", "ball_x", 0.1, 0.01));
 }
 
 /// The pose demo's plate (scenes/pose_plate.toml) sliding and turning in its plane: the
@@ -393,17 +351,7 @@ fn sliding_ball_silhouette_matches_finite_differences() {
 #[test]
 fn the_pose_plate_matches_finite_differences() {
     for (param, value, h) in [("plate_x", 0.1, 0.02), ("plate_roll", 20.0, 1.0)] {
-        check(&Case {
-            scene: "pose_plate.toml",
-            param,
-            value,
-            h,
-            seeds: 12,
-            spp: 16,
-            spp_fd: 256,
-            spp_boundary: 8,
-            reference: Reference::Tangent,
-        });
+        check(&Case::tangent("pose_plate.toml", param, value, h));
     }
 }
 
@@ -438,16 +386,6 @@ fn a_box_sunk_less_than_the_contact_tolerance_matches_finite_differences() {
 
 fn resting_box_check(scene: &'static str) {
     for (param, value, h) in [("box_x", 0.1, 0.01), ("box_yaw", 30.0, 1.0)] {
-        check(&Case {
-            scene,
-            param,
-            value,
-            h,
-            seeds: 12,
-            spp: 16,
-            spp_fd: 256,
-            spp_boundary: 8,
-            reference: Reference::Tangent,
-        });
+        check(&Case::tangent(scene, param, value, h));
     }
 }
