@@ -77,9 +77,35 @@ pub(super) fn index_names<'a>(
                 format!("duplicate name: {section}[{j}] is already called {n:?}; names must be unique"),
             ));
         }
+        if section == "param"
+            && let Some(why) = param_name_problem(n)
+        {
+            return Err(ctx.invalid(item_field(section, i, n, "name"), why));
+        }
         out.push(n.clone());
     }
     Ok(out)
+}
+
+/// Why `name` cannot name a parameter, if it cannot. A parameter's name becomes part of file
+/// names (`PREFIX.d_NAME.npy`, `.png`, the optimiser's columns) and is written on the command
+/// line as `--diff NAME,…` and `--set NAME=VALUE`, so it is limited to letters, digits, `_`,
+/// `-` and `.`, and may not start with `-` or `.`.
+fn param_name_problem(name: &str) -> Option<String> {
+    let allowed = |c: char| c.is_alphanumeric() || matches!(c, '_' | '-' | '.');
+    if let Some(c) = name.chars().find(|&c| !allowed(c)) {
+        return Some(format!(
+            "{c:?} cannot appear in a parameter's name: it becomes part of output file names \
+             (PREFIX.d_NAME.npy) and of --diff NAME,… and --set NAME=VALUE; use letters, digits, \
+             '_', '-' and '.'"
+        ));
+    }
+    if name.starts_with(['-', '.']) {
+        return Some(
+            "a parameter's name may not start with '-' or '.' (it would read as an option or a hidden file)".into(),
+        );
+    }
+    None
 }
 
 pub(super) fn count(ctx: &Ctx, at: String, v: i64, min: i64, max: i64) -> Result<i64, SceneError> {
@@ -169,6 +195,19 @@ mod tests {
             &[],
             &["param[1] \"p\": field 'name'", "duplicate name"],
         );
+        for bad in ["a/b", "a,b", "a=b", "a b", "..", "-x", ".x", "a\\\\b"] {
+            let text = format!("{MINI}\n[[param]]\nname = \"{bad}\"\nkind = \"eta\"\nvalue = 1\n");
+            expect_err(
+                "badname.toml",
+                &text,
+                &[],
+                &["badname.toml", "param[0]", "field 'name'", "parameter's name"],
+            );
+        }
+        for good in ["occluder_x", "box.yaw", "θ-1"] {
+            let text = format!("{MINI}\n[[param]]\nname = \"{good}\"\nkind = \"eta\"\nvalue = 1\n");
+            assert!(load_text("good.toml", &text, &[], &[]).is_ok(), "{good}");
+        }
         let text = mini_with("name = \"quad\"", "name = \"\"");
         expect_err(
             "empty.toml",
