@@ -389,3 +389,83 @@ fn resting_box_check(scene: &'static str) {
         check(&Case::tangent(scene, param, value, h));
     }
 }
+
+/// A unit cube [−1, 1]³ as OBJ text: the cube of `scenes/meshes` style with its front face
+/// (z = 1) fanned from a vertex on its bottom edge that the bottom face does not share (a
+/// T-junction) when `t_junction`, and every triangle given its own three vertices (a triangle
+/// soup, as an STL file or an OBJ with per-face normals reads) when `soup`.
+fn cube_obj(t_junction: bool, soup: bool) -> String {
+    let mut v = vec![
+        [-1.0, -1.0, -1.0],
+        [1.0, -1.0, -1.0],
+        [1.0, 1.0, -1.0],
+        [-1.0, 1.0, -1.0],
+        [-1.0, -1.0, 1.0],
+        [1.0, -1.0, 1.0],
+        [1.0, 1.0, 1.0],
+        [-1.0, 1.0, 1.0],
+    ];
+    let mut f: Vec<[usize; 3]> = vec![
+        [1, 4, 3],
+        [1, 3, 2],
+        [1, 5, 8],
+        [1, 8, 4],
+        [2, 3, 7],
+        [2, 7, 6],
+        [1, 2, 6],
+        [1, 6, 5],
+        [4, 8, 7],
+        [4, 7, 3],
+    ];
+    if t_junction {
+        v.push([0.2, -1.0, 1.0]);
+        f.extend([[5, 9, 8], [9, 7, 8], [9, 6, 7]]);
+    } else {
+        f.extend([[5, 6, 7], [5, 7, 8]]);
+    }
+    let (v, f): (Vec<[f64; 3]>, Vec<[usize; 3]>) = if soup {
+        let loose = f.iter().flat_map(|t| t.map(|i| v[i - 1])).collect();
+        (loose, (0..f.len()).map(|k| [3 * k + 1, 3 * k + 2, 3 * k + 3]).collect())
+    } else {
+        (v, f)
+    };
+    let mut text = String::new();
+    for p in v {
+        text += &format!("v {} {} {}\n", p[0], p[1], p[2]);
+    }
+    for t in f {
+        text += &format!("f {} {} {}\n", t[0], t[1], t[2]);
+    }
+    text
+}
+
+/// A cube turned about all three axes in front of a wall (scenes/pyramid_turn.toml with the
+/// pyramid replaced), loaded from an OBJ whose front face has a T-junction, and from the same
+/// cube as a triangle soup. Each bottom-front or crease edge was listed once per side as two
+/// open edges, each taken for a silhouette, so its term was counted twice: `pyramid_yaw` Σz² =
+/// 894 for the T-junction and 37666 for the soup before `boundary/seams.rs` (the interior alone:
+/// 39109), against a bound of 183; 29.4 and 29.5 after (2026-11-29).
+#[test]
+fn an_unwelded_mesh_and_a_t_junction_match_finite_differences() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(common::scene_path("pyramid_turn.toml")).unwrap();
+    for (name, t_junction, soup) in [("t_junction", true, false), ("soup", false, true)] {
+        let obj = dir.path().join(format!("{name}.obj"));
+        std::fs::write(&obj, cube_obj(t_junction, soup)).unwrap();
+        let scene = text
+            .replace(
+                "file = \"meshes/pyramid.obj\"",
+                &format!("file = {:?}", obj.to_string_lossy()),
+            )
+            .replace("translate = [0.0, 0.0, 0.0]", "translate = [0.0, 0.3, 0.0]")
+            .replace("rotate = [0.0, 30.0, 0.0]", "rotate = [25.0, 30.0, 15.0]")
+            .replace("scale = 0.5", "scale = [0.3, 0.3, 0.3]")
+            .replace("axis = \"y\"\nvalue = 0.5", "axis = \"y\"\nvalue = 0.3");
+        assert!(scene.contains("translate = [0.0, 0.3, 0.0]") && scene.contains("value = 0.3"));
+        assert!(scene.contains("[25.0, 30.0, 15.0]") && scene.contains(&format!("{name}.obj")));
+        let path = dir.path().join(format!("{name}.toml"));
+        std::fs::write(&path, scene).unwrap();
+        let path: &'static str = Box::leak(path.to_string_lossy().into_owned().into_boxed_str());
+        check(&Case::tangent(path, "pyramid_yaw", 30.0, 1.0));
+    }
+}

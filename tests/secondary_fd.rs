@@ -517,3 +517,46 @@ fn the_boundary_stage_refuses_smooth_dielectrics() {
     scene.materials[white].material = glass(0.3);
     assert!(render_diff(&scene, &p, &opts(0, 1, BoundaryMode::Full)).is_ok());
 }
+
+/// The pyramid of scenes/shadow_hidden_pyramid.toml read as a triangle soup (each face with its
+/// own vertices, as an STL file or an OBJ with per-face normals reads): each of its edges was
+/// two open edges, each sampled as a silhouette, so its shadow's boundary term came out twice
+/// (before `boundary/seams.rs`: Σz² 3118 against a bound of 66; 13.8 after, 2026-11-29).
+#[test]
+fn a_pyramid_read_as_a_triangle_soup_matches_finite_differences() {
+    let dir = tempfile::tempdir().unwrap();
+    let obj = std::fs::read_to_string(common::scene_path("meshes/pyramid.obj")).unwrap();
+    let verts: Vec<&str> = obj.lines().filter(|l| l.starts_with("v ")).collect();
+    let (mut vs, mut fs) = (String::new(), String::new());
+    let mut n = 0;
+    for face in obj.lines().filter(|l| l.starts_with("f ")) {
+        let idx: Vec<usize> = face
+            .split_whitespace()
+            .skip(1)
+            .map(|w| w.split('/').next().unwrap().parse().unwrap())
+            .collect();
+        for &i in &idx {
+            vs += verts[i - 1];
+            vs += "\n";
+        }
+        fs += &format!(
+            "f {}\n",
+            (n + 1..=n + idx.len())
+                .map(|k| k.to_string())
+                .collect::<Vec<_>>()
+                .join(" ")
+        );
+        n += idx.len();
+    }
+    let soup = dir.path().join("pyramid_soup.obj");
+    std::fs::write(&soup, vs + &fs).unwrap();
+    let text = std::fs::read_to_string(common::scene_path("shadow_hidden_pyramid.toml")).unwrap();
+    let changed = text.replace(
+        "file = \"meshes/pyramid.obj\"",
+        &format!("file = {:?}", soup.to_string_lossy()),
+    );
+    assert_ne!(changed, text);
+    let path = dir.path().join("shadow_hidden_soup.toml");
+    std::fs::write(&path, changed).unwrap();
+    check(&path.to_string_lossy(), "pyramid", "pyramid_yaw", 30.0, 1.0);
+}

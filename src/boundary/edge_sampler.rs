@@ -78,17 +78,21 @@ fn cdf_of(weights: &[f64]) -> Vec<f32> {
 
 impl EdgeSampler {
     /// Builds the edge table of the scene's world-space geometry, every edge weighted alike.
-    pub fn new(geo: &Geometry) -> Self {
-        Self::with_edge_factors(geo, |edges| vec![1.0; edges.len()])
+    pub fn new(geo: &Geometry, offset_scale: f32) -> Self {
+        Self::with_edge_factors(geo, offset_scale, |edges| vec![1.0; edges.len()])
     }
 
     /// Builds the edge table with each edge's weight multiplied by its entry of
     /// `factors(edges)` (given every edge's record; a factor > 0 keeps the edge reachable, so any
     /// such factors leave the estimator unbiased).
-    pub fn with_edge_factors(geo: &Geometry, factors: impl FnOnce(&[EdgeRecord]) -> Vec<f32>) -> Self {
+    pub fn with_edge_factors(
+        geo: &Geometry,
+        offset_scale: f32,
+        factors: impl FnOnce(&[EdgeRecord]) -> Vec<f32>,
+    ) -> Self {
         let mut edges = Vec::new();
         let mut weights = Vec::new();
-        for e in build_edges(geo) {
+        for e in build_edges(geo, offset_scale) {
             let v0 = geo.positions[e.v0 as usize];
             let v1 = geo.positions[e.v1 as usize];
             let dir = v1 - v0;
@@ -245,7 +249,7 @@ mod tests {
     /// passes the geometric test of Eq. 32 (both faces on one side of the plane of edge and ω).
     #[test]
     fn sampled_directions_are_silhouettes() {
-        let s = EdgeSampler::new(&geometry(shapes::cube()));
+        let s = EdgeSampler::new(&geometry(shapes::cube()), 0.0);
         assert_eq!(s.edges.len(), 12);
         for r in s.edges.iter() {
             assert!((r.psi - PI / 2.0).abs() < 1e-5, "psi {}", r.psi);
@@ -277,7 +281,7 @@ mod tests {
         m.positions.push(Vec3::new(0.2, 0.3, 0.9));
         let n = m.positions.len() as u32 - 1;
         m.tris.push([0, 1, n]);
-        let s = EdgeSampler::new(&geometry(m));
+        let s = EdgeSampler::new(&geometry(m), 0.0);
         assert!(s.edges.iter().any(|r| r.psi > 0.1), "needs a sharp edge");
         let (nz, ng) = (4usize, 16usize);
         let cells = s.edges.len() * ng * nz;

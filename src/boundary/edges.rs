@@ -5,6 +5,7 @@
 //! Edges whose two faces are coplanar (and consistently oriented) are dropped: they cannot be
 //! silhouettes (supplemental Eq. 32), so they carry no boundary term.
 
+use super::seams::{OpenEdge, join_collinear, weld};
 use crate::scene::Geometry;
 use std::collections::HashMap;
 
@@ -31,13 +32,23 @@ impl Edge {
 pub const COPLANAR_COS: f32 = 1.0 - 1e-6;
 
 /// Builds the edges of all triangles. Edges shared by more than two faces (non-manifold) are
-/// kept as boundary edges of each extra face, so none is lost.
-pub fn build_edges(geo: &Geometry) -> Vec<Edge> {
+/// kept as boundary edges of each extra face, so none is lost. Unwelded vertices and
+/// T-junctions are seams, not edges (`seams.rs`); `offset_scale` is the scene's
+/// (`Scene::offset_scale`), which sets the tolerance of a T-junction.
+pub fn build_edges(geo: &Geometry, offset_scale: f32) -> Vec<Edge> {
+    let canon = weld(geo);
     let mut map: HashMap<(u32, u32), usize> = HashMap::new();
     let mut edges: Vec<Edge> = Vec::new();
     for (f, tri) in geo.indices.iter().enumerate() {
         for k in 0..3 {
-            let (a, b, o) = (tri[k], tri[(k + 1) % 3], tri[(k + 2) % 3]);
+            let (a, b, o) = (
+                canon[tri[k] as usize],
+                canon[tri[(k + 1) % 3] as usize],
+                tri[(k + 2) % 3],
+            );
+            if a == b {
+                continue;
+            }
             let key = (a.min(b), a.max(b));
             match map.get(&key) {
                 Some(&i) if edges[i].face1.is_none() => {
@@ -58,8 +69,61 @@ pub fn build_edges(geo: &Geometry) -> Vec<Edge> {
             }
         }
     }
+    let mut edges = join_seams(geo, edges, offset_scale);
     edges.retain(|e| !is_coplanar(geo, e));
     edges
+}
+
+/// `edges` with the open edges that `seams::join_collinear` cuts replaced, where each stood,
+/// by their pieces (each piece once; one with more than two faces as a pair and then open
+/// edges, as for any non-manifold edge). Everything else is kept in order.
+fn join_seams(geo: &Geometry, edges: Vec<Edge>, offset_scale: f32) -> Vec<Edge> {
+    let open_at: Vec<usize> = (0..edges.len()).filter(|&i| edges[i].is_boundary()).collect();
+    let open: Vec<OpenEdge> = open_at
+        .iter()
+        .map(|&i| OpenEdge {
+            v0: edges[i].v0,
+            v1: edges[i].v1,
+            face: edges[i].face0,
+            opposite: edges[i].opposite0,
+        })
+        .collect();
+    let joins = join_collinear(geo, &open, offset_scale);
+    if joins.pieces.iter().all(Vec::is_empty) {
+        return edges;
+    }
+    let mut pieces_of: HashMap<usize, &[(u32, u32)]> = HashMap::new();
+    for (k, &i) in open_at.iter().enumerate() {
+        pieces_of.insert(i, &joins.pieces[k]);
+    }
+    let mut emitted = std::collections::HashSet::new();
+    let mut out = Vec::with_capacity(edges.len());
+    for (i, e) in edges.iter().enumerate() {
+        let pieces = pieces_of.get(&i).copied().unwrap_or(&[]);
+        if pieces.is_empty() {
+            out.push(*e);
+            continue;
+        }
+        for &key in pieces {
+            if !emitted.insert(key) {
+                continue;
+            }
+            let faces = &joins.faces[&key];
+            let edge = |f: &[(u32, u32)]| Edge {
+                v0: key.0,
+                v1: key.1,
+                face0: f[0].0,
+                opposite0: f[0].1,
+                face1: f.get(1).map(|x| x.0),
+                opposite1: f.get(1).map(|x| x.1),
+            };
+            out.push(edge(&faces[..faces.len().min(2)]));
+            for extra in faces.iter().skip(2) {
+                out.push(edge(std::slice::from_ref(extra)));
+            }
+        }
+    }
+    out
 }
 
 fn face_normal(geo: &Geometry, f: u32) -> glam::Vec3 {
@@ -91,14 +155,14 @@ pub(crate) mod tests {
 
     #[test]
     fn cube_keeps_its_twelve_sharp_edges() {
-        let edges = build_edges(&geometry(shapes::cube()));
+        let edges = build_edges(&geometry(shapes::cube()), 0.0);
         assert_eq!(edges.len(), 12, "6 face diagonals are coplanar and dropped");
         assert!(edges.iter().all(|e| !e.is_boundary()));
     }
 
     #[test]
     fn rectangle_has_four_boundary_edges() {
-        let edges = build_edges(&geometry(shapes::rectangle()));
+        let edges = build_edges(&geometry(shapes::rectangle()), 0.0);
         assert_eq!(edges.len(), 4);
         assert!(edges.iter().all(Edge::is_boundary));
     }
@@ -107,7 +171,7 @@ pub(crate) mod tests {
     fn sphere_keeps_every_edge() {
         let m = shapes::icosphere(2);
         let tris = m.tris.len();
-        let edges = build_edges(&geometry(m));
+        let edges = build_edges(&geometry(m), 0.0);
         assert_eq!(edges.len(), tris * 3 / 2, "closed mesh: E = 3F/2, none coplanar");
         for e in &edges {
             let f1 = e.face1.unwrap() as usize;

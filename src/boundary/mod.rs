@@ -3,7 +3,8 @@
 //!
 //! - [`contact`]: the ends x_L, x_S of a boundary segment; contact edges (an object resting on
 //!   a surface) counted once, by the product rule.
-//! - [`edges`]: edge topology, built once (boundary and sharp edges, coplanar ones dropped).
+//! - [`edges`]: edge topology, built once (boundary and sharp edges, coplanar ones dropped);
+//!   [`seams`]: unwelded vertices and T-junctions joined, so that no edge is listed twice.
 //! - [`edge_sampler`]: boundary rays (x_B, ω_B) on silhouette directions, by edge importance.
 //! - [`guiding`]: a grid over the sampler's inputs fitted by a pilot pass.
 //! - [`velocity`]: how fast a discontinuity sweeps over a path vertex (V_∂Ω).
@@ -28,6 +29,7 @@ pub mod hit;
 pub mod interpenetration;
 pub mod pass;
 pub mod primary;
+pub mod seams;
 pub mod secondary;
 pub mod silhouette;
 #[cfg(test)]

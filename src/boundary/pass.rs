@@ -633,7 +633,7 @@ mod refit_tests {
     fn shapes_are_drawn_by_root_second_moment_per_ray() {
         let (scene, occluder) = crate::boundary::shadow_scene("occluder");
         let occluder = occluder as usize;
-        let table = EdgeSampler::new(&scene.geometry);
+        let table = EdgeSampler::new(&scene.geometry, scene.offset_scale);
         let shapes = scene.shapes.len();
         let floor = scene.shapes.iter().position(|s| s.name == "floor").unwrap();
         let prior: Vec<f64> = (0..shapes).map(|s| shape_pmf(&table, s)).collect();

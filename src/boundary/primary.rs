@@ -207,7 +207,7 @@ fn for_each_wave<T: Send>(
         return stats;
     }
     let moving = moving_shapes(ctx);
-    let edges = build_edges(&scene.geometry);
+    let edges = build_edges(&scene.geometry, scene.offset_scale);
     let pin = Pinhole::new(&scene.camera, scene.film.width, scene.film.height);
     let margin = ctx.camera.filter().radius() as f64;
     let set = SilhouetteSet::build(&scene.geometry, &edges, &pin, margin, |s| moving[s as usize]);

@@ -110,7 +110,7 @@ fn edge_sampler(ctx: &RenderContext) -> EdgeSampler {
             })
             .fold(0.0, f32::max)
     };
-    EdgeSampler::with_edge_factors(geo, |edges| {
+    EdgeSampler::with_edge_factors(geo, ctx.scene.offset_scale, |edges| {
         let speeds: Vec<Vec<f32>> = edges
             .iter()
             .map(|r| (0..params).map(|k| cross_speed(k, r.shape, r.v0, r.v1)).collect())
@@ -711,7 +711,7 @@ mod edge_weight_tests {
         let mut ctx = RenderContext::new(&scene, &device).unwrap();
         ctx.motion = Motion::build(&scene, &["occluder_x".to_string()]).unwrap();
         let table = edge_sampler(&ctx);
-        let static_table = EdgeSampler::new(&scene.geometry);
+        let static_table = EdgeSampler::new(&scene.geometry, scene.offset_scale);
         assert_eq!(table.edges.len(), static_table.edges.len());
         // per-metre weight of each edge relative to the unweighted table
         let per_metre = |t: &EdgeSampler, i: usize| {
@@ -747,7 +747,7 @@ mod shadow_alignment_tests {
     #[test]
     fn the_rotation_removes_the_light_points_part_of_the_shadow_position() {
         let (scene, occluder) = crate::boundary::shadow_scene("occluder");
-        let table = EdgeSampler::new(&scene.geometry);
+        let table = EdgeSampler::new(&scene.geometry, scene.offset_scale);
         let mut checked = 0;
         for rec in table.edges.iter().filter(|r| r.shape == occluder) {
             let d = (rec.v1 - rec.v0).normalize();

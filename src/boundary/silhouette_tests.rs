@@ -38,7 +38,7 @@ fn counts(geo: &Geometry, edges: &[Edge], eye: DVec3) -> [usize; 5] {
 #[test]
 fn cube_silhouettes_from_several_viewpoints() {
     let geo = cube();
-    let edges = build_edges(&geo);
+    let edges = build_edges(&geo, 0.0);
     assert_eq!(counts(&geo, &edges, DVec3::new(0.0, 0.0, 5.0)), [0, 4, 0, 8, 0]);
     assert_eq!(counts(&geo, &edges, DVec3::new(5.0, 5.0, 5.0)), [0, 6, 3, 3, 0]);
     assert_eq!(counts(&geo, &edges, DVec3::new(-5.0, 0.3, 5.0)), [0, 6, 1, 5, 0]);
@@ -84,7 +84,7 @@ fn pinhole_matches_the_camera_sampler() {
 #[test]
 fn sampling_follows_projected_length() {
     let geo = cube();
-    let edges = build_edges(&geo);
+    let edges = build_edges(&geo, 0.0);
     let pin = Pinhole::new(&camera(), 40, 30);
     let set = SilhouetteSet::build(&geo, &edges, &pin, 1.0, |_| true);
     assert_eq!(
@@ -195,7 +195,7 @@ fn normal_velocity_matches_finite_differences_of_the_projected_edge() {
 #[test]
 fn jittered_samples_stratify_the_edges() {
     let geo = cube();
-    let edges = build_edges(&geo);
+    let edges = build_edges(&geo, 0.0);
     let pin = Pinhole::new(&camera(), 40, 30);
     let set = SilhouetteSet::build(&geo, &edges, &pin, 1.0, |_| true);
     let n = 10_000usize;
