@@ -30,6 +30,7 @@ pub use desc::{NlosScan, RelayLegs};
 pub use nlos::{NlosSpec, NoiseSpec, WallGrid, WallPoint};
 mod origin;
 pub mod ply;
+pub(crate) mod polygon;
 mod read;
 pub(crate) use read::read_regular_file;
 mod resolve;

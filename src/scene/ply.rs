@@ -1,7 +1,7 @@
 //! PLY meshes (the Stanford polygon format, ASCII or binary) read with `ply-rs-bw`: the
 //! `vertex` element's `x`, `y`, `z` and the `face` element's `vertex_indices` (or
-//! `vertex_index`) lists; polygons are split into triangle fans, every other element and
-//! property is ignored.
+//! `vertex_index`) lists; polygons are split into triangles (`polygon::triangulate`: fans where
+//! convex, ear clipping where not), every other element and property is ignored.
 
 use glam::DVec3;
 use ply_rs_bw::parser::Parser;
@@ -16,7 +16,7 @@ const MAX_PLY_BYTES: u64 = 2 << 30;
 pub struct PlyMesh {
     /// The `vertex` element's (`x`, `y`, `z`), in the file's units, f64.
     pub positions: Vec<DVec3>,
-    /// Triangles (faces split into fans), indices into `positions`.
+    /// Triangles (faces split by `polygon::triangulate`), indices into `positions`.
     pub tris: Vec<[u32; 3]>,
 }
 
@@ -60,9 +60,9 @@ pub fn parse_ply(bytes: &[u8]) -> Result<PlyMesh, String> {
         if let Some(&bad) = idx.iter().find(|&&k| k < 0 || k as usize >= n) {
             return Err(format!("face {f} names vertex {bad}, but there are {n} vertices"));
         }
-        for k in 1..idx.len().saturating_sub(1) {
-            mesh.tris.push([idx[0], idx[k], idx[k + 1]].map(|v| v as u32));
-        }
+        let corners: Vec<DVec3> = idx.iter().map(|&k| mesh.positions[k as usize]).collect();
+        let tris = super::polygon::triangulate(&corners).map_err(|e| format!("face {f}: {e}"))?;
+        mesh.tris.extend(tris.iter().map(|t| t.map(|k| idx[k] as u32)));
     }
     if mesh.tris.is_empty() {
         return Err("empty mesh: it has no faces with 3 or more vertices".to_string());
@@ -112,6 +112,27 @@ mod tests {
     }
 
     #[test]
+    fn a_concave_face_is_split_inside_itself() {
+        // an L: (0,0) (2,0) (2,1) (1,1) (1,2) (0,2) written from its inner corner, where a fan
+        // from the first corner would leave the polygon
+        let l = "ply\nformat ascii 1.0\nelement vertex 6\nproperty float x\nproperty float y\nproperty float z\n\
+            element face 1\nproperty list uchar int vertex_indices\nend_header\n\
+            0 0 0\n2 0 0\n2 1 0\n1 1 0\n1 2 0\n0 2 0\n6 2 3 4 5 0 1\n";
+        let m = parse_ply(l.as_bytes()).unwrap();
+        let area: f64 = m
+            .tris
+            .iter()
+            .map(|t| {
+                let [a, b, c] = t.map(|i| m.positions[i as usize]);
+                let n = (b - a).cross(c - a);
+                assert!(n.z > 0.0);
+                0.5 * n.length()
+            })
+            .sum();
+        assert!((area - 3.0).abs() < 1e-12, "{area}");
+    }
+
+    #[test]
     fn a_binary_mesh_reads_like_its_ascii_twin() {
         let mut b = b"ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty double x\nproperty double y\n\
             property double z\nelement face 1\nproperty list uchar uint vertex_indices\nend_header\n"
@@ -133,6 +154,8 @@ mod tests {
         assert!(e(&QUAD.replace("1 1 0\n", "1 1e40 0\n")).contains("not finite"));
         assert!(e(&QUAD.replace("4 0 1 2 3", "2 0 1")).contains("no faces"));
         assert!(e("not a ply").contains("cannot parse"));
+        let bow = QUAD.replace("4 0 1 2 3", "4 0 2 1 3");
+        assert!(e(&bow).contains("face 0: its 4 corners do not bound one simple polygon"));
         assert!(e(&QUAD.replace("property float z\n", "").replace(" 0\n", "\n")).contains("no z property"));
     }
 }

@@ -169,8 +169,8 @@ const MAX_OBJ_BYTES: u64 = 2 << 30;
 /// Why an OBJ could not be used (the caller adds the scene file, field and OBJ path).
 type ObjResult<T> = Result<T, String>;
 
-/// Reads a Wavefront OBJ (all objects and groups merged; polygons triangulated; points,
-/// lines, normals, texture coordinates and materials ignored).
+/// Reads a Wavefront OBJ (all objects and groups merged; polygons split by
+/// `polygon::triangulate`; points, lines, normals, texture coordinates and materials ignored).
 pub fn load_obj(path: &Path) -> ObjResult<LocalMesh> {
     let text = super::read::read_regular_file(path, MAX_OBJ_BYTES).map_err(|e| format!("cannot read it: {e}"))?;
     parse_obj(&text)
@@ -183,7 +183,8 @@ pub fn parse_obj(text: &str) -> ObjResult<LocalMesh> {
     #[allow(clippy::needless_update)]
     let opts = tobj::LoadOptions {
         single_index: true,
-        triangulate: true,
+        // polygons are split here (`polygon::triangulate`): tobj's fan is wrong for concave ones
+        triangulate: false,
         ignore_points: true,
         ignore_lines: true,
         ..Default::default()
@@ -201,11 +202,27 @@ pub fn parse_obj(text: &str) -> ObjResult<LocalMesh> {
         let p = &m.mesh.positions;
         mesh.positions
             .extend(p.chunks_exact(3).map(|c| DVec3::new(c[0], c[1], c[2])));
-        for t in m.mesh.indices.chunks_exact(3) {
-            if t.iter().any(|&i| i as usize >= p.len() / 3) {
-                return Err(format!("object {:?} has a face index out of range", m.name));
-            }
-            mesh.tris.push([base + t[0], base + t[1], base + t[2]]);
+        let idx = &m.mesh.indices;
+        if idx.iter().any(|&i| i as usize >= p.len() / 3) {
+            return Err(format!("object {:?} has a face index out of range", m.name));
+        }
+        // tobj leaves `face_arities` empty when every face is a triangle
+        let arities: Vec<usize> = if m.mesh.face_arities.is_empty() {
+            vec![3; idx.len() / 3]
+        } else {
+            m.mesh.face_arities.iter().map(|&a| a as usize).collect()
+        };
+        let mut start = 0;
+        for (f, &arity) in arities.iter().enumerate() {
+            let face = &idx[start..start + arity];
+            start += arity;
+            let corners: Vec<DVec3> = face
+                .iter()
+                .map(|&i| DVec3::from_slice(&p[3 * i as usize..3 * i as usize + 3]))
+                .collect();
+            let tris = super::polygon::triangulate(&corners)
+                .map_err(|e| format!("object {:?}, face {} ({arity} corners): {e}", m.name, f + 1))?;
+            mesh.tris.extend(tris.iter().map(|t| t.map(|k| base + face[k])));
         }
     }
     if let Some(i) = mesh.positions.iter().position(|p| !p.is_finite()) {
@@ -820,6 +837,26 @@ mod tests {
         }
     }
 
+    /// A U-shaped face (a 3 × 3 square with a 1 × 2 notch, area 7) in an OBJ: tobj's fan from
+    /// its first corner covered 7.5, half the notch filled in.
+    #[test]
+    fn a_concave_obj_face_covers_its_own_area() {
+        let text = "v 0 0 0\nv 3 0 0\nv 3 3 0\nv 2 3 0\nv 2 1 0\nv 1 1 0\nv 1 3 0\nv 0 3 0\nf 1 2 3 4 5 6 7 8\n";
+        let m = parse_obj(text).unwrap();
+        assert_eq!(m.tris.len(), 6);
+        let area: f64 = m
+            .tris
+            .iter()
+            .map(|t| {
+                let [a, b, c] = t.map(|i| m.positions[i as usize]);
+                let n = (b - a).cross(c - a);
+                assert!(n.z > 0.0, "wound as the face (+z)");
+                0.5 * n.length()
+            })
+            .sum();
+        assert!((area - 7.0).abs() < 1e-12, "{area}");
+    }
+
     #[test]
     fn obj_errors_name_the_obj_and_the_field() {
         let at = "shape[1] \"mesh\": field 'file': OBJ file";
@@ -842,6 +879,13 @@ mod tests {
             &obj_scene("bad.obj"),
             &[("bad.obj", inf)],
             &[at, "bad.obj", "vertex 3 (line 3)"],
+        );
+        let star = "v 1 0 0\nv -0.809 0.588 0\nv 0.309 -0.951 0\nv 0.309 0.951 0\nv -0.809 -0.588 0\nf 1 2 3 4 5\n";
+        expect_err(
+            "star.toml",
+            &obj_scene("star.obj"),
+            &[("star.obj", star)],
+            &[at, "star.obj", "face 1 (5 corners)", "cross each other"],
         );
         let garbage = "v 0 0 0\nv 1 zero 0\n";
         expect_err(
