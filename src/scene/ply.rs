@@ -119,16 +119,7 @@ mod tests {
             element face 1\nproperty list uchar int vertex_indices\nend_header\n\
             0 0 0\n2 0 0\n2 1 0\n1 1 0\n1 2 0\n0 2 0\n6 2 3 4 5 0 1\n";
         let m = parse_ply(l.as_bytes()).unwrap();
-        let area: f64 = m
-            .tris
-            .iter()
-            .map(|t| {
-                let [a, b, c] = t.map(|i| m.positions[i as usize]);
-                let n = (b - a).cross(c - a);
-                assert!(n.z > 0.0);
-                0.5 * n.length()
-            })
-            .sum();
+        let area = crate::scene::polygon::area_facing_z(&m.positions, &m.tris);
         assert!((area - 3.0).abs() < 1e-12, "{area}");
     }
 

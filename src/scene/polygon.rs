@@ -115,6 +115,20 @@ fn is_convex(p: &[DVec2]) -> bool {
     (turning - std::f64::consts::TAU).abs() < 1e-6
 }
 
+/// The area of triangles `tris` over `positions`, each asserted to face +z (the tests' faces
+/// lie in z = 0, wound counter-clockwise).
+#[cfg(test)]
+pub(crate) fn area_facing_z(positions: &[DVec3], tris: &[[u32; 3]]) -> f64 {
+    tris.iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|i| positions[i as usize]);
+            let n = (b - a).cross(c - a);
+            assert!(n.z > 0.0, "{t:?} is not wound as its face (+z)");
+            0.5 * n.length()
+        })
+        .sum()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -844,16 +844,7 @@ mod tests {
         let text = "v 0 0 0\nv 3 0 0\nv 3 3 0\nv 2 3 0\nv 2 1 0\nv 1 1 0\nv 1 3 0\nv 0 3 0\nf 1 2 3 4 5 6 7 8\n";
         let m = parse_obj(text).unwrap();
         assert_eq!(m.tris.len(), 6);
-        let area: f64 = m
-            .tris
-            .iter()
-            .map(|t| {
-                let [a, b, c] = t.map(|i| m.positions[i as usize]);
-                let n = (b - a).cross(c - a);
-                assert!(n.z > 0.0, "wound as the face (+z)");
-                0.5 * n.length()
-            })
-            .sum();
+        let area = crate::scene::polygon::area_facing_z(&m.positions, &m.tris);
         assert!((area - 7.0).abs() < 1e-12, "{area}");
     }
 
