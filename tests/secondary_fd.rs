@@ -571,16 +571,15 @@ fn a_pyramid_read_as_a_triangle_soup_matches_finite_differences() {
 /// light's oblique faces (below).
 #[test]
 fn a_tilted_light_casts_its_whole_shadow() {
-    let dir = tempfile::tempdir().unwrap();
-    let text = std::fs::read_to_string(common::scene_path("shadow_hidden_occluder.toml")).unwrap();
-    let tilted = text
-        .replace("rotate = [90.0, 0.0, 0.0]", "rotate = [90.0, 0.0, 60.0]")
-        .replace("start_opl = 4.0", "start_opl = 3.0");
-    assert_eq!(tilted.matches("[90.0, 0.0, 60.0]").count(), 1);
-    assert!(tilted.contains("start_opl = 3.0"));
-    let path = dir.path().join("tilted_light.toml");
-    std::fs::write(&path, tilted).unwrap();
-    check(&path.to_string_lossy(), "occluder", "occluder_x", 0.1, 0.01);
+    let (_dir, path) = edited_scene(
+        "shadow_hidden_occluder.toml",
+        &[
+            ("rotate = [90.0, 0.0, 0.0]", "rotate = [90.0, 0.0, 60.0]"),
+            ("start_opl = 4.0", "start_opl = 3.0"),
+        ],
+        "tilted_light.toml",
+    );
+    check(&path, "occluder", "occluder_x", 0.1, 0.01);
 }
 
 /// The light of scenes/shadow_hidden_occluder.toml as a sphere (a closed emitter of 80
@@ -589,28 +588,28 @@ fn a_tilted_light_casts_its_whole_shadow() {
 /// in a sweep of 16 seeds; here Σz² 57.9 against a bound of 40.4 before the fix, 9.4 after).
 #[test]
 fn a_sphere_light_casts_its_whole_shadow() {
-    let dir = tempfile::tempdir().unwrap();
-    let text = std::fs::read_to_string(common::scene_path("shadow_hidden_occluder.toml")).unwrap();
     let quad = "type = \"rectangle\"\nmaterial = \"black\"\ntranslate = [0.0, 2.0, 0.0]\nrotate = [90.0, 0.0, 0.0]\nscale = [0.2, 0.2, 1.0]";
-    assert!(text.contains(quad));
-    let sphere = text
-        .replace(
-            quad,
-            "type = \"sphere\"\nsubdivisions = 1\nmaterial = \"black\"\ntranslate = [0.0, 2.0, 0.0]\nscale = 0.3",
-        )
-        .replace("start_opl = 4.0", "start_opl = 3.0");
-    let path = dir.path().join("sphere_light.toml");
-    std::fs::write(&path, sphere).unwrap();
+    let sphere = "type = \"sphere\"\nsubdivisions = 1\nmaterial = \"black\"\ntranslate = [0.0, 2.0, 0.0]\nscale = 0.3";
+    let (_dir, path) = edited_scene(
+        "shadow_hidden_occluder.toml",
+        &[(quad, sphere), ("start_opl = 4.0", "start_opl = 3.0")],
+        "sphere_light.toml",
+    );
     // 64 seeds: the lost share is spread over the whole penumbra, so the test needs to
     // resolve a few percent of it
-    check_seeds(
-        64,
-        &path.to_string_lossy(),
-        Some("occluder"),
-        "occluder_x",
-        0.1,
-        0.01,
-        |_| {},
-        &[],
-    );
+    check_seeds(64, &path, Some("occluder"), "occluder_x", 0.1, 0.01, |_| {}, &[]);
+}
+
+/// A shipped scene with `edits` (from, to) applied, each of which must change it, written to a
+/// temporary folder (kept alive by the returned guard) as `name`.
+fn edited_scene(scene: &str, edits: &[(&str, &str)], name: &str) -> (tempfile::TempDir, String) {
+    let dir = tempfile::tempdir().unwrap();
+    let mut text = std::fs::read_to_string(common::scene_path(scene)).unwrap();
+    for (from, to) in edits {
+        assert!(text.contains(from), "{scene} has no {from:?}");
+        text = text.replacen(from, to, 1);
+    }
+    let path = dir.path().join(name);
+    std::fs::write(&path, text).unwrap();
+    (dir, path.to_string_lossy().into_owned())
 }
