@@ -334,6 +334,38 @@ mod tests {
         }
     }
 
+    /// A cube written as most exporters write a flat-shaded mesh: one normal per face, `f v//n`.
+    /// The OBJ reader gives each (position, normal) pair its own vertex, so every cube edge
+    /// came out as two open edges (the derivative of such a cube's pose: Σz² 4740 over 25
+    /// blocks in a sweep, 20 after; 2026-11-29).
+    #[test]
+    fn an_obj_with_a_normal_per_face_has_the_cube_edges() {
+        let cube = shapes::cube();
+        let mut text = String::new();
+        for p in &cube.positions {
+            text += &format!("v {} {} {}\n", p.x, p.y, p.z);
+        }
+        for (k, t) in cube.tris.iter().enumerate() {
+            let [a, b, c] = t.map(|i| cube.positions[i as usize]);
+            let n = (b - a).cross(c - a).normalize();
+            text += &format!("vn {} {} {}\n", n.x, n.y, n.z);
+            let [i, j, l] = t.map(|i| i + 1);
+            text += &format!("f {i}//{} {j}//{} {l}//{}\n", k + 1, k + 1, k + 1);
+        }
+        let read = shapes::parse_obj(&text).unwrap();
+        assert!(
+            read.positions.len() > cube.positions.len(),
+            "the reader splits the vertices"
+        );
+        let mesh = shapes::Mesh {
+            positions: read.positions.iter().map(|p| p.as_vec3()).collect(),
+            tris: read.tris,
+        };
+        let edges = build_edges(&geometry(mesh), 0.0);
+        assert_eq!(edges.len(), 12);
+        assert!(edges.iter().all(|e| !e.is_boundary()));
+    }
+
     #[test]
     fn a_t_junction_joins_the_split_edge_to_the_whole_one() {
         let geo = t_junction_cube(Vec3::new(0.0, -1.0, 1.0));
