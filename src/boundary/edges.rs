@@ -92,14 +92,13 @@ fn join_seams(geo: &Geometry, edges: Vec<Edge>, offset_scale: f32) -> Vec<Edge> 
     if joins.pieces.iter().all(Vec::is_empty) {
         return edges;
     }
-    let mut pieces_of: HashMap<usize, &[(u32, u32)]> = HashMap::new();
+    let mut pieces_of: Vec<&[(u32, u32)]> = vec![&[]; edges.len()];
     for (k, &i) in open_at.iter().enumerate() {
-        pieces_of.insert(i, &joins.pieces[k]);
+        pieces_of[i] = &joins.pieces[k];
     }
     let mut emitted = std::collections::HashSet::new();
     let mut out = Vec::with_capacity(edges.len());
-    for (i, e) in edges.iter().enumerate() {
-        let pieces = pieces_of.get(&i).copied().unwrap_or(&[]);
+    for (e, pieces) in edges.iter().zip(pieces_of) {
         if pieces.is_empty() {
             out.push(*e);
             continue;

@@ -537,8 +537,11 @@ impl<'a> Secondary<'a> {
             return None;
         };
         let eps = |p: Vec3| self_intersection_eps(&V3::<f32>::splat(p), self.ctx.scene.offset_scale);
+        let reach = t_l - eps(y);
         let tol = 2.0 * eps(y).max(eps(x_b));
-        if x_l.is_some_and(|h| blocks_light_point(&h, y, ls.has_cos.then(|| ls.n.lane(0)), t_l, tol)) {
+        if !(reach > 0.0)
+            || x_l.is_some_and(|h| blocks_light_point(&h, y, ls.has_cos.then(|| ls.n.lane(0)), reach, tol))
+        {
             return None;
         }
         scratch.valid += 1;
@@ -646,8 +649,9 @@ impl<'a> Secondary<'a> {
     }
 }
 
-/// Whether `hit`, the first surface met from x_B back towards the light point `y` (at distance
-/// `t_l`, `normal` its surface's normal, None for a point light), lies in front of `y`.
+/// Whether `hit`, the first surface met from x_B back towards the light point `y` (`normal`
+/// its surface's normal, None for a point light, which is tested by distance: a hit short of
+/// `reach`, ε before y), lies in front of `y`.
 ///
 /// The ray starts ε beside x_B (`contact::segment_ends`), parallel to the line x_B → y, so it
 /// meets y's own surface up to ε·tan θ_L from y along the ray (θ_L: the angle between the ray
@@ -655,10 +659,10 @@ impl<'a> Secondary<'a> {
 /// light itself for a blocker at oblique incidence and dropped those samples (a light tilted
 /// 60° lost the whole far end of its shadow). A surface point is in front of y when it lies
 /// more than `tol` off y's tangent plane, on the side the ray comes from.
-fn blocks_light_point(hit: &SurfaceHit, y: Vec3, normal: Option<Vec3>, t_l: f32, tol: f32) -> bool {
+fn blocks_light_point(hit: &SurfaceHit, y: Vec3, normal: Option<Vec3>, reach: f32, tol: f32) -> bool {
     match normal {
         Some(n) => n.dot(hit.p - y) > tol,
-        None => hit.t < t_l - 0.5 * tol,
+        None => hit.t < reach,
     }
 }
 

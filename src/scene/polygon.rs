@@ -43,11 +43,14 @@ pub fn triangulate(corners: &[DVec3]) -> Result<Vec<[usize; 3]>, String> {
     }
     let coords: Vec<f64> = flat.iter().flat_map(|p| [p.x, p.y]).collect();
     let idx = earcutr::earcut(&coords, &[], 2).map_err(|e| format!("cannot split it into triangles ({e:?})"))?;
+    let mut covered = 0.0;
     let tris: Vec<[usize; 3]> = idx
         .chunks_exact(3)
         .map(|t| {
+            let twice_area = (flat[t[1]] - flat[t[0]]).perp_dot(flat[t[2]] - flat[t[0]]);
+            covered += 0.5 * twice_area.abs();
             // wound as the polygon: positive area in the projection
-            if cross(flat[t[1]] - flat[t[0]], flat[t[2]] - flat[t[0]]) >= 0.0 {
+            if twice_area >= 0.0 {
                 [t[0], t[1], t[2]]
             } else {
                 [t[0], t[2], t[1]]
@@ -55,10 +58,6 @@ pub fn triangulate(corners: &[DVec3]) -> Result<Vec<[usize; 3]>, String> {
         })
         .collect();
     let polygon_area = signed_area(&flat);
-    let covered: f64 = tris
-        .iter()
-        .map(|t| 0.5 * cross(flat[t[1]] - flat[t[0]], flat[t[2]] - flat[t[0]]))
-        .sum();
     if !((covered - polygon_area).abs() <= AREA_TOLERANCE * polygon_area.abs()) {
         return Err(format!(
             "its {n} corners do not bound one simple polygon (its edges cross each other): \
@@ -91,12 +90,8 @@ fn project(corners: &[DVec3], normal: DVec3) -> Vec<DVec2> {
     corners.iter().map(|p| DVec2::new(p.dot(u), p.dot(v))).collect()
 }
 
-fn cross(a: DVec2, b: DVec2) -> f64 {
-    a.perp_dot(b)
-}
-
 fn signed_area(p: &[DVec2]) -> f64 {
-    (0..p.len()).map(|i| cross(p[i], p[(i + 1) % p.len()])).sum::<f64>() * 0.5
+    (0..p.len()).map(|i| p[i].perp_dot(p[(i + 1) % p.len()])).sum::<f64>() * 0.5
 }
 
 /// Every turn of the (counter-clockwise) polygon is to the left or straight, and the turns add
@@ -106,7 +101,7 @@ fn is_convex(p: &[DVec2]) -> bool {
     let mut turning = 0.0;
     for i in 0..n {
         let (a, b) = (p[(i + 1) % n] - p[i], p[(i + 2) % n] - p[(i + 1) % n]);
-        let c = cross(a, b);
+        let c = a.perp_dot(b);
         if c < 0.0 {
             return false;
         }
