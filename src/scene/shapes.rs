@@ -838,7 +838,7 @@ mod tests {
     }
 
     /// A U-shaped face (a 3 × 3 square with a 1 × 2 notch, area 7) in an OBJ: tobj's fan from
-    /// its first corner covered 7.5, half the notch filled in.
+    /// its first corner covered 8.25 of the plane (11 counting overlaps), 5/8 of the notch filled.
     #[test]
     fn a_concave_obj_face_covers_its_own_area() {
         let text = "v 0 0 0\nv 3 0 0\nv 3 3 0\nv 2 3 0\nv 2 1 0\nv 1 1 0\nv 1 3 0\nv 0 3 0\nf 1 2 3 4 5 6 7 8\n";
