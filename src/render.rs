@@ -673,35 +673,26 @@ fn check_memory(
 }
 
 /// What an NLOS capture cannot render yet, refused before anything runs: BDPT (its camera
-/// subpaths start at the pinhole), per-strategy films, and derivatives with respect to a
-/// parameter that moves geometry, whose boundary term needs the boundary stage's sensor
-/// subpaths to end at the wall's sensor points (`integrator::nlos::NlosSensor::project`);
-/// without it the gradient would be silently biased.
-fn check_nlos(scene: &Scene, motion: &Motion, kind: IntegratorKind, opts: &RenderOptions) -> Result<(), Error> {
+/// subpaths start at the pinhole), and derivatives with respect to a parameter that moves the
+/// relay wall (its sensor and laser points are fixed points of the scan). Other geometry is
+/// differentiated with the boundary term at the wall's sensor and laser points
+/// (`boundary::secondary`).
+fn check_nlos(scene: &Scene, motion: &Motion, kind: IntegratorKind) -> Result<(), Error> {
     let file = scene.source.display();
     if kind == IntegratorKind::Bdpt {
         return Err(Error::Invalid(format!(
             "{file}: an NLOS capture ([nlos]) renders with the path tracer only: set [integrator] kind = \"path\" (or --integrator path)"
         )));
     }
-    if motion.moves_geometry() && opts.boundary != BoundaryMode::InteriorOnly {
-        let moved: Vec<String> = (0..motion.len())
-            .filter(|&k| !motion.fields[k].is_empty())
-            .map(|k| {
-                let shapes: Vec<&str> = motion.fields[k]
-                    .iter()
-                    .map(|(s, _)| scene.shapes[*s].name.as_str())
-                    .collect();
-                format!("parameter {} moves {shapes:?}", k + 1)
-            })
-            .collect();
+    let Some(spec) = &scene.nlos else {
+        return Ok(());
+    };
+    if let Some(k) = (0..motion.len()).find(|&k| motion.fields[k].iter().any(|(s, _)| *s == spec.wall as usize)) {
         return Err(Error::Invalid(format!(
-            "{file}: {}: derivatives of an NLOS capture with respect to geometry \
-             need the boundary term at the relay wall's sensor points, which is not implemented yet (the interior alone \
-             would be a biased gradient). Differentiate albedo, radiance/power, eta or pulse_offset parameters instead, \
-             or, where nothing that moves changes a visibility (examples/nlos_tracking/README.md), ask for the interior \
-             alone with --estimators interior",
-            moved.join(", ")
+            "{file}: parameter {} moves the relay wall {:?}: an NLOS capture's sensor and laser points are fixed \
+             points of the wall, so the wall cannot be differentiated; differentiate the hidden scene instead",
+            k + 1,
+            scene.shapes[spec.wall as usize].name
         )));
     }
     Ok(())
@@ -823,7 +814,7 @@ impl<'s> Run<'s> {
         let derivs = motion.len();
         let kind = opts.integrator.unwrap_or(scene.integrator.kind);
         if scene.nlos.is_some() {
-            check_nlos(scene, &motion, kind, opts)?;
+            check_nlos(scene, &motion, kind)?;
         }
         check_materials(scene, &motion, kind, opts.boundary)?;
         check_memory(

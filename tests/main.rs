@@ -45,6 +45,7 @@ mod materials_forward;
 mod mitsuba_xml;
 mod nlos_adjoint;
 mod nlos_aim;
+mod nlos_boundary_fd;
 mod nlos_cli;
 mod nlos_fd;
 mod nlos_forward;

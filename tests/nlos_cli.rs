@@ -294,18 +294,39 @@ fn bad_nlos_input_names_the_field() {
     }
 }
 
-/// What a capture cannot do yet is refused before rendering: BDPT, and derivatives with
-/// respect to geometry (they need the boundary term at the sensor points).
+/// What a capture cannot do is refused before rendering: BDPT, and derivatives with respect
+/// to the relay wall's position (its sensor and laser points are fixed). The hidden scene's
+/// geometry is differentiated (with its boundary term: tests/nlos_boundary_fd.rs).
 #[test]
 fn unsupported_renders_are_refused() {
     let base = scene_text("nlos_occluder.toml");
     let err = refused(&base, &["--integrator", "bdpt"]);
     assert!(err.contains("path tracer only"), "{err}");
-    let err = refused(&base, &["--diff", "hidden_albedo,hidden_x"]);
-    assert!(
-        err.contains("parameter 2 moves [\"hidden\"]") && err.contains("boundary term"),
-        "{err}"
+    let wall = format!(
+        "{base}\n[[param]]\nname = \"wall_z\"\nkind = \"translate\"\nshape = \"wall\"\naxis = \"z\"\nvalue = 0.0\n"
     );
+    let err = refused(&wall, &["--diff", "hidden_albedo,wall_z"]);
+    assert!(err.contains("parameter 2 moves the relay wall \"wall\""), "{err}");
+    let dir = tempfile::tempdir().unwrap();
+    let scene = scene_file(dir.path(), "occ.toml", &base);
+    let out = common::dtr(
+        &[
+            "render",
+            scene.to_str().unwrap(),
+            "-o",
+            "occ",
+            "--spp",
+            "16",
+            "--quiet",
+            "--diff",
+            "hidden_x",
+        ],
+        dir.path(),
+    );
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let (shape, data) = npy(&dir.path().join("occ.d_hidden_x.npy"));
+    assert_eq!(shape, vec![16, 16, 128, 1]);
+    assert!(data.iter().all(|v| v.is_finite()) && data.iter().any(|&v| v != 0.0));
 }
 
 /// Explicit sensor points: y-tal's point-list formats ((T, Si) and (N, 3) grids), and

@@ -79,17 +79,19 @@ pub struct Pilot {
 }
 
 /// Boundary samples of one strategy waiting for their subpaths, run 8 at a time
-/// ([`Secondary::complete`]), in the order they were drawn.
+/// ([`Secondary::complete`]), in the order they were drawn; in an NLOS capture the
+/// light-directed strategy's draws that end at a sensor point wait in a packet of their own
+/// (their sensor side is that point, not an importance walk).
 struct Queue {
     seed: u64,
-    items: Vec<Prepared>,
+    items: [Vec<Prepared>; 2],
 }
 
 impl Queue {
     fn new(seed: u64) -> Self {
         Self {
             seed,
-            items: Vec::with_capacity(8),
+            items: [Vec::with_capacity(8), Vec::with_capacity(8)],
         }
     }
 
@@ -101,17 +103,21 @@ impl Queue {
         emit: &mut impl FnMut(&Prepared, &BoundaryPath),
     ) {
         if let Some(p) = p {
-            self.items.push(p);
-            if self.items.len() == 8 {
-                self.flush(sec, scratch, emit);
+            let kind = usize::from(p.segment.sensed.is_some());
+            self.items[kind].push(p);
+            if self.items[kind].len() == 8 {
+                sec.complete(self.seed, &self.items[kind], scratch, &mut *emit);
+                self.items[kind].clear();
             }
         }
     }
 
     fn flush(&mut self, sec: &Secondary, scratch: &mut Scratch, emit: &mut impl FnMut(&Prepared, &BoundaryPath)) {
-        if !self.items.is_empty() {
-            sec.complete(self.seed, &self.items, scratch, &mut *emit);
-            self.items.clear();
+        for items in &mut self.items {
+            if !items.is_empty() {
+                sec.complete(self.seed, items, scratch, &mut *emit);
+                items.clear();
+            }
         }
     }
 }
@@ -317,7 +323,7 @@ impl Secondary<'_> {
                                 ),
                             };
                             if s == 1
-                                && let Some(p) = &p
+                                && let Some(p) = p.as_ref().filter(|p| p.segment.sensed.is_none())
                             {
                                 shares.add(p);
                             }
@@ -592,7 +598,7 @@ impl Secondary<'_> {
         let ddot = [0.0f32; MAX_PARAMS];
         let mut fdot = [0.0f32; MAX_PARAMS * 3];
         let band = rows.start as u32..rows.end as u32;
-        ctx.camera.for_each_pixel_in_rows(bp.fx, bp.fy, band, |px, py, hw| {
+        let mut add = |px: u32, py: u32, hw: f32| {
             if hw == 0.0 {
                 return;
             }
@@ -610,7 +616,16 @@ impl Secondary<'_> {
                 &fdot[..p * c_n],
                 &ddot[..p],
             );
-        });
+        };
+        if ctx.nlos.is_some() {
+            // a capture's film points are sensor (and laser) points: no pixel filter
+            let (px, py) = (bp.fx as u32, bp.fy as u32);
+            if band.contains(&py) {
+                add(px, py, 1.0);
+            }
+        } else {
+            ctx.camera.for_each_pixel_in_rows(bp.fx, bp.fy, band, add);
+        }
         true
     }
 }

@@ -113,7 +113,7 @@ pub struct PrimaryStats {
 /// transient each, `[H, W, T, C]` like the interior's, to be added to it. `spp_boundary` × W × H
 /// film points are drawn on the edges (two side paths each where the eye sees them); `seed`
 /// may be the interior's: this stage derives its own streams. Zero (and nothing traced) when
-/// no parameter moves geometry or `spp_boundary` is 0.
+/// no parameter moves geometry, `spp_boundary` is 0 or the scene is an NLOS capture.
 pub fn render_primary(ctx: &RenderContext, spp_boundary: u32, seed: u64, pool: &rayon::ThreadPool) -> Vec<Transient> {
     render_primary_with_stats(ctx, spp_boundary, seed, Shard::WHOLE, pool).0
 }
@@ -203,7 +203,9 @@ fn for_each_wave<T: Send>(
     let (w, h) = (scene.film.width as usize, scene.film.height as usize);
     let derivs = ctx.motion.len().min(MAX_PARAMS);
     let mut stats = PrimaryStats::default();
-    if spp_boundary == 0 || derivs == 0 || !ctx.motion.moves_geometry() {
+    // an NLOS capture's SPAD sees fixed points of the relay wall: no silhouette moves over
+    // its film (the edges its sensor points see are the secondary pass's, `secondary.rs`)
+    if spp_boundary == 0 || derivs == 0 || !ctx.motion.moves_geometry() || ctx.nlos.is_some() {
         return stats;
     }
     let moving = moving_shapes(ctx);

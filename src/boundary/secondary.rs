@@ -63,6 +63,21 @@
 //! object's (the covered side's departing segment meets the glass's bottom face at zero
 //! distance); no test covers that case yet.
 //!
+//! **NLOS captures** (`integrator::nlos`). The SPAD sees fixed wall points, so there is no
+//! primary stage; the paths run from a laser point l on the relay wall through the hidden
+//! scene to a sensor point s, both points deltas in position (l a point source with
+//! I ∝ cos θ_l, s a point of importance ρ/π·cos θ_s), and every segment's visibility
+//! discontinuity is a secondary edge. Strategy A joins its sensor subpath to a sensor point
+//! drawn uniformly (the film's), and its source subpath to that sensor's laser points (the
+//! lane's own, or all of them in an exhaustive scan). Strategy B spends half of its draws on
+//! segments from a laser point (its light point: a laser point drawn uniformly, and in an
+//! exhaustive scan a sensor point too) and half on segments that end at a sensor point
+//! (`Secondary::prepare_sensor`: strategy B's geometry with s in the light's place). In a
+//! confocal scan l = s, and a path s → x → s crosses one discontinuity where both of its
+//! segments cross it: it is counted once (`coincide`). Every vertex is in material form
+//! (the interior's first vertex from s is too). Not covered: an edge crossing the laser's
+//! beam to the wall, or the SPAD's line of sight to a sensor point.
+//!
 //! Each strategy draws its inputs through a guiding grid (`guiding.rs`; uniform unless
 //! guiding is on). `pass.rs` runs the strategies (budget split by a pilot) and bins their
 //! paths.
@@ -73,11 +88,12 @@ use super::guiding::GuideGrid;
 use super::hit::{SurfaceHit, pre_length};
 use super::primary::{moving_shapes, steps_over};
 use super::silhouette::Pinhole;
-use super::subpaths::{SegmentSample, SourceTerm, Terms, subpaths};
+use super::subpaths::{SegmentSample, SensorTerm, SourceTerm, Terms, subpaths};
 use super::velocity::{Crossing, ray_form_velocity};
 use crate::integrator::context::RenderContext;
 use crate::integrator::deposit::PathCounts;
 use crate::integrator::medium::{has_dielectric, medium_around, side_eta};
+use crate::integrator::nlos::NlosSensor;
 use crate::integrator::opl::{on_plane64, segment};
 use crate::integrator::surface::self_intersection_eps;
 use crate::integrator::trace::RayCounts;
@@ -220,6 +236,9 @@ pub struct Secondary<'a> {
     /// samples (`primary::moving_shapes`).
     pin: Pinhole,
     moving: Vec<bool>,
+    /// The scan of an NLOS capture (`integrator::nlos`): sensor subpaths end at its sensor
+    /// points, source subpaths at its laser points (module documentation).
+    scan: Option<&'a NlosSensor>,
 }
 
 impl<'a> Secondary<'a> {
@@ -247,6 +266,7 @@ impl<'a> Secondary<'a> {
             dielectrics: has_dielectric(ctx),
             pin: Pinhole::new(&ctx.scene.camera, ctx.scene.film.width, ctx.scene.film.height),
             moving: moving_shapes(ctx),
+            scan: ctx.nlos.as_ref(),
         }
     }
 
@@ -268,7 +288,8 @@ impl<'a> Secondary<'a> {
     /// the side offset at millimetre scales, enough to blur the test where a shadow sliver is
     /// about as wide as the offset (an object hovering a tenth of a millimetre over a floor).
     fn beside_silhouette(&self, rec: &EdgeRecord, x_b: Vec3, dir: DVec3, x_s: &SurfaceHit) -> bool {
-        if !self.moving.get(rec.shape as usize).copied().unwrap_or(false) {
+        // a capture has no primary stage: the SPAD sees fixed wall points
+        if self.scan.is_some() || !self.moving.get(rec.shape as usize).copied().unwrap_or(false) {
             return false;
         }
         let x_b = x_b.as_dvec3();
@@ -323,6 +344,11 @@ impl<'a> Secondary<'a> {
             r.material[k] = c.rate();
             c.dy = ray_form_velocity(omega_c, x_s.n, v_s);
             r.ray[k] = c.rate();
+        }
+        if self.scan.is_some() {
+            // a capture's first vertex from a sensor point is in material form (the interior's
+            // too, `integrator::path`)
+            r.ray = r.material;
         }
         r
     }
@@ -384,11 +410,29 @@ impl<'a> Secondary<'a> {
                     if src.scatters + sen.scatters > max_bounces {
                         continue;
                     }
+                    // x_S is a sensor point and x_L joins the laser point at that same point:
+                    // the segment's jump is the light-directed draws' (product rule, below)
+                    if let Some(scan) = self.scan
+                        && sen.scatters == 0
+                        && src.scatters == 1
+                        && coincide(
+                            ctx,
+                            scan,
+                            p.segment.sensor,
+                            laser_index(scan, p.segment.sensor, src.laser),
+                        )
+                    {
+                        continue;
+                    }
+                    let (fx, fy) = match self.scan {
+                        None => (sen.fx, sen.fy),
+                        Some(scan) => film_point(scan, p.segment.sensor, src.laser),
+                    };
                     emit(
                         p,
                         &BoundaryPath {
-                            fx: sen.fx,
-                            fy: sen.fy,
+                            fx,
+                            fy,
                             opl: src.opl + sen.opl,
                             emitter: src.emitter,
                             rgb: std::array::from_fn(|c| src.rgb[c] * sen.rgb[c]),
@@ -417,6 +461,14 @@ impl<'a> Secondary<'a> {
         let ctx = self.ctx;
         let mut rng = boundary_numbers(ctx, seed, id);
         let (u, p_guide) = edge_numbers(&mut rng, grid);
+        // a capture's sensor subpath ends at one sensor point, drawn uniformly
+        let (sensor, scale) = match self.scan {
+            Some(scan) => (
+                pick(rng.next::<f32>(), scan.sensors.len()),
+                scale * scan.sensors.len() as f32,
+            ),
+            None => (0, scale),
+        };
         scratch.edge = None;
         let br = edges.sample(u[0], u[1], u[2])?;
         scratch.edge = Some(br.index);
@@ -462,6 +514,9 @@ impl<'a> Secondary<'a> {
                 eta,
                 d_b: eta as f64 * segment(ctx, x_l.p64, x_s.p64, seg),
                 emitted: None,
+                sensed: None,
+                sensor,
+                retro: false,
             },
             rates,
             common: common * scale / (br.pdf_edge_dir * p_guide),
@@ -506,7 +561,41 @@ impl<'a> Secondary<'a> {
         let (edge, s) = edges.point(u0)?;
         scratch.edge = Some(edge);
         let rec = &edges.edges[edge];
-        let ls = ctx.emitters.sample::<f32, 3>(ctx, select, e0, e1, true);
+        // a capture: half of the draws end at a sensor point, half start at a laser point
+        let (mut scale, mut sensor, mut laser) = (scale, 0, 0);
+        let mut scan_spot = None;
+        let ls = match self.scan {
+            None => ctx.emitters.sample::<f32, 3>(ctx, select, e0, e1, true),
+            Some(scan) => {
+                if select >= 0.5 {
+                    let j = pick(2.0 * select - 1.0, scan.sensors.len());
+                    let factor = 2.0 * scan.sensors.len() as f32;
+                    return self.prepare_sensor(
+                        scan,
+                        id,
+                        j,
+                        (rec, edge, s),
+                        u,
+                        p_guide,
+                        edges,
+                        scale * factor,
+                        scratch,
+                    );
+                }
+                let points = scan.spots.len();
+                let i = pick(2.0 * select, points);
+                scale *= 2.0 * points as f32;
+                sensor = i;
+                scan_spot = scan.spots[i].as_ref();
+                if scan.exhaustive {
+                    laser = i as u32;
+                    sensor = pick(rng.next::<f32>(), scan.sensors.len());
+                    scale *= scan.sensors.len() as f32;
+                }
+                ctx.emitters
+                    .sample_laser_points::<f32, 3>(ctx, scan, &[i as u32; 8], true)
+            }
+        };
         if !ls.valid {
             return None;
         }
@@ -514,6 +603,16 @@ impl<'a> Secondary<'a> {
         let motion_l = match ctx.scene.emitters[e].kind {
             EmitterKind::Area { shape, .. } => SourceMotion::Material(shape as usize),
             EmitterKind::Point { .. } => SourceMotion::Fixed,
+            // a scan's spot lies on the relay wall, which no parameter moves
+            // (`render::check_nlos`), unless something in the beam holds it
+            EmitterKind::Laser { .. } if self.scan.is_some() => {
+                let spot = scan_spot?;
+                SourceMotion::Ray {
+                    shape: ctx.scene.geometry.tri_shape[spot.prim as usize] as usize,
+                    dir: spot.direction,
+                    n: ctx.face_normal(spot.prim),
+                }
+            }
             EmitterKind::Laser { .. } => self.laser_spots[e]?,
         };
         let y = ls.p.lane(0);
@@ -578,13 +677,122 @@ impl<'a> Secondary<'a> {
                     opl: ctx.scene.eta as f64 * pre_length(ctx, &ls) + d_b,
                     emitter: e as u32,
                     scatters: 0,
+                    laser,
                 }),
+                sensed: None,
+                sensor,
+                retro: self
+                    .scan
+                    .is_some_and(|scan| coincide(ctx, scan, sensor, laser_index(scan, sensor, laser))),
             },
             rates,
             common,
             u,
             edge,
             beside_silhouette: self.beside_silhouette(rec, x_b, (x_b.as_dvec3() - y_line).normalize(), &x_s),
+        })
+    }
+
+    /// The sensor-directed draws of strategy B in an NLOS capture: the edges seen from a
+    /// sensor point. Sensor point s_j (importance f_r·|cos θ_s| = ρ/π·cos θ_s per steradian, a
+    /// delta in position like a point light) and x_B on edge `at` = (record, index, position)
+    /// fix the line from s_j through x_B; x_L is the first surface beyond x_B and x_S = s_j,
+    /// when nothing stands between s_j and x_B. This is strategy B's geometry with s_j in the
+    /// light's place and x_L as the point the discontinuity sweeps over, since the integrand
+    /// f_L·G·V·f_S and the segment's discontinuity do not depend on which end is the light:
+    /// the weight is −s_o·cos θ_s/(t_S²·(t_S + t_L)·p_e), times ρ/π as the sample's only
+    /// sensor term (its OPL: the sensor point's counted leg to the SPAD), and the source
+    /// subpath from x_L estimates the radiance it sends to s_j. `scale` holds the draw's
+    /// probabilities (half of the draws, 1/N_s per sensor point).
+    #[allow(clippy::too_many_arguments)]
+    fn prepare_sensor(
+        &self,
+        scan: &NlosSensor,
+        id: u64,
+        j: usize,
+        (rec, edge, s): (&EdgeRecord, usize, f32),
+        u: [f32; 3],
+        p_guide: f32,
+        edges: &EdgeSampler,
+        scale: f32,
+        scratch: &mut Scratch,
+    ) -> Option<Prepared> {
+        let ctx = self.ctx;
+        let sp = &scan.sensors[j];
+        if !scan.seen[j] {
+            return None;
+        }
+        let x_b = rec.v0 + (rec.v1 - rec.v0) * s;
+        let to = x_b - sp.p;
+        let t_s = to.length();
+        if !(t_s > 0.0) {
+            return None;
+        }
+        let omega = to / t_s;
+        let cos_s = sp.n.dot(omega);
+        if !(cos_s > 0.0) {
+            return None;
+        }
+        let s_o = self.blocked_side(rec, omega)?;
+        // beyond x_B the line meets x_L; back towards s_j it must meet nothing short of the
+        // wall's tangent plane at s_j (as a light point's, `blocks_light_point`)
+        let Some(SegmentEnds::Open {
+            x_s: mut x_l,
+            x_l: back,
+        }) = segment_ends(ctx, rec, x_b, omega, s_o, &mut scratch.counts.rays)
+        else {
+            return None;
+        };
+        let eps = |p: Vec3| self_intersection_eps(&V3::<f32>::splat(p), ctx.scene.offset_scale);
+        let reach = t_s - eps(sp.p);
+        let tol = 2.0 * eps(sp.p).max(eps(x_b));
+        if !(reach > 0.0) || back.is_some_and(|h| blocks_light_point(&h, sp.p, Some(sp.n), reach, tol)) {
+            return None;
+        }
+        scratch.valid += 1;
+        let rates = self.rates(rec, sp.p, SourceMotion::Fixed, &x_l);
+        let seg = t_s + x_l.t;
+        if rates.is_zero(self.params) {
+            return None;
+        }
+        let s64 = sp.p.as_dvec3();
+        self.on_boundary_line(rec, x_b, |x_b64| (x_b64 - s64).normalize(), None, &mut x_l);
+        let eta = self.segment_eta(None, &x_l, x_b, omega, &mut scratch.counts.rays);
+        let d_b = eta as f64 * segment(ctx, s64, x_l.p64, seg);
+        let x_s = SurfaceHit {
+            p: sp.p,
+            p64: s64,
+            n: sp.n,
+            prim: sp.prim,
+            t: t_s,
+        };
+        let rho = scan.albedo[j].map(|r| r * std::f32::consts::FRAC_1_PI);
+        let common = -s_o * scale * cos_s / (t_s * t_s * seg * edges.edge_pmf(edge) * p_guide);
+        Some(Prepared {
+            segment: SegmentSample {
+                id,
+                x_l,
+                x_s,
+                // light leaves x_L towards s_j
+                omega: -omega,
+                eta,
+                d_b,
+                emitted: None,
+                sensed: Some(SensorTerm {
+                    rgb: rho,
+                    opl: ctx.scene.eta as f64 * scan.spad_leg[j],
+                    fx: 0.0,
+                    fy: 0.0,
+                    scatters: 0,
+                }),
+                sensor: j,
+                retro: false,
+            },
+            rates,
+            common,
+            u,
+            edge,
+            beside_silhouette: false,
         })
     }
 
@@ -664,6 +872,49 @@ fn blocks_light_point(hit: &SurfaceHit, y: Vec3, normal: Option<Vec3>, reach: f3
         Some(n) => n.dot(hit.p - y) > tol,
         None => hit.t < reach,
     }
+}
+
+/// The laser point of a capture's path that ends at `sensor` and whose source term ends at
+/// laser point `laser` (the film's y, 0 in a confocal scan, where each sensor has its own).
+fn laser_index(scan: &NlosSensor, sensor: usize, laser: u32) -> usize {
+    if scan.exhaustive { laser as usize } else { sensor }
+}
+
+/// Whether laser point `laser`'s spot is sensor point `sensor` (a confocal scan's, unless
+/// something stands in the beam): a path s → x → l then runs to and from x along one line.
+///
+/// Its two segments share one visibility V(s, x) = V(x, l), so as x crosses an edge's
+/// silhouette seen from s the integrand V(s, x)·V(x, l) jumps once, not twice. By the product
+/// rule [V·V'] = V'⁺·[V] + V⁻·[V'] (⁺ the free side, ⁻ the blocked one), the light-directed
+/// draw from l takes the jump with the sensor connection from the free side (unblocked:
+/// `SegmentSample::retro`) and the sensor-directed draw from s takes it with the laser
+/// connection from the blocked side, 0: its x_L → l term is dropped. Counting both, as for two
+/// separate points, doubled that part of a confocal capture's boundary term.
+fn coincide(ctx: &RenderContext, scan: &NlosSensor, sensor: usize, laser: usize) -> bool {
+    let (Some(spot), Some(s)) = (scan.spots.get(laser).and_then(|o| o.as_ref()), scan.sensors.get(sensor)) else {
+        return false;
+    };
+    let [a, b, c] = ctx.tri_verts[spot.prim as usize];
+    let l = a + (b - a) * spot.u + (c - a) * spot.v;
+    let tol = 4.0 * self_intersection_eps(&V3::<f32>::splat(s.p), ctx.scene.offset_scale);
+    (l - s.p).length() <= tol
+}
+
+/// Index ⌊u·n⌋ of one of `n` items drawn uniformly by `u` ∈ [0, 1).
+fn pick(u: f32, n: usize) -> usize {
+    ((u * n as f32) as usize).min(n.saturating_sub(1))
+}
+
+/// The film point (pixel centre) of a capture's boundary path that ends at sensor point
+/// `sensor` and, in an exhaustive scan, starts at laser point `laser`: the sensor grid's cell
+/// (confocal) or (sensor, laser) (exhaustive), as `NlosSensor::sensor_of` maps them.
+fn film_point(scan: &NlosSensor, sensor: usize, laser: u32) -> (f32, f32) {
+    let (x, y) = if scan.exhaustive {
+        (sensor, laser as usize)
+    } else {
+        (sensor % scan.nx, sensor / scan.nx)
+    };
+    (x as f32 + 0.5, y as f32 + 0.5)
 }
 
 /// Strategy B's point x_B on edge `rec` at position `s` ∈ [0, 1] for the light point `y`:

@@ -11,7 +11,9 @@
 //!   without x_L's own emission (strategy B of `secondary.rs` estimates that). A term of
 //!   strategy (s, t) has t − 2 + s scattering vertices, x_L included.
 //! - The sensor side is the importance walk (`integrator::importance`): x_S and each later
-//!   vertex joined to the pinhole.
+//!   vertex joined to the pinhole (in an NLOS capture, to the sample's sensor point, whose
+//!   laser points the source side's next-event estimation ends at). When x_S is itself a
+//!   sensor point (`SegmentSample::sensed`), that point's importance is the only sensor term.
 //!
 //! So a new BSDF or emitter reaches the boundary stage through the same code as the interior.
 //! Optical path lengths are f64 when the render carries f64 OPLs (`integrator::opl`): each
@@ -43,6 +45,8 @@ pub struct SourceTerm {
     pub opl: f64,
     pub emitter: u32,
     pub scatters: u32,
+    /// The laser point it ends at in an exhaustive NLOS scan (the film's y), else 0.
+    pub laser: u32,
 }
 
 /// One term of the sensor estimate: importance `rgb` (f_s·|cos|/r²·W_e without the pixel
@@ -75,6 +79,16 @@ pub struct SegmentSample {
     /// x_L's emission when it is a light sample (strategy B): its only source term. None: x_L
     /// reflects, and the source subpath estimates its radiance.
     pub emitted: Option<SourceTerm>,
+    /// x_S's importance when it is a sensor point of an NLOS capture (the sensor-directed
+    /// draws of strategy B): its only sensor term. None: the importance walk from x_S.
+    pub sensed: Option<SensorTerm>,
+    /// In an NLOS capture, the sensor point the sample's sensor side ends at (both subpaths
+    /// pair with it: the source side's next-event estimation goes to its laser points).
+    pub sensor: usize,
+    /// x_L is a laser point at the sensor point x_S's walk ends at (a confocal scan): the
+    /// connection of x_S to it runs back along the segment, over the edge, and is taken
+    /// unblocked (`secondary::Secondary::complete` explains why).
+    pub retro: bool,
 }
 
 /// Per-lane term lists, kept between packets to reuse their memory.
@@ -88,7 +102,7 @@ pub struct Terms {
 struct SourceSink<'a>(&'a mut [Vec<SourceTerm>; 8]);
 
 impl<const C: usize> Sink<C> for SourceSink<'_> {
-    fn add(&mut self, _: &RenderContext, (s, t): (usize, usize), x: usize, _: usize, lc: &LaneContribution<C>, _: f32) {
+    fn add(&mut self, _: &RenderContext, (s, t): (usize, usize), x: usize, y: usize, lc: &LaneContribution<C>, _: f32) {
         let mut rgb = [0.0f32; 3];
         rgb[..C].copy_from_slice(&lc.f);
         self.0[x].push(SourceTerm {
@@ -96,6 +110,7 @@ impl<const C: usize> Sink<C> for SourceSink<'_> {
             opl: lc.d,
             emitter: lc.emitter,
             scatters: (t + s - 2) as u32,
+            laser: y as u32,
         });
     }
 }
@@ -128,10 +143,12 @@ pub fn subpaths<const C: usize>(
         }
     } else {
         debug_assert!(group.iter().all(|s| s.emitted.is_none()));
+        // x_S scatters unless it is a sensor point
+        let sensor_scatters = u32::from(group.iter().all(|s| s.sensed.is_none()));
         let starts = starts(
             group,
             |s| (s.x_l, s.omega, s.d_b),
-            max_bounces.saturating_sub(1),
+            max_bounces.saturating_sub(sensor_scatters),
             SOURCE_DIM,
         );
         let lanes = PacketLanes {
@@ -153,6 +170,13 @@ pub fn subpaths<const C: usize>(
             from[i] = src.iter().map(|t| t.opl).fold(f64::INFINITY, f64::min);
         }
     }
+    if group.iter().all(|s| s.sensed.is_some()) {
+        for (i, s) in group.iter().enumerate() {
+            terms.sensor[i].extend(s.sensed);
+        }
+        return;
+    }
+    debug_assert!(group.iter().all(|s| s.sensed.is_none()));
     let mut starts = starts(group, |s| (s.x_s, -s.omega, 0.0), 0, SENSOR_DIM);
     starts.opl = from;
     let sensor = &mut terms.sensor;
@@ -187,6 +211,8 @@ fn starts(
         opl: [0.0; 8],
         max_scatters,
         dim,
+        sensor: [0; 8],
+        unblocked_first: [false; 8],
     };
     for (i, s) in group.iter().enumerate() {
         let (h, out, opl) = pick(s);
@@ -197,6 +223,8 @@ fn starts(
         st.out[i] = out;
         st.eta[i] = s.eta;
         st.opl[i] = opl;
+        st.sensor[i] = s.sensor;
+        st.unblocked_first[i] = s.retro;
     }
     st
 }

@@ -9,8 +9,15 @@
 //! at the term's film point. The steps are the kernel's own: the scattering step
 //! (`transport::scatter`), Embree's 8-wide queries with the window cut on t_far, surface
 //! points rebuilt from barycentrics, and shadow segments moved off both ends.
+//!
+//! In an NLOS capture (`super::nlos`) each lane's walk joins its vertices to the lane's sensor
+//! point on the relay wall instead (`SurfaceStarts::sensor`), a point with importance
+//! f_r·|cos θ_s| = ρ/π·cos θ_s per steradian (`NlosSensor::project`; no pixel filter: the film
+//! point is the sensor's), its counted leg to the SPAD added to each term's OPL; the shadow
+//! segment stops short of the wall's surface at the sensor point, as at a laser spot.
 
 use super::bsdf::{Lobes, albedo, diffuse_eval};
+use super::camera::LaneProjection;
 use super::context::RenderContext;
 use super::deposit::PathCounts;
 use super::opl::points64;
@@ -83,6 +90,16 @@ pub fn trace_importance_packet<R: Real, const C: usize>(
     let mut x64 = starts.p64;
     // the index of the medium each lane is in (`starts.eta`, then changed by each refraction)
     let mut eta_med = V::<R>::from_lanes(&starts.eta[..R::LANES]);
+    // an NLOS capture's walks end at each lane's sensor point (`super::nlos`), whose leg to
+    // the SPAD is in every term's OPL where the capture counts it
+    let sensors = ctx
+        .nlos
+        .as_ref()
+        .map(|n| SensorPoints::<R, C>::new(n, &starts.sensor, scene.eta));
+    let unblocked_first = <R as Real>::Mask::from_bools(&starts.unblocked_first[..R::LANES]);
+    let spad_leg = sensors
+        .as_ref()
+        .map_or(zero, |s| V::<R>::from_lanes(&s.spad_leg.map(|l| l as f32)[..R::LANES]));
 
     for j in 1..=deepest {
         active = active & V::<R>::splat(j as f32).le(limit);
@@ -101,8 +118,14 @@ pub fn trace_importance_packet<R: Real, const C: usize>(
         let (p, n) = (x.p.value(), x.n.value());
         let side = -ray_d;
 
-        // the connection to the pinhole
-        let proj = cam.project_lanes(&p);
+        // the connection to the pinhole, or to each lane's sensor point
+        let (proj, eye, rho) = match &sensors {
+            None => (cam.project_lanes(&p), eye, None),
+            Some(s) => {
+                let (proj, rho) = s.project(&p);
+                (proj, s.points, Some(rho))
+            }
+        };
         let dist = proj.dist2.sqrt();
         let cos_x = n.dot(eye - p) * V::<R>::safe_div(V::<R>::one(), dist);
         // a rough dielectric also sends light on through itself to a pinhole on its far
@@ -117,7 +140,7 @@ pub fn trace_importance_packet<R: Real, const C: usize>(
         };
         let transmits = through & (cos_x * n.dot(side)).lt(zero);
         let facing = (cos_x * n.dot(side)).gt(zero) | transmits;
-        let leg = if unwarp { zero } else { dist * leg_eta };
+        let leg = if unwarp { zero } else { dist * leg_eta + spad_leg };
         let d = opl.value() + leg;
         let ok = active & proj.visible & facing & window::within(ctx.opl_budget, d);
         if ok.any() {
@@ -127,13 +150,20 @@ pub fn trace_importance_packet<R: Real, const C: usize>(
                 n,
                 w_in: V3::select(transmits, V3::zero(), ray_d),
             };
+            // a sensor point lies on the wall: the segment stops short of its surface
             let pinhole = SegmentEnd {
                 p: eye,
-                n: V3::zero(),
+                n: sensors.as_ref().map_or(V3::zero(), |s| s.normals),
                 w_in: V3::zero(),
             };
             let (o, dir, len) = shadow_segment(&here, &pinhole, ctx.scene.offset_scale);
-            let ok = ok & unoccluded(&ctx.accel, &o, &dir, zero, len, ok, &mut counts.rays);
+            // lanes whose first connection is taken as unblocked (`SurfaceStarts`)
+            let given = if j == 1 {
+                unblocked_first
+            } else {
+                <R as Real>::Mask::splat(false)
+            };
+            let ok = ok & (unoccluded(&ctx.accel, &o, &dir, zero, len, ok.and_not(given), &mut counts.rays) | given);
             let factor = cos_x.abs() * V::<R>::safe_div(proj.importance, proj.dist2);
             let f = match &lobes {
                 None => f,
@@ -143,13 +173,21 @@ pub fn trace_importance_packet<R: Real, const C: usize>(
                     l.eval(&V3::from_value(n), &V3::from_value(to_eye), &V3::from_value(side), true)
                 }
             };
-            let value = (beta * f).scale(R::from_value(factor));
+            let mut value = (beta * f).scale(R::from_value(factor));
+            if let Some(rho) = &rho {
+                value = value * *rho;
+            }
             for i in 0..R::LANES {
                 if !ok.bit(i) {
                     continue;
                 }
+                let eye64 = sensors.as_ref().map_or(eye64, |s| s.points64[i]);
                 let opl_i = match (exact, unwarp) {
-                    (true, false) => opl64[i] + leg_eta.lane(i) as f64 * (eye64 - x64[i]).length(),
+                    (true, false) => {
+                        opl64[i]
+                            + leg_eta.lane(i) as f64 * (eye64 - x64[i]).length()
+                            + sensors.as_ref().map_or(0.0, |s| s.spad_leg[i])
+                    }
                     (true, true) => opl64[i],
                     (false, _) => d.lane(i) as f64,
                 };
@@ -172,7 +210,7 @@ pub fn trace_importance_packet<R: Real, const C: usize>(
         }
         active = active & V::<R>::splat(j as f32).lt(limit);
         // the window cut ahead of this vertex: the pinhole beyond the OPL left (`super::window`)
-        if let Some(b) = &ctx.camera_box {
+        if let Some(b) = ctx.camera_box.as_ref().filter(|_| sensors.is_none()) {
             active = active & b.reachable(ctx.opl_budget, opl.value(), &p);
         }
         if active.none() {
@@ -227,5 +265,57 @@ pub fn trace_importance_packet<R: Real, const C: usize>(
         }
         x = y;
         ray_d = dir;
+    }
+}
+
+/// The sensor point each lane's walk connects to in an NLOS capture (`super::nlos`): its
+/// position, the wall's ρ there, and its counted leg to the SPAD (η times its length, or 0).
+struct SensorPoints<R: Real, const C: usize> {
+    points: V3<V<R>>,
+    points64: [glam::DVec3; 8],
+    normals: V3<V<R>>,
+    rho: Spectrum<R, C>,
+    seen: <R as Real>::Mask,
+    spad_leg: [f64; 8],
+}
+
+impl<R: Real, const C: usize> SensorPoints<R, C> {
+    fn new(scan: &super::nlos::NlosSensor, sensor: &[usize; 8], eta: f32) -> Self {
+        let at = |i: usize| &scan.sensors[sensor[i]];
+        let pts: [glam::Vec3; 8] = std::array::from_fn(|i| at(i).p);
+        let nrm: [glam::Vec3; 8] = std::array::from_fn(|i| at(i).n);
+        let seen: [bool; 8] = std::array::from_fn(|i| scan.seen[sensor[i]]);
+        let rho = Spectrum(std::array::from_fn(|c| {
+            let v: [f32; 8] = std::array::from_fn(|i| scan.albedo[sensor[i]][c]);
+            R::from_lanes(&v[..R::LANES])
+        }));
+        Self {
+            points: V3::from_lane_vecs(&pts[..R::LANES]),
+            points64: pts.map(|q| q.as_dvec3()),
+            normals: V3::from_lane_vecs(&nrm[..R::LANES]),
+            rho,
+            seen: <R as Real>::Mask::from_bools(&seen[..R::LANES]),
+            spad_leg: std::array::from_fn(|i| eta as f64 * scan.spad_leg[sensor[i]]),
+        }
+    }
+
+    /// The connection from `p` to each lane's sensor point s as the pinhole's projection
+    /// gives it (film point unused: the caller knows the sensor), with importance
+    /// |cos θ_s|/π per steradian (f_r = ρ/π, ρ returned per channel: the scan's importance,
+    /// `NlosSensor::project`); not visible behind the wall or where the SPAD does not see s.
+    fn project(&self, p: &V3<V<R>>) -> (LaneProjection<V<R>>, Spectrum<R, C>) {
+        let zero = V::<R>::zero();
+        let d = *p - self.points;
+        let dist2 = d.length_squared();
+        let cos = self.normals.dot(d) * V::<R>::safe_div(V::<R>::one(), dist2.sqrt());
+        let visible = self.seen & cos.gt(zero) & dist2.gt(zero) & dist2.is_finite();
+        let proj = LaneProjection {
+            fx: zero,
+            fy: zero,
+            importance: cos * V::<R>::splat(std::f32::consts::FRAC_1_PI),
+            dist2,
+            visible,
+        };
+        (proj, self.rho)
     }
 }

@@ -99,6 +99,14 @@ pub struct SurfaceStarts {
     pub max_scatters: u32,
     /// First random dimension of the walk (past what the caller drew for the start).
     pub dim: u64,
+    /// In an NLOS capture, each lane's sensor point on the relay wall (`super::nlos`): the
+    /// radiance walk's next-event estimation ends at the laser points that sensor pairs with,
+    /// the importance walk's connections at the sensor point itself. Unused otherwise.
+    pub sensor: [usize; 8],
+    /// Importance walk only: lanes whose first connection (the start point to its sensor
+    /// point) is taken as unblocked without a shadow ray (`crate::boundary::secondary`: a
+    /// confocal laser point's boundary segment, which that connection runs back along).
+    pub unblocked_first: [bool; 8],
 }
 
 /// Where the paths of a packet start.
@@ -189,7 +197,15 @@ pub fn trace_packet_from<R: Real, const C: usize, S: Sink<C>>(
     // An NLOS capture starts each camera path at its lane's sensor point on the relay wall
     // (`super::nlos`): the first vertex is then an ordinary (material-form) vertex.
     let nlos = ctx.nlos.as_ref().filter(|_| matches!(start, PathStart::Camera));
-    let mut sensor = [0usize; 8];
+    // Paths from given surface points of a capture (the boundary stage's source subpaths)
+    // end at the laser points of their lane's sensor too: `targets` is the scan wherever
+    // next-event estimation goes to laser points. Their sensor point's leg to the SPAD is
+    // counted by the sensor side (`crate::boundary::subpaths`), so `spad_head` stays 0.
+    let targets = ctx.nlos.as_ref().filter(|_| !matches!(start, PathStart::Rays(_)));
+    let mut sensor = match surface {
+        Some(s) if targets.is_some() => s.sensor,
+        _ => [0usize; 8],
+    };
     let mut aim = None;
     // the OPL every connection of the lane adds beyond its own: the sensor point's leg to
     // the SPAD where the capture counts it, taken a hair short for the window cut's bound
@@ -387,9 +403,9 @@ pub fn trace_packet_from<R: Real, const C: usize, S: Sink<C>>(
         // the point on the emitter from one 2D pair (stratified per pixel), the emitter
         // choice from a third number
         let (u0, u1) = sampler.next2::<V<R>>();
-        let select = draw_select::<R>(ctx, &mut sampler, nlos.is_none());
-        for target in 0..nlos.map_or(1, |n| n.laser_points()) {
-            let (ls, to_lanes, spad_leg) = match nlos {
+        let select = draw_select::<R>(ctx, &mut sampler, targets.is_none());
+        for target in 0..targets.map_or(1, |n| n.laser_points()) {
+            let (ls, to_lanes, spad_leg) = match targets {
                 None => (ctx.emitters.sample::<R, C>(ctx, select, u0, u1, active), *lanes, None),
                 Some(n) => {
                     let points: [u32; 8] =
@@ -398,7 +414,9 @@ pub fn trace_packet_from<R: Real, const C: usize, S: Sink<C>>(
                     if n.exhaustive {
                         to_lanes.py = [target as u32; 8];
                     }
-                    let leg: [f64; 8] = std::array::from_fn(|i| n.spad_leg[sensor[i]]);
+                    // (from a surface start the sensor side counts the leg)
+                    let leg: [f64; 8] =
+                        std::array::from_fn(|i| if surface.is_some() { 0.0 } else { n.spad_leg[sensor[i]] });
                     if spot_samples.is_empty() {
                         spot_samples.resize(n.laser_points(), None);
                     }

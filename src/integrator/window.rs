@@ -451,6 +451,8 @@ mod tests {
                     opl: [0.5; 8],
                     max_scatters: 8,
                     dim: 0,
+                    sensor: [0; 8],
+                    unblocked_first: [false; 8],
                 };
                 for i in 0..8 {
                     let k = (packet * 8 + i as u64) as f32;
