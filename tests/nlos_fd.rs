@@ -1,10 +1,9 @@
 //! Interior derivatives of NLOS captures against central finite differences with common random
 //! numbers (the statistics of tests/common/fd.rs: per-pixel time sums and per-bin totals,
 //! Student-t z of AD − FD over 12 seeds widened by the finite difference's own error), for the
-//! parameters a capture may differentiate today: albedo (of the hidden object, and of the relay
-//! wall, which weights the sensor points and the laser spots), laser power, pulse offset and η
-//! (with the relay legs both left out and counted). Geometric parameters are refused
-//! (tests/nlos_cli.rs).
+//! parameters that move no geometry: albedo (of the hidden object, and of the relay wall, which
+//! weights the sensor points and the laser spots), laser power, pulse offset and η (with the
+//! relay legs both left out and counted). Geometry: tests/nlos_boundary_fd.rs.
 
 use crate::common;
 use difftransient::scene::RelayLegs;

@@ -1,9 +1,9 @@
 //! NLOS tracking (issue 12, demo 1): the 3D position of a hidden square from confocal
 //! relay-wall transients (scenes/nlos_tracking.toml).
 //!
-//! Captures have no boundary term yet, so position derivatives need `--estimators interior`
-//! (`BoundaryMode::InteriorOnly`; the full mode refuses). That is the whole gradient only where
-//! the boundary term vanishes: here the square faces the wall with nothing in between, so no
+//! The tracking runs with `--estimators interior` (`BoundaryMode::InteriorOnly`), which skips
+//! the boundary stage (tests/nlos_boundary_fd.rs checks the full gradient of a capture). That
+//! is the whole gradient only where the boundary term vanishes: here the square faces the wall with nothing in between, so no
 //! visibility changes as it moves (scene file). The first test checks exactly that claim: the
 //! interior derivative of each coordinate against central finite differences with common random
 //! numbers, on coarse aggregates, strong enough to see a few percent of bias. The second
