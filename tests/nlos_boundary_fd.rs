@@ -24,7 +24,7 @@ use crate::common;
 use difftransient::render::BoundaryMode;
 use difftransient::scene::Material;
 
-fn check(scene: &'static str, name: &str, value: f32, edit: fn(&mut difftransient::Scene)) {
+fn check(scene: &'static str, name: &str, value: f32, h: f32, edit: fn(&mut difftransient::Scene)) {
     let (_, resolution) = common::fd::FdCheck {
         scene,
         k: 12,
@@ -34,7 +34,7 @@ fn check(scene: &'static str, name: &str, value: f32, edit: fn(&mut difftransien
         require_signal: true,
         boundary: BoundaryMode::Full,
     }
-    .check_aggregates(name, value, 0.02);
+    .check_aggregates(name, value, h);
     eprintln!(
         "{scene} {name}: resolves a relative bias of {:.1} %",
         100.0 * resolution
@@ -50,15 +50,27 @@ fn white_plate(s: &mut difftransient::Scene) {
 
 #[test]
 fn a_black_plate_in_a_confocal_scan_matches_finite_differences() {
-    check("nlos_moving_plate.toml", "plate_x", 0.1, |_| {});
+    check("nlos_moving_plate.toml", "plate_x", 0.1, 0.02, |_| {});
 }
 
 #[test]
 fn a_black_plate_in_an_exhaustive_scan_matches_finite_differences() {
-    check("nlos_moving_plate_exhaustive.toml", "plate_x", 0.1, |_| {});
+    check("nlos_moving_plate_exhaustive.toml", "plate_x", 0.1, 0.02, |_| {});
 }
 
 #[test]
 fn a_white_plate_matches_finite_differences() {
-    check("nlos_moving_plate.toml", "plate_x", 0.1, white_plate);
+    check("nlos_moving_plate.toml", "plate_x", 0.1, 0.02, white_plate);
+}
+
+/// scenes/nlos_occluder.toml's hidden box behind its panel, three bounces: the box's edges
+/// also cut segments between two hidden surfaces (the edge-directed draws, their subpaths
+/// joined to a sensor point and its laser point), and the interior alone is biased here: run
+/// with `BoundaryMode::InteriorOnly`, this check fails on its last two time slices (z = −5.5
+/// and −6.5). Cosine-sampled first segments, as in the other scenes.
+#[test]
+fn a_hidden_box_behind_an_occluder_matches_finite_differences() {
+    check("nlos_occluder.toml", "hidden_x", 0.5, 0.01, |s| {
+        s.nlos.as_mut().unwrap().hidden.probability = 0.0
+    });
 }
