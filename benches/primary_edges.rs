@@ -47,6 +47,7 @@ fn main() {
     let device = Device::new("").expect("device");
     let mut ctx = RenderContext::new(&scene, &device).expect("context");
     ctx.motion = Motion::build(&scene, &["cube_x".to_string()]).expect("param");
+    let edges = difftransient::boundary::edges::build_edges(&scene.geometry, scene.offset_scale);
     let pool = thread_pool(Some(threads)).expect("pool");
     println!(
         "silhouette_slide 64x64, {} bins, cube_x, {threads} threads; primal {} spp: {:.3} s wall",
@@ -59,7 +60,7 @@ fn main() {
         let mut stats = None;
         for seed in 0..seeds {
             let t0 = Instant::now();
-            let (films, s) = render_primary_with_stats(&ctx, spp_b, seed, difftransient::Shard::WHOLE, &pool);
+            let (films, s) = render_primary_with_stats(&ctx, &edges, spp_b, seed, difftransient::Shard::WHOLE, &pool);
             secs = secs.min(t0.elapsed().as_secs_f64());
             runs.push(blocks(&films[0]));
             stats = Some(s);

@@ -90,9 +90,14 @@ impl EdgeSampler {
         offset_scale: f32,
         factors: impl FnOnce(&[EdgeRecord]) -> Vec<f32>,
     ) -> Self {
+        Self::from_edges(geo, &build_edges(geo, offset_scale), factors)
+    }
+
+    /// [`Self::with_edge_factors`] over an edge list already built by `build_edges` for `geo`.
+    pub fn from_edges(geo: &Geometry, list: &[Edge], factors: impl FnOnce(&[EdgeRecord]) -> Vec<f32>) -> Self {
         let mut edges = Vec::new();
         let mut weights = Vec::new();
-        for e in build_edges(geo, offset_scale) {
+        for &e in list {
             let v0 = geo.positions[e.v0 as usize];
             let v1 = geo.positions[e.v1 as usize];
             let dir = v1 - v0;

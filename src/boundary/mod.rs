@@ -124,15 +124,18 @@ pub fn render_boundary(
     pool: &rayon::ThreadPool,
 ) -> BoundaryParts {
     let t0 = Instant::now();
+    // one edge list for both passes
+    let edges = edges::build_edges(&ctx.scene.geometry, ctx.scene.offset_scale);
     let (primary, pstats) = primary::render_primary_with_stats(
         ctx,
+        &edges,
         settings.spp_boundary,
         settings.seed ^ PRIMARY_SEED,
         settings.shard,
         pool,
     );
     let primary_seconds = t0.elapsed().as_secs_f64();
-    let (sec, pilot) = secondary_with_pilot(ctx, settings, pool);
+    let (sec, pilot) = secondary_with_pilot(ctx, &edges, settings, pool);
     let (secondary, sstats) = sec.render(settings, pilot.as_ref(), pool);
     BoundaryParts {
         primary,
@@ -158,8 +161,10 @@ pub fn boundary_adjoint(
     adjoint: &Transient,
 ) -> ([f64; crate::params::MAX_PARAMS], BoundaryStats) {
     let t0 = Instant::now();
+    let edges = edges::build_edges(&ctx.scene.geometry, ctx.scene.offset_scale);
     let (mut grad, pstats) = primary::primary_adjoint(
         ctx,
+        &edges,
         settings.spp_boundary,
         settings.seed ^ PRIMARY_SEED,
         settings.shard,
@@ -167,7 +172,7 @@ pub fn boundary_adjoint(
         adjoint,
     );
     let primary_seconds = t0.elapsed().as_secs_f64();
-    let (sec, pilot) = secondary_with_pilot(ctx, settings, pool);
+    let (sec, pilot) = secondary_with_pilot(ctx, &edges, settings, pool);
     let (g2, sstats) = sec.adjoint(settings, pilot.as_ref(), pool, adjoint);
     grad.iter_mut().zip(g2).for_each(|(a, b)| *a += b);
     let stats = BoundaryStats {
@@ -190,12 +195,13 @@ pub fn boundary_adjoint(
 /// `ctx` is left as it came.
 fn secondary_with_pilot<'c>(
     ctx: &'c mut RenderContext,
+    edges: &[edges::Edge],
     settings: &BoundarySettings,
     pool: &rayon::ThreadPool,
 ) -> (secondary::Secondary<'c>, Option<pass::Pilot>) {
     let (steady, budget) = (ctx.steady, ctx.opl_budget);
     ctx.cut_to_window(SteadyMode::Window);
-    let sec = secondary::Secondary::new(ctx);
+    let sec = secondary::Secondary::with_edge_list(ctx, edges);
     let pilot = sec.plan(settings, pool);
     let edges = sec.into_edges();
     (ctx.steady, ctx.opl_budget) = (steady, budget);

@@ -50,7 +50,8 @@ const EDGE_PRIOR_SHARE: f64 = 0.25;
 pub struct SecondaryStats {
     pub samples: u64,
     pub pilot_samples: u64,
-    /// Evaluations of the edge-directed (A) and light-directed (B) strategies.
+    /// Evaluations of the edge-directed (A) and light-directed (B) strategies (in an NLOS
+    /// capture half of B's draws end at a sensor point instead, `secondary.rs`).
     pub edge_directed: u64,
     pub light_directed: u64,
     /// Boundary rays whose segment found a surface at both ends.

@@ -115,13 +115,16 @@ pub struct PrimaryStats {
 /// may be the interior's: this stage derives its own streams. Zero (and nothing traced) when
 /// no parameter moves geometry, `spp_boundary` is 0 or the scene is an NLOS capture.
 pub fn render_primary(ctx: &RenderContext, spp_boundary: u32, seed: u64, pool: &rayon::ThreadPool) -> Vec<Transient> {
-    render_primary_with_stats(ctx, spp_boundary, seed, Shard::WHOLE, pool).0
+    let edges = build_edges(&ctx.scene.geometry, ctx.scene.offset_scale);
+    render_primary_with_stats(ctx, &edges, spp_boundary, seed, Shard::WHOLE, pool).0
 }
 
 /// [`render_primary`] with its tallies, for the samples of `shard` (normalised by all
-/// `spp_boundary · W · H` samples, so the shards' films add up to the whole).
+/// `spp_boundary · W · H` samples, so the shards' films add up to the whole), over `edges`,
+/// the scene's edge list (`build_edges`, which the secondary pass shares).
 pub fn render_primary_with_stats(
     ctx: &RenderContext,
+    edges: &[Edge],
     spp_boundary: u32,
     seed: u64,
     shard: Shard,
@@ -142,6 +145,7 @@ pub fn render_primary_with_stats(
         .collect();
     let stats = for_each_wave(
         ctx,
+        edges,
         spp_boundary,
         seed,
         shard,
@@ -165,6 +169,7 @@ pub fn render_primary_with_stats(
 /// of ⟨∂L/∂I, h_j·weight_k·(L⁻ − L⁺)⟩, per parameter, without a derivative film.
 pub fn primary_adjoint(
     ctx: &RenderContext,
+    edges: &[Edge],
     spp_boundary: u32,
     seed: u64,
     shard: Shard,
@@ -179,7 +184,7 @@ pub fn primary_adjoint(
         jumps.iter().for_each(|jump| jump.contract(ctx, adjoint, &mut part));
         part
     };
-    let stats = for_each_wave(ctx, spp_boundary, seed, shard, pool, contract, |parts| {
+    let stats = for_each_wave(ctx, edges, spp_boundary, seed, shard, pool, contract, |parts| {
         for part in parts {
             grad.iter_mut().zip(part).for_each(|(g, p)| *g += p);
         }
@@ -190,8 +195,10 @@ pub fn primary_adjoint(
 /// Draws the primary-edge samples of `shard` in chunks of a fixed size, maps each chunk's
 /// jumps by `per_chunk` on the thread that traced them, and hands the results to `consume`,
 /// a wave at a time: each wave's chunks in sample order (the same order for any thread count).
+#[allow(clippy::too_many_arguments)]
 fn for_each_wave<T: Send>(
     ctx: &RenderContext,
+    edges: &[Edge],
     spp_boundary: u32,
     seed: u64,
     shard: Shard,
@@ -209,17 +216,16 @@ fn for_each_wave<T: Send>(
         return stats;
     }
     let moving = moving_shapes(ctx);
-    let edges = build_edges(&scene.geometry, scene.offset_scale);
     let pin = Pinhole::new(&scene.camera, scene.film.width, scene.film.height);
     let margin = ctx.camera.filter().radius() as f64;
-    let set = SilhouetteSet::build(&scene.geometry, &edges, &pin, margin, |s| moving[s as usize]);
+    let set = SilhouetteSet::build(&scene.geometry, edges, &pin, margin, |s| moving[s as usize]);
     if set.is_empty() {
         return stats;
     }
     let total = spp_boundary as u64 * (w * h) as u64;
     let est = Estimator {
         ctx,
-        edges: &edges,
+        edges,
         set: &set,
         pin: &pin,
         seed,

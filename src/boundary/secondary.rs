@@ -84,6 +84,7 @@
 
 use super::contact::{SegmentEnds, segment_ends};
 use super::edge_sampler::{EdgeRecord, EdgeSampler};
+use super::edges::{Edge, build_edges};
 use super::guiding::GuideGrid;
 use super::hit::{SurfaceHit, pre_length};
 use super::primary::{moving_shapes, steps_over};
@@ -113,7 +114,7 @@ const MOVING_EDGE_FACTOR: f32 = 8.0;
 /// as velocities are affine along an edge) over the largest such speed of any edge under that
 /// parameter. An edge sliding along itself (the sides of a plate translated along them) moves
 /// no discontinuity (its dh̃/dθ vanishes), so it is drawn as often as a static edge.
-fn edge_sampler(ctx: &RenderContext) -> EdgeSampler {
+fn edge_sampler(ctx: &RenderContext, list: &[Edge]) -> EdgeSampler {
     let geo = &ctx.scene.geometry;
     let params = ctx.motion.len();
     let cross_speed = |k: usize, shape: u32, v0: Vec3, v1: Vec3| -> f32 {
@@ -126,7 +127,7 @@ fn edge_sampler(ctx: &RenderContext) -> EdgeSampler {
             })
             .fold(0.0, f32::max)
     };
-    EdgeSampler::with_edge_factors(geo, ctx.scene.offset_scale, |edges| {
+    EdgeSampler::from_edges(geo, list, |edges| {
         let speeds: Vec<Vec<f32>> = edges
             .iter()
             .map(|r| (0..params).map(|k| cross_speed(k, r.shape, r.v0, r.v1)).collect())
@@ -243,7 +244,14 @@ pub struct Secondary<'a> {
 
 impl<'a> Secondary<'a> {
     pub fn new(ctx: &'a RenderContext<'a>) -> Self {
-        Self::with_edges(ctx, edge_sampler(ctx))
+        let list = build_edges(&ctx.scene.geometry, ctx.scene.offset_scale);
+        Self::with_edge_list(ctx, &list)
+    }
+
+    /// The pass over `ctx` on the scene's edge list `list` (`build_edges`), which the primary
+    /// pass shares.
+    pub fn with_edge_list(ctx: &'a RenderContext<'a>, list: &[Edge]) -> Self {
+        Self::with_edges(ctx, edge_sampler(ctx, list))
     }
 
     /// The pass over `ctx` with the edge table of another pass over the same scene and
@@ -982,7 +990,7 @@ mod edge_weight_tests {
         let device = Device::new("").unwrap();
         let mut ctx = RenderContext::new(&scene, &device).unwrap();
         ctx.motion = Motion::build(&scene, &["occluder_x".to_string()]).unwrap();
-        let table = edge_sampler(&ctx);
+        let table = edge_sampler(&ctx, &build_edges(&scene.geometry, scene.offset_scale));
         let static_table = EdgeSampler::new(&scene.geometry, scene.offset_scale);
         assert_eq!(table.edges.len(), static_table.edges.len());
         // per-metre weight of each edge relative to the unweighted table
