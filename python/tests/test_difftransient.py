@@ -40,6 +40,23 @@ def test_render_is_the_cli_render(tmp_path):
     assert r.stats["spp"] == 4
 
 
+def test_nlos_geometry_derivative_is_the_clis(tmp_path):
+    """A capture's derivative with respect to a hidden shape's position (interior and boundary
+    term at the sensor and laser points): the bytes of `dtr render --diff`."""
+    dtr = os.environ.get("DTR_BIN", str(ROOT / "target" / "release" / "dtr"))
+    if not Path(dtr).exists():
+        pytest.skip("no dtr binary (set DTR_BIN)")
+    out = tmp_path / "plate"
+    subprocess.run([dtr, "render", str(SCENES / "nlos_moving_plate.toml"), "--spp", "16", "--seed", "5",
+                    "--diff", "plate_x", "-o", str(out)], check=True, capture_output=True)
+    cli = np.load(str(out) + ".d_plate_x.npy")
+    d = dt.render_diff(scene("nlos_moving_plate.toml"), ["plate_x"], spp=16, seed=5).derivatives["plate_x"]
+    assert d.shape == cli.shape == (8, 8, 140, 1)
+    assert np.array_equal(d, cli)
+    # the plate is black: the whole derivative is the boundary term, and it is not zero
+    assert np.abs(d).sum() > 0
+
+
 def _owned_by_renderer(a):
     # numpy does not own the memory: its base is the renderer's buffer (not another array)
     return (not a.flags["OWNDATA"]) and a.base is not None and not isinstance(a.base, np.ndarray)
