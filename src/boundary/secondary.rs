@@ -708,8 +708,8 @@ impl<'a> Secondary<'a> {
     /// when nothing stands between s_j and x_B. This is strategy B's geometry with s_j in the
     /// light's place and x_L as the point the discontinuity sweeps over, since the integrand
     /// f_L·G·V·f_S and the segment's discontinuity do not depend on which end is the light:
-    /// the weight is −s_o·cos θ_s/(t_S²·(t_S + t_L)·p_e), times ρ/π as the sample's only
-    /// sensor term (its OPL: the sensor point's counted leg to the SPAD), and the source
+    /// the weight is −s_o/(t_S²·(t_S + t_L)·p_e), times the importance ρ/π·cos θ_s as the
+    /// sample's only sensor term (its OPL: the sensor point's counted leg to the SPAD), and the source
     /// subpath from x_L estimates the radiance it sends to s_j. `scale` holds the draw's
     /// probabilities (half of the draws, 1/N_s per sensor point).
     #[allow(clippy::too_many_arguments)]
@@ -727,20 +727,10 @@ impl<'a> Secondary<'a> {
     ) -> Option<Prepared> {
         let ctx = self.ctx;
         let sp = &scan.sensors[j];
-        if !scan.seen[j] {
-            return None;
-        }
         let x_b = rec.v0 + (rec.v1 - rec.v0) * s;
-        let to = x_b - sp.p;
-        let t_s = to.length();
-        if !(t_s > 0.0) {
-            return None;
-        }
-        let omega = to / t_s;
-        let cos_s = sp.n.dot(omega);
-        if !(cos_s > 0.0) {
-            return None;
-        }
+        // the sensor's importance towards x_B (none behind the wall, or unseen by the SPAD)
+        let proj = scan.project(j, x_b)?;
+        let (t_s, omega) = (proj.dist2.sqrt(), proj.dir);
         let s_o = self.blocked_side(rec, omega)?;
         // beyond x_B the line meets x_L; back towards s_j it must meet nothing short of the
         // wall's tangent plane at s_j (as a light point's, `blocks_light_point`)
@@ -774,8 +764,7 @@ impl<'a> Secondary<'a> {
             prim: sp.prim,
             t: t_s,
         };
-        let rho = scan.albedo[j].map(|r| r * std::f32::consts::FRAC_1_PI);
-        let common = -s_o * scale * cos_s / (t_s * t_s * seg * edges.edge_pmf(edge) * p_guide);
+        let common = -s_o * scale / (t_s * t_s * seg * edges.edge_pmf(edge) * p_guide);
         Some(Prepared {
             segment: SegmentSample {
                 id,
@@ -787,7 +776,7 @@ impl<'a> Secondary<'a> {
                 d_b,
                 emitted: None,
                 sensed: Some(SensorTerm {
-                    rgb: rho,
+                    rgb: proj.importance,
                     opl: ctx.scene.eta as f64 * scan.spad_leg[j],
                     fx: 0.0,
                     fy: 0.0,

@@ -302,7 +302,8 @@ impl<R: Real, const C: usize> SensorPoints<R, C> {
     /// The connection from `p` to each lane's sensor point s as the pinhole's projection
     /// gives it (film point unused: the caller knows the sensor), with importance
     /// |cos θ_s|/π per steradian (f_r = ρ/π, ρ returned per channel: the scan's importance,
-    /// `NlosSensor::project`); not visible behind the wall or where the SPAD does not see s.
+    /// the lane form of `NlosSensor::project`); not visible behind the wall or where the SPAD
+    /// does not see s.
     fn project(&self, p: &V3<V<R>>) -> (LaneProjection<V<R>>, Spectrum<R, C>) {
         let zero = V::<R>::zero();
         let d = *p - self.points;

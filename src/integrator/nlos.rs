@@ -16,8 +16,9 @@
 //! wall-to-SPAD legs with `relay_legs = "included"`.
 //!
 //! [`NlosSensor::project`] is the sensor's projection for connections that end at the sensor
-//! (light tracing, the boundary stage's sensor subpaths), as `CameraSampler::project` is the
-//! pinhole's: a scene point → (sensor index, importance, squared distance).
+//! (the boundary stage's draws that end at a sensor point), as `CameraSampler::project` is the
+//! pinhole's: a scene point → (sensor index, importance, squared distance); the importance
+//! walk's packets use its lane form (`super::importance`).
 
 use super::emitter_table::{LaserSpot, laser_spot, spot_at};
 use crate::accel::Accel;
