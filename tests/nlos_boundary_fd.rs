@@ -63,11 +63,13 @@ fn a_white_plate_matches_finite_differences() {
     check("nlos_moving_plate.toml", "plate_x", 0.1, 0.02, white_plate);
 }
 
-/// scenes/nlos_occluder.toml's hidden box behind its panel, three bounces: the box's edges
-/// also cut segments between two hidden surfaces (the edge-directed draws, their subpaths
-/// joined to a sensor point and its laser point), and the interior alone is biased here: run
-/// with `BoundaryMode::InteriorOnly`, this check fails on its last two time slices (z = −5.5
-/// and −6.5). Cosine-sampled first segments, as in the other scenes.
+/// scenes/nlos_occluder.toml's hidden box behind its panel, three bounces: the shadows the box
+/// casts from the laser points, with sensor subpaths of up to three vertices, and the interior
+/// alone is biased here: run with `BoundaryMode::InteriorOnly`, this check fails on its last
+/// two time slices (z = −5.5 and −6.5). (The edge-directed draws add nothing inside this
+/// window: every segment they find between two hidden surfaces is longer than it allows, and
+/// one with an end on the planar wall joins the wall's own points at cos θ = 0.)
+/// Cosine-sampled first segments, as in the other scenes.
 #[test]
 fn a_hidden_box_behind_an_occluder_matches_finite_differences() {
     check("nlos_occluder.toml", "hidden_x", 0.5, 0.01, |s| {
