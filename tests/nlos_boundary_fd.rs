@@ -68,7 +68,8 @@ fn a_white_plate_matches_finite_differences() {
 /// alone is biased here: run with `BoundaryMode::InteriorOnly`, this check fails on its last
 /// two time slices (z = −5.5 and −6.5). (The edge-directed draws add nothing inside this
 /// window: every segment they find between two hidden surfaces is longer than it allows, and
-/// one with an end on the planar wall joins the wall's own points at cos θ = 0.)
+/// one with an end on the planar wall joins the wall's own points at cos θ = 0, its longer
+/// continuations leaving the window.)
 /// Cosine-sampled first segments, as in the other scenes.
 #[test]
 fn a_hidden_box_behind_an_occluder_matches_finite_differences() {
