@@ -318,6 +318,47 @@ mod tests {
         film
     }
 
+    /// Opens a file this test process wrote and closed, for reading, without HDF5's file lock.
+    ///
+    /// HDF5 opens files without close-on-exec, so a child process that another test spawns
+    /// while a file is open here (`npy::tests::numpy_reads_it` runs python3) inherits the
+    /// descriptor and with it the writer's exclusive lock, which outlives our close; a locked
+    /// reopen then fails with EAGAIN (seen once in a CI rehearsal). The file is complete and
+    /// nothing writes it, so the read needs no lock.
+    fn open_written(path: &std::path::Path) -> hdf5::File {
+        hdf5::File::with_options()
+            .with_fapl(|p| p.file_locking(false))
+            .open(path)
+            .unwrap()
+    }
+
+    /// The lock a spawned child inherits blocks a locked reopen, not [`open_written`].
+    #[test]
+    fn a_written_file_reads_back_while_a_child_holds_its_descriptor() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("held.h5");
+        let f = hdf5::File::create(&path).unwrap();
+        f.new_dataset::<f32>()
+            .shape(3)
+            .create("H")
+            .unwrap()
+            .write_raw(&[1.0f32, 2.0, 3.0])
+            .unwrap();
+        let Ok(mut child) = std::process::Command::new("sleep").arg("5").spawn() else {
+            return;
+        };
+        f.close().unwrap();
+        let locked = hdf5::File::open(&path).map(|_| ());
+        let got: Vec<f32> = open_written(&path).dataset("H").unwrap().read_raw().unwrap();
+        let _ = child.kill();
+        let _ = child.wait();
+        assert!(
+            locked.is_err(),
+            "the child's inherited lock should block a locked reopen"
+        );
+        assert_eq!(got, vec![1.0, 2.0, 3.0]);
+    }
+
     /// The blocked transpose gives each value as the per-value formula does, to the bit: RGB
     /// summed over channels, a film whose pixel count crosses several blocks and ends inside
     /// one, pixels taken in a scrambled order and some twice.
@@ -378,7 +419,7 @@ mod tests {
                 let f = hdf5::File::create(&path).unwrap();
                 assert_eq!(write_h(&f, spec, &film, &|_, v| v, budget).unwrap(), format);
                 f.close().unwrap();
-                let dataset = hdf5::File::open(&path).unwrap().dataset("H").unwrap();
+                let dataset = open_written(&path).dataset("H").unwrap();
                 assert_eq!(dataset.shape(), shape, "{name}");
                 let got: Vec<f32> = dataset.read_raw().unwrap();
                 assert!(
@@ -395,12 +436,7 @@ mod tests {
             let f = hdf5::File::create(&path).unwrap();
             write_h(&f, spec, &film, &map, 2 * per_index * 4).unwrap();
             f.close().unwrap();
-            let got: Vec<f32> = hdf5::File::open(&path)
-                .unwrap()
-                .dataset("H")
-                .unwrap()
-                .read_raw()
-                .unwrap();
+            let got: Vec<f32> = open_written(&path).dataset("H").unwrap().read_raw().unwrap();
             assert!(
                 got.iter().zip(&want).all(|(a, b)| a.to_bits() == b.to_bits()),
                 "{name}, mapped"
