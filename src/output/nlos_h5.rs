@@ -352,10 +352,13 @@ mod tests {
         let got: Vec<f32> = open_written(&path).dataset("H").unwrap().read_raw().unwrap();
         let _ = child.kill();
         let _ = child.wait();
-        assert!(
-            locked.is_err(),
-            "the child's inherited lock should block a locked reopen"
-        );
+        // (unless the environment turns HDF5's locking off)
+        if std::env::var_os("HDF5_USE_FILE_LOCKING").is_none() {
+            assert!(
+                locked.is_err(),
+                "the child's inherited lock should block a locked reopen"
+            );
+        }
         assert_eq!(got, vec![1.0, 2.0, 3.0]);
     }
 
