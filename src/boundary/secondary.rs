@@ -224,6 +224,26 @@ pub(super) struct Prepared {
     beside_silhouette: bool,
 }
 
+/// The point end of a boundary segment (`Secondary::through_point`): a light point or a
+/// sensor point, its f64 position, its surface normal (None: a point light) and how it moves.
+struct PointEnd {
+    p: Vec3,
+    p64: DVec3,
+    n: Option<Vec3>,
+    motion: SourceMotion,
+}
+
+/// What `Secondary::through_point` finds: the surface beyond x_B, the blocked side s_o,
+/// dh̃/dθ, the segment's length t + t_far, its medium's index and its OPL.
+struct PointSegment {
+    far: SurfaceHit,
+    s_o: f32,
+    rates: Rates,
+    seg: f32,
+    eta: f32,
+    d_b: f64,
+}
+
 /// The estimator's fixed inputs.
 pub struct Secondary<'a> {
     pub(super) ctx: &'a RenderContext<'a>,
@@ -635,34 +655,23 @@ impl<'a> Secondary<'a> {
         if !(cos_l > 0.0) {
             return None;
         }
-        let s_o = self.blocked_side(rec, omega)?;
-        // y → x_B must be free (a hit short of y, ε from its surface, blocks it); a contact
-        // edge has x_L = x_B, never y (contact.rs)
-        let Some(SegmentEnds::Open { mut x_s, x_l }) =
-            segment_ends(self.ctx, rec, x_b, omega, s_o, &mut scratch.counts.rays)
-        else {
-            return None;
-        };
-        let eps = |p: Vec3| self_intersection_eps(&V3::<f32>::splat(p), self.ctx.scene.offset_scale);
-        let reach = t_l - eps(y);
-        let tol = 2.0 * eps(y).max(eps(x_b));
-        if !(reach > 0.0)
-            || x_l.is_some_and(|h| blocks_light_point(&h, y, ls.has_cos.then(|| ls.n.lane(0)), reach, tol))
-        {
-            return None;
-        }
-        scratch.valid += 1;
-        let rates = self.rates(rec, y, motion_l, &x_s);
-        let seg = t_l + x_s.t;
-        if rates.is_zero(self.params) {
-            return None;
-        }
         let y64 = ls.p64[0];
+        let end = PointEnd {
+            p: y,
+            p64: y64,
+            n: ls.has_cos.then(|| ls.n.lane(0)),
+            motion: motion_l,
+        };
+        let PointSegment {
+            far: x_s,
+            s_o,
+            rates,
+            seg,
+            eta,
+            d_b,
+        } = self.through_point(rec, x_b, &end, t_l, omega, scratch)?;
         // the light point in f64 where the render keeps one, else as drawn
         let y_line = if ctx.opl.f64_paths { y64 } else { y.as_dvec3() };
-        self.on_boundary_line(rec, x_b, |x_b64| (x_b64 - y64).normalize(), None, &mut x_s);
-        let eta = self.segment_eta(None, &x_s, x_b, omega, &mut scratch.counts.rays);
-        let d_b = eta as f64 * segment(ctx, y64, x_s.p64, seg);
         let x_l = SurfaceHit {
             p: y,
             p64: y64,
@@ -731,35 +740,24 @@ impl<'a> Secondary<'a> {
         // the sensor's importance towards x_B (none behind the wall, or unseen by the SPAD)
         let proj = scan.project(j, x_b)?;
         let (t_s, omega) = (proj.dist2.sqrt(), proj.dir);
-        let s_o = self.blocked_side(rec, omega)?;
-        // beyond x_B the line meets x_L; back towards s_j it must meet nothing short of the
-        // wall's tangent plane at s_j (as a light point's, `blocks_light_point`)
-        let Some(SegmentEnds::Open {
-            x_s: mut x_l,
-            x_l: back,
-        }) = segment_ends(ctx, rec, x_b, omega, s_o, &mut scratch.counts.rays)
-        else {
-            return None;
+        // beyond x_B the line meets x_L; s_j is the point end, as a light point is
+        let end = PointEnd {
+            p: sp.p,
+            p64: sp.p.as_dvec3(),
+            n: Some(sp.n),
+            motion: SourceMotion::Fixed,
         };
-        let eps = |p: Vec3| self_intersection_eps(&V3::<f32>::splat(p), ctx.scene.offset_scale);
-        let reach = t_s - eps(sp.p);
-        let tol = 2.0 * eps(sp.p).max(eps(x_b));
-        if !(reach > 0.0) || back.is_some_and(|h| blocks_light_point(&h, sp.p, Some(sp.n), reach, tol)) {
-            return None;
-        }
-        scratch.valid += 1;
-        let rates = self.rates(rec, sp.p, SourceMotion::Fixed, &x_l);
-        let seg = t_s + x_l.t;
-        if rates.is_zero(self.params) {
-            return None;
-        }
-        let s64 = sp.p.as_dvec3();
-        self.on_boundary_line(rec, x_b, |x_b64| (x_b64 - s64).normalize(), None, &mut x_l);
-        let eta = self.segment_eta(None, &x_l, x_b, omega, &mut scratch.counts.rays);
-        let d_b = eta as f64 * segment(ctx, s64, x_l.p64, seg);
+        let PointSegment {
+            far: x_l,
+            s_o,
+            rates,
+            seg,
+            eta,
+            d_b,
+        } = self.through_point(rec, x_b, &end, t_s, omega, scratch)?;
         let x_s = SurfaceHit {
             p: sp.p,
-            p64: s64,
+            p64: end.p64,
             n: sp.n,
             prim: sp.prim,
             t: t_s,
@@ -790,6 +788,56 @@ impl<'a> Secondary<'a> {
             u,
             edge,
             beside_silhouette: false,
+        })
+    }
+
+    /// The segment of a boundary ray from a point end (a light point of strategy B, or a
+    /// sensor point): `end` at distance `t` from x_B on edge `rec`, ω = (x_B − end)/t. Finds
+    /// the first surface beyond x_B (the point the discontinuity sweeps over) and checks that
+    /// nothing stands between x_B and the end (a hit more than 2ε in front of its tangent
+    /// plane, or short of it by distance for a point light: `blocks_light_point`; a contact
+    /// edge has x_L = x_B, never a point end, `contact.rs`). None when the sample adds nothing.
+    fn through_point(
+        &self,
+        rec: &EdgeRecord,
+        x_b: Vec3,
+        end: &PointEnd,
+        t: f32,
+        omega: Vec3,
+        scratch: &mut Scratch,
+    ) -> Option<PointSegment> {
+        let ctx = self.ctx;
+        let s_o = self.blocked_side(rec, omega)?;
+        let Some(SegmentEnds::Open {
+            x_s: mut far,
+            x_l: back,
+        }) = segment_ends(ctx, rec, x_b, omega, s_o, &mut scratch.counts.rays)
+        else {
+            return None;
+        };
+        let eps = |p: Vec3| self_intersection_eps(&V3::<f32>::splat(p), ctx.scene.offset_scale);
+        let reach = t - eps(end.p);
+        let tol = 2.0 * eps(end.p).max(eps(x_b));
+        if !(reach > 0.0) || back.is_some_and(|h| blocks_light_point(&h, end.p, end.n, reach, tol)) {
+            return None;
+        }
+        scratch.valid += 1;
+        let rates = self.rates(rec, end.p, end.motion, &far);
+        let seg = t + far.t;
+        if rates.is_zero(self.params) {
+            return None;
+        }
+        let p64 = end.p64;
+        self.on_boundary_line(rec, x_b, |x_b64| (x_b64 - p64).normalize(), None, &mut far);
+        let eta = self.segment_eta(None, &far, x_b, omega, &mut scratch.counts.rays);
+        let d_b = eta as f64 * segment(ctx, p64, far.p64, seg);
+        Some(PointSegment {
+            far,
+            s_o,
+            rates,
+            seg,
+            eta,
+            d_b,
         })
     }
 
