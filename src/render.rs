@@ -17,7 +17,7 @@ use crate::integrator::sink::Sink;
 use crate::kernel::{Dual8, Real};
 use crate::params::MAX_PARAMS;
 use crate::params::lanes::Motion;
-use crate::scene::{IntegratorKind, Scene};
+use crate::scene::{IntegratorKind, NlosSpec, Scene};
 use rayon::prelude::*;
 use std::time::Instant;
 
@@ -677,16 +677,13 @@ fn check_memory(
 /// relay wall (its sensor and laser points are fixed points of the scan). Other geometry is
 /// differentiated with the boundary term at the wall's sensor and laser points
 /// (`boundary::secondary`).
-fn check_nlos(scene: &Scene, motion: &Motion, kind: IntegratorKind) -> Result<(), Error> {
+fn check_nlos(scene: &Scene, spec: &NlosSpec, motion: &Motion, kind: IntegratorKind) -> Result<(), Error> {
     let file = scene.source.display();
     if kind == IntegratorKind::Bdpt {
         return Err(Error::Invalid(format!(
             "{file}: an NLOS capture ([nlos]) renders with the path tracer only: set [integrator] kind = \"path\" (or --integrator path)"
         )));
     }
-    let Some(spec) = &scene.nlos else {
-        return Ok(());
-    };
     if let Some(k) = (0..motion.len()).find(|&k| motion.fields[k].iter().any(|(s, _)| *s == spec.wall as usize)) {
         return Err(Error::Invalid(format!(
             "{file}: parameter {} moves the relay wall {:?}: an NLOS capture's sensor and laser points are fixed \
@@ -813,8 +810,8 @@ impl<'s> Run<'s> {
         }
         let derivs = motion.len();
         let kind = opts.integrator.unwrap_or(scene.integrator.kind);
-        if scene.nlos.is_some() {
-            check_nlos(scene, &motion, kind)?;
+        if let Some(spec) = &scene.nlos {
+            check_nlos(scene, spec, &motion, kind)?;
         }
         check_materials(scene, &motion, kind, opts.boundary)?;
         check_memory(
