@@ -75,8 +75,11 @@
 //! (`Secondary::prepare_sensor`: strategy B's geometry with s in the light's place). In a
 //! confocal scan l = s, and a path s → x → s crosses one discontinuity where both of its
 //! segments cross it: it is counted once (`coincide`). Every vertex is in material form
-//! (the interior's first vertex from s is too). Not covered: an edge crossing the laser's
-//! beam to the wall, or the SPAD's line of sight to a sensor point.
+//! (the interior's first vertex from s is too). The laser's beam to the wall and the SPAD's
+//! line of sight to a sensor point join two fixed points (`integrator::nlos`, decided once
+//! per render): whether a hidden shape blocks them is a step in the parameters, whose
+//! derivative is 0 except at the values where an edge lies on the line (there the transient
+//! itself jumps), so they add no boundary term.
 //!
 //! Each strategy draws its inputs through a guiding grid (`guiding.rs`; uniform unless
 //! guiding is on). `pass.rs` runs the strategies (budget split by a pilot) and bins their
