@@ -679,9 +679,10 @@ fn check_memory(
 /// (`boundary::secondary`).
 fn check_nlos(scene: &Scene, spec: &NlosSpec, motion: &Motion, kind: IntegratorKind) -> Result<(), Error> {
     let file = scene.source.display();
-    if kind == IntegratorKind::Bdpt {
+    if kind == IntegratorKind::Bdpt && spec.exhaustive() {
         return Err(Error::Invalid(format!(
-            "{file}: an NLOS capture ([nlos]) renders with the path tracer only: set [integrator] kind = \"path\" (or --integrator path)"
+            "{file}: an exhaustive NLOS scan ([nlos] scan = \"exhaustive\") renders with the path tracer only \
+             (BDPT renders confocal scans): set [integrator] kind = \"path\" (or --integrator path)"
         )));
     }
     if let Some(k) = (0..motion.len()).find(|&k| motion.fields[k].iter().any(|(s, _)| *s == spec.wall as usize)) {

@@ -294,14 +294,17 @@ fn bad_nlos_input_names_the_field() {
     }
 }
 
-/// What a capture cannot do is refused before rendering: BDPT, and derivatives with respect
-/// to the relay wall's position (its sensor and laser points are fixed). The hidden scene's
-/// geometry is differentiated (with its boundary term: tests/nlos_boundary_fd.rs).
+/// What a capture cannot do is refused before rendering: BDPT on an exhaustive scan (it
+/// renders confocal ones: tests/bdpt_forward.rs), and derivatives with respect to the relay
+/// wall's position (its sensor and laser points are fixed). The hidden scene's geometry is
+/// differentiated (with its boundary term: tests/nlos_boundary_fd.rs).
 #[test]
 fn unsupported_renders_are_refused() {
     let base = scene_text("nlos_occluder.toml");
-    let err = refused(&base, &["--integrator", "bdpt"]);
-    assert!(err.contains("path tracer only"), "{err}");
+    let exhaustive = base.replace("scan = \"confocal\"", "scan = \"exhaustive\"");
+    assert_ne!(exhaustive, base);
+    let err = refused(&exhaustive, &["--integrator", "bdpt"]);
+    assert!(err.contains("exhaustive") && err.contains("path tracer only"), "{err}");
     let wall = format!(
         "{base}\n[[param]]\nname = \"wall_z\"\nkind = \"translate\"\nshape = \"wall\"\naxis = \"z\"\nvalue = 0.0\n"
     );

@@ -3,18 +3,25 @@
 //! Student-t z of AD − FD over 12 seeds widened by the finite difference's own error), for the
 //! parameters that move no geometry: albedo (of the hidden object, and of the relay wall, which
 //! weights the sensor points and the laser spots), laser power, pulse offset and η (with the
-//! relay legs both left out and counted). Geometry: tests/nlos_boundary_fd.rs.
+//! relay legs both left out and counted), with the path tracer and with BDPT (whose t = 1
+//! strategy joins the light subpath to the sensor point: the wall's albedo weights it, and its
+//! OPL ends with the wall's leg to the SPAD where that counts). Geometry:
+//! tests/nlos_boundary_fd.rs.
 
 use crate::common;
-use difftransient::scene::RelayLegs;
+use difftransient::scene::{IntegratorKind, RelayLegs};
 use difftransient::temporal::{Gate, Pulse};
 
 fn check(name: &str, value: f32, h: f32, edit: fn(&mut difftransient::Scene)) {
+    check_with(None, name, value, h, edit);
+}
+
+fn check_with(integrator: Option<IntegratorKind>, name: &str, value: f32, h: f32, edit: fn(&mut difftransient::Scene)) {
     common::fd::FdCheck {
         scene: "nlos_occluder.toml",
         k: 12,
         spp: 64,
-        integrator: None,
+        integrator,
         edit,
         require_signal: true,
         boundary: difftransient::render::BoundaryMode::Full,
@@ -63,4 +70,18 @@ fn pulse_offset_matches_finite_differences() {
 fn eta_matches_finite_differences() {
     check("eta", 1.0, 0.001, smooth);
     check("eta", 1.0, 0.001, legs_included);
+}
+
+/// BDPT on the capture: the sensor point's importance (the wall's albedo) in the t = 1
+/// strategy and in the camera subpath's start, the laser point's power in the light
+/// subpath's, and the time derivatives of every strategy's OPL, relay legs left out and
+/// counted.
+#[test]
+fn bdpt_derivatives_match_finite_differences() {
+    let bdpt = Some(IntegratorKind::Bdpt);
+    check_with(bdpt, "wall_albedo", 0.8, 0.01, |_| {});
+    check_with(bdpt, "laser_power", 1.0, 0.02, |_| {});
+    check_with(bdpt, "laser_offset", 0.0, 0.002, smooth);
+    check_with(bdpt, "eta", 1.0, 0.001, smooth);
+    check_with(bdpt, "eta", 1.0, 0.001, legs_included);
 }

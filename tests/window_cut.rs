@@ -145,6 +145,26 @@ fn a_capture_that_counts_its_relay_legs_ends_paths_with_both_legs_in_the_bound()
     );
 }
 
+/// BDPT on a capture: a light subpath ends at a sensor point, not at the SPAD, so its cut
+/// measures the distance to the sensor points' box (plus the wall's leg to the SPAD where it
+/// counts); measured to the SPAD, it would end light subpaths that can still reach a sensor
+/// point within the window, and the bytes would differ. Both legs left out and counted.
+#[test]
+fn bdpt_on_a_capture_ends_light_subpaths_by_their_distance_to_the_sensor_points() {
+    let mut scene = common::load("nlos_occluder.toml");
+    (scene.film.axis.start_opl, scene.film.axis.bins) = (1.0, 100);
+    scene.integrator.max_bounces = 6;
+    let bdpt = RenderOptions {
+        integrator: Some(IntegratorKind::Bdpt),
+        ..opts(1, 64, SteadyMode::Window)
+    };
+    // (with the SPAD's point as the light subpaths' end, bytes differed at this count)
+    check_forward("bdpt capture", &scene, bdpt.clone());
+    scene.nlos.as_mut().unwrap().relay_legs = difftransient::scene::RelayLegs::Included;
+    (scene.film.axis.start_opl, scene.film.axis.bins) = (6.0, 40);
+    check_forward("bdpt capture, legs included", &scene, bdpt);
+}
+
 #[test]
 fn derivative_films_interior_and_boundary_are_the_same_bytes() {
     // the pyramid of contact_wall slides (contact edges; floor and wall keep paths bouncing),

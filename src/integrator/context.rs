@@ -101,7 +101,15 @@ impl<'a> RenderContext<'a> {
                     .flat_map(|n| n.spots.iter().flatten().map(|s| spot(s, n.laser_leg))),
             );
         let emitter_box = super::window::EndBox::new(scene, spots);
-        let camera_box = (!scene.film.unwarp).then(|| super::window::EndBox::point(scene, scene.camera.position));
+        // a light subpath ends at the pinhole, or in a capture at a sensor point (with the
+        // wall's leg to the SPAD where it counts)
+        let camera_box = match &nlos {
+            Some(n) => super::window::EndBox::around(
+                scene,
+                n.sensors.iter().zip(&n.spad_leg).map(|(s, &leg)| (s.p, leg as f32)),
+            ),
+            None => (!scene.film.unwarp).then(|| super::window::EndBox::point(scene, scene.camera.position)),
+        };
         Ok(Self {
             scene,
             accel,

@@ -11,6 +11,9 @@
 //! each a point source I(θ) = Φ·ρ/π·cos θ (`emitter_table::laser_spot`). One traced path thus
 //! serves every laser point of an exhaustive scan.
 //!
+//! BDPT renders confocal scans with the same two ends: camera subpaths from the sensor points,
+//! light subpaths from the laser points (`super::bdpt::walk`, `super::bdpt::sensor`).
+//!
 //! Film points: (x, y) = the sensor grid cell (confocal), or (sensor index, laser index)
 //! (exhaustive). The time of flight counts the hidden legs always, and the laser-to-spot and
 //! wall-to-SPAD legs with `relay_legs = "included"`.

@@ -104,12 +104,18 @@ impl EndBox {
                 EmitterKind::Laser { .. } => {}
             }
         }
-        let (first, _) = *points.first()?;
-        let (lo, hi, tail) = points
-            .iter()
-            .fold((first, first, f32::INFINITY), |(lo, hi, tail), (p, t)| {
-                (lo.min(*p), hi.max(*p), tail.min(*t))
-            });
+        Self::around(scene, points)
+    }
+
+    /// The box of `points`, each with the OPL a path that ends there still adds (its tail);
+    /// `None` without points. An NLOS capture's light subpaths end at its sensor points, with
+    /// the wall's leg to the SPAD where the capture counts it.
+    pub fn around(scene: &Scene, points: impl IntoIterator<Item = (Vec3, f32)>) -> Option<Self> {
+        let mut points = points.into_iter();
+        let (first, t0) = points.next()?;
+        let (lo, hi, tail) = points.fold((first, first, t0), |(lo, hi, tail), (p, t)| {
+            (lo.min(p), hi.max(p), tail.min(t))
+        });
         let eta_min = least_index(scene);
         let finite = lo.is_finite() && hi.is_finite() && tail.is_finite() && tail >= 0.0;
         (finite && eta_min > 0.0).then_some(Self { lo, hi, eta_min, tail })

@@ -97,17 +97,7 @@ pub fn connect<R: Real, const C: usize, S: Sink<C>>(pk: &mut Packet<'_, '_, R, C
     };
     let f_p = pt.f_between(ctx, &(pk.camera[t - 2].p - pt.p).normalize(), &-dir, true);
     let contrib = (qs.beta * f_q * f_p * pt.beta).scale(g * R::from_value(weight(lower, higher)));
-    // f64 lengths only when the render carries them (this runs for every (s, t) pair)
-    let d64 = ctx.opl.f64_paths.then(|| {
-        std::array::from_fn::<f64, 8, _>(|i| {
-            let e = if i < R::LANES {
-                pt.eta_in.value().lane(i) as f64
-            } else {
-                0.0
-            };
-            qs.opl64[i] + pt.opl64[i] + e * (qs.p64[i] - pt.p64[i]).length()
-        })
-    });
+    let d64 = joined_opl64(ctx, &qs, &pt);
     let emitter = pk.origin.emitter;
     let exact = d64.as_ref();
     pk.deposit_own_pixels((s, t), &emitter, d, exact, &contrib, ok);
@@ -120,4 +110,25 @@ pub fn towards<R: Real>(a: &V3<R>, b: &V3<R>) -> (V3<R>, R, R) {
     let d2 = to.length_squared();
     let dist = d2.sqrt();
     (to * R::safe_div(R::one(), dist), dist, d2)
+}
+
+/// The f64 OPL of light vertex `q` joined to camera vertex `p` (through the medium `p`
+/// arrived in), or `None` when the render carries no f64 OPLs (this runs for every (s, t)
+/// pair).
+#[inline(always)]
+pub fn joined_opl64<R: Real, const C: usize>(
+    ctx: &crate::integrator::context::RenderContext,
+    q: &super::vertex::Vertex<R, C>,
+    p: &super::vertex::Vertex<R, C>,
+) -> Option<[f64; 8]> {
+    ctx.opl.f64_paths.then(|| {
+        std::array::from_fn::<f64, 8, _>(|i| {
+            let e = if i < R::LANES {
+                p.eta_in.value().lane(i) as f64
+            } else {
+                0.0
+            };
+            q.opl64[i] + p.opl64[i] + e * (q.p64[i] - p.p64[i]).length()
+        })
+    })
 }

@@ -10,6 +10,10 @@
 //! - t = 1: the light vertex seen by the pinhole, splatted wherever it lands
 //!   ([`splat::splat_to_camera`]).
 //!
+//! In a confocal NLOS capture the camera subpath starts at the lane's sensor point and the
+//! light subpath at its laser point ([`walk`]), and t = 1 joins the light vertex to that
+//! sensor point ([`sensor::connect_to_sensor`]); every vertex is then in material form.
+//!
 //! Each contribution is weighted by the power heuristic over all strategies of its path
 //! ([`mis`], Veach 1997 Eq. 9.13 and §10.2), binned at its OPL d with S_e, and differentiated
 //! as I += w·f·s, İ += w·(ḟ·s + f·Ṡ_e·ḋ) (Algorithm 1), the weight w a constant.
@@ -28,6 +32,7 @@
 pub mod connect;
 pub mod film;
 pub mod mis;
+pub mod sensor;
 pub mod splat;
 pub mod units;
 pub mod vertex;
@@ -82,6 +87,26 @@ pub struct Packet<'p, 'c, R: Real, const C: usize, S: Sink<C>> {
 }
 
 impl<R: Real, const C: usize, S: Sink<C>> Packet<'_, '_, R, C, S> {
+    /// For a t = 1 strategy (light vertex s − 1 joined to the camera subpath's vertex 0),
+    /// Σ (p_{s'} / p_s)² over the strategies with fewer light vertices, given the camera's
+    /// area density `camera_pdf` at that light vertex (no strategy has more: t ≥ 1).
+    pub fn light_tracing_ratios(&mut self, s: usize, camera_pdf: R::Value) -> R::Value {
+        mis::path_pdfs(
+            Some(self.ctx),
+            &self.light[..s],
+            &self.camera[..1],
+            R::Value::zero(),
+            camera_pdf,
+            self.pl,
+            self.pe,
+            self.no_connect,
+        );
+        let (delta, n) = (self.origin.delta, s + 1);
+        let no_connect = &*self.no_connect;
+        let (lower, _) = mis::ratio_sums(self.pl, self.pe, s, |sp| mis::allowed_through(n, sp, delta, no_connect));
+        lower
+    }
+
     /// Adds each lane's contribution to its own pixel (strategies with t ≥ 2).
     pub fn deposit_own_pixels(
         &mut self,
@@ -143,6 +168,7 @@ pub fn trace_packet<R: Real, const C: usize, S: Sink<C>>(
             }
             match (s, t) {
                 (0, _) => connect::emission(&mut pk, t),
+                (_, 1) if ctx.nlos.is_some() => sensor::connect_to_sensor(&mut pk, s),
                 (_, 1) => splat::splat_to_camera(&mut pk, s),
                 _ => connect::connect(&mut pk, s, t),
             }

@@ -24,7 +24,6 @@
 
 use super::Packet;
 use super::connect::towards;
-use super::mis::{allowed_through, path_pdfs, ratio_sums};
 use super::vertex::segment_end;
 use super::vertex::{camera_dir_pdf, to_area};
 use super::walk::geometry_carrier;
@@ -70,19 +69,7 @@ pub fn splat_to_camera<R: Real, const C: usize, S: Sink<C>>(pk: &mut Packet<'_, 
     // camera density at q_s with h = 1; the light-side ratio sums all carry pe[s−1]², so the
     // weight for pixel j is 1 / (1 + h_j² · lower)
     let camera_pdf = to_area(&eye, &qs, camera_dir_pdf(V::<R>::one(), proj.importance, pixels));
-    path_pdfs(
-        Some(ctx),
-        &pk.light[..s],
-        &pk.camera[..1],
-        zero,
-        camera_pdf,
-        pk.pl,
-        pk.pe,
-        pk.no_connect,
-    );
-    let (delta, n) = (pk.origin.delta, s + 1);
-    let no_connect = &*pk.no_connect;
-    let (lower, _) = ratio_sums(pk.pl, pk.pe, s, |sp| allowed_through(n, sp, delta, no_connect));
+    let lower = pk.light_tracing_ratios(s, camera_pdf);
     let camera_factor = (cos_q * proj.importance / proj.dist2).mul_f(1.0 / pixels);
     let prev = &pk.light[s - 2];
     let (beta, d, y) = if R::DERIVS > 0 {

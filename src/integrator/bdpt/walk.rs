@@ -49,8 +49,11 @@ fn random_walk<R: Real, const C: usize>(
     let mut eta = path.last().expect("a walk starts from a vertex").eta_in;
     let all = R::Mask::from_bools(&[true; 8][..R::LANES]);
     let none = R::Mask::from_bools(&[false; 8][..R::LANES]);
+    // an NLOS capture's camera subpath starts at a sensor point, a fixed point of the wall:
+    // its first vertex is in material form, as the path tracer's (`crate::integrator::nlos`)
+    let first_ray_form = camera && ctx.nlos.is_none();
     for depth in 1..=new_vertices {
-        let ray_form = camera && depth == 1;
+        let ray_form = first_ray_form && depth == 1;
         let prev = *path.last().expect("a walk starts from a vertex");
         // the window cut ahead of the last vertex: a camera subpath's strategies all end on
         // an emitter, a light subpath's at the pinhole (`crate::integrator::window`)
@@ -214,6 +217,9 @@ pub fn camera_subpath<R: Real, const C: usize>(
     new_vertices: usize,
     counts: &mut RayCounts,
 ) {
+    if let Some(scan) = &ctx.nlos {
+        return sensor_subpath(ctx, scan, sampler, lanes, path, new_vertices, counts);
+    }
     let cam = &ctx.camera;
     let pixels = (ctx.scene.film.width * ctx.scene.film.height) as f32;
     let (u1, u2) = sampler.next2::<V<R>>();
@@ -247,6 +253,70 @@ pub fn camera_subpath<R: Real, const C: usize>(
     );
 }
 
+/// The sensor point of each lane's film cell in a (confocal) NLOS capture, and its first
+/// direction: [`camera_subpath`]'s counterpart for a capture. Vertex 0 is the sensor point s,
+/// a point on the wall of importance f_r(s)·|cos θ_s| = ρ_s/π·|cos θ_s| for the radiance it
+/// sends towards the SPAD (`crate::integrator::nlos`); the direction is cosine-weighted, so
+/// the throughput after s is ρ_s (the path tracer's aiming at the hidden shapes,
+/// `hidden_sampling`, is left to the path tracer: the light subpaths from the laser point
+/// reach them). Its OPL starts at the SPAD's leg where the capture counts it, so every
+/// strategy's OPL includes it. Lanes whose sensor point the SPAD does not see carry nothing.
+fn sensor_subpath<R: Real, const C: usize>(
+    ctx: &RenderContext,
+    scan: &crate::integrator::nlos::NlosSensor,
+    sampler: &mut PathSampler,
+    lanes: &PacketLanes,
+    path: &mut Vec<Vertex<R, C>>,
+    new_vertices: usize,
+    counts: &mut RayCounts,
+) {
+    let (u1, u2) = sampler.next2::<V<R>>();
+    let mut sensor = [0usize; 8];
+    let mut alive = [false; 8];
+    for i in 0..lanes.count.min(R::LANES) {
+        sensor[i] = scan.sensor_of(lanes.px[i], lanes.py[i]);
+        alive[i] = scan.seen[sensor[i]];
+    }
+    let active = R::Mask::from_bools(&alive[..R::LANES]);
+    let pts: [Vec3; 8] = std::array::from_fn(|i| scan.sensors[sensor[i]].p);
+    let nrm: [Vec3; 8] = std::array::from_fn(|i| scan.sensors[sensor[i]].n);
+    let prims: [u32; 8] = std::array::from_fn(|i| scan.sensors[sensor[i]].prim);
+    let p = V3::<V<R>>::from_lane_vecs(&pts[..R::LANES]);
+    let n = V3::<V<R>>::from_lane_vecs(&nrm[..R::LANES]);
+    let (dir, pdf) = sample_cosine(&n, &n, u1, u2);
+    let eta = ctx.motion.eta::<R>(ctx.scene.eta);
+    let mut v0 = Vertex::point(V3::from_value(p), Spectrum::splat(R::one()), active);
+    v0.n = V3::from_value(n);
+    v0.on_surface = active;
+    v0.front = active;
+    v0.prim = prims;
+    v0.eta_in = eta;
+    let leg: [f64; 8] = std::array::from_fn(|i| if i < R::LANES { scan.spad_leg[sensor[i]] } else { 0.0 });
+    v0.opl = eta * R::from_lanes(&leg.map(|l| l as f32)[..R::LANES]);
+    v0.opl64 = std::array::from_fn(|i| {
+        if i < R::LANES {
+            eta.value().lane(i) as f64 * leg[i]
+        } else {
+            0.0
+        }
+    });
+    path.clear();
+    path.push(v0);
+    random_walk(
+        ctx,
+        sampler,
+        path,
+        offset_origin(&p, &n, &dir, ctx.scene.offset_scale),
+        dir,
+        pdf,
+        albedo::<R, C>(ctx, &prims),
+        active,
+        new_vertices,
+        true,
+        counts,
+    );
+}
+
 /// Uniform direction on the sphere and its density 1/(4π).
 #[inline(always)]
 fn sample_sphere<V: Real>(u1: V, u2: V) -> (V3<V>, V) {
@@ -269,9 +339,24 @@ pub fn light_subpath<R: Real, const C: usize>(
 ) -> LightOrigin<R> {
     let in_use: [bool; 8] = std::array::from_fn(|i| i < lanes.count);
     let active = R::Mask::from_bools(&in_use[..R::LANES]);
-    let (u0, u1) = sampler.next2::<V<R>>();
-    let select = crate::integrator::path::draw_select::<R>(ctx, sampler, true);
-    let ls = ctx.emitters.sample::<R, C>(ctx, select, u0, u1, active);
+    let ls = match &ctx.nlos {
+        // a capture's light subpath starts at the lane's laser point (confocal: its sensor's)
+        Some(scan) => {
+            let points: [u32; 8] = std::array::from_fn(|i| {
+                if i < lanes.count {
+                    scan.sensor_of(lanes.px[i], lanes.py[i]) as u32
+                } else {
+                    0
+                }
+            });
+            ctx.emitters.sample_laser_points::<R, C>(ctx, scan, &points, active)
+        }
+        None => {
+            let (u0, u1) = sampler.next2::<V<R>>();
+            let select = crate::integrator::path::draw_select::<R>(ctx, sampler, true);
+            ctx.emitters.sample::<R, C>(ctx, select, u0, u1, active)
+        }
+    };
     let alive = active & ls.valid;
     let eta = ctx.motion.eta::<R>(ctx.scene.eta);
     let mut v0 = Vertex::point(ls.p, ls.weight, alive);
