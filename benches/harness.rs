@@ -60,6 +60,7 @@ fn main() {
     let gated = Scene::load(&root.join("scenes/gated_laser_room.toml"), &[]).unwrap();
     let nlos = Scene::load(&root.join("scenes/nlos_occluder.toml"), &[]).unwrap();
     let lamp_shade = Scene::load(&root.join("scenes/lamp_shade.toml"), &[]).unwrap();
+    let two_corners = Scene::load(&root.join("scenes/nlos_two_corners.toml"), &[]).unwrap();
     let forward = |name, scene: Scene, integrator, estimator, reference| Workload {
         name,
         scene,
@@ -129,6 +130,36 @@ fn main() {
         // 8 × 8 exhaustive one (each sensor path connected to all 64 laser points)
         forward("nlos_confocal", nlos.clone(), None, "path", "nlos_confocal"),
         forward(
+            "nlos_confocal",
+            nlos.clone(),
+            Some(IntegratorKind::Bdpt),
+            "bdpt",
+            "nlos_confocal",
+        ),
+        // two corners (scenes/nlos_two_corners.toml): the hidden object is reached only by a
+        // third hidden bounce, where BDPT's light subpaths from the laser point pay; its reference is
+        // BDPT's (the path tracer's own noise would swamp the errors measured)
+        Workload {
+            reference_kind: IntegratorKind::Bdpt,
+            ..forward(
+                "nlos_two_corners",
+                two_corners.clone(),
+                None,
+                "path",
+                "nlos_two_corners_bdpt_ref",
+            )
+        },
+        Workload {
+            reference_kind: IntegratorKind::Bdpt,
+            ..forward(
+                "nlos_two_corners",
+                two_corners,
+                Some(IntegratorKind::Bdpt),
+                "bdpt",
+                "nlos_two_corners_bdpt_ref",
+            )
+        },
+        forward(
             "nlos_exhaustive",
             nlos_exhaustive(&root),
             None,
@@ -141,7 +172,10 @@ fn main() {
          peak_rss_mb,rel_l2_transient,rel_l2_image,median_bin_rel_l2,worst_bin_rel_l2,rel_l2_derivative,tracing_s,shading_s,film_s\n",
     );
     let mut series: Vec<(String, Vec<(f64, f64)>)> = Vec::new();
-    for w in &workloads {
+    // DTR_HARNESS_ONLY=name[,name...]: only those workloads
+    let only = std::env::var("DTR_HARNESS_ONLY").ok();
+    let picked = |w: &Workload| only.as_ref().is_none_or(|o| o.split(',').any(|n| n == w.name));
+    for w in workloads.iter().filter(|w| picked(w)) {
         let tris = w.scene.geometry.indices.len();
         let reference = cached_reference(&root, w, ref_spp);
         let estimator = w.estimator;
