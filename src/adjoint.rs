@@ -303,7 +303,7 @@ fn render_adjoint_group(
         spp,
         seed,
         paths: if interior {
-            crate::render::paths_per_sample(scene) * (samples.end - samples.start)
+            crate::render::paths_per_sample(scene, run.kind) * (samples.end - samples.start)
         } else {
             0
         },

@@ -48,10 +48,11 @@ pub(crate) fn tile_rects(scene: &Scene) -> Vec<(usize, usize, usize, usize)> {
         .collect()
 }
 
-/// Paths one sample traces: one per pixel, or one per sensor point of an exhaustive scan.
-pub(crate) fn paths_per_sample(scene: &Scene) -> u64 {
+/// Paths one sample traces: one per pixel, or for the path tracer one per sensor point of
+/// an exhaustive scan (BDPT traces one per (sensor, laser) pair there).
+pub(crate) fn paths_per_sample(scene: &Scene, kind: IntegratorKind) -> u64 {
     match &scene.nlos {
-        Some(n) if n.exhaustive() => n.sensors.len() as u64,
+        Some(n) if n.exhaustive() && kind == IntegratorKind::Path => n.sensors.len() as u64,
         _ => scene.film.width as u64 * scene.film.height as u64,
     }
 }
@@ -677,14 +678,8 @@ fn check_memory(
 /// relay wall (its sensor and laser points are fixed points of the scan). Other geometry is
 /// differentiated with the boundary term at the wall's sensor and laser points
 /// (`boundary::secondary`).
-fn check_nlos(scene: &Scene, spec: &NlosSpec, motion: &Motion, kind: IntegratorKind) -> Result<(), Error> {
+fn check_nlos(scene: &Scene, spec: &NlosSpec, motion: &Motion) -> Result<(), Error> {
     let file = scene.source.display();
-    if kind == IntegratorKind::Bdpt && spec.exhaustive() {
-        return Err(Error::Invalid(format!(
-            "{file}: an exhaustive NLOS scan ([nlos] scan = \"exhaustive\") renders with the path tracer only \
-             (BDPT renders confocal scans): set [integrator] kind = \"path\" (or --integrator path)"
-        )));
-    }
     if let Some(k) = (0..motion.len()).find(|&k| motion.fields[k].iter().any(|(s, _)| *s == spec.wall as usize)) {
         return Err(Error::Invalid(format!(
             "{file}: parameter {} moves the relay wall {:?}: an NLOS capture's sensor and laser points are fixed \
@@ -812,7 +807,7 @@ impl<'s> Run<'s> {
         let derivs = motion.len();
         let kind = opts.integrator.unwrap_or(scene.integrator.kind);
         if let Some(spec) = &scene.nlos {
-            check_nlos(scene, spec, &motion, kind)?;
+            check_nlos(scene, spec, &motion)?;
         }
         check_materials(scene, &motion, kind, opts.boundary)?;
         check_memory(
@@ -1330,7 +1325,7 @@ impl<'s> Run<'s> {
             wall_seconds: wall,
             cpu_seconds: cpu,
             paths: if interior.ran {
-                paths_per_sample(self.ctx.scene) * (self.samples.end - self.samples.start)
+                paths_per_sample(self.ctx.scene, self.kind) * (self.samples.end - self.samples.start)
             } else {
                 0
             },

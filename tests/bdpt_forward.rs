@@ -279,6 +279,18 @@ fn bdpt_matches_path_tracer_on_a_confocal_capture() {
     );
 }
 
+/// An exhaustive scan (scenes/nlos_occluder_exhaustive.toml, 4 × 4 laser × 4 × 4 sensor
+/// points): BDPT traces each (sensor, laser) cell from its own sensor point and its own laser
+/// point, the path tracer one path per sensor point joined to every laser point.
+#[test]
+fn bdpt_matches_path_tracer_on_an_exhaustive_capture() {
+    agree(
+        "nlos_occluder_exhaustive",
+        &common::load("nlos_occluder_exhaustive.toml"),
+        256,
+    );
+}
+
 /// The per-strategy transients (`--strategies`) add up to the BDPT transient.
 #[test]
 fn strategies_sum_to_the_transient() {

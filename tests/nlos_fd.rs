@@ -13,12 +13,19 @@ use difftransient::scene::{IntegratorKind, RelayLegs};
 use difftransient::temporal::{Gate, Pulse};
 
 fn check(name: &str, value: f32, h: f32, edit: fn(&mut difftransient::Scene)) {
-    check_with(None, name, value, h, edit);
+    check_with("nlos_occluder.toml", None, name, value, h, edit);
 }
 
-fn check_with(integrator: Option<IntegratorKind>, name: &str, value: f32, h: f32, edit: fn(&mut difftransient::Scene)) {
+fn check_with(
+    scene: &'static str,
+    integrator: Option<IntegratorKind>,
+    name: &str,
+    value: f32,
+    h: f32,
+    edit: fn(&mut difftransient::Scene),
+) {
     common::fd::FdCheck {
-        scene: "nlos_occluder.toml",
+        scene,
         k: 12,
         spp: 64,
         integrator,
@@ -79,9 +86,22 @@ fn eta_matches_finite_differences() {
 #[test]
 fn bdpt_derivatives_match_finite_differences() {
     let bdpt = Some(IntegratorKind::Bdpt);
-    check_with(bdpt, "wall_albedo", 0.8, 0.01, |_| {});
-    check_with(bdpt, "laser_power", 1.0, 0.02, |_| {});
-    check_with(bdpt, "laser_offset", 0.0, 0.002, smooth);
-    check_with(bdpt, "eta", 1.0, 0.001, smooth);
-    check_with(bdpt, "eta", 1.0, 0.001, legs_included);
+    let scene = "nlos_occluder.toml";
+    check_with(scene, bdpt, "wall_albedo", 0.8, 0.01, |_| {});
+    check_with(scene, bdpt, "laser_power", 1.0, 0.02, |_| {});
+    check_with(scene, bdpt, "laser_offset", 0.0, 0.002, smooth);
+    check_with(scene, bdpt, "eta", 1.0, 0.001, smooth);
+    check_with(scene, bdpt, "eta", 1.0, 0.001, legs_included);
+}
+
+/// BDPT on an exhaustive scan (scenes/nlos_occluder_exhaustive.toml, 4 × 4 laser × 4 × 4
+/// sensor points): each film cell's light subpaths start at its own laser point.
+#[test]
+fn bdpt_derivatives_of_an_exhaustive_scan_match_finite_differences() {
+    let bdpt = Some(IntegratorKind::Bdpt);
+    let scene = "nlos_occluder_exhaustive.toml";
+    check_with(scene, bdpt, "hidden_albedo", 0.7, 0.01, |_| {});
+    check_with(scene, bdpt, "wall_albedo", 0.8, 0.01, |_| {});
+    check_with(scene, bdpt, "laser_offset", 0.0, 0.002, smooth);
+    check_with(scene, bdpt, "eta", 1.0, 0.001, legs_included);
 }

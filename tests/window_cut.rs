@@ -162,7 +162,11 @@ fn bdpt_on_a_capture_ends_light_subpaths_by_their_distance_to_the_sensor_points(
     check_forward("bdpt capture", &scene, bdpt.clone());
     scene.nlos.as_mut().unwrap().relay_legs = difftransient::scene::RelayLegs::Included;
     (scene.film.axis.start_opl, scene.film.axis.bins) = (6.0, 40);
-    check_forward("bdpt capture, legs included", &scene, bdpt);
+    check_forward("bdpt capture, legs included", &scene, bdpt.clone());
+    let mut exhaustive = common::load("nlos_occluder_exhaustive.toml");
+    (exhaustive.film.axis.start_opl, exhaustive.film.axis.bins) = (1.0, 100);
+    exhaustive.integrator.max_bounces = 6;
+    check_forward("bdpt exhaustive capture", &exhaustive, bdpt);
 }
 
 #[test]

@@ -345,7 +345,8 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
     }
     super::nlos_out::write(&scene, &film, &mut set, a.shard.is_some())?;
     let mut meta = metadata(&scene, &film, &stats, &a, set.prefix());
-    if let Some(n) = super::nlos_out::describe(&scene, set.prefix(), a.shard.is_some()) {
+    let kind = a.integrator.unwrap_or(scene.integrator.kind);
+    if let Some(n) = super::nlos_out::describe(&scene, set.prefix(), a.shard.is_some(), kind) {
         meta["nlos"] = n;
     }
     meta["identity"] = identity;

@@ -11,8 +11,9 @@
 //! each a point source I(θ) = Φ·ρ/π·cos θ (`emitter_table::laser_spot`). One traced path thus
 //! serves every laser point of an exhaustive scan.
 //!
-//! BDPT renders confocal scans with the same two ends: camera subpaths from the sensor points,
-//! light subpaths from the laser points (`super::bdpt::walk`, `super::bdpt::sensor`).
+//! BDPT renders captures with the same two ends, one path per film cell (an exhaustive scan's
+//! cells are (sensor, laser) pairs): camera subpaths from the sensor point, light subpaths
+//! from the laser point (`super::bdpt::walk`, `super::bdpt::sensor`).
 //!
 //! Film points: (x, y) = the sensor grid cell (confocal), or (sensor index, laser index)
 //! (exhaustive). The time of flight counts the hidden legs always, and the laser-to-spot and

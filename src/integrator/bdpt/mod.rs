@@ -10,9 +10,10 @@
 //! - t = 1: the light vertex seen by the pinhole, splatted wherever it lands
 //!   ([`splat::splat_to_camera`]).
 //!
-//! In a confocal NLOS capture the camera subpath starts at the lane's sensor point and the
-//! light subpath at its laser point ([`walk`]), and t = 1 joins the light vertex to that
-//! sensor point ([`sensor::connect_to_sensor`]); every vertex is then in material form.
+//! In an NLOS capture each film cell is a (sensor point, laser point) pair: the camera
+//! subpath starts at the sensor point and the light subpath at the laser point ([`walk`]),
+//! and t = 1 joins the light vertex to that sensor point ([`sensor::connect_to_sensor`]);
+//! every vertex is then in material form.
 //!
 //! Each contribution is weighted by the power heuristic over all strategies of its path
 //! ([`mis`], Veach 1997 Eq. 9.13 and §10.2), binned at its OPL d with S_e, and differentiated

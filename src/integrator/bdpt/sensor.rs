@@ -5,9 +5,10 @@
 //! Sensor point s measures the radiance the wall sends towards the SPAD, with importance
 //! W(ω) = f_r(s)·|cos θ_s| = ρ_s/π·|cos θ_s| (`crate::integrator::nlos`). Joined to q_s the
 //! contribution is β_L(q_s) · f(q_s) · G(q_s ↔ s) · ρ_s/π (Veach 1997, Eq. 10.8 with t = 1),
-//! G = cos θ_q cos θ_s / ‖q_s − s‖², and it lands in the lane's own film cell: a confocal
-//! scan's light subpath starts at that cell's laser point, so no other cell can use it and
-//! the camera density needs no 1/N (one light subpath per camera subpath and cell).
+//! G = cos θ_q cos θ_s / ‖q_s − s‖², and it lands in the lane's own film cell: the cell's
+//! light subpath starts at that cell's laser point (confocal: the sensor point's own;
+//! exhaustive: the cell's laser point), so no other cell can use it and the camera density
+//! needs no 1/N (one light subpath per camera subpath and cell).
 //!
 //! Every vertex of a capture's path is in material form (the sensor point is a fixed point of
 //! the wall, the camera subpath's first vertex moves with its surface as the path tracer's
@@ -26,7 +27,7 @@ use crate::kernel::{Mask, Real};
 
 type V<R> = <R as Real>::Value;
 
-/// s ≥ 2, t = 1 in a capture: q_{s−1} joined to the sensor point (the camera subpath's
+/// s ≥ 2, t = 1 in a capture (confocal or exhaustive): q_{s−1} joined to the sensor point (the camera subpath's
 /// vertex 0).
 pub fn connect_to_sensor<R: Real, const C: usize, S: Sink<C>>(pk: &mut Packet<'_, '_, R, C, S>, s: usize) {
     let ctx = pk.ctx;

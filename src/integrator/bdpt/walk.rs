@@ -253,7 +253,7 @@ pub fn camera_subpath<R: Real, const C: usize>(
     );
 }
 
-/// The sensor point of each lane's film cell in a (confocal) NLOS capture, and its first
+/// The sensor point of each lane's film cell in an NLOS capture, and its first
 /// direction: [`camera_subpath`]'s counterpart for a capture. Vertex 0 is the sensor point s,
 /// a point on the wall of importance f_r(s)·|cos θ_s| = ρ_s/π·|cos θ_s| for the radiance it
 /// sends towards the SPAD (`crate::integrator::nlos`); the direction is cosine-weighted, so
@@ -340,14 +340,13 @@ pub fn light_subpath<R: Real, const C: usize>(
     let in_use: [bool; 8] = std::array::from_fn(|i| i < lanes.count);
     let active = R::Mask::from_bools(&in_use[..R::LANES]);
     let ls = match &ctx.nlos {
-        // a capture's light subpath starts at the lane's laser point (confocal: its sensor's)
+        // a capture's light subpath starts at the lane's laser point: its sensor's in a
+        // confocal scan, its film row's in an exhaustive one
         Some(scan) => {
-            let points: [u32; 8] = std::array::from_fn(|i| {
-                if i < lanes.count {
-                    scan.sensor_of(lanes.px[i], lanes.py[i]) as u32
-                } else {
-                    0
-                }
+            let points: [u32; 8] = std::array::from_fn(|i| match (i < lanes.count, scan.exhaustive) {
+                (false, _) => 0,
+                (true, true) => lanes.py[i],
+                (true, false) => scan.sensor_of(lanes.px[i], lanes.py[i]) as u32,
             });
             ctx.emitters.sample_laser_points::<R, C>(ctx, scan, &points, active)
         }
