@@ -12,6 +12,7 @@ use std::time::{Duration, Instant};
 
 const CORNELL: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell_box.toml");
 const SLIDE: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/silhouette_slide.toml");
+const NLOS: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/nlos_occluder.toml");
 
 fn spawn(args: &[&str], cwd: &Path) -> Child {
     Command::new(env!("CARGO_BIN_EXE_dtr"))
@@ -123,6 +124,18 @@ fn a_killed_bdpt_render_resumes_to_the_same_bytes() {
     resume_equals_uninterrupted(
         CORNELL,
         &["--spp", "160", "--integrator", "bdpt"],
+        &["npy"],
+        libc::SIGKILL,
+    );
+}
+
+/// BDPT on a confocal capture: its units are (tile, sample block) over the film of sensor
+/// points, as any film's.
+#[test]
+fn a_killed_bdpt_capture_resumes_to_the_same_bytes() {
+    resume_equals_uninterrupted(
+        NLOS,
+        &["--spp", "65536", "--integrator", "bdpt"],
         &["npy"],
         libc::SIGKILL,
     );
