@@ -85,6 +85,17 @@ class Scene:
         """The sampler's name ("independent" or "sobol")."""
         return self._native.sampler
 
+    def with_integrator(self, name: str) -> "Scene":
+        """The same scene rendered by `name`'s estimator: "path" (unidirectional path tracing,
+        the default) or "bdpt" (bidirectional, with MIS over every strategy; it renders NLOS
+        captures too, without the path tracer's aiming; `dtr render --integrator`)."""
+        return Scene(self._native.with_integrator(name))
+
+    @property
+    def integrator(self) -> str:
+        """The estimator's name ("path" or "bdpt")."""
+        return self._native.integrator
+
     def auto_window(self, *, seed: Optional[int] = None, threads: Optional[int] = None) -> "Scene":
         """The same scene with its time window (film start and bin width; the number of bins
         kept) chosen by a short pilot render over where the light arrives and decays, as

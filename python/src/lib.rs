@@ -11,7 +11,7 @@
 
 use difftransient::kernel::SampleSequence;
 use difftransient::render::TimeEdgeMode;
-use difftransient::scene::Format;
+use difftransient::scene::{Format, IntegratorKind};
 use difftransient::{BoundaryMode, RenderOptions, Scene, Transient};
 use numpy::ndarray::{Array1, Array4};
 use numpy::{IntoPyArray, PyArray1, PyArray3, PyArray4, PyReadonlyArray4};
@@ -104,6 +104,32 @@ impl PyScene {
     #[getter]
     fn sampler(&self) -> &'static str {
         self.scene.integrator.sampler.name()
+    }
+
+    /// The same scene rendered by `name`'s estimator: "path" (unidirectional, the default) or
+    /// "bdpt" (`[integrator] kind`, `dtr render --integrator`).
+    fn with_integrator(&self, name: &str) -> PyResult<Self> {
+        let kind = match name {
+            "path" => IntegratorKind::Path,
+            "bdpt" => IntegratorKind::Bdpt,
+            _ => {
+                return Err(PyValueError::new_err(format!(
+                    "unknown integrator {name:?}: expected \"path\" or \"bdpt\""
+                )));
+            }
+        };
+        let mut scene = self.scene.clone();
+        scene.integrator.kind = kind;
+        Ok(Self { scene })
+    }
+
+    /// The estimator's name ("path" or "bdpt").
+    #[getter]
+    fn integrator(&self) -> &'static str {
+        match self.scene.integrator.kind {
+            IntegratorKind::Path => "path",
+            IntegratorKind::Bdpt => "bdpt",
+        }
     }
 
     /// Chooses the film's time window by a short pilot render, as `dtr render --auto-window`

@@ -170,6 +170,28 @@ def test_with_sampler_is_the_scene_files_sampler():
         s.with_sampler("halton")
 
 
+def test_with_integrator_is_the_scene_files_integrator():
+    """`with_integrator("bdpt")` renders the bytes of the scene whose [integrator] says
+    kind = "bdpt" (here a confocal NLOS capture), differs from the path tracer's render, and
+    refuses an unknown name."""
+    import json
+    import tomllib
+
+    s = scene("nlos_occluder.toml")
+    assert s.integrator == "path"
+    t = s.with_integrator("bdpt")
+    assert t.integrator == "bdpt"
+    desc = tomllib.loads((SCENES / "nlos_occluder.toml").read_text())
+    desc["integrator"]["kind"] = "bdpt"
+    u = dt.Scene.from_dict(json.loads(json.dumps(desc)), base_dir=SCENES)
+    a = dt.render(t, spp=16, seed=2).transient
+    assert a.sum() > 0
+    assert np.array_equal(a, dt.render(u, spp=16, seed=2).transient)
+    assert not np.array_equal(a, dt.render(s, spp=16, seed=2).transient)
+    with pytest.raises(ValueError, match="mlt"):
+        s.with_integrator("mlt")
+
+
 def test_scene_from_a_dict():
     import json
     import tomllib
