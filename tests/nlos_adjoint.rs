@@ -1,14 +1,19 @@
 //! Adjoint gradients of NLOS captures (`render_adjoint`) equal Σ ∂L/∂I · İ of `render_diff` on
 //! the same samples to float rounding, for a confocal and an exhaustive scan (whose tiles span
 //! every laser row), several parameters at once: the hidden box's position (interior and
-//! boundary term) among them.
+//! boundary term) among them; with the path tracer and with BDPT.
 
 use crate::common;
+use difftransient::scene::IntegratorKind;
 use difftransient::{RenderOptions, Scene, render_adjoint, render_diff};
 
 const U: f64 = 1.0 / 16_777_216.0;
 
 fn check(scene: &Scene) {
+    check_with(scene, None);
+}
+
+fn check_with(scene: &Scene, integrator: Option<IntegratorKind>) {
     let params: Vec<String> = ["hidden_albedo", "wall_albedo", "laser_offset", "eta", "hidden_x"]
         .iter()
         .map(|s| s.to_string())
@@ -17,6 +22,7 @@ fn check(scene: &Scene) {
         spp: Some(8),
         seed: Some(3),
         threads: Some(2),
+        integrator,
         ..Default::default()
     };
     let (primal, d, _) = render_diff(scene, &params, &opts).unwrap();
@@ -68,4 +74,17 @@ fn exhaustive_adjoint_equals_contracted_derivatives() {
     let scene = Scene::load(&p, &[]).unwrap();
     assert_eq!((scene.film.width, scene.film.height), (45, 45));
     check(&scene);
+}
+
+/// BDPT on a capture: its t = 1 strategy lands in the film cell of its own sensor point, so
+/// the adjoint contracts it there as it does the other strategies.
+#[test]
+fn bdpt_adjoint_equals_contracted_derivatives() {
+    let mut scene = common::load("nlos_occluder.toml");
+    scene.emitters[0].pulse = difftransient::temporal::Pulse::Gaussian { sigma_opl: 0.04 };
+    check_with(&scene, Some(IntegratorKind::Bdpt));
+    check_with(
+        &common::load("nlos_occluder_exhaustive.toml"),
+        Some(IntegratorKind::Bdpt),
+    );
 }
