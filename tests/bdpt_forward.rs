@@ -247,13 +247,17 @@ fn bdpt_matches_path_tracer_with_a_laser() {
 /// A confocal NLOS capture (scenes/nlos_occluder.toml: 16 × 16 sensor points, three hidden
 /// bounces, Gaussian pulse and gate): BDPT's camera subpaths start at the sensor points and
 /// its light subpaths at the laser points, and t = 1 joins a light vertex to the lane's own
-/// sensor point (`integrator::bdpt::sensor`). The path tracer aims part of its first
-/// segments at the hidden shapes (the scene's default), BDPT does not: the same expectation.
+/// sensor point (`integrator::bdpt::sensor`). Both aim half of their first segments at the
+/// hidden shapes (the scene's default): BDPT's first camera vertex then has the two
+/// strategies' mixture density, in its MIS weights and in t = 1's; and both without aiming.
 /// Its strategies add up to the transient, and more than the path tracer's two carry energy.
 #[test]
 fn bdpt_matches_path_tracer_on_a_confocal_capture() {
-    let scene = common::load("nlos_occluder.toml");
+    let mut scene = common::load("nlos_occluder.toml");
     agree("nlos_occluder", &scene, 256);
+    scene.nlos.as_mut().unwrap().hidden.probability = 0.0;
+    agree("nlos_occluder without aiming", &scene, 256);
+    scene.nlos.as_mut().unwrap().hidden.probability = 0.5;
     let (full, per, _) = render_strategies(&scene, &opts(IntegratorKind::Bdpt, 16, 3)).unwrap();
     let peak = full.data.iter().fold(0.0f32, |m, v| m.max(v.abs())) as f64;
     let mut sum = vec![0.0f64; full.data.len()];

@@ -10,17 +10,17 @@ use difftransient::{RenderOptions, Scene, render_adjoint, render_diff};
 const U: f64 = 1.0 / 16_777_216.0;
 
 fn check(scene: &Scene) {
-    check_with(scene, None);
+    check_with(scene, None, 3);
 }
 
-fn check_with(scene: &Scene, integrator: Option<IntegratorKind>) {
+fn check_with(scene: &Scene, integrator: Option<IntegratorKind>, seed: u64) {
     let params: Vec<String> = ["hidden_albedo", "wall_albedo", "laser_offset", "eta", "hidden_x"]
         .iter()
         .map(|s| s.to_string())
         .collect();
     let opts = RenderOptions {
         spp: Some(8),
-        seed: Some(3),
+        seed: Some(seed),
         threads: Some(2),
         integrator,
         ..Default::default()
@@ -82,9 +82,13 @@ fn exhaustive_adjoint_equals_contracted_derivatives() {
 fn bdpt_adjoint_equals_contracted_derivatives() {
     let mut scene = common::load("nlos_occluder.toml");
     scene.emitters[0].pulse = difftransient::temporal::Pulse::Gaussian { sigma_opl: 0.04 };
-    check_with(&scene, Some(IntegratorKind::Bdpt));
+    check_with(&scene, Some(IntegratorKind::Bdpt), 3);
+    // (at seed 3 the exhaustive scan's contracted η derivative came out too near 0, against
+    // the sum of its terms' magnitudes, for the comparison to mean anything: the check's
+    // "bound too loose to test")
     check_with(
         &common::load("nlos_occluder_exhaustive.toml"),
         Some(IntegratorKind::Bdpt),
+        4,
     );
 }

@@ -88,7 +88,7 @@ class Scene:
     def with_integrator(self, name: str) -> "Scene":
         """The same scene rendered by `name`'s estimator: "path" (unidirectional path tracing,
         the default) or "bdpt" (bidirectional, with MIS over every strategy; it renders NLOS
-        captures too, without the path tracer's aiming; `dtr render --integrator`)."""
+        captures too; `dtr render --integrator`)."""
         return Scene(self._native.with_integrator(name))
 
     @property

@@ -55,18 +55,10 @@ pub(super) fn write(scene: &Scene, film: &Transient, set: &mut OutputSet, sharde
 }
 
 /// The JSON's `nlos` block: the capture, its axes and conventions, and the extra files.
-/// `kind` is the integrator that rendered it: BDPT does not aim its first segments
-/// (`hidden_sampling` applies to the path tracer).
-pub(super) fn describe(
-    scene: &Scene,
-    prefix: &Path,
-    sharded: bool,
-    kind: crate::scene::IntegratorKind,
-) -> Option<serde_json::Value> {
+pub(super) fn describe(scene: &Scene, prefix: &Path, sharded: bool) -> Option<serde_json::Value> {
     let n = scene.nlos.as_ref()?;
     let file = |ext: &str| with_suffix(prefix, ext).display().to_string();
     let mut v = crate::scene::nlos::describe(n);
-    v["hidden_sampling_used"] = json!(kind == crate::scene::IntegratorKind::Path && n.hidden.probability > 0.0);
     v["layout"] = json!(if n.exhaustive() {
         "PREFIX.npy is [laser points, sensor points, bins, channels]: laser point j = jy * laser_grid[0] + jx, sensor point i = iy * sensor_grid[0] + ix (explicit points: their order)"
     } else {

@@ -345,8 +345,7 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
     }
     super::nlos_out::write(&scene, &film, &mut set, a.shard.is_some())?;
     let mut meta = metadata(&scene, &film, &stats, &a, set.prefix());
-    let kind = a.integrator.unwrap_or(scene.integrator.kind);
-    if let Some(n) = super::nlos_out::describe(&scene, set.prefix(), a.shard.is_some(), kind) {
+    if let Some(n) = super::nlos_out::describe(&scene, set.prefix(), a.shard.is_some()) {
         meta["nlos"] = n;
     }
     meta["identity"] = identity;

@@ -55,9 +55,15 @@ pub fn connect_to_sensor<R: Real, const C: usize, S: Sink<C>>(pk: &mut Packet<'_
     if ok.none() {
         return;
     }
-    // the sensor's cosine-weighted first direction, towards q_s, in area measure at q_s
+    // the sensor's first direction towards q_s, in area measure at q_s: cosine-weighted, or
+    // the mixture with aiming at the hidden shapes (q_s is the first hit: the join is clear)
     let pdf_dir = cos_s.value().mul_f(std::f32::consts::FRAC_1_PI);
-    let camera_pdf = to_area(&sensor.p.value(), &qs, pdf_dir);
+    let mut camera_pdf = to_area(&sensor.p.value(), &qs, pdf_dir);
+    if let Some(targets) = ctx.nlos.as_ref().and_then(|n| n.hidden.as_ref()) {
+        let alpha = targets.probability;
+        let aimed: [f32; 8] = std::array::from_fn(|i| targets.pdf_area(qs.prim[i]));
+        camera_pdf = camera_pdf.mul_f(1.0 - alpha) + V::<R>::from_lanes(&aimed[..R::LANES]).mul_f(alpha);
+    }
     let lower = pk.light_tracing_ratios(s, camera_pdf);
     let f_q = qs.f_between(ctx, &(pk.light[s - 2].p - qs.p).normalize(), &dir, false);
     let importance = albedo::<R, C>(ctx, &sensor.prim).scale(R::from_value(V::<R>::splat(std::f32::consts::FRAC_1_PI)));

@@ -6,9 +6,10 @@
 //! material form (it moves with its surface), with the derivative of G·J carried by the
 //! ratio `[G·J]_dual / [G]_value` as in [`crate::integrator::path`].
 
-use super::vertex::{Vertex, camera_dir_pdf, link};
-use crate::integrator::bsdf::{Lobes, albedo, diffuse_eval, sample_cosine};
+use super::vertex::{Vertex, camera_dir_pdf, link, to_area};
+use crate::integrator::bsdf::{Lobes, albedo, cosine_pdf, diffuse_eval, sample_cosine};
 use crate::integrator::context::RenderContext;
+use crate::integrator::nlos_start::{first_directions, weigh_first_hit};
 use crate::integrator::path::{PacketLanes, ray_plane_point};
 use crate::integrator::surface::{offset_origin, surface_at};
 use crate::integrator::trace::{RayCounts, next_hits, spawn_point};
@@ -257,9 +258,10 @@ pub fn camera_subpath<R: Real, const C: usize>(
 /// direction: [`camera_subpath`]'s counterpart for a capture. Vertex 0 is the sensor point s,
 /// a point on the wall of importance f_r(s)·|cos θ_s| = ρ_s/π·|cos θ_s| for the radiance it
 /// sends towards the SPAD (`crate::integrator::nlos`); the direction is cosine-weighted, so
-/// the throughput after s is ρ_s (the path tracer's aiming at the hidden shapes,
-/// `hidden_sampling`, is left to the path tracer: the light subpaths from the laser point
-/// reach them). Its OPL starts at the SPAD's leg where the capture counts it, so every
+/// the throughput after s is ρ_s; with `hidden_sampling`, a share of the lanes aims at the
+/// hidden shapes as the path tracer's do, and the first hit turns the weight into
+/// ρ_s·(cos θ_s/π)/p(ω) with the two strategies' mixture density p, which is also the first
+/// vertex's density for the MIS weights (`sensor.rs` uses it for t = 1). Its OPL starts at the SPAD's leg where the capture counts it, so every
 /// strategy's OPL includes it. Lanes whose sensor point the SPAD does not see carry nothing.
 fn sensor_subpath<R: Real, const C: usize>(
     ctx: &RenderContext,
@@ -277,13 +279,24 @@ fn sensor_subpath<R: Real, const C: usize>(
         sensor[i] = scan.sensor_of(lanes.px[i], lanes.py[i]);
         alive[i] = scan.seen[sensor[i]];
     }
-    let active = R::Mask::from_bools(&alive[..R::LANES]);
+    let mut active = R::Mask::from_bools(&alive[..R::LANES]);
     let pts: [Vec3; 8] = std::array::from_fn(|i| scan.sensors[sensor[i]].p);
     let nrm: [Vec3; 8] = std::array::from_fn(|i| scan.sensors[sensor[i]].n);
     let prims: [u32; 8] = std::array::from_fn(|i| scan.sensors[sensor[i]].prim);
     let p = V3::<V<R>>::from_lane_vecs(&pts[..R::LANES]);
     let n = V3::<V<R>>::from_lane_vecs(&nrm[..R::LANES]);
-    let (dir, pdf) = sample_cosine(&n, &n, u1, u2);
+    // cosine-weighted, or aimed at the hidden shapes in a share of the lanes (the path
+    // tracer's two strategies, `crate::integrator::nlos_start`): the first hit then sets the
+    // weight and the first vertex's density
+    let (dir, aim) = match &scan.hidden {
+        None => (sample_cosine(&n, &n, u1, u2).0, None),
+        Some(t) => {
+            let (d, aim, ok) = first_directions::<R>(ctx, t, &pts, &n, u1, u2);
+            active = active & ok;
+            (d, Some((t, aim)))
+        }
+    };
+    let pdf = cosine_pdf(&n, &n, &dir);
     let eta = ctx.motion.eta::<R>(ctx.scene.eta);
     let mut v0 = Vertex::point(V3::from_value(p), Spectrum::splat(R::one()), active);
     v0.n = V3::from_value(n);
@@ -315,6 +328,18 @@ fn sensor_subpath<R: Real, const C: usize>(
         true,
         counts,
     );
+    if let Some((targets, aim)) = aim.filter(|_| path.len() >= 2) {
+        let x1 = path[1];
+        let r2 = (x1.p.value() - p).length_squared();
+        let cos_1 = x1.n.value().dot(dir).abs();
+        let (scale, pdf, keep) = weigh_first_hit::<R>(targets, &aim, &x1.prim, &n, &dir, r2, cos_1);
+        // every vertex's throughput carries the first segment's weight
+        for v in &mut path[1..] {
+            v.beta = v.beta.scale(R::from_value(scale));
+            v.alive = v.alive & keep;
+        }
+        path[1].pdf_fwd = to_area(&p, &path[1], pdf);
+    }
 }
 
 /// Uniform direction on the sphere and its density 1/(4π).
