@@ -109,15 +109,7 @@ impl PyScene {
     /// The same scene rendered by `name`'s estimator: "path" (unidirectional, the default) or
     /// "bdpt" (`[integrator] kind`, `dtr render --integrator`).
     fn with_integrator(&self, name: &str) -> PyResult<Self> {
-        let kind = match name {
-            "path" => IntegratorKind::Path,
-            "bdpt" => IntegratorKind::Bdpt,
-            _ => {
-                return Err(PyValueError::new_err(format!(
-                    "unknown integrator {name:?}: expected \"path\" or \"bdpt\""
-                )));
-            }
-        };
+        let kind = IntegratorKind::from_name(name).map_err(PyValueError::new_err)?;
         let mut scene = self.scene.clone();
         scene.integrator.kind = kind;
         Ok(Self { scene })
@@ -126,10 +118,7 @@ impl PyScene {
     /// The estimator's name ("path" or "bdpt").
     #[getter]
     fn integrator(&self) -> &'static str {
-        match self.scene.integrator.kind {
-            IntegratorKind::Path => "path",
-            IntegratorKind::Bdpt => "bdpt",
-        }
+        self.scene.integrator.kind.name()
     }
 
     /// Chooses the film's time window by a short pilot render, as `dtr render --auto-window`

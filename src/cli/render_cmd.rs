@@ -62,7 +62,7 @@ pub struct RenderArgs {
     pub diff: Vec<String>,
     /// Integrator (overrides the scene's [integrator] kind): `path` (unidirectional, the
     /// default) or `bdpt` (bidirectional with MIS).
-    #[arg(long, value_name = "path|bdpt", value_parser = parse_integrator)]
+    #[arg(long, value_name = "path|bdpt", value_parser = IntegratorKind::from_name)]
     pub integrator: Option<IntegratorKind>,
     /// Also write one transient per BDPT strategy, PREFIX.s{S}_t{T}.npy (MIS-weighted
     /// contributions; they sum to the transient). Needs the bdpt integrator.
@@ -443,14 +443,6 @@ fn parse_shard(s: &str) -> Result<crate::shard::Shard, String> {
 fn stats_range(shard: &crate::shard::Shard, total: u64) -> [u64; 2] {
     let r = shard.range(total);
     [r.start, r.end]
-}
-
-fn parse_integrator(s: &str) -> Result<IntegratorKind, String> {
-    match s {
-        "path" => Ok(IntegratorKind::Path),
-        "bdpt" => Ok(IntegratorKind::Bdpt),
-        other => Err(format!("unknown integrator {other:?}: expected \"path\" or \"bdpt\"")),
-    }
 }
 
 pub(super) fn view(film: &Transient) -> FilmView<'_> {

@@ -279,6 +279,25 @@ pub enum IntegratorKind {
     Bdpt,
 }
 
+impl IntegratorKind {
+    /// The name used in scene files, the JSON and `--integrator`.
+    pub fn name(self) -> &'static str {
+        match self {
+            IntegratorKind::Path => "path",
+            IntegratorKind::Bdpt => "bdpt",
+        }
+    }
+
+    /// The estimator called `name` (`dtr render --integrator`, Python's
+    /// `Scene.with_integrator`), or a message naming the ones there are.
+    pub fn from_name(name: &str) -> Result<Self, String> {
+        [IntegratorKind::Path, IntegratorKind::Bdpt]
+            .into_iter()
+            .find(|k| k.name() == name)
+            .ok_or_else(|| format!("unknown integrator {name:?}: expected \"path\" or \"bdpt\""))
+    }
+}
+
 /// The scene's `[integrator]`: estimator, path length and sampling defaults.
 #[derive(Clone, Debug)]
 pub struct IntegratorSpec {

@@ -7,9 +7,9 @@
 //! ratio `[G·J]_dual / [G]_value` as in [`crate::integrator::path`].
 
 use super::vertex::{Vertex, camera_dir_pdf, link, to_area};
-use crate::integrator::bsdf::{Lobes, albedo, cosine_pdf, diffuse_eval, sample_cosine};
+use crate::integrator::bsdf::{Lobes, albedo, diffuse_eval, sample_cosine};
 use crate::integrator::context::RenderContext;
-use crate::integrator::nlos_start::{first_directions, weigh_first_hit};
+use crate::integrator::nlos_start::{start, weigh_first_hit};
 use crate::integrator::path::{PacketLanes, ray_plane_point};
 use crate::integrator::surface::{offset_origin, surface_at};
 use crate::integrator::trace::{RayCounts, next_hits, spawn_point};
@@ -274,32 +274,21 @@ fn sensor_subpath<R: Real, const C: usize>(
 ) {
     let (u1, u2) = sampler.next2::<V<R>>();
     let mut sensor = [0usize; 8];
-    let mut alive = [false; 8];
+    let mut seen = [false; 8];
     for i in 0..lanes.count.min(R::LANES) {
         sensor[i] = scan.sensor_of(lanes.px[i], lanes.py[i]);
-        alive[i] = scan.seen[sensor[i]];
+        seen[i] = scan.seen[sensor[i]];
     }
-    let mut active = R::Mask::from_bools(&alive[..R::LANES]);
-    let pts: [Vec3; 8] = std::array::from_fn(|i| scan.sensors[sensor[i]].p);
-    let nrm: [Vec3; 8] = std::array::from_fn(|i| scan.sensors[sensor[i]].n);
+    // the path tracer's start: cosine-weighted, or aimed at the hidden shapes in a share of
+    // the lanes (`crate::integrator::nlos_start`); the first hit then sets the weight and the
+    // first vertex's density
+    let st = start::<R, C>(ctx, scan, &sensor, u1, u2);
+    let active = R::Mask::from_bools(&seen[..R::LANES]) & st.alive;
     let prims: [u32; 8] = std::array::from_fn(|i| scan.sensors[sensor[i]].prim);
-    let p = V3::<V<R>>::from_lane_vecs(&pts[..R::LANES]);
-    let n = V3::<V<R>>::from_lane_vecs(&nrm[..R::LANES]);
-    // cosine-weighted, or aimed at the hidden shapes in a share of the lanes (the path
-    // tracer's two strategies, `crate::integrator::nlos_start`): the first hit then sets the
-    // weight and the first vertex's density
-    let (dir, aim) = match &scan.hidden {
-        None => (sample_cosine(&n, &n, u1, u2).0, None),
-        Some(t) => {
-            let (d, aim, ok) = first_directions::<R>(ctx, t, &pts, &n, u1, u2);
-            active = active & ok;
-            (d, Some((t, aim)))
-        }
-    };
-    let pdf = cosine_pdf(&n, &n, &dir);
+    let (p, n, dir) = (st.p.value(), st.n.value(), st.d);
     let eta = ctx.motion.eta::<R>(ctx.scene.eta);
-    let mut v0 = Vertex::point(V3::from_value(p), Spectrum::splat(R::one()), active);
-    v0.n = V3::from_value(n);
+    let mut v0 = Vertex::point(st.p, Spectrum::splat(R::one()), active);
+    v0.n = st.n;
     v0.on_surface = active;
     v0.front = active;
     v0.prim = prims;
@@ -319,16 +308,17 @@ fn sensor_subpath<R: Real, const C: usize>(
         ctx,
         sampler,
         path,
-        offset_origin(&p, &n, &dir, ctx.scene.offset_scale),
+        st.o,
         dir,
-        pdf,
-        albedo::<R, C>(ctx, &prims),
+        st.pdf,
+        st.beta,
         active,
         new_vertices,
         true,
         counts,
     );
-    if let Some((targets, aim)) = aim.filter(|_| path.len() >= 2) {
+    let targets = scan.hidden.as_ref();
+    if let Some((targets, aim)) = targets.zip(st.aim).filter(|_| path.len() >= 2) {
         let x1 = path[1];
         let r2 = (x1.p.value() - p).length_squared();
         let cos_1 = x1.n.value().dot(dir).abs();
