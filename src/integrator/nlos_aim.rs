@@ -138,4 +138,18 @@ impl HiddenTargets {
     pub fn pdf_area(&self, t: u32) -> f32 {
         self.pdf_area.get(t as usize).copied().unwrap_or(0.0)
     }
+
+    /// The first direction's density per steradian at the sensor point, the mixture of the
+    /// two strategies (module docs): p(ω) = (1 − α)·`p_cos` + α·p_A(x₁)·r²/|cos θ₁|, for a
+    /// first hit x₁ on triangle `t` at distance² `r2` with |cos θ₁| = `cos_1`. The aimed
+    /// strategy has no density where the hit is off the hidden shapes or seen edge-on.
+    pub fn mixture_pdf(&self, p_cos: f32, t: u32, r2: f32, cos_1: f32) -> f32 {
+        let p_a = self.pdf_area(t);
+        let p_aim = if p_a > 0.0 && cos_1 > 0.0 {
+            p_a * r2 / cos_1
+        } else {
+            0.0
+        };
+        (1.0 - self.probability) * p_cos + self.probability * p_aim
+    }
 }

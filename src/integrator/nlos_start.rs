@@ -121,7 +121,6 @@ pub fn weigh_first_hit<R: Real>(
     r2: R::Value,
     cos_1: R::Value,
 ) -> (R::Value, R::Value, R::Mask) {
-    let alpha = targets.probability;
     let cos_s = n.dot(*dir);
     let mut scale = [0.0f32; 8];
     let mut pdf = [0.0f32; 8];
@@ -136,9 +135,7 @@ pub fn weigh_first_hit<R: Real>(
             }
         }
         let p_cos = cs.max(0.0) * std::f32::consts::FRAC_1_PI;
-        let p_a = targets.pdf_area(t);
-        let p_aim = if p_a > 0.0 && c1 > 0.0 { p_a * r2 / c1 } else { 0.0 };
-        let p = (1.0 - alpha) * p_cos + alpha * p_aim;
+        let p = targets.mixture_pdf(p_cos, t, r2, c1);
         if p > 0.0 && p.is_finite() && p_cos > 0.0 {
             scale[i] = p_cos / p;
             pdf[i] = p;

@@ -19,7 +19,6 @@ use super::Packet;
 use super::connect::{joined_opl64, towards};
 use super::mis::weight;
 use super::vertex::{segment_end, to_area};
-use crate::integrator::bsdf::albedo;
 use crate::integrator::sink::Sink;
 use crate::integrator::trace::{shadow_segment, unoccluded};
 use crate::integrator::window;
@@ -57,18 +56,19 @@ pub fn connect_to_sensor<R: Real, const C: usize, S: Sink<C>>(pk: &mut Packet<'_
     }
     // the sensor's first direction towards q_s, in area measure at q_s: cosine-weighted, or
     // the mixture with aiming at the hidden shapes (q_s is the first hit: the join is clear)
-    let pdf_dir = cos_s.value().mul_f(std::f32::consts::FRAC_1_PI);
-    let mut camera_pdf = to_area(&sensor.p.value(), &qs, pdf_dir);
+    let mut pdf_dir = cos_s.value().mul_f(std::f32::consts::FRAC_1_PI);
     if let Some(targets) = ctx.nlos.as_ref().and_then(|n| n.hidden.as_ref()) {
-        let alpha = targets.probability;
-        let aimed: [f32; 8] = std::array::from_fn(|i| targets.pdf_area(qs.prim[i]));
-        camera_pdf = camera_pdf.mul_f(1.0 - alpha) + V::<R>::from_lanes(&aimed[..R::LANES]).mul_f(alpha);
+        let (p_cos, r2, cos_1) = (pdf_dir, d2.value(), cos_q.value());
+        let mixed: [f32; 8] =
+            std::array::from_fn(|i| targets.mixture_pdf(p_cos.lane(i), qs.prim[i], r2.lane(i), cos_1.lane(i)));
+        pdf_dir = V::<R>::from_lanes(&mixed[..R::LANES]);
     }
+    let camera_pdf = to_area(&sensor.p.value(), &qs, pdf_dir);
     let lower = pk.light_tracing_ratios(s, camera_pdf);
     let f_q = qs.f_between(ctx, &(pk.light[s - 2].p - qs.p).normalize(), &dir, false);
-    let importance = albedo::<R, C>(ctx, &sensor.prim).scale(R::from_value(V::<R>::splat(std::f32::consts::FRAC_1_PI)));
+    // the sensor vertex's weight is its importance ρ_s/π (`walk::sensor_subpath`)
     let g = cos_q * cos_s / d2;
-    let contrib = (qs.beta * f_q * importance).scale(g * R::from_value(weight(lower, V::<R>::zero())));
+    let contrib = (qs.beta * f_q * sensor.beta).scale(g * R::from_value(weight(lower, V::<R>::zero())));
     let d64 = joined_opl64(ctx, &qs, &sensor);
     let emitter = pk.origin.emitter;
     pk.deposit_own_pixels((s, 1), &emitter, d, d64.as_ref(), &contrib, ok);

@@ -287,7 +287,9 @@ fn sensor_subpath<R: Real, const C: usize>(
     let prims: [u32; 8] = std::array::from_fn(|i| scan.sensors[sensor[i]].prim);
     let (p, n, dir) = (st.p.value(), st.n.value(), st.d);
     let eta = ctx.motion.eta::<R>(ctx.scene.eta);
-    let mut v0 = Vertex::point(st.p, Spectrum::splat(R::one()), active);
+    // the sensor point's importance towards the SPAD, ρ_s/π (what t = 1 joins to)
+    let importance = st.beta.scale(R::from_value(V::<R>::splat(std::f32::consts::FRAC_1_PI)));
+    let mut v0 = Vertex::point(st.p, importance, active);
     v0.n = st.n;
     v0.on_surface = active;
     v0.front = active;
