@@ -68,6 +68,7 @@ fn main() {
     let p = Problem {
         scene: scene_path.clone(),
         fixed: vec![],
+        fixed_text: Vec::new(),
         params: vec!["liquid_ior".into()],
         target,
         loss: Loss::Smooth { sigma_bins: 4.0 },

@@ -434,14 +434,21 @@ fn optimize_into_a_read_only_folder_is_an_output_error() {
 }
 
 /// The recovered scene is the scene the run fitted: its `--set` overrides of other
-/// parameters and of fields are in it, so it renders as the run's own scene with the
+/// parameters and of fields (numbers and words) are in it, so it renders as the run's own scene with the
 /// recovered value set. Before, it kept the file's values (clay_albedo 0.8, the lamp at 10).
 #[test]
 fn the_recovered_scene_keeps_the_runs_overrides() {
     let tmp = tempfile::tempdir().unwrap();
     let dir = tmp.path();
     rough_target(SCENE, dir, "t");
-    let sets = ["--set", "clay_albedo=0.5", "--set", "emitter.lamp.intensity=5"];
+    let sets = [
+        "--set",
+        "clay_albedo=0.5",
+        "--set",
+        "emitter.lamp.intensity=5",
+        "--set",
+        "integrator.sampler=independent",
+    ];
     let mut args = one_iteration(SCENE, "t.npy", "plate_x", "run");
     args.extend(sets);
     let o = dtr(&args, dir);

@@ -86,3 +86,105 @@ fn a_value_outside_the_f32_range_is_refused_as_in_the_file() {
         assert_eq!(std::fs::read_dir(d).unwrap().count(), 0, "{set}: files left");
     }
 }
+
+/// `--set` gives fields values other than numbers, written as in a TOML file: a word, a list,
+/// an inline table. Before, `--set nlos.scan=exhaustive` was refused ("is not a number") and
+/// such fields needed an edited copy of the scene file.
+#[test]
+fn words_lists_and_tables_set_on_the_command_line_equal_the_same_in_the_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let scene = common::scene_path("nlos_occluder.toml");
+    let text = std::fs::read_to_string(&scene).unwrap();
+    let lines = [
+        ("scan = \"confocal\"", "scan = \"exhaustive\""),
+        ("grid = [16, 16]", "grid = [4, 3]"),
+        ("channels = \"mono\"", "channels = \"rgb\""),
+        ("gate = { type = \"gaussian\", sigma_opl = 0.01 }", "gate = \"box\""),
+        (
+            "pulse = { type = \"gaussian\", sigma_opl = 0.01 }",
+            "pulse = { type = \"box\", width_opl = 0.04 }",
+        ),
+    ];
+    let mut edited_text = text.clone();
+    for (from, to) in lines {
+        assert_eq!(text.matches(from).count(), 1, "{from}");
+        edited_text = edited_text.replace(from, to);
+    }
+    let edited = d.join("edited.toml");
+    std::fs::write(&edited, edited_text).unwrap();
+    let run = |args: &[&str]| {
+        let o = common::dtr(args, d);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        String::from_utf8_lossy(&o.stdout).to_string()
+    };
+    let s = scene.to_str().unwrap();
+    let sets = [
+        "--set",
+        "nlos.scan=exhaustive",
+        "--set",
+        "nlos.grid=[4, 3]",
+        "--set",
+        "film.channels=\"rgb\"",
+        "--set",
+        "film.gate=box",
+        "--set",
+        "emitter.laser.pulse={ type = \"box\", width_opl = 0.04 }",
+    ];
+    let common_args = ["--spp", "8", "--seed", "3", "--threads", "1", "-q"];
+    run(&[&["render", s][..], &common_args, &sets, &["-o", "a"]].concat());
+    run(&[&["render", edited.to_str().unwrap()][..], &common_args, &["-o", "b"]].concat());
+    let a = std::fs::read(d.join("a.npy")).unwrap();
+    assert_eq!(
+        a,
+        std::fs::read(d.join("b.npy")).unwrap(),
+        "the overridden render differs from the edited file's"
+    );
+    // 12 laser points × 12 sensor points, RGB
+    assert!(
+        String::from_utf8_lossy(&a[..128]).contains("(12, 12, 128, 3,"),
+        "{}",
+        String::from_utf8_lossy(&a[..128])
+    );
+    let info = run(&[&["info", s][..], &sets].concat());
+    assert!(
+        info.contains("exhaustive scan") && info.contains("grid 4x3") && info.contains("pulse box"),
+        "{info}"
+    );
+
+    // numbers and words together, and a [[param]] beside them
+    run(&[
+        "render",
+        s,
+        "--spp",
+        "2",
+        "-q",
+        "--set",
+        "nlos.scan=exhaustive",
+        "--set",
+        "nlos.grid.0=2",
+        "--set",
+        "nlos.grid.1=2",
+        "--set",
+        "hidden_x=0.4",
+        "-o",
+        "c",
+    ]);
+
+    for (set, says) in [
+        ("nlos.scan=sideways", "'confocal' or 'exhaustive'"),
+        ("nlos.grid=[4, inf]", "--set nlos.grid"),
+        ("film.bins=[3]", "field 'bins'"),
+        ("hidden_x=left", "[[param]] takes numbers"),
+        ("flim.channels=rgb", "no \"flim\""),
+    ] {
+        let o = common::dtr(&["render", s, "--spp", "1", "--set", set, "-o", "x"], d);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{set}: {err}");
+        assert!(err.contains(says), "{set}: {err}");
+        assert!(
+            !d.join("x.npy").exists() && !d.join("x.json").exists(),
+            "{set}: files left"
+        );
+    }
+}

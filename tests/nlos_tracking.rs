@@ -128,6 +128,7 @@ fn track(file: &str) {
     let p = Problem {
         scene,
         fixed: vec![],
+        fixed_text: Vec::new(),
         params: vec!["target_x".into(), "target_y".into(), "target_z".into()],
         target,
         loss: Loss::Smooth { sigma_bins: 2.0 },
@@ -163,6 +164,7 @@ fn tracking_a_black_plate_needs_the_boundary_term() {
     let problem = |boundary: BoundaryMode| Problem {
         scene: scene.clone(),
         fixed: vec![],
+        fixed_text: Vec::new(),
         params: vec!["plate_x".into(), "plate_y".into(), "plate_z".into()],
         target: target.clone(),
         loss: Loss::Smooth { sigma_bins: 2.0 },

@@ -18,6 +18,7 @@ fn problem(boundary: BoundaryMode) -> Problem {
     Problem {
         scene,
         fixed: vec![],
+        fixed_text: Vec::new(),
         params: vec!["plate_x".into(), "plate_roll".into()],
         target,
         loss: Loss::L2,

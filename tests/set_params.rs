@@ -252,6 +252,7 @@ fn the_optimizer_takes_the_steps_it_took_when_it_reloaded_the_scene() {
     let p = Problem {
         scene: path,
         fixed: owned(&[("intensity", 6.0)]),
+        fixed_text: Vec::new(),
         params: vec!["room_z".into(), "albedo".into()],
         target,
         loss: Loss::L2,

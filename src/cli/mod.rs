@@ -122,21 +122,32 @@ pub fn exit_code(e: &anyhow::Error) -> u8 {
     }
 }
 
-/// Parses `NAME=VALUE` overrides.
-pub fn parse_sets(sets: &[String]) -> anyhow::Result<Vec<(String, f64)>> {
-    sets.iter()
-        .map(|s| {
-            let (name, value) = s
-                .split_once('=')
-                .ok_or_else(|| anyhow::anyhow!("--set {s:?}: expected NAME=VALUE, e.g. --set eta=1.33"))?;
-            let v: f64 = value
-                .trim()
-                .parse()
-                .map_err(|_| anyhow::anyhow!("--set {s:?}: value {value:?} is not a number"))?;
-            if !v.is_finite() {
-                anyhow::bail!("--set {s:?}: value must be finite");
-            }
-            Ok((name.trim().to_string(), v))
-        })
-        .collect()
+/// The `--set` overrides of a command: numbers (a `[[param]]` value, or a number of the
+/// description by its dotted path) and other values of fields (a word, a list, a table;
+/// `scene::field_set`).
+#[derive(Clone, Debug, Default)]
+pub struct Sets {
+    pub numbers: Vec<(String, f64)>,
+    pub texts: Vec<(String, String)>,
+}
+
+/// Parses `NAME=VALUE` overrides: a value that reads as a number is one; any other value sets
+/// a field of the description (a dotted name) as a TOML file would write it.
+pub fn parse_sets(sets: &[String]) -> anyhow::Result<Sets> {
+    let mut out = Sets::default();
+    for s in sets {
+        let (name, value) = s
+            .split_once('=')
+            .ok_or_else(|| anyhow::anyhow!("--set {s:?}: expected NAME=VALUE, e.g. --set eta=1.33"))?;
+        let name = name.trim().to_string();
+        match value.trim().parse::<f64>() {
+            Ok(v) if !v.is_finite() => anyhow::bail!("--set {s:?}: value must be finite"),
+            Ok(v) => out.numbers.push((name, v)),
+            Err(_) if crate::scene::field_set::is_field_path(&name) => out.texts.push((name, value.trim().to_string())),
+            Err(_) => anyhow::bail!(
+                "--set {s:?}: value {value:?} is not a number (a [[param]] takes numbers; fields such as nlos.scan take words, lists and tables)"
+            ),
+        }
+    }
+    Ok(out)
 }

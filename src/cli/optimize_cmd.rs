@@ -138,9 +138,12 @@ fn scene_with(a: &OptimizeArgs, values: &[(String, f64)], out_dir: &Path) -> any
         serde_json::to_value(toml::from_str::<toml::Value>(&text)?)?
     };
     crate::scene::shapes::rebase_file_names(&mut doc, path, out_dir);
-    let (fields, param_sets): (Vec<_>, Vec<_>) = super::parse_sets(&a.set)?
+    let sets = super::parse_sets(&a.set)?;
+    let (fields, param_sets): (Vec<_>, Vec<_>) = sets
+        .numbers
         .into_iter()
         .partition(|(n, _)| crate::scene::field_set::is_field_path(n));
+    crate::scene::field_set::apply_text(&mut doc, &sets.texts, path)?;
     crate::scene::field_set::apply(&mut doc, &fields, path)?;
     let values: Vec<(String, f64)> = param_sets
         .into_iter()
@@ -203,8 +206,8 @@ pub fn run(a: OptimizeArgs) -> anyhow::Result<()> {
             a.average
         );
     }
-    let (start_sets, fixed): (Vec<_>, Vec<_>) = sets.into_iter().partition(|(n, _)| a.params.contains(n));
-    let scene = Scene::load(&a.scene, &fixed)?;
+    let (start_sets, fixed): (Vec<_>, Vec<_>) = sets.numbers.into_iter().partition(|(n, _)| a.params.contains(n));
+    let scene = Scene::load_with_text(&a.scene, &fixed, &sets.texts)?;
     let target = read_target(&a.target, &scene)?;
     let mut lr = vec![a.lr; a.params.len()];
     for (k, v) in named(
@@ -228,6 +231,7 @@ pub fn run(a: OptimizeArgs) -> anyhow::Result<()> {
     let problem = Problem {
         scene: a.scene.clone(),
         fixed,
+        fixed_text: sets.texts,
         params: a.params.clone(),
         target,
         loss: a.loss,

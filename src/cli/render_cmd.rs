@@ -31,8 +31,9 @@ pub struct RenderArgs {
     /// Worker threads (default: all cores).
     #[arg(long)]
     pub threads: Option<usize>,
-    /// Override a parameter value: --set NAME=VALUE (repeatable; see `dtr info`), or any number
-    /// of the description by its dotted path: --set film.bins=100, --set camera.resolution.0=128.
+    /// Override a parameter value: --set NAME=VALUE (repeatable; see `dtr info`), or any field
+    /// of the description by its dotted path: --set film.bins=100, --set camera.resolution.0=128,
+    /// --set nlos.scan=exhaustive, --set 'nlos.grid=[8, 8]' (values other than numbers as in TOML).
     #[arg(long = "set", value_name = "NAME=VALUE")]
     pub set: Vec<String>,
     /// Also write PREFIX.exr: the steady image as the default layer and one layer per time bin (t0000, …), with the time axis in its header.
@@ -138,7 +139,10 @@ pub enum Estimators {
 }
 
 pub fn run(a: RenderArgs) -> anyhow::Result<()> {
-    let mut overrides = super::parse_sets(&a.set)?;
+    let super::Sets {
+        numbers: mut overrides,
+        texts,
+    } = super::parse_sets(&a.set)?;
     let spp = match a.spp {
         Some(n) if n <= 0 => bail!("--spp must be a positive integer (got {n})"),
         Some(n) => Some(u32::try_from(n).context("--spp is too large")?),
@@ -174,7 +178,9 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
             fast_traversal: a.fast_traversal,
             ..Default::default()
         };
-        let w = crate::auto_window::choose_window(&a.scene, &overrides, &pilot)?;
+        let w = crate::auto_window::choose_window_with(&a.scene, &overrides, &pilot, |o| {
+            Ok(Scene::load_with_text(&a.scene, o, &texts)?)
+        })?;
         log::info!(
             "{}: auto window [{:.4}, {:.4}] m of OPL ({:.3} to {:.3} ns), {} bins of {:.5} m (pilot {}x{}, {} spp, {:.2} s)",
             a.scene.display(),
@@ -194,7 +200,7 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
     } else {
         None
     };
-    let mut scene = Scene::load(&a.scene, &overrides)?;
+    let mut scene = Scene::load_with_text(&a.scene, &overrides, &texts)?;
     if let Some(s) = a.sampler {
         scene.integrator.sampler = s;
     }

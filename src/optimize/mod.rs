@@ -25,6 +25,9 @@ pub struct Problem {
     pub scene: PathBuf,
     /// Overrides held fixed (`--set`), besides the parameters being optimised.
     pub fixed: Vec<(String, f64)>,
+    /// Fields held fixed at values other than numbers (`--set nlos.scan=exhaustive`;
+    /// [`Scene::load_with_text`]).
+    pub fixed_text: Vec<(String, String)>,
     /// The parameters to recover (names of `[[param]]` entries).
     pub params: Vec<String>,
     /// The transient to match: the film's shape and time axis.
@@ -79,12 +82,12 @@ impl Problem {
     pub fn scene_at(&self, values: &[f64]) -> Result<Scene, Error> {
         let mut overrides = self.fixed.clone();
         overrides.extend(self.params.iter().cloned().zip(values.iter().copied()));
-        Ok(Scene::load(&self.scene, &overrides)?)
+        Ok(Scene::load_with_text(&self.scene, &overrides, &self.fixed_text)?)
     }
 
     /// The parameters' values in the scene file (with the fixed overrides): the start.
     pub fn initial_values(&self) -> Result<Vec<f64>, Error> {
-        let scene = Scene::load(&self.scene, &self.fixed)?;
+        let scene = Scene::load_with_text(&self.scene, &self.fixed, &self.fixed_text)?;
         self.params
             .iter()
             .map(|name| {
@@ -187,7 +190,7 @@ impl Problem {
         let mut adam = adam::Adam::new(lr.to_vec());
         let base = self.opts.seed.unwrap_or(0);
         let mut steps = Vec::with_capacity(iters);
-        let mut scene = Scene::load(&self.scene, &self.fixed)?;
+        let mut scene = Scene::load_with_text(&self.scene, &self.fixed, &self.fixed_text)?;
         for it in 0..iters {
             let t0 = std::time::Instant::now();
             let seed = base.wrapping_add(2 * it as u64);

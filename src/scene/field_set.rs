@@ -10,6 +10,12 @@
 //! existing table is added, so optional fields can be set too (`integrator.rr_depth`). The
 //! description is then checked as if the file said so: a bad value is reported like a bad value
 //! in the file. A name without a dot is a `[[param]]` (`params::resolve`).
+//!
+//! Values other than numbers ([`apply_text`]) are written as in a TOML file: a word
+//! (`--set nlos.scan=exhaustive`, `--set film.channels=rgb`), a quoted string, `true` or
+//! `false`, a list (`--set 'nlos.hidden_shapes=["box"]'`, `--set 'nlos.grid=[8, 8]'`) or an
+//! inline table (`--set 'film.gate={ type = "box", width_opl = 0.05 }'`). They replace the
+//! whole value there, and the description's own checks say whether it fits.
 
 use super::SceneError;
 use serde_json::{Map, Value};
@@ -23,22 +29,70 @@ pub(crate) fn is_field_path(name: &str) -> bool {
 /// Sets each `(path, value)` of `sets` in the description tree `raw`.
 pub(crate) fn apply(raw: &mut Value, sets: &[(String, f64)], source: &Path) -> Result<(), SceneError> {
     for (name, value) in sets {
-        let err = |message: String| SceneError::Override {
-            path: source.to_path_buf(),
-            name: name.clone(),
-            message,
-        };
+        let err = override_error(source, name);
         super::f32_value::check_override_value(*value).map_err(err)?;
-        let segs: Vec<&str> = name.split('.').collect();
-        if segs.iter().any(|s| s.is_empty()) {
-            return Err(err(
-                "expected a dotted path such as film.bins or camera.resolution.0".into()
-            ));
-        }
-        let slot = find(raw, &segs).map_err(err)?;
+        let slot = find(raw, &segments(name).map_err(err)?).map_err(err)?;
         *slot = number(slot, *value).map_err(err)?;
     }
     Ok(())
+}
+
+/// The error about override `name` of the scene at `source`, with a message.
+fn override_error<'a>(source: &'a Path, name: &'a str) -> impl Fn(String) -> SceneError + Copy + 'a {
+    move |message| SceneError::Override {
+        path: source.to_path_buf(),
+        name: name.to_string(),
+        message,
+    }
+}
+
+/// The steps of dotted path `name` (none empty).
+fn segments(name: &str) -> Result<Vec<&str>, String> {
+    let segs: Vec<&str> = name.split('.').collect();
+    if segs.iter().any(|s| s.is_empty()) {
+        return Err("expected a dotted path such as film.bins or nlos.scan".into());
+    }
+    Ok(segs)
+}
+
+/// Sets each `(path, text)` of `sets` in the description tree `raw`: the value the text is
+/// in TOML (module docs), a bare word as a string.
+pub(crate) fn apply_text(raw: &mut Value, sets: &[(String, String)], source: &Path) -> Result<(), SceneError> {
+    for (name, text) in sets {
+        let err = override_error(source, name);
+        if !is_field_path(name) {
+            return Err(err(format!(
+                "{text:?} is not a number: a [[param]] takes numbers (a field of the description, a dotted path such as nlos.scan, takes other values)"
+            )));
+        }
+        let segs = segments(name).map_err(err)?;
+        let value = text_value(text).map_err(err)?;
+        *find(raw, &segs).map_err(err)? = value;
+    }
+    Ok(())
+}
+
+/// `text` as the value a TOML file would give after `key = `; a bare word that is not one
+/// is that word as a string. Numbers in it must be finite f32s, as in a file.
+fn text_value(text: &str) -> Result<Value, String> {
+    let text = text.trim();
+    let parsed = toml::from_str::<toml::Table>(&format!("v = {text}"))
+        .ok()
+        .and_then(|mut t| t.remove("v"));
+    let Some(v) = parsed else {
+        return Ok(Value::String(text.to_string()));
+    };
+    fn check(v: &toml::Value) -> Result<(), String> {
+        match v {
+            toml::Value::Float(x) => super::f32_value::check_override_value(*x),
+            toml::Value::Integer(i) => super::f32_value::check_override_value(*i as f64),
+            toml::Value::Array(a) => a.iter().try_for_each(check),
+            toml::Value::Table(t) => t.values().try_for_each(check),
+            _ => Ok(()),
+        }
+    }
+    check(&v)?;
+    serde_json::to_value(&v).map_err(|e| format!("cannot be read: {e}"))
 }
 
 /// The value at `segs` (a missing last key of a table is created as null).
@@ -155,6 +209,47 @@ mod tests {
         assert_eq!(v["material"][0]["albedo"], json!([0.7, 0.7, 0.25]));
         assert_eq!(v["material"][1]["albedo"], json!(0.125));
         assert_eq!(v["integrator"]["rr_depth"], json!(3));
+    }
+
+    fn set_text(v: &mut Value, name: &str, text: &str) -> Result<(), String> {
+        apply_text(v, &[(name.to_string(), text.to_string())], Path::new("s.toml")).map_err(|e| e.to_string())
+    }
+
+    #[test]
+    fn text_values_are_read_as_toml() {
+        let mut v = json!({
+            "film": {"channels": "mono", "gate": {"type": "gaussian", "sigma_opl": 0.02}},
+            "nlos": {"scan": "confocal", "grid": [16, 16]},
+            "material": [{"name": "white", "albedo": 0.7}]
+        });
+        set_text(&mut v, "nlos.scan", "exhaustive").unwrap();
+        set_text(&mut v, "film.channels", "\"rgb\"").unwrap();
+        set_text(&mut v, "nlos.grid", "[8, 4]").unwrap();
+        set_text(&mut v, "nlos.hidden_shapes", "[\"box\"]").unwrap();
+        set_text(&mut v, "film.gate", "{ type = \"box\", width_opl = 0.05 }").unwrap();
+        set_text(&mut v, "film.unwarp", "true").unwrap();
+        set_text(&mut v, "material.white.type", "diffuse").unwrap();
+        assert_eq!(v["nlos"]["scan"], json!("exhaustive"));
+        assert_eq!(v["film"]["channels"], json!("rgb"));
+        assert_eq!(v["nlos"]["grid"], json!([8, 4]));
+        assert_eq!(v["nlos"]["hidden_shapes"], json!(["box"]));
+        assert_eq!(v["film"]["gate"], json!({"type": "box", "width_opl": 0.05}));
+        assert_eq!(v["film"]["unwarp"], json!(true));
+        assert_eq!(v["material"][0]["type"], json!("diffuse"));
+    }
+
+    #[test]
+    fn bad_text_values_are_refused_by_name() {
+        let mut v = json!({"film": {"channels": "mono"}, "nlos": {"grid": [16, 16]}});
+        let e = set_text(&mut v, "hidden_x", "left").unwrap_err();
+        assert!(e.contains("hidden_x") && e.contains("[[param]] takes numbers"), "{e}");
+        let e = set_text(&mut v, "nlos.grid", "[8, inf]").unwrap_err();
+        assert!(e.contains("nlos.grid") && e.contains("finite"), "{e}");
+        let e = set_text(&mut v, "nlos.grid", "[8, 1e39]").unwrap_err();
+        assert!(e.contains("finite"), "{e}");
+        let e = set_text(&mut v, "flim.channels", "rgb").unwrap_err();
+        assert!(e.contains("has no \"flim\""), "{e}");
+        assert_eq!(v["film"]["channels"], json!("mono"));
     }
 
     #[test]

@@ -50,16 +50,28 @@ impl Scene {
     /// A `.xml` file is a Mitsuba 3 scene, converted to our description first
     /// ([`super::mitsuba`]); errors about a converted entry name its XML element too.
     pub fn load(path: &Path, overrides: &[(String, f64)]) -> Result<Scene, SceneError> {
+        Scene::load_with_text(path, overrides, &[])
+    }
+
+    /// [`Scene::load`] with fields of the description set to values other than numbers as
+    /// well: `texts` holds `(dotted path, value)` pairs, the value written as in a TOML file
+    /// (`("nlos.scan", "exhaustive")`, `("nlos.grid", "[8, 8]")`; `field_set`), as
+    /// `dtr render --set nlos.scan=exhaustive` gives them.
+    pub fn load_with_text(
+        path: &Path,
+        overrides: &[(String, f64)],
+        texts: &[(String, String)],
+    ) -> Result<Scene, SceneError> {
         if super::mitsuba::is_xml(path) {
             let imported = super::mitsuba::import(path)?;
-            let mut scene =
-                Scene::from_str(&imported.toml, Format::Toml, path, overrides).map_err(|e| imported.annotate(e))?;
+            let mut scene = Scene::from_str_with_text(&imported.toml, Format::Toml, path, overrides, texts)
+                .map_err(|e| imported.annotate(e))?;
             // the included files are inputs too (output safety, the shard identity's hash)
             scene.inputs.extend(imported.included);
             return Ok(scene);
         }
         let (text, format) = Scene::read_description(path)?;
-        Scene::from_str(&text, format, path, overrides)
+        Scene::from_str_with_text(&text, format, path, overrides, texts)
     }
 
     /// The description text of `path` and its format, read as [`Scene::load`] reads it (a
@@ -85,12 +97,24 @@ impl Scene {
         source: &Path,
         overrides: &[(String, f64)],
     ) -> Result<Scene, SceneError> {
+        Scene::from_str_with_text(text, format, source, overrides, &[])
+    }
+
+    /// [`Scene::from_str`] with fields set to values other than numbers too
+    /// ([`Scene::load_with_text`]).
+    pub fn from_str_with_text(
+        text: &str,
+        format: Format,
+        source: &Path,
+        overrides: &[(String, f64)],
+        texts: &[(String, String)],
+    ) -> Result<Scene, SceneError> {
         // dotted names set fields of the description, the others `[[param]]` values
         let (fields, params): (Vec<_>, Vec<_>) = overrides
             .iter()
             .cloned()
             .partition(|(n, _)| super::field_set::is_field_path(n));
-        let (raw, desc) = parse(text, format, source, &fields)?;
+        let (raw, desc) = parse(text, format, source, &fields, texts)?;
         let described = super::described::Described {
             raw: std::sync::Arc::new(raw),
             fields,
@@ -104,13 +128,14 @@ impl Scene {
 
 /// Text → description: syntax, non-finite numbers, the `--set` overrides of fields
 /// (`field_set`), then types (with field paths; without line numbers when fields were set).
-/// Returns the generic tree too (before the field overrides), from which
-/// [`Scene::set_params`] re-reads the description when fields change.
+/// Returns the generic tree too (with the `texts` set, before the numbers of `fields`), from
+/// which [`Scene::set_params`] re-reads the description when fields change.
 pub(crate) fn parse(
     text: &str,
     format: Format,
     source: &Path,
     fields: &[(String, f64)],
+    texts: &[(String, String)],
 ) -> Result<(serde_json::Value, SceneDesc), SceneError> {
     let path = source.to_path_buf();
     let syntax = |line: usize, column: usize, message: String| SceneError::Syntax {
@@ -138,8 +163,10 @@ pub(crate) fn parse(
             v
         }
     };
+    let mut raw = raw;
+    super::field_set::apply_text(&mut raw, texts, source)?;
     // 2. Types, unknown and missing fields, with the path to the offending field.
-    if !fields.is_empty() {
+    if !fields.is_empty() || !texts.is_empty() {
         let desc = desc_from_tree(&raw, source, fields)?;
         return Ok((raw, desc));
     }

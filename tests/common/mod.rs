@@ -196,6 +196,7 @@ pub fn small_problem(
     difftransient::optimize::Problem {
         scene,
         fixed: vec![],
+        fixed_text: Vec::new(),
         params: params.iter().map(|p| p.to_string()).collect(),
         target,
         loss,
