@@ -24,7 +24,7 @@ from __future__ import annotations
 import json
 import os
 from dataclasses import dataclass, field
-from typing import Dict, Iterable, List, Mapping, Optional, Sequence
+from typing import Any, Dict, Iterable, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -57,17 +57,22 @@ class Scene:
         self.window: Optional[dict] = None
 
     @staticmethod
-    def load(path: "os.PathLike[str] | str", params: Optional[Mapping[str, float]] = None) -> "Scene":
-        """Loads a scene file (.toml, .json, or a Mitsuba 3 .xml converted on load), with `params` ({name: value}) set."""
-        return Scene(_NativeScene.load(os.fspath(path), _pairs(params)))
+    def load(path: "os.PathLike[str] | str", params: Optional[Mapping[str, Any]] = None) -> "Scene":
+        """Loads a scene file (.toml, .json, or a Mitsuba 3 .xml converted on load), with `params`
+        ({name: value}) set: a `[[param]]` by its name, or any field of the description by its
+        dotted path (`dtr render --set`), to a number, a string, a bool, a list or a dict
+        ({"film.bins": 100, "nlos.scan": "exhaustive", "nlos.grid": [8, 8]})."""
+        numbers, texts = _settings(params)
+        return Scene(_NativeScene.load(os.fspath(path), numbers, texts))
 
     @staticmethod
     def from_dict(
-        description: Mapping, base_dir: "os.PathLike[str] | str" = ".", params: Optional[Mapping[str, float]] = None
+        description: Mapping, base_dir: "os.PathLike[str] | str" = ".", params: Optional[Mapping[str, Any]] = None
     ) -> "Scene":
         """A scene from a description dict (the schema of scenes/README.md, as JSON); relative
-        mesh paths are resolved in `base_dir`."""
-        return Scene(_NativeScene.from_json(json.dumps(description), os.fspath(base_dir), _pairs(params)))
+        mesh paths are resolved in `base_dir`; `params` as for `load`."""
+        numbers, texts = _settings(params)
+        return Scene(_NativeScene.from_json(json.dumps(description), os.fspath(base_dir), numbers, texts))
 
     def with_params(self, params: Mapping[str, float]) -> "Scene":
         """The same scene with the values of `params` ({name: value}) replaced."""
@@ -190,6 +195,36 @@ def gradient(scene: Scene, params: Sequence[str], adjoint: np.ndarray, *, spp: O
     g, stats = _render_adjoint(scene._native, list(params), a, spp, seed, threads, spp_boundary, estimators,
                                time_edges)
     return g, json.loads(stats)
+
+
+def _toml_value(v: Any) -> str:
+    """`v` written as a TOML value (what `dtr render --set PATH=VALUE` reads after the `=`)."""
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, str):
+        return json.dumps(v)
+    if isinstance(v, (int, float)):
+        return repr(float(v)) if isinstance(v, float) else str(v)
+    if isinstance(v, Mapping):
+        return "{ " + ", ".join(f"{json.dumps(str(k))} = {_toml_value(x)}" for k, x in v.items()) + " }"
+    if isinstance(v, (list, tuple)):
+        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
+    raise TypeError(f"cannot set a value of type {type(v).__name__}: use a number, str, bool, list or dict")
+
+
+def _settings(params: Optional[Mapping[str, Any]]) -> Tuple[List[tuple], List[tuple]]:
+    """`params` split as the loader takes them: numbers, and other values of fields as TOML."""
+    if params is None:
+        return [], []
+    if not isinstance(params, Mapping):
+        raise TypeError("params must be a mapping {name: value}")
+    numbers, texts = [], []
+    for k, v in params.items():
+        if isinstance(v, (int, float)) and not isinstance(v, bool):
+            numbers.append((str(k), float(v)))
+        else:
+            texts.append((str(k), _toml_value(v)))
+    return numbers, texts
 
 
 def _pairs(params: Optional[Mapping[str, float]]) -> List[tuple]:

@@ -52,34 +52,48 @@ struct PyScene {
 }
 
 impl PyScene {
-    fn build(text: &str, format: Format, source: &Path, overrides: &[(String, f64)]) -> PyResult<Self> {
-        let scene = Scene::from_str(text, format, source, overrides).map_err(scene_err)?;
+    fn build(
+        text: &str,
+        format: Format,
+        source: &Path,
+        overrides: &[(String, f64)],
+        texts: &[(String, String)],
+    ) -> PyResult<Self> {
+        let scene = Scene::from_str_with_text(text, format, source, overrides, texts).map_err(scene_err)?;
         Ok(Self { scene })
     }
 }
 
 #[pymethods]
 impl PyScene {
-    /// Loads a scene file (.toml, .json, or a Mitsuba 3 .xml converted on load), with parameter values `set` ({name: value}).
+    /// Loads a scene file (.toml, .json, or a Mitsuba 3 .xml converted on load), with parameter
+    /// values or numbers of the description `set` ([(name, value)]) and fields set to other
+    /// values `text` ([(dotted path, TOML value)], as `dtr render --set nlos.scan=exhaustive`).
     #[staticmethod]
-    #[pyo3(signature = (path, set = None))]
-    fn load(path: PathBuf, set: Option<Vec<(String, f64)>>) -> PyResult<Self> {
-        let overrides = set.unwrap_or_default();
+    #[pyo3(signature = (path, set = None, text = None))]
+    fn load(path: PathBuf, set: Option<Vec<(String, f64)>>, text: Option<Vec<(String, String)>>) -> PyResult<Self> {
         // `Scene::load`, as `dtr render` loads it: its errors about an entry converted from a
         // Mitsuba XML scene name the XML element and line, as the CLI's do
-        let scene = Scene::load(&path, &overrides).map_err(scene_err)?;
+        let scene =
+            Scene::load_with_text(&path, &set.unwrap_or_default(), &text.unwrap_or_default()).map_err(scene_err)?;
         Ok(Self { scene })
     }
 
     /// A scene from JSON description text; relative mesh paths are resolved in `base_dir`.
     #[staticmethod]
-    #[pyo3(signature = (text, base_dir, set = None))]
-    fn from_json(text: String, base_dir: PathBuf, set: Option<Vec<(String, f64)>>) -> PyResult<Self> {
+    #[pyo3(signature = (json, base_dir, set = None, text = None))]
+    fn from_json(
+        json: String,
+        base_dir: PathBuf,
+        set: Option<Vec<(String, f64)>>,
+        text: Option<Vec<(String, String)>>,
+    ) -> PyResult<Self> {
         Self::build(
-            &text,
+            &json,
             Format::Json,
             &base_dir.join("<dict>.json"),
             &set.unwrap_or_default(),
+            &text.unwrap_or_default(),
         )
     }
 

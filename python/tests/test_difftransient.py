@@ -133,6 +133,32 @@ def test_parameters_are_set_on_a_copy():
     assert 0 < lo < hi
 
 
+def test_fields_set_at_load_equal_the_same_fields_in_the_file(tmp_path):
+    """`Scene.load` sets fields of the description to strings, bools, lists and dicts as well
+    as numbers (as `dtr render --set` does): the scene renders the bytes of a file that says
+    the same."""
+    text = (SCENES / "nlos_occluder.toml").read_text()
+    edits = [('scan = "confocal"', 'scan = "exhaustive"'), ("grid = [16, 16]", "grid = [4, 3]"),
+             ('channels = "mono"', 'channels = "rgb"'),
+             ('pulse = { type = "gaussian", sigma_opl = 0.01 }', 'pulse = { type = "box", width_opl = 0.04 }')]
+    for a, b in edits:
+        assert text.count(a) == 1, a
+        text = text.replace(a, b)
+    edited = tmp_path / "edited.toml"
+    edited.write_text(text)
+    s = dt.Scene.load(SCENES / "nlos_occluder.toml",
+                      {"nlos.scan": "exhaustive", "nlos.grid": [4, 3], "film.channels": "rgb",
+                       "emitter.laser.pulse": {"type": "box", "width_opl": 0.04}, "hidden_x": 0.5})
+    a = dt.render(s, spp=4, seed=2).transient
+    b = dt.render(dt.Scene.load(edited), spp=4, seed=2).transient
+    assert a.shape == (12, 12, 128, 3)
+    assert a.sum() > 0 and np.array_equal(a, b)
+    with pytest.raises(dt.SceneError, match="'confocal' or 'exhaustive'"):
+        dt.Scene.load(SCENES / "nlos_occluder.toml", {"nlos.scan": "sideways"})
+    with pytest.raises(dt.SceneError, match="takes numbers"):
+        dt.Scene.load(SCENES / "nlos_occluder.toml", {"hidden_x": "left"})
+
+
 def test_with_params_renders_the_bytes_of_a_reload():
     """`with_params` sets values on a copy of the loaded scene (no file read again): the same
     scene, so the same bytes, as loading with those values; settings accumulate."""
