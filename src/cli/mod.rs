@@ -145,7 +145,7 @@ pub fn parse_sets(sets: &[String]) -> anyhow::Result<Sets> {
             Ok(v) => out.numbers.push((name, v)),
             Err(_) if crate::scene::field_set::is_field_path(&name) => out.texts.push((name, value.trim().to_string())),
             Err(_) => anyhow::bail!(
-                "--set {s:?}: value {value:?} is not a number (a [[param]] takes numbers; fields such as nlos.scan take words, lists and tables)"
+                "--set {s:?}: value {value:?} is not a number: a [[param]] takes numbers; other values set a field of the description, named by its dotted path (nlos.scan, film.gate)"
             ),
         }
     }

@@ -62,7 +62,7 @@ pub(crate) fn apply_text(raw: &mut Value, sets: &[(String, String)], source: &Pa
         let err = override_error(source, name);
         if !is_field_path(name) {
             return Err(err(format!(
-                "{text:?} is not a number: a [[param]] takes numbers (a field of the description, a dotted path such as nlos.scan, takes other values)"
+                "{text:?} is not a number: a [[param]] takes numbers; other values set a field of the description, named by its dotted path (nlos.scan, film.gate)"
             )));
         }
         let segs = segments(name).map_err(err)?;
