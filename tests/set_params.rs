@@ -169,6 +169,35 @@ fn a_relay_wall_capture_and_fields_match_a_reload() {
     );
 }
 
+/// `Scene::set_text` sets fields to words, lists and tables on a loaded scene: the scene (and
+/// its renders) is the one `Scene::load_with_text` gives, with numbers set before and after
+/// kept; a bad value is refused by name and leaves the scene as it was.
+#[test]
+fn fields_set_to_words_and_lists_match_a_reload() {
+    let path = common::scene_path("nlos_occluder.toml");
+    let texts = [
+        ("nlos.scan", "exhaustive"),
+        ("nlos.grid", "[3, 2]"),
+        ("film.channels", "rgb"),
+    ];
+    let mut set = Scene::load(&path, &owned(&[("film.bins", 40.0)])).unwrap();
+    set.set_text(&texts).unwrap();
+    set.set_params(&[("hidden_x", 0.45)]).unwrap();
+    let owned_texts: Vec<(String, String)> = texts.iter().map(|(n, v)| (n.to_string(), v.to_string())).collect();
+    let loaded =
+        Scene::load_with_text(&path, &owned(&[("film.bins", 40.0), ("hidden_x", 0.45)]), &owned_texts).unwrap();
+    assert_same_scene(&set, &loaded, "words and lists");
+    assert_eq!(set.film.channels, 3);
+    assert_same_renders(&set, &loaded, "hidden_albedo", 64, "words and lists");
+    let before = format!("{:?}", set.nlos);
+    let err = set.set_text(&[("nlos.scan", "sideways")]).unwrap_err().to_string();
+    assert!(
+        err.contains("scan") && err.contains("'confocal' or 'exhaustive'"),
+        "{err}"
+    );
+    assert_eq!(format!("{:?}", set.nlos), before, "a refused value changed the scene");
+}
+
 #[test]
 fn setting_a_value_back_gives_the_scene_as_loaded() {
     let path = common::scene_path("diff_room.toml");

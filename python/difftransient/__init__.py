@@ -74,9 +74,10 @@ class Scene:
         numbers, texts = _settings(params)
         return Scene(_NativeScene.from_json(json.dumps(description), os.fspath(base_dir), numbers, texts))
 
-    def with_params(self, params: Mapping[str, float]) -> "Scene":
-        """The same scene with the values of `params` ({name: value}) replaced."""
-        return Scene(self._native.with_params(_pairs(params)))
+    def with_params(self, params: Mapping[str, Any]) -> "Scene":
+        """The same scene with the values of `params` ({name: value}, as for `load`) replaced."""
+        numbers, texts = _settings(params)
+        return Scene(self._native.with_params(numbers, texts))
 
     def with_sampler(self, name: str) -> "Scene":
         """The same scene drawing `name`'s numbers: "sobol" (the default: Owen-scrambled Sobol
@@ -225,11 +226,3 @@ def _settings(params: Optional[Mapping[str, Any]]) -> Tuple[List[tuple], List[tu
         else:
             texts.append((str(k), _toml_value(v)))
     return numbers, texts
-
-
-def _pairs(params: Optional[Mapping[str, float]]) -> List[tuple]:
-    if params is None:
-        return []
-    if not isinstance(params, Mapping):
-        raise TypeError("params must be a mapping {name: value}")
-    return [(str(k), float(v)) for k, v in params.items()]

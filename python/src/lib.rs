@@ -97,10 +97,15 @@ impl PyScene {
         )
     }
 
-    /// The same scene with parameter values replaced ({name: value}; the others keep theirs),
-    /// set on a copy of the loaded scene without reading any file.
-    fn with_params(&self, values: Vec<(String, f64)>) -> PyResult<Self> {
+    /// The same scene with parameter values replaced ({name: value}; the others keep theirs)
+    /// and fields set to other values (`text`: [(dotted path, TOML value)]), set on a copy of
+    /// the loaded scene without reading the scene file.
+    #[pyo3(signature = (values, text = None))]
+    fn with_params(&self, values: Vec<(String, f64)>, text: Option<Vec<(String, String)>>) -> PyResult<Self> {
         let mut scene = self.scene.clone();
+        if let Some(text) = text.filter(|t| !t.is_empty()) {
+            scene.set_text(&text).map_err(scene_err)?;
+        }
         scene.set_params(&values).map_err(scene_err)?;
         Ok(Self { scene })
     }

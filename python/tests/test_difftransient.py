@@ -134,9 +134,9 @@ def test_parameters_are_set_on_a_copy():
 
 
 def test_fields_set_at_load_equal_the_same_fields_in_the_file(tmp_path):
-    """`Scene.load` sets fields of the description to strings, bools, lists and dicts as well
-    as numbers (as `dtr render --set` does): the scene renders the bytes of a file that says
-    the same."""
+    """`Scene.load` and `with_params` set fields of the description to strings, bools, lists and
+    dicts as well as numbers (as `dtr render --set` does): the scene renders the bytes of a
+    file that says the same."""
     text = (SCENES / "nlos_occluder.toml").read_text()
     edits = [('scan = "confocal"', 'scan = "exhaustive"'), ("grid = [16, 16]", "grid = [4, 3]"),
              ('channels = "mono"', 'channels = "rgb"'),
@@ -153,6 +153,10 @@ def test_fields_set_at_load_equal_the_same_fields_in_the_file(tmp_path):
     b = dt.render(dt.Scene.load(edited), spp=4, seed=2).transient
     assert a.shape == (12, 12, 128, 3)
     assert a.sum() > 0 and np.array_equal(a, b)
+    c = dt.Scene.load(SCENES / "nlos_occluder.toml").with_params(
+        {"nlos.scan": "exhaustive", "nlos.grid": [4, 3], "film.channels": "rgb",
+         "emitter.laser.pulse": {"type": "box", "width_opl": 0.04}, "hidden_x": 0.5})
+    assert np.array_equal(dt.render(c, spp=4, seed=2).transient, a)
     with pytest.raises(dt.SceneError, match="'confocal' or 'exhaustive'"):
         dt.Scene.load(SCENES / "nlos_occluder.toml", {"nlos.scan": "sideways"})
     with pytest.raises(dt.SceneError, match="takes numbers"):

@@ -88,4 +88,30 @@ impl Scene {
         *self = super::resolve::resolve(described, &self.source.clone())?;
         Ok(())
     }
+
+    /// Sets fields of the description to values other than numbers, written as in a TOML
+    /// file (`("nlos.scan", "exhaustive")`, `("nlos.grid", "[8, 8]")`), as
+    /// [`Scene::load_with_text`] does at load; numbers set so far stay. The scene is then
+    /// resolved again from its description (meshes are read again only where a shape's file
+    /// or type changed). An error names the field and leaves the scene unchanged.
+    pub fn set_text<S: AsRef<str>>(&mut self, values: &[(S, S)]) -> Result<(), SceneError> {
+        let d = &self.described;
+        let texts: Vec<(String, String)> = values
+            .iter()
+            .map(|(n, v)| (n.as_ref().to_string(), v.as_ref().to_string()))
+            .collect();
+        let mut raw = (*d.raw).clone();
+        super::field_set::apply_text(&mut raw, &texts, &self.source)?;
+        let desc = super::load::desc_from_tree(&raw, &self.source, &d.fields)?;
+        let meshes = d.meshes.clone().filter(|_| same_meshes(&d.desc, &desc));
+        let described = Described {
+            raw: std::sync::Arc::new(raw),
+            fields: d.fields.clone(),
+            desc,
+            params: d.params.clone(),
+            meshes,
+        };
+        *self = super::resolve::resolve(described, &self.source.clone())?;
+        Ok(())
+    }
 }
