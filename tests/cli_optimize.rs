@@ -487,3 +487,48 @@ fn the_recovered_scene_keeps_the_runs_overrides() {
     // and differs from the file's own values (so the check above can fail)
     assert!(render(SCENE, &["--set", x_set.as_str()], "file") != got);
 }
+
+/// A Gaussian gate far narrower than a bin makes each bin count only the paths that land near
+/// its centre (unbiased, but with thousands of times the variance of box bins): loading says
+/// so, once, however many times the run sets values on the scene (every iteration resolves
+/// it again). A gate about as wide as the pulse and the bins says nothing.
+#[test]
+fn a_needle_gaussian_gate_is_warned_about_once() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path();
+    rough_target(SCENE, dir, "t");
+    let needle = [
+        "--set",
+        "film.gate={ type = \"gaussian\", sigma_opl = 1e-4 }",
+        "--set",
+        "emitter.lamp.pulse.sigma_opl=1e-4",
+    ];
+    let says = "film.gate: a Gaussian gate of sigma 1.000e-4 m";
+    let mut args = one_iteration(SCENE, "t.npy", "plate_x", "run");
+    let iters = args.iter().position(|a| *a == "--iters").unwrap() + 1;
+    args[iters] = "3";
+    args.extend(needle);
+    let o = dtr(&args, dir);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(stderr(&o).matches(says).count(), 1, "{}", stderr(&o));
+    assert!(stderr(&o).contains("use gate = \"box\""), "{}", stderr(&o));
+    let o = dtr(
+        &[&["render", SCENE, "--spp", "1", "-q", "-o", "r"][..], &needle].concat(),
+        dir,
+    );
+    assert!(
+        o.status.success() && stderr(&o).matches(says).count() == 1,
+        "{}",
+        stderr(&o)
+    );
+    let wide = ["--set", "film.gate={ type = \"gaussian\", sigma_opl = 0.05 }"];
+    let o = dtr(
+        &[&["render", SCENE, "--spp", "1", "-q", "-o", "w"][..], &wide].concat(),
+        dir,
+    );
+    assert!(
+        o.status.success() && !stderr(&o).contains("film.gate"),
+        "{}",
+        stderr(&o)
+    );
+}

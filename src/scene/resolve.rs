@@ -84,12 +84,15 @@ pub(crate) fn resolve(described: Described, path: &Path) -> Result<Scene, SceneE
         ));
     }
     for (a, b) in super::flush::flush_surfaces(&shapes, &geometry, &materials, offset_scale) {
-        log::warn!(
+        super::warnings::warn_once(format!(
             "{}: shapes {:?} and {:?} have faces in one plane, facing the same way, that overlap: which of the two a ray meets there is left to rounding, so the picture shows a speckled mix of both materials; move one off the other (by a millimetre, say)",
             path.display(),
             shapes[a].name,
             shapes[b].name
-        );
+        ));
+    }
+    if let Some(w) = super::warnings::narrow_gate(path, &film, &emitters) {
+        super::warnings::warn_once(w);
     }
     let nlos = super::nlos::resolve(
         &desc,
