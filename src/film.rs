@@ -582,6 +582,12 @@ pub struct WindowEnergy {
     pub inside_fraction: f64,
     /// Paths of the pilot that estimated `after` (0: measured on every path of the render).
     pub after_pilot_paths: u64,
+    /// The standard error of the pilot's `after`: its Monte Carlo noise, from two independent
+    /// passes. A pass covers every tile when the film has no more pixels than it traces paths
+    /// (1/512 of the render's, 512 to 16,384); beyond, it takes evenly spaced tiles, and the
+    /// error of leaving the others out is not in this. `None` when `after` was measured on
+    /// every path.
+    pub after_standard_error: Option<f64>,
 }
 
 /// The same for a derivative film: Σ of ∂I/∂θ inside the window (summed in f64 before the
@@ -620,9 +626,12 @@ impl WindowEnergy {
 
     /// The report of a render cut at the window: `inside` and `before` measured on every
     /// path (nothing before the window's end is cut), `after` estimated by a pilot of `paths`
-    /// uncut paths.
-    pub fn with_pilot(inside: f64, before: f64, after: f64, paths: u64) -> Self {
-        Self::with_total(before + inside + after, inside, before, after, paths)
+    /// uncut paths, with its standard error.
+    pub fn with_pilot(inside: f64, before: f64, (after, after_se): (f64, f64), paths: u64) -> Self {
+        Self {
+            after_standard_error: Some(after_se),
+            ..Self::with_total(before + inside + after, inside, before, after, paths)
+        }
     }
 
     fn with_total(total: f64, inside: f64, before: f64, after: f64, after_pilot_paths: u64) -> Self {
@@ -633,6 +642,7 @@ impl WindowEnergy {
             after,
             inside_fraction: if total > 0.0 { inside / total } else { 0.0 },
             after_pilot_paths,
+            after_standard_error: None,
         }
     }
 

@@ -1390,10 +1390,11 @@ impl<'s> Run<'s> {
                 let (t_p, cpu_p) = (Instant::now(), cpu_seconds());
                 // as many as the whole render's (every shard runs the same pilot)
                 let paths = w * h * spp as usize;
-                let (after, pilot) = pilot_energy_after(&mut self.ctx, self.seed, paths, &self.pool, opts.lanes);
+                let (after, after_se, pilot) =
+                    pilot_energy_after(&mut self.ctx, self.seed, paths, &self.pool, opts.lanes);
                 stats.total_wall_seconds += t_p.elapsed().as_secs_f64();
                 stats.total_cpu_seconds += cpu_seconds() - cpu_p;
-                WindowEnergy::with_pilot(inside[0] / n, tails[0] / n, after, pilot)
+                WindowEnergy::with_pilot(inside[0] / n, tails[0] / n, (after, after_se), pilot)
             }
             SteadyMode::Window => WindowEnergy::default(),
         };
@@ -1414,53 +1415,64 @@ use bdpt::render_tiles as bdpt_tiles;
 
 /// Seed stream of the window-energy pilot (xor-ed into the render seed).
 const PILOT_STREAM: u64 = 0x9e37_79b9_7f4a_7c15;
+/// Seed stream of the pilot's second pass.
+const PILOT_STREAM_2: u64 = 0xd1b5_4a32_d192_ed03;
 
 /// The window-energy pilot traces about 1/`PILOT_SHARE` of the render's paths, at least
-/// `PILOT_PATHS.0` and at most `PILOT_PATHS.1` (and at most one per pixel): a rough estimate
+/// `PILOT_PATHS.0` and at most `PILOT_PATHS.1` (and at most two per pixel): a rough estimate
 /// suffices for the report and its warning, and the pilot must cost far less than the cut
 /// saves.
 const PILOT_SHARE: usize = 256;
 const PILOT_PATHS: (usize, usize) = (1024, 1 << 15);
 
 /// The primal energy that arrives after the window, estimated by an uncut pilot of the path
-/// tracer (one sample per pixel in evenly spaced tiles, its own seed stream; see
-/// [`PILOT_SHARE`]), for the energy report of a render whose paths were cut at the window.
-/// Unbiased. Returns (energy after the window, paths). Leaves `ctx` uncut.
+/// tracer (in evenly spaced tiles, two passes of one sample per pixel on seed streams of
+/// their own; see [`PILOT_SHARE`]), for the energy report of a render whose paths were cut at
+/// the window. Unbiased. Returns (energy after the window, its standard error, paths). The
+/// standard error is the passes' Monte Carlo noise, from the difference of the two passes in
+/// each tile: where the pilot leaves tiles out (films of more pixels than a pass traces
+/// paths), the error of leaving them out is not in it. Leaves `ctx` uncut.
 fn pilot_energy_after(
     ctx: &mut RenderContext,
     seed: u64,
     render_paths: usize,
     pool: &rayon::ThreadPool,
     lanes: Lanes,
-) -> (f64, u64) {
+) -> (f64, f64, u64) {
     ctx.cut_to_window(SteadyMode::Full);
     let ctx = &*ctx;
     let (w, h) = (ctx.scene.film.width as usize, ctx.scene.film.height as usize);
     let rects = tile_rects(ctx.scene);
-    let target = (render_paths / PILOT_SHARE).clamp(PILOT_PATHS.0, PILOT_PATHS.1);
+    let target = (render_paths / PILOT_SHARE).clamp(PILOT_PATHS.0, PILOT_PATHS.1) / 2;
     let step = (w * h).div_ceil(target).max(1);
     let picked: Vec<_> = rects.iter().copied().step_by(step).collect();
-    let (after, pixels) = pool.install(|| {
+    // per tile: the energy after the window of each pass, and the tile's pixels
+    let tiles: Vec<([f64; 2], u64)> = pool.install(|| {
         picked
             .par_iter()
             .map(|&(x0, y0, tw, th)| {
-                let mut film = ctx.tile_film(x0, y0, tw, th, 0);
-                let mut counts = PathCounts::default();
-                let (f, c) = (&mut film, &mut counts);
-                dispatch!(
-                    0,
-                    lanes,
-                    ctx.scene.film.channels,
-                    render_tile(ctx, seed ^ PILOT_STREAM, 1, &(0..1), w, (x0, y0, tw, th), f, c)
-                );
-                (film.tails()[1], (tw * th) as u64)
+                let pass = |stream: u64| {
+                    let mut film = ctx.tile_film(x0, y0, tw, th, 0);
+                    let mut counts = PathCounts::default();
+                    let (f, c) = (&mut film, &mut counts);
+                    dispatch!(
+                        0,
+                        lanes,
+                        ctx.scene.film.channels,
+                        render_tile(ctx, seed ^ stream, 1, &(0..1), w, (x0, y0, tw, th), f, c)
+                    );
+                    film.tails()[1]
+                };
+                ([pass(PILOT_STREAM), pass(PILOT_STREAM_2)], (tw * th) as u64)
             })
-            .collect::<Vec<_>>()
-            .into_iter()
-            .fold((0.0, 0u64), |(a, n), (t, p)| (a + t, n + p))
+            .collect()
     });
+    let pixels: u64 = tiles.iter().map(|t| t.1).sum();
     let scale = (w * h) as f64 / pixels.max(1) as f64;
-    (after * scale, pixels)
+    let after: f64 = tiles.iter().map(|([a, b], _)| 0.5 * (a + b)).sum();
+    // Var((a + b)/2) = Var(a)/2 = E[(a − b)²]/4 for independent passes, summed over the tiles
+    let var: f64 = tiles.iter().map(|([a, b], _)| 0.25 * (a - b).powi(2)).sum();
+    (after * scale, scale * var.sqrt(), 2 * pixels)
 }
 
 /// The samples `samples` (of `spp` per pixel) of one tile: for each sample index, one packet

@@ -256,14 +256,16 @@ fn the_steady_image_integrates_the_window_or_all_time() {
 #[test]
 fn the_energy_after_a_cut_window_is_estimated_by_the_pilot() {
     // the pilot's estimate of the energy after the window agrees with the uncut render's
-    // measurement within their noise (one uncut pilot path per pixel against 8 spp)
+    // measurement within their noise (two uncut pilot paths per pixel against 8 spp)
     let scene = early_cornell();
-    let (mut pilot, mut exact, mut totals) = (Vec::new(), Vec::new(), Vec::new());
+    let (mut pilot, mut exact, mut totals, mut reported) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     for seed in 1..=8 {
         let (_, a) = render(&scene, &opts(seed, 8, SteadyMode::Window)).unwrap();
         let (_, b) = render(&scene, &opts(seed + 100, 8, SteadyMode::Full)).unwrap();
-        assert_eq!(a.energy.after_pilot_paths, 256);
+        assert_eq!(a.energy.after_pilot_paths, 512);
         assert_eq!(b.energy.after_pilot_paths, 0);
+        assert_eq!(b.energy.after_standard_error, None);
+        reported.push(a.energy.after_standard_error.unwrap());
         let t = a.energy.before + a.energy.inside + a.energy.after;
         assert!((a.energy.total - t).abs() <= 1e-12 * t);
         pilot.push(a.energy.after);
@@ -274,6 +276,15 @@ fn the_energy_after_a_cut_window_is_estimated_by_the_pilot() {
     let (me, se) = common::mean_se(&exact);
     let z = (mp - me) / (sp * sp + se * se).sqrt();
     assert!(z.abs() < 4.0, "pilot {mp} ± {sp}, uncut {me} ± {se}: z = {z}");
+    // the standard error each render reports is the spread of the pilot's estimate from seed
+    // to seed
+    let spread = sp * (pilot.len() as f64).sqrt();
+    let (said, _) = common::mean_se(&reported);
+    eprintln!("pilot spread over seeds {spread}, reported standard error {said} (mean)");
+    assert!(
+        (0.6 * spread..=1.6 * spread).contains(&said),
+        "reported {said} against a spread of {spread}"
+    );
     // and it is a good part of the light (about 30%): this window ends 2.2 m after the first
     // arrival
     let (mt, _) = common::mean_se(&totals);

@@ -567,7 +567,7 @@ fn metadata(scene: &Scene, film: &Transient, stats: &RenderStats, a: &RenderArgs
             "f32_step_opl": stats.opl.f32_step_opl,
         },
         "energy": {
-            "about": "time integral of the whole image (sum over pixels and channels): total = every path; before / after = the part that arrived before bin 0 / after the last bin; inside = sum of the transient. With steady = window nothing past the window was traced: after is then estimated by an uncut pilot of after_pilot_paths paths and total = before + inside + after; a derivative's outside is null",
+            "about": "time integral of the whole image (sum over pixels and channels): total = every path; before / after = the part that arrived before bin 0 / after the last bin; inside = sum of the transient. With steady = window nothing past the window was traced: after is then estimated by an uncut pilot of after_pilot_paths paths (after_standard_error: its Monte Carlo noise) and total = before + inside + after; a derivative's outside is null",
             "primal": stats.energy,
             "derivatives": a.diff.iter().zip(&stats.deriv_energy).map(|(n, e)| json!({"param": n, "total": e.total, "inside": e.inside, "outside": e.outside})).collect::<Vec<_>>(),
             "warning": stats.energy.warning(&film.axis),

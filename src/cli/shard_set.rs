@@ -470,6 +470,10 @@ fn merged_energy(shards: &[ShardFiles]) -> Value {
         after,
         inside_fraction: if total > 0.0 { inside / total } else { 0.0 },
         after_pilot_paths: pilot,
+        // the pilot's, as its `after` (any shard's; none when measured on every path)
+        after_standard_error: shards[0].meta["energy"]["primal"]["after_standard_error"]
+            .as_f64()
+            .filter(|_| pilot > 0),
     };
     let mut energy = shards[0].meta["energy"].clone();
     let axis = axis_of(&shards[0].meta, Path::new("shard 0")).ok();
