@@ -20,6 +20,22 @@ use serde_json::{Value, json};
 use sha2::{Digest, Sha256};
 use std::path::{Path, PathBuf};
 
+/// `--set NAME=VALUE` as an identity holds it: a number with its spaces dropped, a value
+/// other than a number as the TOML value it is read as (`scene::field_set`), so that two
+/// spellings of one setting (`[3, 3]`, `[3,3]`) match while strings that differ only in a
+/// space (`["a b"]`, `["ab"]`) do not.
+fn canonical_set(s: &str) -> String {
+    match s.split_once('=') {
+        Some((name, value)) if value.trim().parse::<f64>().is_err() => {
+            let value = crate::scene::field_set::text_value(value)
+                .map(|v| v.to_string())
+                .unwrap_or_else(|_| value.trim().to_string());
+            format!("{}={value}", name.trim())
+        }
+        _ => s.replace(' ', ""),
+    }
+}
+
 /// Everything that decides a render's numbers, as JSON: the contents of its input files,
 /// the overrides, the sample counts, seed, estimators and modes. Two renders with the same
 /// identity trace the same paths; shards of one render must share it (`dtr merge` and
@@ -39,7 +55,7 @@ pub fn identity(
         hash.update(&bytes);
     }
     let digest: String = hash.finalize().iter().map(|b| format!("{b:02x}")).collect();
-    let mut sets: Vec<String> = sets.iter().map(|s| s.replace(' ', "")).collect();
+    let mut sets: Vec<String> = sets.iter().map(|s| canonical_set(s)).collect();
     sets.sort();
     Ok(json!({
         "inputs_sha256": digest,
@@ -491,4 +507,27 @@ fn merged_energy(shards: &[ShardFiles]) -> Value {
         })
         .collect::<Vec<_>>());
     energy
+}
+
+#[cfg(test)]
+mod tests {
+    use super::canonical_set;
+
+    #[test]
+    fn settings_are_compared_as_what_they_set() {
+        assert_eq!(canonical_set("x = 1"), canonical_set("x=1"));
+        assert_eq!(canonical_set("nlos.grid=[3, 3]"), canonical_set("nlos.grid=[3,3]"));
+        assert_eq!(
+            canonical_set("nlos.scan=exhaustive"),
+            canonical_set("nlos.scan = \"exhaustive\"")
+        );
+        assert_ne!(
+            canonical_set("nlos.hidden_shapes=[\"a b\"]"),
+            canonical_set("nlos.hidden_shapes=[\"ab\"]")
+        );
+        assert_ne!(
+            canonical_set("nlos.scan=exhaustive"),
+            canonical_set("nlos.scan=confocal")
+        );
+    }
 }

@@ -74,7 +74,7 @@ pub(crate) fn apply_text(raw: &mut Value, sets: &[(String, String)], source: &Pa
 
 /// `text` as the value a TOML file would give after `key = `; a bare word that is not one
 /// is that word as a string. Numbers in it must be finite f32s, as in a file.
-fn text_value(text: &str) -> Result<Value, String> {
+pub(crate) fn text_value(text: &str) -> Result<Value, String> {
     let text = text.trim();
     let parsed = toml::from_str::<toml::Table>(&format!("v = {text}"))
         .ok()
