@@ -76,11 +76,10 @@ pub(crate) fn apply_text(raw: &mut Value, sets: &[(String, String)], source: &Pa
 /// is that word as a string. Numbers in it must be finite f32s, as in a file.
 pub(crate) fn text_value(text: &str) -> Result<Value, String> {
     let text = text.trim();
-    let parsed = toml::from_str::<toml::Table>(&format!("v = {text}"))
-        .ok()
-        .and_then(|mut t| t.remove("v"));
-    let Some(v) = parsed else {
-        return Ok(Value::String(text.to_string()));
+    let v = match toml::from_str::<toml::Table>(&format!("v = {text}")) {
+        Ok(t) if t.len() != 1 => return Err(format!("{text:?} holds more than one TOML value")),
+        Ok(mut t) => t.remove("v").unwrap_or(toml::Value::String(text.to_string())),
+        Err(_) => return Ok(Value::String(text.to_string())),
     };
     fn check(v: &toml::Value) -> Result<(), String> {
         match v {
@@ -247,6 +246,8 @@ mod tests {
         assert!(e.contains("nlos.grid") && e.contains("finite"), "{e}");
         let e = set_text(&mut v, "nlos.grid", "[8, 1e39]").unwrap_err();
         assert!(e.contains("finite"), "{e}");
+        let e = set_text(&mut v, "film.channels", "\"rgb\"\nbins = 3").unwrap_err();
+        assert!(e.contains("more than one TOML value"), "{e}");
         let e = set_text(&mut v, "flim.channels", "rgb").unwrap_err();
         assert!(e.contains("has no \"flim\""), "{e}");
         assert_eq!(v["film"]["channels"], json!("mono"));
