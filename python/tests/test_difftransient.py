@@ -146,16 +146,14 @@ def test_fields_set_at_load_equal_the_same_fields_in_the_file(tmp_path):
         text = text.replace(a, b)
     edited = tmp_path / "edited.toml"
     edited.write_text(text)
-    s = dt.Scene.load(SCENES / "nlos_occluder.toml",
-                      {"nlos.scan": "exhaustive", "nlos.grid": [4, 3], "film.channels": "rgb",
-                       "emitter.laser.pulse": {"type": "box", "width_opl": 0.04}, "hidden_x": 0.5})
+    settings = {"nlos.scan": "exhaustive", "nlos.grid": [4, 3], "film.channels": "rgb",
+                "emitter.laser.pulse": {"type": "box", "width_opl": 0.04}, "hidden_x": 0.5}
+    s = dt.Scene.load(SCENES / "nlos_occluder.toml", settings)
     a = dt.render(s, spp=4, seed=2).transient
     b = dt.render(dt.Scene.load(edited), spp=4, seed=2).transient
     assert a.shape == (12, 12, 128, 3)
     assert a.sum() > 0 and np.array_equal(a, b)
-    c = dt.Scene.load(SCENES / "nlos_occluder.toml").with_params(
-        {"nlos.scan": "exhaustive", "nlos.grid": [4, 3], "film.channels": "rgb",
-         "emitter.laser.pulse": {"type": "box", "width_opl": 0.04}, "hidden_x": 0.5})
+    c = dt.Scene.load(SCENES / "nlos_occluder.toml").with_params(settings)
     assert np.array_equal(dt.render(c, spp=4, seed=2).transient, a)
     with pytest.raises(dt.SceneError, match="'confocal' or 'exhaustive'"):
         dt.Scene.load(SCENES / "nlos_occluder.toml", {"nlos.scan": "sideways"})
@@ -178,48 +176,32 @@ def test_with_params_renders_the_bytes_of_a_reload():
     assert not np.array_equal(a.transient, dt.render(s, spp=2, seed=6).transient)
 
 
-def test_with_sampler_is_the_scene_files_sampler():
-    """`with_sampler("independent")` renders the bytes of the scene whose [integrator] says
-    sampler = "independent", differs from the default (sobol) render, and refuses an unknown
-    name."""
+@pytest.mark.parametrize("method, prop, scene_name, name, default, key, unknown, spp", [
+    # sampler = "independent" against the default Sobol points
+    ("with_sampler", "sampler", "diff_room.toml", "independent", "sobol", "sampler", "halton", 4),
+    # kind = "bdpt" on a confocal NLOS capture against the path tracer
+    ("with_integrator", "integrator", "nlos_occluder.toml", "bdpt", "path", "kind", "mlt", 16),
+])
+def test_with_sampler_and_integrator_are_the_scene_files_settings(method, prop, scene_name, name, default, key,
+                                                                   unknown, spp):
+    """`with_sampler(name)` / `with_integrator(name)` render the bytes of the scene whose
+    [integrator] says so, differ from the default's render, and refuse an unknown name."""
     import json
     import tomllib
 
-    s = scene("diff_room.toml")
-    assert s.sampler == "sobol"
-    t = s.with_sampler("independent")
-    assert t.sampler == "independent"
-    desc = tomllib.loads((SCENES / "diff_room.toml").read_text())
-    desc.setdefault("integrator", {})["sampler"] = "independent"
+    s = scene(scene_name)
+    assert getattr(s, prop) == default
+    t = getattr(s, method)(name)
+    assert getattr(t, prop) == name
+    desc = tomllib.loads((SCENES / scene_name).read_text())
+    desc.setdefault("integrator", {})[key] = name
     u = dt.Scene.from_dict(json.loads(json.dumps(desc)), base_dir=SCENES)
-    a = dt.render(t, spp=4, seed=2).transient
+    a = dt.render(t, spp=spp, seed=2).transient
     assert a.sum() > 0
-    assert np.array_equal(a, dt.render(u, spp=4, seed=2).transient)
-    assert not np.array_equal(a, dt.render(s, spp=4, seed=2).transient)
-    with pytest.raises(ValueError, match="halton"):
-        s.with_sampler("halton")
-
-
-def test_with_integrator_is_the_scene_files_integrator():
-    """`with_integrator("bdpt")` renders the bytes of the scene whose [integrator] says
-    kind = "bdpt" (here a confocal NLOS capture), differs from the path tracer's render, and
-    refuses an unknown name."""
-    import json
-    import tomllib
-
-    s = scene("nlos_occluder.toml")
-    assert s.integrator == "path"
-    t = s.with_integrator("bdpt")
-    assert t.integrator == "bdpt"
-    desc = tomllib.loads((SCENES / "nlos_occluder.toml").read_text())
-    desc["integrator"]["kind"] = "bdpt"
-    u = dt.Scene.from_dict(json.loads(json.dumps(desc)), base_dir=SCENES)
-    a = dt.render(t, spp=16, seed=2).transient
-    assert a.sum() > 0
-    assert np.array_equal(a, dt.render(u, spp=16, seed=2).transient)
-    assert not np.array_equal(a, dt.render(s, spp=16, seed=2).transient)
-    with pytest.raises(ValueError, match="mlt"):
-        s.with_integrator("mlt")
+    assert np.array_equal(a, dt.render(u, spp=spp, seed=2).transient)
+    assert not np.array_equal(a, dt.render(s, spp=spp, seed=2).transient)
+    with pytest.raises(ValueError, match=unknown):
+        getattr(s, method)(unknown)
 
 
 def test_scene_from_a_dict():

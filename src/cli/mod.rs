@@ -132,7 +132,8 @@ pub struct Sets {
 }
 
 /// Parses `NAME=VALUE` overrides: a value that reads as a number is one; any other value sets
-/// a field of the description (a dotted name) as a TOML file would write it.
+/// a field of the description as a TOML file would write it (the loader refuses it for a
+/// `[[param]]`, `scene::field_set::apply_text`).
 pub fn parse_sets(sets: &[String]) -> anyhow::Result<Sets> {
     let mut out = Sets::default();
     for s in sets {
@@ -143,10 +144,7 @@ pub fn parse_sets(sets: &[String]) -> anyhow::Result<Sets> {
         match value.trim().parse::<f64>() {
             Ok(v) if !v.is_finite() => anyhow::bail!("--set {s:?}: value must be finite"),
             Ok(v) => out.numbers.push((name, v)),
-            Err(_) if crate::scene::field_set::is_field_path(&name) => out.texts.push((name, value.trim().to_string())),
-            Err(_) => anyhow::bail!(
-                "--set {s:?}: value {value:?} is not a number: a [[param]] takes numbers; other values set a field of the description, named by its dotted path (nlos.scan, film.gate)"
-            ),
+            Err(_) => out.texts.push((name, value.trim().to_string())),
         }
     }
     Ok(out)

@@ -12,6 +12,7 @@
 use super::desc::SceneDesc;
 use super::described::Described;
 use super::{Scene, SceneError};
+use std::sync::Arc;
 
 /// Replaces or adds `(name, value)` in `list`, keeping one entry per name.
 fn put(list: &mut Vec<(String, f64)>, name: &str, value: f64) {
@@ -71,22 +72,7 @@ impl Scene {
             };
             put(list, name, *value);
         }
-        let (desc, meshes) = if fields == d.fields {
-            (d.desc.clone(), d.meshes.clone())
-        } else {
-            let desc = super::load::desc_from_tree(&d.raw, &self.source, &fields)?;
-            let meshes = d.meshes.clone().filter(|_| same_meshes(&d.desc, &desc));
-            (desc, meshes)
-        };
-        let described = Described {
-            raw: d.raw.clone(),
-            fields,
-            desc,
-            params,
-            meshes,
-        };
-        *self = super::resolve::resolve(described, &self.source.clone())?;
-        Ok(())
+        self.resolve_again(d.raw.clone(), fields, params)
     }
 
     /// Sets fields of the description to values other than numbers, written as in a TOML
@@ -102,13 +88,32 @@ impl Scene {
             .collect();
         let mut raw = (*d.raw).clone();
         super::field_set::apply_text(&mut raw, &texts, &self.source)?;
-        let desc = super::load::desc_from_tree(&raw, &self.source, &d.fields)?;
-        let meshes = d.meshes.clone().filter(|_| same_meshes(&d.desc, &desc));
+        self.resolve_again(Arc::new(raw), d.fields.clone(), d.params.clone())
+    }
+
+    /// Resolves the scene again from the description tree `raw` with the number overrides
+    /// `fields` and `params`: the typed description and the meshes are kept where `raw` and
+    /// `fields` are the scene's own, and the meshes are read again only where a shape's file
+    /// or type changed. On an error the scene is left as it was.
+    fn resolve_again(
+        &mut self,
+        raw: Arc<serde_json::Value>,
+        fields: Vec<(String, f64)>,
+        params: Vec<(String, f64)>,
+    ) -> Result<(), SceneError> {
+        let d = &self.described;
+        let (desc, meshes) = if Arc::ptr_eq(&raw, &d.raw) && fields == d.fields {
+            (d.desc.clone(), d.meshes.clone())
+        } else {
+            let desc = super::load::desc_from_tree(&raw, &self.source, &fields)?;
+            let meshes = d.meshes.clone().filter(|_| same_meshes(&d.desc, &desc));
+            (desc, meshes)
+        };
         let described = Described {
-            raw: std::sync::Arc::new(raw),
-            fields: d.fields.clone(),
+            raw,
+            fields,
             desc,
-            params: d.params.clone(),
+            params,
             meshes,
         };
         *self = super::resolve::resolve(described, &self.source.clone())?;
