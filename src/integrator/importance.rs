@@ -23,7 +23,7 @@ use super::deposit::PathCounts;
 use super::opl::points64;
 use super::path::SurfaceStarts;
 use super::surface::{SurfacePoint, surface_at};
-use super::trace::{SegmentEnd, next_hits, shadow_segment, spawn_point, unoccluded};
+use super::trace::{SegmentEnd, next_hits, spawn_point, visible_between};
 use super::transport::{scatter, scatter_lobes};
 use super::window;
 use crate::kernel::{Mask, PathSampler, Real, Spectrum, V3};
@@ -156,14 +156,15 @@ pub fn trace_importance_packet<R: Real, const C: usize>(
                 n: sensors.as_ref().map_or(V3::zero(), |s| s.normals),
                 w_in: V3::zero(),
             };
-            let (o, dir, len) = shadow_segment(&here, &pinhole, ctx.scene.offset_scale);
             // lanes whose first connection is taken as unblocked (`SurfaceStarts`)
             let given = if j == 1 {
                 unblocked_first
             } else {
                 <R as Real>::Mask::splat(false)
             };
-            let ok = ok & (unoccluded(&ctx.accel, &o, &dir, zero, len, ok.and_not(given), &mut counts.rays) | given);
+            let scale = ctx.scene.offset_scale;
+            let ok =
+                ok & (visible_between(&ctx.accel, &here, &pinhole, scale, ok.and_not(given), &mut counts.rays) | given);
             let factor = cos_x.abs() * V::<R>::safe_div(proj.importance, proj.dist2);
             let f = match &lobes {
                 None => f,

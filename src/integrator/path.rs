@@ -24,7 +24,7 @@ use super::opl::points64;
 use super::power_heuristic;
 use super::sink::Sink;
 use super::surface::surface_at;
-use super::trace::{SegmentEnd, next_hits, shadow_segment, spawn_point, unoccluded};
+use super::trace::{SegmentEnd, next_hits, spawn_point, visible_between};
 use super::transport::{emitter_hits, scatter, scatter_lobes};
 use super::window;
 use crate::kernel::{Mask, PathSampler, Real, Spectrum, V3};
@@ -467,9 +467,8 @@ pub fn trace_packet_from<R: Real, const C: usize, S: Sink<C>>(
                     n: V3::select(ls.has_cos, ls.n.value(), V3::zero()),
                     w_in: V3::zero(),
                 };
-                let (o, dir, len) = shadow_segment(&here, &light, ctx.scene.offset_scale);
-                let visible = unoccluded(&ctx.accel, &o, &dir, V::<R>::zero(), len, lit, &mut counts.rays);
-                let lit = lit & visible;
+                let scale = ctx.scene.offset_scale;
+                let lit = lit & visible_between(&ctx.accel, &here, &light, scale, lit, &mut counts.rays);
                 if lit.any() {
                     let g = cos_x_signed.abs() * cos_y / d2;
                     let f = match &lobes {

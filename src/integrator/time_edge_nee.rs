@@ -18,7 +18,7 @@ use super::deposit::{PathCounts, for_each_lane};
 use super::sink::Sink;
 use super::surface::SurfacePoint;
 use super::time_edges::{DIMS_PER_VERTEX, Draw, MAX_SLOTS, Plan, TimeEdges};
-use super::trace::{SegmentEnd, shadow_segment, unoccluded};
+use super::trace::{SegmentEnd, visible_between};
 use crate::kernel::{Mask, PathSampler, Real, Spectrum, V3};
 use glam::{DVec3, Vec3};
 
@@ -160,8 +160,7 @@ pub fn connect<R: Real, const C: usize, S: Sink<C>>(
             n: n_y.value(),
             w_in: V3::zero(),
         };
-        let (o, dir, len) = shadow_segment(&here, &light, ctx.scene.offset_scale);
-        let lit = lit & unoccluded(&ctx.accel, &o, &dir, V::<R>::zero(), len, lit, &mut counts.rays);
+        let lit = lit & visible_between(&ctx.accel, &here, &light, ctx.scene.offset_scale, lit, &mut counts.rays);
         if lit.none() {
             continue;
         }

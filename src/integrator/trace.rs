@@ -164,6 +164,22 @@ pub fn shadow_segment<V: Real>(from: &SegmentEnd<V>, to: &SegmentEnd<V>, scale: 
     (o, to_t * V::safe_div(V::one(), len), len)
 }
 
+/// Of the lanes of `active`, those whose shadow ray from `from` to `to` ([`shadow_segment`])
+/// is unblocked: the visibility test of every connection (next-event estimation, BDPT's
+/// joins, the splats onto the camera and the sensor).
+#[inline(always)]
+pub fn visible_between<V: Real>(
+    accel: &Accel,
+    from: &SegmentEnd<V>,
+    to: &SegmentEnd<V>,
+    scale: f32,
+    active: V::Mask,
+    counts: &mut RayCounts,
+) -> V::Mask {
+    let (o, dir, len) = shadow_segment(from, to, scale);
+    unoccluded(accel, &o, &dir, V::zero(), len, active, counts)
+}
+
 /// The next vertices of the lanes of `active`: the closest hits along (o, d) no farther than
 /// the OPL left after `opl` allows (the window cut, `super::window`; through a medium of index
 /// `eta`; no bound when `cut` is false, e.g. for the uncounted camera leg of an unwarped

@@ -11,7 +11,7 @@ use super::Packet;
 use super::mis::{allowed_through, path_pdfs, ratio_sums, weight};
 use super::vertex::segment_end;
 use crate::integrator::sink::Sink;
-use crate::integrator::trace::{shadow_segment, unoccluded};
+use crate::integrator::trace::visible_between;
 use crate::integrator::transport::emitter_hits;
 use crate::integrator::window;
 use crate::kernel::{Mask, Real, V3};
@@ -67,12 +67,15 @@ pub fn connect<R: Real, const C: usize, S: Sink<C>>(pk: &mut Packet<'_, '_, R, C
     if ok.none() {
         return;
     }
-    let (o, ray_d, len) = shadow_segment(
-        &segment_end(pk.camera, t - 1),
-        &segment_end(pk.light, s - 1),
-        ctx.scene.offset_scale,
-    );
-    let ok = ok & unoccluded(&ctx.accel, &o, &ray_d, zero, len, ok, &mut pk.counts.rays);
+    let ok = ok
+        & visible_between(
+            &ctx.accel,
+            &segment_end(pk.camera, t - 1),
+            &segment_end(pk.light, s - 1),
+            ctx.scene.offset_scale,
+            ok,
+            &mut pk.counts.rays,
+        );
     if ok.none() {
         return;
     }

@@ -20,7 +20,7 @@ use super::connect::{joined_opl64, towards};
 use super::mis::weight;
 use super::vertex::{segment_end, to_area};
 use crate::integrator::sink::Sink;
-use crate::integrator::trace::{shadow_segment, unoccluded};
+use crate::integrator::trace::visible_between;
 use crate::integrator::window;
 use crate::kernel::{Mask, Real};
 
@@ -45,12 +45,15 @@ pub fn connect_to_sensor<R: Real, const C: usize, S: Sink<C>>(pk: &mut Packet<'_
     if ok.none() {
         return;
     }
-    let (o, ray_d, len) = shadow_segment(
-        &segment_end(pk.light, s - 1),
-        &segment_end(pk.camera, 0),
-        ctx.scene.offset_scale,
-    );
-    let ok = ok & unoccluded(&ctx.accel, &o, &ray_d, zero, len, ok, &mut pk.counts.rays);
+    let ok = ok
+        & visible_between(
+            &ctx.accel,
+            &segment_end(pk.light, s - 1),
+            &segment_end(pk.camera, 0),
+            ctx.scene.offset_scale,
+            ok,
+            &mut pk.counts.rays,
+        );
     if ok.none() {
         return;
     }

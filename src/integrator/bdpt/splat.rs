@@ -30,7 +30,7 @@ use super::walk::geometry_carrier;
 use crate::integrator::deposit::LaneContribution;
 use crate::integrator::path::ray_plane_point;
 use crate::integrator::sink::Sink;
-use crate::integrator::trace::{SegmentEnd, shadow_segment, unoccluded};
+use crate::integrator::trace::{SegmentEnd, visible_between};
 use crate::integrator::window;
 use crate::kernel::{Mask, Real, V3};
 
@@ -60,8 +60,16 @@ pub fn splat_to_camera<R: Real, const C: usize, S: Sink<C>>(pk: &mut Packet<'_, 
         n: V3::zero(),
         w_in: V3::zero(),
     };
-    let (o, ray_d, len) = shadow_segment(&segment_end(pk.light, s - 1), &pinhole, ctx.scene.offset_scale);
-    let ok = ok & unoccluded(&ctx.accel, &o, &ray_d, zero, len, ok, &mut pk.counts.rays);
+    let end = segment_end(pk.light, s - 1);
+    let ok = ok
+        & visible_between(
+            &ctx.accel,
+            &end,
+            &pinhole,
+            ctx.scene.offset_scale,
+            ok,
+            &mut pk.counts.rays,
+        );
     if ok.none() {
         return;
     }
