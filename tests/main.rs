@@ -55,6 +55,7 @@ mod optimize_depth;
 mod optimize_ior;
 mod optimize_pose;
 mod ply_mesh;
+mod random_scenes;
 mod scene_builder;
 mod secondary_fd;
 mod set_params;
