@@ -439,3 +439,59 @@ fn shards_and_checkpoints_of_a_capture() {
     assert_eq!(npy(&dir.path().join("ck.npy")).1, whole);
     assert!(!dir.path().join("s0.h5").exists() && !dir.path().join("s0.noisy.npy").exists());
 }
+
+/// A capture aims its laser at each laser point, so the laser's own `direction` plays no part:
+/// it is not refused where that direction would land on a surface that is not diffuse (it was:
+/// "its spot lands on material ..."), and the capture does not depend on it (the same bytes,
+/// path tracer and BDPT, with a derivative).
+#[test]
+fn a_captures_laser_direction_plays_no_part() {
+    let base = scene_text("nlos_occluder.toml").replace("grid = [16, 16]", "grid = [6, 6]");
+    // the occluder made glossy, and the laser's own beam aimed at it
+    let glossy = base.replace(
+        "name = \"grey\"\ntype = \"diffuse\"\nalbedo = 0.5",
+        "name = \"grey\"\ntype = \"roughconductor\"\nroughness = 0.3",
+    );
+    assert_ne!(glossy, base);
+    let aimed = glossy.replace("direction = [1.5, 0.0, -2.0]", "direction = [1.0, 0.0, 0.0]");
+    assert_ne!(aimed, glossy);
+    let dir = tempfile::tempdir().unwrap();
+    for integrator in ["path", "bdpt"] {
+        let mut outputs = Vec::new();
+        for (name, text) in [("wall_dir.toml", &glossy), ("occluder_dir.toml", &aimed)] {
+            let scene = scene_file(dir.path(), name, text);
+            let prefix = format!("{integrator}_{name}");
+            let out = common::dtr(
+                &[
+                    "render",
+                    scene.to_str().unwrap(),
+                    "-o",
+                    &prefix,
+                    "--spp",
+                    "32",
+                    "--quiet",
+                    "--integrator",
+                    integrator,
+                    "--diff",
+                    "hidden_x",
+                ],
+                dir.path(),
+            );
+            assert!(
+                out.status.success(),
+                "{integrator}, {name}: {}",
+                String::from_utf8_lossy(&out.stderr)
+            );
+            let read = |suffix: &str| std::fs::read(dir.path().join(format!("{prefix}{suffix}"))).unwrap();
+            outputs.push((read(".npy"), read(".d_hidden_x.npy")));
+        }
+        assert!(
+            outputs[0].0 == outputs[1].0,
+            "{integrator}: the capture depends on the laser's direction"
+        );
+        assert!(
+            outputs[0].1 == outputs[1].1,
+            "{integrator}: its derivative depends on the laser's direction"
+        );
+    }
+}

@@ -114,13 +114,15 @@ pub struct EmitterTable {
 
 impl EmitterTable {
     /// The tables of `scene`'s emitters; a laser whose spot lands on a material that is not
-    /// diffuse is refused (its spot is a Lambertian secondary source).
+    /// diffuse is refused (its spot is a Lambertian secondary source). A capture's laser has
+    /// no spot of its own here: the scan's spots are `NlosSensor::spots`.
     pub fn new(scene: &Scene, accel: &Accel) -> Result<Self, crate::error::Error> {
         let geo = &scene.geometry;
         let entries = scene
             .emitters
             .iter()
-            .map(|e| match &e.kind {
+            .enumerate()
+            .map(|(index, e)| match &e.kind {
                 EmitterKind::Area { shape, radiance } => {
                     let s = &scene.shapes[*shape as usize];
                     let tris: Vec<u32> = (s.first_tri..s.first_tri + s.tri_count).collect();
@@ -144,6 +146,11 @@ impl EmitterTable {
                     position: *position,
                     intensity: *intensity,
                 }),
+                // a capture aims its laser at each laser point (`super::nlos`): its own
+                // direction lights nothing
+                EmitterKind::Laser { .. } if scene.nlos.as_ref().is_some_and(|n| n.laser as usize == index) => {
+                    Ok(Entry::Laser { spot: None })
+                }
                 EmitterKind::Laser {
                     position,
                     direction,
