@@ -2,9 +2,10 @@
 //! pulse, material, shape, emitter and parameter that the generator draws must either render
 //! with finite outputs (the transient and every derivative asked for) or be refused with
 //! exit code 2, a message naming the scene file, and no output files. Never a panic, another
-//! exit code, NaN or Inf. The scenes are small (at most 8 × 8 pixels, 4 spp); what they
-//! check is that no mix of features reaches a code path that breaks, not the values (the FD
-//! and forward tests do that).
+//! exit code, NaN or Inf. A third of them are relay-wall captures of the same room. The
+//! scenes are small (at most 8 × 8 pixels or 4 × 4 sensor points, 4 spp); what they check is
+//! that no mix of features reaches a code path that breaks, not the values (the FD and
+//! forward tests do that).
 
 use crate::common;
 use std::fmt::Write as _;
@@ -51,13 +52,23 @@ fn colour(d: &mut Draw, mono: bool) -> String {
 }
 
 fn material(d: &mut Draw, name: &str, closed: bool, mono: bool) -> (String, &'static str) {
-    let open = ["diffuse", "diffuse", "roughconductor", "conductor"];
+    // smooth (Dirac) lobes are drawn less often: most parameters are refused with them
+    let open = [
+        "diffuse",
+        "diffuse",
+        "diffuse",
+        "roughconductor",
+        "roughconductor",
+        "conductor",
+    ];
     let all = [
         "diffuse",
         "diffuse",
         "roughconductor",
-        "conductor",
+        "roughconductor",
         "roughdielectric",
+        "roughdielectric",
+        "conductor",
         "dielectric",
     ];
     let ty = *d.pick(if closed { &all[..] } else { &open[..] });
@@ -86,6 +97,8 @@ fn material(d: &mut Draw, name: &str, closed: bool, mono: bool) -> (String, &'st
 fn scene(seed: u64, meshes: &Path) -> (String, Vec<&'static str>, Vec<String>) {
     let d = &mut Draw::new(seed);
     let mut s = String::new();
+    // a relay-wall capture of the room: the back wall relays, only the laser emits
+    let capture = d.chance(0.3);
     let kind = *d.pick(&["path", "bdpt"]);
     writeln!(
         s,
@@ -125,7 +138,7 @@ fn scene(seed: u64, meshes: &Path) -> (String, Vec<&'static str>, Vec<String>) {
         d.range(0.0, 4.0),
         d.pick(&[0.01, 0.05, 0.2]),
         d.int(1, 80),
-        d.chance(0.1)
+        !capture && d.chance(0.1)
     )
     .unwrap();
     let (floor_m, _) = material(d, "floor_m", false, mono);
@@ -165,7 +178,11 @@ fn scene(seed: u64, meshes: &Path) -> (String, Vec<&'static str>, Vec<String>) {
         "{ type = \"gaussian\", sigma_opl = 0.05 }",
         "{ type = \"box\", width_opl = 0.05 }",
     ]);
-    let emitter = *d.pick(&["area", "point", "laser"]);
+    let emitter = if capture {
+        "laser"
+    } else {
+        *d.pick(&["area", "point", "laser"])
+    };
     match emitter {
         "area" => {
             s += "[[shape]]\nname = \"lamp_q\"\ntype = \"rectangle\"\nmaterial = \"white\"\nrotate = [90, 0, 0]\ntranslate = [0, 1.8, 0]\nscale = 0.3\n";
@@ -173,6 +190,32 @@ fn scene(seed: u64, meshes: &Path) -> (String, Vec<&'static str>, Vec<String>) {
         }
         "point" => writeln!(s, "[[emitter]]\nname = \"lamp\"\ntype = \"point\"\nposition = [0.3, 1.5, 0.5]\nintensity = 2.0\npulse = {pulse}\noffset_opl = {}", d.pick(&[0.0, 0.1])).unwrap(),
         _ => writeln!(s, "[[emitter]]\nname = \"lamp\"\ntype = \"laser\"\nposition = [0.3, 1.5, 1.0]\ndirection = [-0.2, -1, -0.5]\npower = 2.0\npulse = {pulse}").unwrap(),
+    }
+    if capture {
+        let scan = *d.pick(&["confocal", "exhaustive"]);
+        writeln!(
+            s,
+            "[nlos]\nwall = \"back\"\nlaser = \"lamp\"\nscan = \"{scan}\"\ngrid = [{}, {}]\nrelay_legs = \"{}\"\nhidden_sampling = {}",
+            d.int(1, 4),
+            d.int(1, 4),
+            d.pick(&["excluded", "included"]),
+            d.pick(&[0.0, 0.5, 0.9])
+        )
+        .unwrap();
+        if scan == "exhaustive" && d.chance(0.5) {
+            writeln!(s, "laser_grid = [{}, {}]", d.int(1, 3), d.int(1, 3)).unwrap();
+        }
+        if d.chance(0.3) {
+            s += "hidden_shapes = [\"obj\"]\n";
+        }
+        if d.chance(0.3) {
+            writeln!(
+                s,
+                "[nlos.noise]\nphotons_per_unit = 1e6\ndark_counts = {}\nseed = 3",
+                d.pick(&[0.0, 0.01])
+            )
+            .unwrap();
+        }
     }
     let mut params = Vec::new();
     let candidates: [(&str, &str, &str, f64); 7] = [
@@ -218,10 +261,11 @@ fn scene(seed: u64, meshes: &Path) -> (String, Vec<&'static str>, Vec<String>) {
 fn random_scenes_render_finite_or_are_refused_by_name() {
     let dir = tempfile::tempdir().unwrap();
     let meshes = common::scene_path("meshes");
-    let (mut rendered, mut refused) = (0, 0);
-    let count = 200;
+    let (mut rendered, mut refused, mut captures) = (0, 0, 0);
+    let count = 300;
     for seed in 0..count {
         let (text, params, extra) = scene(seed, &meshes);
+        let capture = text.contains("[nlos]");
         let file = format!("s{seed}.toml");
         std::fs::write(dir.path().join(&file), &text).unwrap();
         let prefix = format!("o{seed}");
@@ -247,13 +291,14 @@ fn random_scenes_render_finite_or_are_refused_by_name() {
         match out.status.code() {
             Some(0) => {
                 rendered += 1;
+                captures += u64::from(capture);
                 let npys: Vec<_> = written
                     .iter()
                     .filter(|p| p.extension().is_some_and(|e| e == "npy"))
                     .collect();
                 assert_eq!(
                     npys.len(),
-                    1 + params.len() + usize::from(text.contains("[nlos]")),
+                    1 + params.len() + usize::from(text.contains("[nlos.noise]")),
                     "scene {seed}: outputs {written:?}\n{text}"
                 );
                 for p in npys {
@@ -282,10 +327,10 @@ fn random_scenes_render_finite_or_are_refused_by_name() {
             code => panic!("scene {seed}: exit code {code:?}: {stderr}\n{text}"),
         }
     }
-    eprintln!("{rendered} random scenes rendered, {refused} refused");
+    eprintln!("{rendered} random scenes rendered ({captures} captures), {refused} refused");
     // the generator must reach the renderer, not only the refusals
     assert!(
-        rendered >= count / 3,
-        "only {rendered} of {count} random scenes rendered ({refused} refused)"
+        rendered >= count / 3 && captures >= count / 10,
+        "only {rendered} of {count} random scenes rendered, {captures} of them captures ({refused} refused)"
     );
 }
