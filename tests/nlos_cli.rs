@@ -285,6 +285,21 @@ fn bad_nlos_input_names_the_field() {
             .replace("laser = \"laser\"\nscan", "laser = \"lamp\"\nscan"),
             vec!["nlos: field 'laser'", "not a laser"],
         ),
+        (
+            // a glossy hidden box in the laser's beams, half way from the laser to the wall
+            base.replace(
+                "name = \"hidden\"\ntype = \"diffuse\"\nalbedo = 0.7",
+                "name = \"hidden\"\ntype = \"roughconductor\"\nroughness = 0.3",
+            )
+            .replace("value = 0.5", "value = -0.75")
+            .replace("value = 0.2", "value = 0.0")
+            .replace("value = 0.9", "value = 1.0"),
+            vec![
+                "[nlos] laser: aimed at laser point 86 of 256",
+                "the beam is stopped before the wall",
+                "lands on material \"hidden\" of type roughconductor",
+            ],
+        ),
     ];
     for (text, want) in &cases {
         let err = refused(text, &[]);

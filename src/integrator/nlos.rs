@@ -134,9 +134,23 @@ impl NlosSensor {
             .lasers
             .points
             .iter()
-            .map(|l| scan_spot(scene, accel, position, l, power))
-            .collect::<Result<Vec<_>, _>>()
-            .map_err(|why| crate::error::Error::Invalid(format!("{}: [nlos] laser: {why}", scene.source.display())))?;
+            .enumerate()
+            .map(|(k, l)| {
+                scan_spot(scene, accel, position, l, power).map_err(|why| {
+                    let [x, y, z] = l.p.to_array();
+                    crate::error::Error::Invalid(format!(
+                        "{}: [nlos] laser: aimed at laser point {k} of {} ([{x:.4}, {y:.4}, {z:.4}]), the beam {}: {why}",
+                        scene.source.display(),
+                        spec.lasers.points.len(),
+                        if clear_to_wall(accel, position, l.p) {
+                            "reaches the wall"
+                        } else {
+                            "is stopped before the wall"
+                        }
+                    ))
+                })
+            })
+            .collect::<Result<Vec<_>, _>>()?;
         Ok(Self {
             laser: spec.laser,
             exhaustive: spec.exhaustive(),
