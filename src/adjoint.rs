@@ -209,7 +209,6 @@ fn group_motion(
         )));
     }
     motion.check_time_derivatives(scene, params, crate::render::delta_draws(scene, &motion, opts))?;
-    motion.warn_nearly_matched_nested(scene, params);
     Ok(motion)
 }
 

@@ -346,7 +346,6 @@ pub fn render_diff_parts(scene: &Scene, params: &[String], opts: &RenderOptions)
         )));
     }
     motion.check_time_derivatives(scene, params, delta_draws(scene, &motion, opts))?;
-    motion.warn_nearly_matched_nested(scene, params);
     let mut run = Run::new(scene, motion, opts, false)?;
     let mut interior = run.interior(opts, false);
     let boundary = run.boundary(opts);

@@ -53,6 +53,11 @@ impl<R: Real> V3<R> {
     pub fn from_value(v: V3<R::Value>) -> Self {
         Self::new(R::from_value(v.x), R::from_value(v.y), R::from_value(v.z))
     }
+    /// The same derivatives with the value `v`.
+    #[inline(always)]
+    pub fn with_value(&self, v: V3<R::Value>) -> Self {
+        *self - Self::from_value(self.value()) + Self::from_value(v)
+    }
     #[inline(always)]
     pub fn dot(self, o: Self) -> R {
         self.x * o.x + self.y * o.y + self.z * o.z

@@ -5,10 +5,6 @@
 use crate::kernel::{Real, Spectrum};
 use glam::{Mat3, Vec3};
 
-/// How close to 1 the relative index of a nested rough dielectric warns
-/// ([`Motion::warn_nearly_matched_nested`]).
-pub const NEARLY_MATCHED: f32 = 0.05;
-
 /// Affine velocity field `v(x) = A·x + b` of one shape under one parameter.
 #[derive(Clone, Copy, Debug)]
 pub struct Velocity {
@@ -231,44 +227,6 @@ impl Motion {
             }
         }
         Ok(())
-    }
-
-    /// Warns (once) where a parameter changes the index of a rough dielectric nested in
-    /// another (`exterior`) and the two indices are within [`NEARLY_MATCHED`] of each other:
-    /// there the interior derivative has come out short of central finite differences (on
-    /// scenes/liquid_glass.toml at liquid_ior 1.48 and 1.52, relative index 0.987 and 1.013:
-    /// 10–28 % in the late bins, at h and h/3, path tracer and BDPT, also with the glass made
-    /// smooth), while the same interface in the scene's medium agreed; the cause is not
-    /// found (README, Hard cases).
-    pub fn warn_nearly_matched_nested(&self, scene: &crate::scene::Scene, params: &[String]) {
-        use crate::scene::Material;
-        for (k, name) in params.iter().enumerate() {
-            let Some(p) = self.ior.get(k).copied().flatten() else {
-                continue;
-            };
-            for (m, mat) in scene.materials.iter().enumerate() {
-                let Material::Dielectric {
-                    roughness,
-                    int_ior,
-                    exterior: Some(e),
-                } = mat.material
-                else {
-                    continue;
-                };
-                let relative = int_ior / scene.exterior_eta(m as u32);
-                if roughness > 0.0 && (p == m as u32 || p == e) && (relative - 1.0).abs() < NEARLY_MATCHED {
-                    crate::scene::warnings::warn_once(format!(
-                        "{}: parameter {name:?} changes the index of the rough dielectric {:?} inside {:?}, \
-                         whose relative index is {relative:.4}: derivatives at such nearly matched nested \
-                         interfaces have come out 10-28 % short of finite differences (README, Hard cases); \
-                         check them against finite differences",
-                        scene.source.display(),
-                        mat.name,
-                        scene.materials[e as usize].name
-                    ));
-                }
-            }
-        }
     }
 
     /// Number of derivative lanes.

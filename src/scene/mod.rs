@@ -37,7 +37,7 @@ mod resolve;
 pub mod shapes;
 #[cfg(test)]
 pub(crate) mod testutil;
-pub(crate) mod warnings;
+mod warnings;
 pub use crate::params::{Axis, Param, ParamKind};
 pub use error::SceneError;
 pub use load::Format;

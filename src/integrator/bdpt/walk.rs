@@ -10,7 +10,7 @@ use super::vertex::{Vertex, camera_dir_pdf, link, to_area};
 use crate::integrator::bsdf::{Lobes, albedo, diffuse_eval, sample_cosine};
 use crate::integrator::context::RenderContext;
 use crate::integrator::nlos_start::{start, weigh_first_hit};
-use crate::integrator::path::{PacketLanes, ray_plane_point};
+use crate::integrator::path::{PacketLanes, ray_plane_point, traced};
 use crate::integrator::surface::{offset_origin, surface_at};
 use crate::integrator::trace::{RayCounts, next_hits, spawn_point};
 use crate::integrator::transport::{scatter, scatter_lobes};
@@ -53,6 +53,8 @@ fn random_walk<R: Real, const C: usize>(
     // an NLOS capture's camera subpath starts at a sensor point, a fixed point of the wall:
     // its first vertex is in material form, as the path tracer's (`crate::integrator::nlos`)
     let first_ray_form = camera && ctx.nlos.is_none();
+    // the direction of the ray that reached the last vertex
+    let mut arrival = V3::<V<R>>::zero();
     for depth in 1..=new_vertices {
         let ray_form = first_ray_form && depth == 1;
         let prev = *path.last().expect("a walk starts from a vertex");
@@ -100,8 +102,9 @@ fn random_walk<R: Real, const C: usize>(
                 // its glossy lanes (its sampled value is already in β)
                 let before = &path[path.len() - 2];
                 let lobes = Lobes::<R, C>::gather(ctx, &prev.prim);
-                let wo = (before.p - prev.p).normalize();
-                let wi = (x.p - prev.p).normalize();
+                // at the directions its value was drawn with (`path::traced`)
+                let wo = traced(&(before.p - prev.p).normalize(), &-arrival);
+                let wi = traced(&(x.p - prev.p).normalize(), &ray_d);
                 let f = lobes.eval(&V3::select(prev.front, prev.n, -prev.n), &wo, &wi, camera);
                 let glossy = lobes.glossy();
                 beta = Spectrum(std::array::from_fn(|c| {
@@ -189,6 +192,7 @@ fn random_walk<R: Real, const C: usize>(
         // on delta lanes, as the one of the vertex it reaches: `vertex` module docs)
         let back_pdf = lobes.value().pdf(&n_v, &s.wi, &-ray_d);
         path[k - 1].pdf_rev = super::vertex::to_area(&x.p.value(), &path[k - 1], back_pdf);
+        arrival = ray_d;
         ray_d = s.wi;
         pdf_dir = s.pdf.masked(!s.delta);
     }
