@@ -64,9 +64,12 @@ fn scan_spot(
     let len = to.length();
     let dir = to / len;
     if !clear_to_wall(accel, position, l.p) {
-        return laser_spot(scene, accel, position, dir, power);
+        return laser_spot(scene, accel, position, dir, power)
+            .map_err(|why| format!("the beam is stopped before the wall: {why}"));
     }
-    spot_at(scene, (l.prim, l.u, l.v), len, position, dir, power).map(Some)
+    spot_at(scene, (l.prim, l.u, l.v), len, position, dir, power)
+        .map(Some)
+        .map_err(|why| format!("the beam reaches the wall: {why}"))
 }
 
 /// Whether nothing stands between `from` (a point on no surface: the SPAD, a laser) and wall
@@ -139,14 +142,9 @@ impl NlosSensor {
                 scan_spot(scene, accel, position, l, power).map_err(|why| {
                     let [x, y, z] = l.p.to_array();
                     crate::error::Error::Invalid(format!(
-                        "{}: [nlos] laser: aimed at laser point {k} of {} ([{x:.4}, {y:.4}, {z:.4}]), the beam {}: {why}",
+                        "{}: [nlos] laser: aimed at laser point {k} of {} ([{x:.4}, {y:.4}, {z:.4}]), {why}",
                         scene.source.display(),
                         spec.lasers.points.len(),
-                        if clear_to_wall(accel, position, l.p) {
-                            "reaches the wall"
-                        } else {
-                            "is stopped before the wall"
-                        }
                     ))
                 })
             })
