@@ -9,13 +9,6 @@ use std::path::Path;
 
 const SCENE: &str = "shadow_hidden_occluder.toml";
 
-fn npy(path: &Path) -> (Vec<u64>, Vec<f32>) {
-    let bytes = std::fs::read(path).unwrap();
-    let f = npyz::NpyFile::new(&bytes[..]).unwrap();
-    let shape = f.shape().to_vec();
-    (shape, f.into_vec().unwrap())
-}
-
 /// Height of the time-label strip above each animation frame (`output/label.rs`).
 const LABEL_STRIP: u32 = 18;
 
@@ -67,7 +60,7 @@ fn with(prefix: &Path, suffix: &str) -> std::path::PathBuf {
 fn previews_show_the_film_in_time_and_the_derivatives_sign() {
     let dir = tempfile::tempdir().unwrap();
     let prefix = render(dir.path(), &["--diff", "occluder_x", "--pixel", "16,20"]);
-    let (shape, film) = npy(&with(&prefix, "npy"));
+    let (shape, film) = common::npy(&with(&prefix, "npy"));
     let [h, w, bins, ch] = [shape[0], shape[1], shape[2], shape[3]].map(|v| v as usize);
     let at = |y: usize, x: usize, t: usize, c: usize| film[((y * w + x) * bins + t) * ch + c];
 
@@ -121,7 +114,7 @@ fn previews_show_the_film_in_time_and_the_derivatives_sign() {
     assert!(streak.pixels().any(|p| p.0[0] > 0));
 
     // the derivative preview: red where dI/dθ integrates positive, blue where negative
-    let (_, d) = npy(&with(&prefix, "d_occluder_x.npy"));
+    let (_, d) = common::npy(&with(&prefix, "d_occluder_x.npy"));
     let sum = |p: usize| (0..bins).map(|t| d[p * bins + t] as f64).sum::<f64>();
     let (pmax, pmin) = (0..h * w).fold((0, 0), |(a, b), p| {
         (if sum(p) > sum(a) { p } else { a }, if sum(p) < sum(b) { p } else { b })
@@ -137,7 +130,7 @@ fn previews_show_the_film_in_time_and_the_derivatives_sign() {
     assert!(neg[2] == 255 && neg[0] < 255, "negative derivative not blue: {neg:?}");
 
     // the HDR steady image is the time sum of the transient (window mode)
-    let (sshape, steady) = npy(&with(&prefix, "steady.npy"));
+    let (sshape, steady) = common::npy(&with(&prefix, "steady.npy"));
     assert_eq!(sshape, vec![h as u64, w as u64, ch as u64]);
     for p in 0..h * w {
         let s: f64 = (0..bins).map(|t| at(p / w, p % w, t, 0) as f64).sum();
@@ -153,7 +146,7 @@ fn previews_show_the_film_in_time_and_the_derivatives_sign() {
 fn per_frame_normalisation_brings_every_lit_frame_to_white() {
     let dir = tempfile::tempdir().unwrap();
     let prefix = render(dir.path(), &["--normalise", "frame"]);
-    let (shape, film) = npy(&with(&prefix, "npy"));
+    let (shape, film) = common::npy(&with(&prefix, "npy"));
     let [h, w, bins] = [shape[0], shape[1], shape[2]].map(|v| v as usize);
     let gif = frames(&with(&prefix, "flight.gif"));
     let mut lit_frames = 0;
@@ -215,8 +208,8 @@ fn exr_holds_the_steady_image_every_bin_and_the_time_axis() {
     let json: serde_json::Value = serde_json::from_slice(&std::fs::read(with(&prefix, "json")).unwrap()).unwrap();
     let width = json["time_axis"]["bin_width_opl"].as_f64().unwrap();
     assert_eq!(json["time_axis"]["start_opl"].as_f64(), Some(4.0000001));
-    let (shape, film) = npy(&with(&prefix, "npy"));
-    let (_, steady) = npy(&with(&prefix, "steady.npy"));
+    let (shape, film) = common::npy(&with(&prefix, "npy"));
+    let (_, steady) = common::npy(&with(&prefix, "steady.npy"));
     let [h, w, bins, c] = [0, 1, 2, 3].map(|i| shape[i] as usize);
     let image = exr::prelude::read()
         .no_deep_data()

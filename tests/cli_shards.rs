@@ -18,8 +18,7 @@ fn stderr(o: &Output) -> String {
 }
 
 fn npy(path: &Path) -> Vec<f32> {
-    let bytes = std::fs::read(path).unwrap();
-    npyz::NpyFile::new(&bytes[..]).unwrap().into_vec().unwrap()
+    common::npy(path).1
 }
 
 fn json(path: &Path) -> serde_json::Value {

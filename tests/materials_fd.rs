@@ -126,6 +126,10 @@ fn nearly_matched_liquid_in_thin_glass_matches_finite_differences() {
     let text = std::fs::read_to_string(common::scene_path("liquid_glass.toml"))
         .unwrap()
         .replacen("scale = 0.3\n", "scale = 0.39\n", 1);
+    assert!(
+        text.contains("scale = 0.39\n"),
+        "the liquid's cube was not found to resize"
+    );
     let dir = tempfile::tempdir().unwrap();
     std::fs::write(dir.path().join("thin.toml"), &text).unwrap();
     let render = |seed: u64, value: f32, diff: bool| -> f64 {
@@ -155,9 +159,7 @@ fn nearly_matched_liquid_in_thin_glass_matches_finite_differences() {
         let out = common::dtr(&args, dir.path());
         assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
         let file = if diff { "out.d_liquid_ior.npy" } else { "out.npy" };
-        let bytes = std::fs::read(dir.path().join(file)).unwrap();
-        let v: Vec<f32> = npyz::NpyFile::new(&bytes[..]).unwrap().into_vec().unwrap();
-        v.iter().map(|&x| x as f64).sum()
+        common::npy(&dir.path().join(file)).1.iter().map(|&x| x as f64).sum()
     };
     let (value, h) = (1.52f32, 0.004f32);
     let diffs: Vec<f64> = (0..8)

@@ -22,13 +22,6 @@ fn scene_file(dir: &Path, name: &str, text: &str) -> PathBuf {
     p
 }
 
-fn npy(path: &Path) -> (Vec<u64>, Vec<f32>) {
-    let bytes = std::fs::read(path).unwrap();
-    let r = npyz::NpyFile::new(&bytes[..]).unwrap();
-    let shape = r.shape().to_vec();
-    (shape, r.into_vec::<f32>().unwrap())
-}
-
 /// A confocal capture with noise writes PREFIX.{npy, json, h5, noisy.npy, noisy.h5}; the noisy
 /// copy is whole photon counts with the mean the model gives; the JSON says the scan, the
 /// relay-leg convention and the layout.
@@ -57,9 +50,9 @@ fn confocal_capture_writes_its_files() {
     }
     expected.sort();
     assert_eq!(names, expected);
-    let (shape, clean) = npy(&dir.path().join("cap.npy"));
+    let (shape, clean) = common::npy(&dir.path().join("cap.npy"));
     assert_eq!(shape, vec![5, 6, 128, 1]);
-    let (nshape, noisy) = npy(&dir.path().join("cap.noisy.npy"));
+    let (nshape, noisy) = common::npy(&dir.path().join("cap.noisy.npy"));
     assert_eq!(nshape, shape);
     assert!(noisy.iter().all(|&c| c >= 0.0 && c.fract() == 0.0));
     // E[counts] = 1e6 · I + 0.01 per bin: the sums agree within 5 Poisson standard deviations
@@ -150,7 +143,7 @@ fn exhaustive_capture_layout() {
         dir.path(),
     );
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let (shape, data) = npy(&dir.path().join("ex.npy"));
+    let (shape, data) = common::npy(&dir.path().join("ex.npy"));
     assert_eq!(shape, vec![6, 8, 128, 1]);
     assert!(data.iter().sum::<f32>() > 0.0);
     let meta: serde_json::Value = serde_json::from_slice(&std::fs::read(dir.path().join("ex.json")).unwrap()).unwrap();
@@ -338,7 +331,7 @@ fn unsupported_renders_are_refused() {
         dir.path(),
     );
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let (shape, data) = npy(&dir.path().join("occ.d_hidden_x.npy"));
+    let (shape, data) = common::npy(&dir.path().join("occ.d_hidden_x.npy"));
     assert_eq!(shape, vec![16, 16, 128, 1]);
     assert!(data.iter().all(|v| v.is_finite()) && data.iter().any(|&v| v != 0.0));
     // BDPT
@@ -356,7 +349,7 @@ fn unsupported_renders_are_refused() {
         dir.path(),
     );
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let (shape, data) = npy(&dir.path().join("occ_bdpt.d_hidden_x.npy"));
+    let (shape, data) = common::npy(&dir.path().join("occ_bdpt.d_hidden_x.npy"));
     assert_eq!(shape, vec![16, 16, 128, 1]);
     assert!(data.iter().all(|v| v.is_finite()) && data.iter().any(|&v| v != 0.0));
     let meta: serde_json::Value =
@@ -375,7 +368,7 @@ fn explicit_points_and_info() {
         dir.path(),
     );
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let (shape, data) = npy(&dir.path().join("pts.npy"));
+    let (shape, data) = common::npy(&dir.path().join("pts.npy"));
     assert_eq!(shape, vec![1, 3, 80, 1]);
     assert!(data.iter().sum::<f32>() > 0.0);
     #[cfg(feature = "hdf5")]
@@ -436,13 +429,13 @@ fn shards_and_checkpoints_of_a_capture() {
     run(&["render", s, "-o", "s1", "--spp", "8", "--shard", "1/2", "--quiet"]);
     run(&["merge", "s0", "s1", "-o", "merged"]);
     run(&["render", s, "-o", "ck", "--spp", "8", "--checkpoint", "100", "--quiet"]);
-    let (shape, whole) = npy(&dir.path().join("whole.npy"));
+    let (shape, whole) = common::npy(&dir.path().join("whole.npy"));
     assert_eq!(shape, vec![16, 16, 128, 1]);
     assert!(whole.iter().sum::<f32>() > 0.0);
     // shards split the samples: the merge equals the whole render up to the order of the
     // float additions (README, "--shard"; tests/shards.rs): a film entry sums at most
     // spp · 2 · (bounces + 1) terms, each way, in f32
-    let merged = npy(&dir.path().join("merged.npy")).1;
+    let merged = common::npy(&dir.path().join("merged.npy")).1;
     let n = 8.0 * 2.0 * (3.0 + 1.0);
     for (i, (m, w)) in merged.iter().zip(&whole).enumerate() {
         let bound = (2.0 * n + 8.0) * f64::from(f32::EPSILON) / 2.0 * w.abs() as f64;
@@ -451,7 +444,7 @@ fn shards_and_checkpoints_of_a_capture() {
             "entry {i}: merged {m} against whole {w}"
         );
     }
-    assert_eq!(npy(&dir.path().join("ck.npy")).1, whole);
+    assert_eq!(common::npy(&dir.path().join("ck.npy")).1, whole);
     assert!(!dir.path().join("s0.h5").exists() && !dir.path().join("s0.noisy.npy").exists());
 }
 

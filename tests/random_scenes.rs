@@ -302,8 +302,7 @@ fn random_scenes_render_finite_or_are_refused_by_name() {
                     "scene {seed}: outputs {written:?}\n{text}"
                 );
                 for p in npys {
-                    let bytes = std::fs::read(p).unwrap();
-                    let data: Vec<f32> = npyz::NpyFile::new(&bytes[..]).unwrap().into_vec().unwrap();
+                    let (_, data) = common::npy(p);
                     let bad = data.iter().filter(|v| !v.is_finite()).count();
                     assert_eq!(
                         bad,

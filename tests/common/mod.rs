@@ -146,6 +146,14 @@ pub fn translated(text: &str, by: [f64; 3]) -> String {
     toml::to_string(&v).unwrap()
 }
 
+/// The shape and the f32 values of an .npy file `dtr` wrote.
+pub fn npy(path: &std::path::Path) -> (Vec<u64>, Vec<f32>) {
+    let bytes = std::fs::read(path).unwrap();
+    let f = npyz::NpyFile::new(&bytes[..]).unwrap();
+    let shape = f.shape().to_vec();
+    (shape, f.into_vec().unwrap())
+}
+
 /// Runs the `dtr` binary with `args` in `cwd`.
 pub fn dtr(args: &[&str], cwd: &std::path::Path) -> std::process::Output {
     std::process::Command::new(env!("CARGO_BIN_EXE_dtr"))
