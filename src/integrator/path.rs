@@ -556,17 +556,19 @@ pub fn trace_packet_from<R: Real, const C: usize, S: Sink<C>>(
                 eta_med = R::select(s.transmitted, R::select(inside, l.eta_int, l.eta_ext), eta_med);
                 no_mis = s.delta | s.transmitted;
                 if R::DERIVS > 0 {
-                    prev_lobes = Some((l, -traced(&w_in, &ray_d)));
+                    let wo = -traced(&w_in, &ray_d);
                     attached = None;
                     if (s.delta & active).any() {
                         // the lobe's weight with its derivatives (its value is in β) and the
-                        // turned direction, for the next vertex
-                        let (w, ratio) = l.delta_dual(&x.n, &-w_in, s.transmitted, true);
+                        // turned direction, for the next vertex, from the traced arrival as
+                        // the lobe was drawn (`traced`)
+                        let (w, ratio) = l.delta_dual(&x.n, &wo, s.transmitted, true);
                         beta = Spectrum(std::array::from_fn(|c| {
                             R::select(s.delta, beta.0[c] * ratio.0[c], beta.0[c])
                         }));
                         attached = Some((s.delta, w));
                     }
+                    prev_lobes = Some((l, wo));
                 }
                 (s.wi, s.pdf)
             }

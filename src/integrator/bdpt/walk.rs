@@ -175,7 +175,7 @@ fn random_walk<R: Real, const C: usize>(
             // a Dirac lobe's weight with its derivatives (its value is in β). Only parameters
             // that move no vertex reach BDPT through a Dirac lobe (`render::check_materials`),
             // so the next vertex needs no ray form: all that moves here is the tint.
-            let wo = (path[path.len() - 2].p - x.p).normalize();
+            let wo = traced(&(path[path.len() - 2].p - x.p).normalize(), &-ray_d);
             let (_, ratio) = lobes.delta_dual(&x.n, &wo, s.transmitted, camera);
             beta = Spectrum(std::array::from_fn(|c| {
                 R::select(s.delta, beta.0[c] * ratio.0[c], beta.0[c])
