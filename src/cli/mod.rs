@@ -141,11 +141,17 @@ pub fn parse_sets(sets: &[String]) -> anyhow::Result<Sets> {
             .split_once('=')
             .ok_or_else(|| anyhow::anyhow!("--set {s:?}: expected NAME=VALUE, e.g. --set eta=1.33"))?;
         let name = name.trim().to_string();
-        match value.trim().parse::<f64>() {
-            Ok(v) if !v.is_finite() => anyhow::bail!("--set {s:?}: value must be finite"),
-            Ok(v) => out.numbers.push((name, v)),
-            Err(_) => out.texts.push((name, value.trim().to_string())),
+        match set_number(value) {
+            Some(v) if !v.is_finite() => anyhow::bail!("--set {s:?}: value must be finite"),
+            Some(v) => out.numbers.push((name, v)),
+            None => out.texts.push((name, value.trim().to_string())),
         }
     }
     Ok(out)
+}
+
+/// The number a `--set` value reads as, if it is one: the rule that splits numbers from
+/// other values, for [`parse_sets`] and for a render's identity (`shard_set`).
+pub(crate) fn set_number(value: &str) -> Option<f64> {
+    value.trim().parse::<f64>().ok()
 }

@@ -26,7 +26,7 @@ use std::path::{Path, PathBuf};
 /// space (`["a b"]`, `["ab"]`) do not.
 fn canonical_set(s: &str) -> String {
     match s.split_once('=') {
-        Some((name, value)) if value.trim().parse::<f64>().is_err() => {
+        Some((name, value)) if super::set_number(value).is_none() => {
             let value = crate::scene::field_set::text_value(value)
                 .map(|v| v.to_string())
                 .unwrap_or_else(|_| value.trim().to_string());
