@@ -190,8 +190,11 @@ def gradient(scene: Scene, params: Sequence[str], adjoint: np.ndarray, *, spp: O
              estimators: str = "full", time_edges: str = "auto"):
     """dL/dθ = Σ ⟨∂L/∂I, dI/dθ⟩ for each name in `params`, given `adjoint` = ∂L/∂I shaped like
     the film [H, W, T, C], without holding one derivative volume per parameter (any number of
-    parameters). With the same options it uses the same samples as `render_diff`.
-    Returns (gradient as a float64 array, stats)."""
+    parameters). With the same seed it uses the same samples as `render_diff`. Without a
+    seed it draws samples of its own (the scene's seed + 2³¹), independent of a `render` at
+    the scene's seed or any small seed: an adjoint computed from a render (2(I − T) for an L2
+    loss) contracted with dI/dθ of the same samples gives a biased gradient (Cov(I, dI/dθ)
+    is added). Returns (gradient as a float64 array, stats; stats["seed"] is the seed used)."""
     a = np.ascontiguousarray(adjoint, dtype=np.float32)
     g, stats = _render_adjoint(scene._native, list(params), a, spp, seed, threads, spp_boundary, estimators,
                                time_edges)

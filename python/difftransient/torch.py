@@ -3,15 +3,16 @@
     import torch, difftransient as dt
     from difftransient.torch import render
     scene = dt.Scene.load("scenes/pose_plate.toml")
-    theta = torch.tensor([0.1, 0.0], requires_grad=True)
-    image = render(scene, ["plate_x", "plate_yaw"], theta, spp=16)   # [H, W, T, C] tensor
+    theta = torch.tensor([0.1, 20.0], requires_grad=True)
+    image = render(scene, ["plate_x", "plate_roll"], theta, spp=16)   # [H, W, T, C] tensor
     loss = ((image - target) ** 2).sum()
     loss.backward()                                                  # theta.grad
 
 The forward pass renders the scene with the parameter values of `theta`; the backward pass
 runs the adjoint (`difftransient.gradient`) with ∂loss/∂image, on samples of its own (seed
-`seed + 1`), so the gradient is independent of the forward noise, as in the optimizer of
-`dtr optimize`.
+`seed + 1`, as in the optimizer of `dtr optimize`; with no seed, `gradient`'s own default,
+independent of the scene's seed the forward pass used), so the gradient is independent of
+the forward noise.
 """
 
 from __future__ import annotations
@@ -44,7 +45,8 @@ class RenderFunction(torch.autograd.Function):
     @staticmethod
     def backward(ctx, grad_output: torch.Tensor):
         options = dict(ctx.options, estimators=ctx.estimators)
-        options["seed"] = (options.get("seed") or 0) + 1
+        if options.get("seed") is not None:
+            options["seed"] += 1
         adj = grad_output.detach().to("cpu", torch.float32).contiguous().numpy()
         g, _ = gradient(ctx.scene, ctx.names, adj, **options)
         grad = torch.from_numpy(np.asarray(g)).to(ctx.theta_dtype).to(ctx.theta_device)

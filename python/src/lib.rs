@@ -310,9 +310,17 @@ fn render_diff<'py>(
     Ok((film_array(py, t)?, d, stats_json(&stats)?))
 }
 
+/// What `gradient` adds to the scene's seed when it is given none. An adjoint ∂L/∂I computed
+/// from a render (2(I − T) for an L2 loss) and contracted with dI/dθ of the same samples has
+/// the expectation of 2 Cov(I, dI/dθ) added to the gradient: on scenes/diff_room.toml at its
+/// true albedo, 16 spp, a mean of +1.3·10⁻⁵ ± 1.2·10⁻⁷ over 64 seeds where independent
+/// samples give 0 within noise. `dtr optimize` draws the adjoint at seed + 1 for that reason;
+/// a render at the scene's seed or at any small seed shares no samples with this one.
+const ADJOINT_SEED_OFFSET: u64 = 1 << 31;
+
 /// dL/dθ for each of `params`, given ∂L/∂I (`adjoint`, float32 [H, W, T, C] of the scene's
 /// film): (gradient as float64 array, stats as JSON text). Same samples as `render_diff`
-/// with the same options.
+/// with the same seed; without one, the scene's seed + `ADJOINT_SEED_OFFSET`.
 #[pyfunction]
 #[pyo3(signature = (scene, params, adjoint, spp = None, seed = None, threads = None, spp_boundary = None, estimators = "full", time_edges = "auto"))]
 #[allow(clippy::too_many_arguments)]
@@ -328,7 +336,10 @@ fn render_adjoint<'py>(
     estimators: &str,
     time_edges: &str,
 ) -> PyResult<(Bound<'py, PyArray1<f64>>, String)> {
-    let opts = options(spp, seed, threads, spp_boundary, estimators, time_edges)?;
+    // no seed: samples of the gradient's own, independent of a render at the scene's seed
+    // (`ADJOINT_SEED_OFFSET`)
+    let seed = seed.unwrap_or_else(|| scene.scene.integrator.seed.wrapping_add(ADJOINT_SEED_OFFSET));
+    let opts = options(spp, Some(seed), threads, spp_boundary, estimators, time_edges)?;
     let f = &scene.scene.film;
     let want = [f.height as usize, f.width as usize, f.axis.bins, f.channels];
     let view = adjoint.as_array();
