@@ -204,17 +204,18 @@ fn optimize_refuses_before_making_its_folder() {
 }
 
 /// A run that fails after some iterations keeps their log, as Ctrl-C does, and says so: here
-/// a learning rate of 5 takes the albedo out of [0, 1] at the second iteration.
+/// a learning rate of 10³⁰ m sends the plate where the scene no longer loads at the second
+/// iteration. (Until 2026-11-30 the test took an albedo out of [0, 1] with a learning rate of
+/// 5; iterates now stay in their kind's range: `optimize_keeps_each_parameter_in_its_range`.)
 #[test]
 fn optimize_says_what_a_failed_run_kept() {
     let tmp = tempfile::tempdir().unwrap();
     let dir = tmp.path();
-    let room = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/diff_room.toml");
-    rough_target(room, dir, "t");
+    rough_target(SCENE, dir, "t");
     let o = dtr(
         &[
             "optimize",
-            room,
+            SCENE,
             "--target",
             "t.npy",
             "--threads",
@@ -222,11 +223,9 @@ fn optimize_says_what_a_failed_run_kept() {
             "--spp",
             "1",
             "--params",
-            "albedo",
-            "--set",
-            "albedo=0.3",
+            "plate_x",
             "--lr",
-            "5",
+            "1e30",
             "--iters",
             "3",
             "-o",
@@ -238,12 +237,200 @@ fn optimize_says_what_a_failed_run_kept() {
     let e = stderr(&o);
     assert_eq!(o.status.code(), Some(2), "{e}");
     assert!(
-        e.contains("stopped after 1 iteration;") && e.contains("are kept") && e.contains("albedo"),
+        e.contains("stopped after 1 iteration;") && e.contains("are kept") && e.contains("\"plate\""),
         "{e}"
     );
     let log = std::fs::read_to_string(dir.join("out/log.csv")).unwrap();
     assert_eq!(log.lines().count(), 2, "the header and the one iteration: {log}");
     assert!(dir.join("out/best.json").is_file());
+}
+
+/// No iterate leaves the values its parameter's kind may take, bounds or not: a learning
+/// rate of 5 clamps the albedo to 1 at the second iteration. Until 2026-11-30 Adam had no
+/// bounds without `--bound`, and the run ended there with exit 2 ("an albedo must be in
+/// [0, 1] (got 5.3)"). A start outside `--bound` is refused.
+#[test]
+fn optimize_keeps_each_parameter_in_its_range() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path();
+    let room = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/diff_room.toml");
+    rough_target(room, dir, "t");
+    let run = |extra: &[&str], out: &str| {
+        let mut v = vec![
+            "optimize",
+            room,
+            "--target",
+            "t.npy",
+            "--threads",
+            "1",
+            "--spp",
+            "1",
+            "--params",
+            "albedo",
+            "-q",
+            "-o",
+            out,
+        ];
+        v.extend(extra);
+        dtr(&v, dir)
+    };
+    let o = run(&["--set", "albedo=0.3", "--lr", "5", "--iters", "3"], "out");
+    assert!(o.status.success(), "{}", stderr(&o));
+    let log = std::fs::read_to_string(dir.join("out/log.csv")).unwrap();
+    let albedo: Vec<f64> = log
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').nth(2).unwrap().parse().unwrap())
+        .collect();
+    assert_eq!(albedo.len(), 3, "{log}");
+    assert_eq!(albedo[1], 1.0, "the step past 1 stops at 1: {log}");
+    assert!(albedo.iter().all(|a| (0.0..=1.0).contains(a)), "{log}");
+
+    let o = run(
+        &["--set", "albedo=0.9", "--bound", "albedo=0.2:0.5", "--iters", "2"],
+        "out2",
+    );
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("albedo: the start 0.9 is outside its bounds [0.2, 0.5]"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(!dir.join("out2").exists(), "refused before the folder is made");
+}
+
+/// The learning rate decays from `--lr` for the first step to `--lr · --lr-end` for the last:
+/// Adam's first step is the learning rate itself (m̂/√v̂ = ±1). Until 2026-11-30 the first
+/// step already took lr · lr_end^(1/(iters − 1)) (0.0032 here) and `--iters 2` never took
+/// `--lr` at all.
+#[test]
+fn optimize_takes_its_first_step_at_the_full_learning_rate() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path();
+    let room = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/diff_room.toml");
+    rough_target(room, dir, "t");
+    for iters in ["2", "3"] {
+        let out = format!("out{iters}");
+        let o = dtr(
+            &[
+                "optimize",
+                room,
+                "--target",
+                "t.npy",
+                "--threads",
+                "1",
+                "--spp",
+                "1",
+                "--params",
+                "albedo",
+                "--set",
+                "albedo=0.5",
+                "--lr",
+                "0.01",
+                "--iters",
+                iters,
+                "-q",
+                "-o",
+                &out,
+            ],
+            dir,
+        );
+        assert!(o.status.success(), "{}", stderr(&o));
+        let log = std::fs::read_to_string(dir.join(&out).join("log.csv")).unwrap();
+        let a: Vec<f64> = log
+            .lines()
+            .skip(1)
+            .map(|l| l.split(',').nth(2).unwrap().parse().unwrap())
+            .collect();
+        assert!(((a[1] - a[0]).abs() - 0.01).abs() < 1e-9, "--iters {iters}: {log}");
+    }
+}
+
+/// A run that ends on a bound, or whose parameter was still on its way, says so.
+#[test]
+fn optimize_warns_of_a_run_that_did_not_settle() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path();
+    let room = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/diff_room.toml");
+    // a black room: every gradient of the albedo points down, to its end at 0
+    let o = dtr(
+        &[
+            "render",
+            room,
+            "--set",
+            "albedo=0",
+            "--spp",
+            "1",
+            "--threads",
+            "1",
+            "-q",
+            "-o",
+            "dark",
+        ],
+        dir,
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = dtr(
+        &[
+            "optimize",
+            room,
+            "--target",
+            "dark.npy",
+            "--threads",
+            "1",
+            "--spp",
+            "1",
+            "--params",
+            "albedo",
+            "--set",
+            "albedo=0.3",
+            "--lr",
+            "0.2",
+            "--iters",
+            "8",
+            "-o",
+            "out",
+        ],
+        dir,
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("albedo ended at 0, the lower end of where it may go (in [0, 1])"),
+        "{}",
+        stderr(&o)
+    );
+    // far from the answer with a tiny learning rate: 24 steps all one way
+    let o = dtr(
+        &[
+            "optimize",
+            room,
+            "--target",
+            "dark.npy",
+            "--threads",
+            "1",
+            "--spp",
+            "1",
+            "--params",
+            "albedo",
+            "--set",
+            "albedo=0.6",
+            "--lr",
+            "0.001",
+            "--lr-end",
+            "1",
+            "--iters",
+            "24",
+            "-o",
+            "out2",
+        ],
+        dir,
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("albedo was still moving when the iterations ran out: its last 10 steps all went down"),
+        "{}",
+        stderr(&o)
+    );
 }
 
 /// A smooth dielectric's index has no boundary term (edges seen through it move: refused,

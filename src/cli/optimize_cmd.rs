@@ -70,8 +70,9 @@ pub struct OptimizeArgs {
     /// stays fixed there.
     #[arg(long = "set", value_name = "NAME=VALUE")]
     pub set: Vec<String>,
-    /// Which parts of the gradient to use: full (interior + boundary) or interior (to see
-    /// what the boundary term is for).
+    /// Which parts of the gradient to use: full (interior + boundary), interior (to see
+    /// what the boundary term is for, or for a smooth dielectric's index, whose boundary
+    /// term is refused) or boundary (the boundary term alone).
     #[arg(long, value_enum, default_value = "full")]
     pub estimators: super::render_cmd::Estimators,
     /// Output folder (created; must be empty if it exists).
@@ -323,6 +324,10 @@ pub fn run(a: OptimizeArgs) -> anyhow::Result<()> {
         (Ok(_), Some(e)) => return Err(abandon(&dir, created, logged, e)),
     };
     let last = steps.last().context("no iteration ran")?;
+    let domains = problem.domains(&problem.scene_at(&start)?, &start)?;
+    for w in crate::optimize::unsettled(&a.params, &steps, &domains) {
+        log::warn!("{}: {w}", dir.display());
+    }
     let result = crate::optimize::tail_average(&steps, a.average).context("no iteration ran")?;
     let values: Vec<(String, f64)> = a.params.iter().cloned().zip(result.iter().copied()).collect();
     write_text(&recovered, &scene_with(&a, &values, &dir)?)?;

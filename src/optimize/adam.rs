@@ -1,5 +1,8 @@
-//! Adam (Kingma & Ba 2015, Algorithm 1) with a box constraint per parameter: after each step
-//! a parameter is clamped to its bounds (projected gradient descent).
+//! Adam (Kingma & Ba 2015, Algorithm 1) with a domain per parameter: after each step a
+//! parameter is brought back into its domain (`crate::params::Domain::project`: clamped to
+//! a closed end, projected gradient descent; halfway to an open one).
+
+use crate::params::Domain;
 
 /// Adam's state for n parameters.
 #[derive(Clone, Debug)]
@@ -41,8 +44,8 @@ impl Adam {
         }
     }
 
-    /// One step of `x` down the gradient `g`, then `x` clamped to `bounds` (lo, hi).
-    pub fn step(&mut self, x: &mut [f64], g: &[f64], bounds: &[(f64, f64)]) {
+    /// One step of `x` down the gradient `g`, each parameter kept in its domain.
+    pub fn step(&mut self, x: &mut [f64], g: &[f64], domains: &[Domain]) {
         self.t += 1;
         let (b1, b2) = (self.beta1, self.beta2);
         let (c1, c2) = (1.0 - b1.powi(self.t), 1.0 - b2.powi(self.t));
@@ -54,10 +57,8 @@ impl Adam {
             // zero only while every gradient of the parameter has been zero: no step
             let den = rms + self.eps * self.scale[i];
             if den > 0.0 {
-                x[i] -= self.lr[i] * m / den;
+                x[i] = domains[i].project(x[i], x[i] - self.lr[i] * m / den);
             }
-            let (lo, hi) = bounds[i];
-            x[i] = x[i].clamp(lo, hi);
         }
     }
 }
@@ -73,7 +74,7 @@ mod tests {
         let mut x = [0.0, 2.0];
         for _ in 0..2000 {
             let g = [2.0 * (x[0] - 3.0), 20.0 * (x[1] + 1.0)];
-            adam.step(&mut x, &g, &[(-10.0, 10.0), (-0.5, 5.0)]);
+            adam.step(&mut x, &g, &[Domain::closed(-10.0, 10.0), Domain::closed(-0.5, 5.0)]);
         }
         assert!((x[0] - 3.0).abs() < 1e-3, "{x:?}");
         assert_eq!(x[1], -0.5, "y stops at its bound");
@@ -86,7 +87,7 @@ mod tests {
     #[test]
     fn adam_takes_the_same_steps_whatever_the_loss_scale() {
         let grad = |x: &[f64; 2], c: f64| [c * 2.0 * (x[0] - 3.0), c * 20.0 * (x[1] + 1.0)];
-        let bounds = [(-10.0, 10.0); 2];
+        let bounds = [Domain::closed(-10.0, 10.0); 2];
         let (mut a, mut b) = (Adam::new(vec![0.05, 0.02]), Adam::new(vec![0.05, 0.02]));
         let (mut x, mut y) = ([0.0, 2.0], [0.0, 2.0]);
         let c = (-40.0f64).exp2();
@@ -100,7 +101,7 @@ mod tests {
         // a parameter whose gradient is always zero does not move (no 0/0)
         let mut z = [1.0];
         let mut adam = Adam::new(vec![0.1]);
-        adam.step(&mut z, &[0.0], &[(-10.0, 10.0)]);
+        adam.step(&mut z, &[0.0], &[Domain::closed(-10.0, 10.0)]);
         assert_eq!(z, [1.0]);
     }
 }

@@ -13,6 +13,7 @@ pub mod loss;
 
 use crate::error::Error;
 use crate::film::Transient;
+use crate::params::Domain;
 use crate::render::RenderOptions;
 use crate::scene::Scene;
 use std::path::PathBuf;
@@ -36,7 +37,8 @@ pub struct Problem {
     pub loss: loss::Loss,
     /// Samples, threads, estimators; the seed is the first of the run's seed stream.
     pub opts: RenderOptions,
-    /// Bounds per parameter (lo, hi).
+    /// Bounds per parameter (lo, hi), within the values its kind may take (an albedo in
+    /// [0, 1], an index > 0: `crate::params::ParamKind::domain`), which bound it too.
     pub bounds: Vec<(f64, f64)>,
 }
 
@@ -75,6 +77,44 @@ pub fn tail_average(steps: &[Step], fraction: f64) -> Option<Vec<f64>> {
         }
     }
     Some(mean)
+}
+
+/// What a run's iterates say about whether it got where it was going, as warnings naming
+/// the parameter: one whose last steps all went one way (the last quarter of the run, at
+/// least 10 steps: a run settled near its answer steps back and forth in its noise) was
+/// still on its way when the iterations ran out; one that ended on a closed end of its
+/// domain (`domains`, from [`Problem::domains`]: its kind's range within `--bound`) was
+/// stopped there, and its answer may lie beyond.
+pub fn unsettled(names: &[String], steps: &[Step], domains: &[Domain]) -> Vec<String> {
+    let mut out = Vec::new();
+    let n = (steps.len() / 4).max(10);
+    for (k, name) in names.iter().enumerate() {
+        let values: Vec<f64> = steps.iter().map(|s| s.values[k]).collect();
+        let Some(&last) = values.last() else { continue };
+        if let Some(d) = domains.get(k) {
+            let at_lo = !d.open_lo && last == d.lo;
+            if at_lo || (!d.open_hi && last == d.hi) {
+                out.push(format!(
+                    "{name} ended at {last}, the {} end of where it may go ({d}); its best value may lie beyond",
+                    if at_lo { "lower" } else { "upper" }
+                ));
+                continue;
+            }
+        }
+        if values.len() > n {
+            let tail = &values[values.len() - n - 1..];
+            let up = tail.windows(2).all(|w| w[1] > w[0]);
+            let down = tail.windows(2).all(|w| w[1] < w[0]);
+            if up || down {
+                out.push(format!(
+                    "{name} was still moving when the iterations ran out: its last {n} steps all went {} ({} → {last}); more --iters or a larger --lr would take it further",
+                    if up { "up" } else { "down" },
+                    tail[0]
+                ));
+            }
+        }
+    }
+    out
 }
 
 impl Problem {
@@ -153,7 +193,33 @@ impl Problem {
     /// `dtr optimize` calls it before it creates its output folder.
     pub fn check(&self, start: &[f64], lr: &[f64], lr_end: f64) -> Result<(), Error> {
         self.check_schedule(start, lr, lr_end)?;
-        crate::adjoint::check_params(&self.scene_at(start)?, &self.params, &self.opts)
+        let scene = self.scene_at(start)?;
+        self.domains(&scene, start)?;
+        crate::adjoint::check_params(&scene, &self.params, &self.opts)
+    }
+
+    /// Where each parameter may go: the values its kind may take (`ParamKind::domain`) within
+    /// its bounds, on `scene` (this problem's, at `start`). Refuses a start outside its bounds.
+    pub fn domains(&self, scene: &Scene, start: &[f64]) -> Result<Vec<Domain>, Error> {
+        self.params
+            .iter()
+            .zip(start)
+            .zip(&self.bounds)
+            .map(|((name, &v), &(lo, hi))| {
+                if !(lo..=hi).contains(&v) {
+                    return Err(Error::Invalid(format!(
+                        "{name}: the start {v} is outside its bounds [{lo}, {hi}] (--bound)"
+                    )));
+                }
+                let kind = &scene.params.iter().find(|p| &p.name == name).ok_or_else(|| {
+                    Error::Invalid(format!(
+                        "{}: no parameter {name:?} (dtr info lists them)",
+                        self.scene.display()
+                    ))
+                })?;
+                Ok(kind.kind.domain(v).0.within(lo, hi))
+            })
+            .collect()
     }
 
     /// The part of [`Problem::check`] that needs no scene.
@@ -173,10 +239,11 @@ impl Problem {
     }
 
     /// Runs `iters` iterations of Adam from `start` with learning rates `lr` (one per
-    /// parameter) that decay geometrically to `lr · lr_end` at the last iteration (with noisy
-    /// gradients a constant rate leaves the iterates wandering around the answer; `lr_end = 1`
-    /// keeps it constant); `on_step` sees every iteration and returns false to stop early.
-    /// Returns every step.
+    /// parameter) that decay geometrically from `lr` for the first step to `lr · lr_end` for
+    /// the last, the one to the last iteration (with noisy gradients a constant rate leaves
+    /// the iterates wandering around the answer; `lr_end = 1` keeps it constant). Every
+    /// iterate stays in its parameter's domain within its bounds (`Problem::bounds`).
+    /// `on_step` sees every iteration and returns false to stop early. Returns every step.
     pub fn optimize(
         &self,
         start: &[f64],
@@ -191,6 +258,8 @@ impl Problem {
         let base = self.opts.seed.unwrap_or(0);
         let mut steps = Vec::with_capacity(iters);
         let mut scene = Scene::load_with_text(&self.scene, &self.fixed, &self.fixed_text)?;
+        self.set_values(&mut scene, &x)?;
+        let domains = self.domains(&scene, &x)?;
         for it in 0..iters {
             let t0 = std::time::Instant::now();
             let seed = base.wrapping_add(2 * it as u64);
@@ -210,12 +279,13 @@ impl Problem {
             };
             let go_on = on_step(&step);
             steps.push(step);
-            if !go_on {
+            if !go_on || it + 1 == iters {
                 break;
             }
-            let decay = lr_end.powf((it + 1) as f64 / iters.saturating_sub(1).max(1) as f64);
+            // steps 0 … iters − 2: from lr to lr · lr_end
+            let decay = lr_end.powf(it as f64 / iters.saturating_sub(2).max(1) as f64);
             adam.lr = lr.iter().map(|l| l * decay).collect();
-            adam.step(&mut x, &g, &self.bounds);
+            adam.step(&mut x, &g, &domains);
         }
         Ok(steps)
     }
@@ -237,6 +307,36 @@ mod tests {
                 seconds: 0.0,
             })
             .collect()
+    }
+
+    #[test]
+    fn a_run_still_moving_or_stopped_at_its_bound_is_named() {
+        let names = ["a".to_string(), "b".to_string()];
+        let any = [Domain::ANY; 2];
+        // 40 steps: the last 10 of a (and -a) all go down; settled values go back and forth
+        let falling: Vec<f64> = (0..40).map(|i| 2.0 - 0.01 * i as f64).collect();
+        let w = unsettled(&names, &steps(&falling), &any);
+        assert_eq!(w.len(), 2, "{w:?}");
+        assert!(
+            w[0].starts_with("a was still moving") && w[0].contains("went down"),
+            "{w:?}"
+        );
+        assert!(w[1].contains("went up"), "{w:?}");
+        let settled: Vec<f64> = (0..40).map(|i| 1.0 + 0.001 * (i % 2) as f64).collect();
+        assert!(unsettled(&names, &steps(&settled), &any).is_empty());
+        let short: Vec<f64> = (0..10).map(|i| i as f64).collect();
+        assert!(
+            unsettled(&names, &steps(&short), &any).is_empty(),
+            "too few steps to tell"
+        );
+        // ending on a closed end of the domain
+        let bounded = [Domain::closed(0.0, 1.0), Domain::ANY];
+        let w = unsettled(&names, &steps(&[0.5, 0.2, 0.0]), &bounded);
+        assert_eq!(w.len(), 1, "{w:?}");
+        assert!(
+            w[0].starts_with("a ended at 0, the lower end") && w[0].contains("in [0, 1]"),
+            "{w:?}"
+        );
     }
 
     #[test]

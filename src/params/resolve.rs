@@ -225,9 +225,6 @@ pub(crate) fn apply_params(
                         ));
                     }
                 };
-                if !(0.0..=1.0).contains(&v) {
-                    return Err(bad_value(format!("an albedo must be in [0, 1] (got {v})")));
-                }
                 let c = p.channel.map(channel);
                 let mat = &mut desc.material[m];
                 let (slot, default) = match field {
@@ -250,9 +247,6 @@ pub(crate) fn apply_params(
             }
             ParamKindDesc::Radiance => {
                 let e = target(&names.emitters, "emitter", "emitters", &p.emitter)?;
-                if v < 0.0 {
-                    return Err(bad_value(format!("an emitted amount must be >= 0 (got {v})")));
-                }
                 let c = p.channel.map(channel);
                 let em = &mut desc.emitter[e];
                 let field = em.ty.amount_field();
@@ -272,9 +266,6 @@ pub(crate) fn apply_params(
                 )
             }
             ParamKindDesc::Eta => {
-                if v <= 0.0 {
-                    return Err(bad_value(format!("a refractive index must be > 0 (got {v})")));
-                }
                 desc.medium.eta = v as f32;
                 (
                     ParamKind::Eta,
@@ -287,18 +278,14 @@ pub(crate) fn apply_params(
                 use crate::scene::desc::MaterialType;
                 let m = target(&names.materials, "material", "materials", &p.material)?;
                 let mat = &mut desc.material[m];
-                let (field, fits, range_ok, expected) = match p.kind {
+                let (field, fits) = match p.kind {
                     ParamKindDesc::Roughness => (
                         "roughness",
                         matches!(mat.ty, MaterialType::Roughconductor | MaterialType::Roughdielectric),
-                        v > 0.0 && v <= 1.0,
-                        "a roughness (GGX α) must be in (0, 1]",
                     ),
                     _ => (
                         "int_ior",
                         matches!(mat.ty, MaterialType::Dielectric | MaterialType::Roughdielectric),
-                        v > 0.0,
-                        "an index of refraction must be > 0",
                     ),
                 };
                 if !fits {
@@ -314,9 +301,6 @@ pub(crate) fn apply_params(
                             mat.ty.as_str()
                         ),
                     ));
-                }
-                if !range_ok {
-                    return Err(bad_value(format!("{expected} (got {v})")));
                 }
                 let kind = match p.kind {
                     ParamKindDesc::Roughness => {
@@ -344,6 +328,11 @@ pub(crate) fn apply_params(
                 )
             }
         };
+        // the kind's range (`ParamKind::domain`; a scale factor's 0 is refused above)
+        let (domain, what) = kind.domain(v);
+        if !domain.contains(v) {
+            return Err(bad_value(format!("{what} must be {domain} (got {v})")));
+        }
         for c in &components {
             if let Some((_, _, j)) = claimed.iter().find(|(q, k, _)| *q == quantity && k == c) {
                 return Err(ctx.invalid(
