@@ -203,11 +203,7 @@ mod domain_tests {
         assert_eq!(bounded.project(1.2, 2.5), 2.0);
         let looser = albedo.within(-1.0, 5.0);
         assert_eq!(looser, albedo, "bounds wider than the domain keep it");
-        assert_eq!(
-            index.within(0.0, 3.0).open_lo,
-            true,
-            "a bound at an open end keeps it open"
-        );
+        assert!(index.within(0.0, 3.0).open_lo, "a bound at an open end keeps it open");
         assert_eq!(format!("{albedo}"), "in [0, 1]");
         assert_eq!(format!("{index}"), "> 0");
         assert_eq!(format!("{}", Domain::closed(0.0, f64::INFINITY)), ">= 0");
