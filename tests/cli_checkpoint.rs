@@ -182,6 +182,9 @@ fn resume_refuses_what_is_not_this_render() {
         (vec!["--spp", "1024", "--seed", "5"], "seed"),
         (vec!["--spp", "1024", "--integrator", "bdpt"], "integrator"),
         (vec!["--spp", "1024", "--shard", "1/2"], "shard"),
+        // the window --auto-window chooses: before 2026-11-30 this resumed with exit 0 into
+        // a film of both windows' tiles (17 of 64 of the checkpoint's)
+        (vec!["--spp", "1024", "--auto-window"], "time_axis"),
     ] {
         let mut v = vec!["render", CORNELL, "-o", "r", "--resume"];
         v.extend(args);

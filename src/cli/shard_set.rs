@@ -60,6 +60,8 @@ pub fn identity(
     Ok(json!({
         "inputs_sha256": digest,
         "set": sets,
+        // the window rendered, which `--auto-window` chooses beyond the inputs and the sets
+        "time_axis": [scene.film.axis.start_opl, scene.film.axis.bin_width_opl, scene.film.axis.bins],
         "diff": diff,
         "spp": spp,
         "spp_boundary": if diff.is_empty() { None } else { Some(opts.spp_boundary.unwrap_or(spp)) },
