@@ -582,11 +582,10 @@ pub struct WindowEnergy {
     pub inside_fraction: f64,
     /// Paths of the pilot that estimated `after` (0: measured on every path of the render).
     pub after_pilot_paths: u64,
-    /// The standard error of the pilot's `after`: its Monte Carlo noise, from two independent
-    /// passes. A pass covers every tile when the film has no more pixels than it traces paths
-    /// (1/512 of the render's, 512 to 16,384); beyond, it takes evenly spaced tiles, and the
-    /// error of leaving the others out is not in this. `None` when `after` was measured on
-    /// every path.
+    /// The standard error of the pilot's `after`, from two independent draws per stratum of
+    /// the film: the Monte Carlo noise and, where a pass traces fewer paths than the film
+    /// has pixels (1/512 of the render's, 512 to 16,384), the error of the rows it leaves
+    /// out (`render::pilot_energy_after`). `None` when `after` was measured on every path.
     pub after_standard_error: Option<f64>,
 }
 

@@ -1413,6 +1413,8 @@ impl<'s> Run<'s> {
 
 use bdpt::render_tiles as bdpt_tiles;
 
+use crate::kernel::hash_u64;
+
 /// Seed stream of the window-energy pilot (xor-ed into the render seed).
 const PILOT_STREAM: u64 = 0x9e37_79b9_7f4a_7c15;
 /// Seed stream of the pilot's second pass.
@@ -1426,12 +1428,19 @@ const PILOT_SHARE: usize = 256;
 const PILOT_PATHS: (usize, usize) = (1024, 1 << 15);
 
 /// The primal energy that arrives after the window, estimated by an uncut pilot of the path
-/// tracer (in evenly spaced tiles, two passes of one sample per pixel on seed streams of
-/// their own; see [`PILOT_SHARE`]), for the energy report of a render whose paths were cut at
-/// the window. Unbiased. Returns (energy after the window, its standard error, paths). The
-/// standard error is the passes' Monte Carlo noise, from the difference of the two passes in
-/// each tile: where the pilot leaves tiles out (films of more pixels than a pass traces
-/// paths), the error of leaving them out is not in it. Leaves `ctx` uncut.
+/// tracer (one sample per pixel of a share of the film; see [`PILOT_SHARE`]), for the energy
+/// report of a render whose paths were cut at the window. Returns (energy after the window,
+/// its standard error, paths).
+///
+/// The film is cut into segments (a tile's rows; a tile of an exhaustive scan, whose paths
+/// start at its sensor points), and the segments, in order, into strata of equal count. Each
+/// stratum sends two segments drawn uniformly from it (with replacement; seed streams of
+/// their own), each weighted by the stratum's count: unbiased, and the difference of the two
+/// gives the standard error, both their Monte Carlo noise and what the segments left out
+/// would have added. Where a pass covers the film, each stratum is one segment traced twice.
+/// Until 2026-11-30 the pilot took every n-th tile, which on a film of 8 × 8 tiles was one
+/// column of them: the Cornell box's energy after an early window read 0.2–1.9× its value.
+/// Leaves `ctx` uncut.
 fn pilot_energy_after(
     ctx: &mut RenderContext,
     seed: u64,
@@ -1441,17 +1450,37 @@ fn pilot_energy_after(
 ) -> (f64, f64, u64) {
     ctx.cut_to_window(SteadyMode::Full);
     let ctx = &*ctx;
-    let (w, h) = (ctx.scene.film.width as usize, ctx.scene.film.height as usize);
-    let rects = tile_rects(ctx.scene);
+    let w = ctx.scene.film.width as usize;
+    let exhaustive = ctx.scene.nlos.as_ref().is_some_and(|n| n.exhaustive());
+    let segments: Vec<_> = tile_rects(ctx.scene)
+        .into_iter()
+        .flat_map(|(x0, y0, tw, th)| {
+            let rows = if exhaustive { 1 } else { th };
+            (0..rows).map(move |r| {
+                if exhaustive {
+                    (x0, y0, tw, th)
+                } else {
+                    (x0, y0 + r, tw, 1)
+                }
+            })
+        })
+        .collect();
+    // paths per pass, and how many segments of (about) TILE paths that takes
     let target = (render_paths / PILOT_SHARE).clamp(PILOT_PATHS.0, PILOT_PATHS.1) / 2;
-    let step = (w * h).div_ceil(target).max(1);
-    let picked: Vec<_> = rects.iter().copied().step_by(step).collect();
-    // per tile: the energy after the window of each pass, and the tile's pixels
-    let tiles: Vec<([f64; 2], u64)> = pool.install(|| {
-        picked
+    let stride = segments.len().div_ceil(target.div_ceil(TILE).max(1)).max(1);
+    let strata: Vec<(usize, usize)> = (0..segments.len())
+        .step_by(stride)
+        .map(|a| (a, stride.min(segments.len() - a)))
+        .collect();
+    // per stratum: its count times each draw's energy after the window, and the paths
+    let draws: Vec<([f64; 2], u64)> = pool.install(|| {
+        strata
             .par_iter()
-            .map(|&(x0, y0, tw, th)| {
-                let pass = |stream: u64| {
+            .enumerate()
+            .map(|(k, &(first, count))| {
+                let draw = |stream: u64| {
+                    let pick = hash_u64(seed ^ stream ^ hash_u64(k as u64)) % count as u64;
+                    let (x0, y0, tw, th) = segments[first + pick as usize];
                     let mut film = ctx.tile_film(x0, y0, tw, th, 0);
                     let mut counts = PathCounts::default();
                     let (f, c) = (&mut film, &mut counts);
@@ -1461,18 +1490,17 @@ fn pilot_energy_after(
                         ctx.scene.film.channels,
                         render_tile(ctx, seed ^ stream, 1, &(0..1), w, (x0, y0, tw, th), f, c)
                     );
-                    film.tails()[1]
+                    (count as f64 * film.tails()[1], tw as u64)
                 };
-                ([pass(PILOT_STREAM), pass(PILOT_STREAM_2)], (tw * th) as u64)
+                let ((a, pa), (b, pb)) = (draw(PILOT_STREAM), draw(PILOT_STREAM_2));
+                ([a, b], pa + pb)
             })
             .collect()
     });
-    let pixels: u64 = tiles.iter().map(|t| t.1).sum();
-    let scale = (w * h) as f64 / pixels.max(1) as f64;
-    let after: f64 = tiles.iter().map(|([a, b], _)| 0.5 * (a + b)).sum();
-    // Var((a + b)/2) = Var(a)/2 = E[(a − b)²]/4 for independent passes, summed over the tiles
-    let var: f64 = tiles.iter().map(|([a, b], _)| 0.25 * (a - b).powi(2)).sum();
-    (after * scale, scale * var.sqrt(), 2 * pixels)
+    let after: f64 = draws.iter().map(|([a, b], _)| 0.5 * (a + b)).sum();
+    // Var((a + b)/2) = Var(a)/2 = E[(a − b)²]/4 for independent draws, summed over the strata
+    let var: f64 = draws.iter().map(|([a, b], _)| 0.25 * (a - b).powi(2)).sum();
+    (after, var.sqrt(), draws.iter().map(|d| d.1).sum())
 }
 
 /// The samples `samples` (of `spp` per pixel) of one tile: for each sample index, one packet

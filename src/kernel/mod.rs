@@ -17,7 +17,7 @@ mod vec3;
 pub use dual::Dual8;
 pub use mask::Mask;
 pub use real::Real;
-pub use sampler::{PathSampler, SampleSequence, hash_to_unit};
+pub use sampler::{PathSampler, SampleSequence, hash_to_unit, hash_u64};
 pub use spectrum::Spectrum;
 pub use vec3::V3;
 pub use wide::f32x8;

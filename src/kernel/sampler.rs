@@ -43,12 +43,17 @@ impl SampleSequence {
 /// Mixes a 64-bit key into a uniform `f32` in `[0, 1)` (24 bits of mantissa).
 #[inline(always)]
 pub fn hash_to_unit(key: u64) -> f32 {
-    // SplitMix64 finaliser (Steele et al. 2014): full avalanche on 64 bits.
+    (hash_u64(key) >> 40) as f32 * (1.0 / (1u64 << 24) as f32)
+}
+
+/// Mixes a 64-bit key into a uniform 64-bit number: the SplitMix64 finaliser (Steele et al.
+/// 2014), full avalanche on 64 bits.
+#[inline(always)]
+pub fn hash_u64(key: u64) -> u64 {
     let mut z = key.wrapping_add(0x9E37_79B9_7F4A_7C15);
     z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
     z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^= z >> 31;
-    (z >> 40) as f32 * (1.0 / (1u64 << 24) as f32)
+    z ^ (z >> 31)
 }
 
 /// Random numbers for `R::LANES` paths that advance in lock step.
