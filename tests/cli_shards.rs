@@ -146,6 +146,36 @@ fn edited_shards_are_refused(edits: impl Fn(&serde_json::Value) -> Vec<(String, 
     ok(dtr(&["merge", "s0", "s1", "-o", "out", "-q"], dir));
 }
 
+/// A shard's JSON claiming a film far larger than its files is refused with exit 2, naming
+/// the file that does not hold it, and leaves nothing behind. Before, the merge allocated
+/// the claimed film (4 TB here) before reading a file and aborted (exit 134), leaving its
+/// lock file.
+#[test]
+fn a_shard_claiming_a_huge_film_is_refused() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path();
+    for i in 0..2 {
+        render(dir, &format!("s{i}"), &["--shard", &format!("{i}/2")]);
+    }
+    let mut j = json(&dir.join("s0.json"));
+    j["shape"] = serde_json::json!([4096, 4096, 20000, 3]);
+    j["time_axis"]["bins"] = serde_json::json!(20000);
+    std::fs::write(dir.join("s0.json"), j.to_string()).unwrap();
+    let o = dtr(&["merge", "s0", "s1", "-o", "out"], dir);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("s0.npy") && stderr(&o).contains("[4096, 4096, 20000, 3]"),
+        "{}",
+        stderr(&o)
+    );
+    let left: Vec<_> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().into_string().unwrap())
+        .filter(|n| !n.starts_with("s0") && !n.starts_with("s1"))
+        .collect();
+    assert!(left.is_empty(), "{left:?}");
+}
+
 /// A shard's JSON whose tallies were changed or damaged is refused, naming the file and the
 /// field, before anything is written. Before, a shard with `"paths": -5` and a negative
 /// energy total merged with exit 0 (the negative count read as 0, the energy summed).

@@ -9,7 +9,9 @@ use std::path::Path;
 /// The values of the float32, C-order `.npy` at `path`, which must have shape `shape`;
 /// `what` says what the file is for in messages (e.g. "the shard's film").
 pub fn read_f32(path: &Path, shape: &[usize], what: &str) -> anyhow::Result<Vec<f32>> {
-    let expected = 4 * shape.iter().product::<usize>() as u64;
+    let Some(expected) = shape.iter().try_fold(4u64, |n, &d| n.checked_mul(d as u64)) else {
+        bail!("{}: {what} cannot have shape {shape:?}: too large", path.display());
+    };
     let meta = std::fs::metadata(path).with_context(|| format!("{}: cannot read {what}", path.display()))?;
     if !meta.is_file() || meta.len() > expected + 4096 {
         bail!("{}: {what} should be a float32 .npy of shape {shape:?}", path.display());

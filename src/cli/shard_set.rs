@@ -323,16 +323,25 @@ fn read_films(s: &ShardFiles, diff: &[String]) -> anyhow::Result<(Transient, Vec
             axis.bins
         );
     }
-    let mut film = Transient::zeros(w, h, axis, c);
-    film.data = read_f32(&with_suffix(&s.prefix, "npy"), &[h, w, t, c], FILM)?;
-    film.steady = read_f32(&with_suffix(&s.prefix, "steady.npy"), &[h, w, c], FILM)?;
+    // films of what the files hold, never allocated from the JSON's shape before a file
+    // has been found to hold it (an edited shape of [4096, 4096, 20000, 3] aborted the merge)
+    let film = |data: Vec<f32>, steady: Vec<f32>| Transient {
+        width: w,
+        height: h,
+        axis,
+        channels: c,
+        data,
+        steady,
+    };
+    let data = read_f32(&with_suffix(&s.prefix, "npy"), &[h, w, t, c], FILM)?;
+    let steady = read_f32(&with_suffix(&s.prefix, "steady.npy"), &[h, w, c], FILM)?;
+    let transient = film(data, steady);
     let mut derivs = Vec::new();
     for name in diff {
-        let mut d = Transient::zeros(w, h, axis, c);
-        d.data = read_f32(&with_suffix(&s.prefix, &format!("d_{name}.npy")), &[h, w, t, c], FILM)?;
-        derivs.push(d);
+        let data = read_f32(&with_suffix(&s.prefix, &format!("d_{name}.npy")), &[h, w, t, c], FILM)?;
+        derivs.push(film(data, vec![0.0; transient.steady.len()]));
     }
-    Ok((film, derivs))
+    Ok((transient, derivs))
 }
 
 pub fn run(a: MergeArgs) -> anyhow::Result<()> {
