@@ -176,6 +176,38 @@ fn a_shard_claiming_a_huge_film_is_refused() {
     assert!(left.is_empty(), "{left:?}");
 }
 
+/// A shard's film whose bytes are not those its render wrote is refused with exit 2, naming
+/// the file: one float flipped to 3.4·10³⁸ on disk, or the .npy of a render at another seed
+/// copied over it. Before, both merged with exit 0 (the JSON was checked, the films not).
+#[test]
+fn a_shard_whose_film_was_damaged_or_replaced_is_refused() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path();
+    for i in 0..2 {
+        render(dir, &format!("s{i}"), &["--shard", &format!("{i}/2")]);
+    }
+    render(dir, "other", &["--shard", "1/2", "--seed", "5"]);
+    let original = std::fs::read(dir.join("s1.npy")).unwrap();
+    let mut flipped = original.clone();
+    let at = flipped.len() - 4 * 7;
+    flipped[at..at + 4].copy_from_slice(&f32::MAX.to_le_bytes());
+    let other = std::fs::read(dir.join("other.npy")).unwrap();
+    assert_ne!(other, original);
+    for (label, bytes) in [("flipped", flipped), ("another seed's", other)] {
+        std::fs::write(dir.join("s1.npy"), &bytes).unwrap();
+        let o = dtr(&["merge", "s0", "s1", "-o", "out"], dir);
+        assert_eq!(o.status.code(), Some(2), "{label}: {}", stderr(&o));
+        assert!(
+            stderr(&o).contains("s1.npy: not the file this shard's render wrote"),
+            "{label}: {}",
+            stderr(&o)
+        );
+        assert!(!dir.join("out.npy").exists(), "{label}");
+    }
+    std::fs::write(dir.join("s1.npy"), &original).unwrap();
+    ok(dtr(&["merge", "s0", "s1", "-o", "out", "-q"], dir));
+}
+
 /// A shard's JSON whose tallies were changed or damaged is refused, naming the file and the
 /// field, before anything is written. Before, a shard with `"paths": -5` and a negative
 /// energy total merged with exit 0 (the negative count read as 0, the energy summed).

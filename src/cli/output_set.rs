@@ -422,6 +422,17 @@ impl OutputSet {
         Ok(staged)
     }
 
+    /// The SHA-256 of each output staged so far, by its file name in the output folder.
+    pub fn digests(&self) -> anyhow::Result<serde_json::Map<String, serde_json::Value>> {
+        self.files
+            .iter()
+            .map(|(staged, dest)| {
+                let name = dest.file_name().unwrap_or_default().to_string_lossy().into_owned();
+                Ok((name, serde_json::Value::from(super::shard_set::file_sha256(staged)?)))
+            })
+            .collect()
+    }
+
     /// The file names (in the output folder) of the outputs staged so far and of
     /// `PREFIX.suffix`: the set the JSON lists.
     pub fn names_with(&self, suffix: &str) -> Vec<String> {

@@ -368,6 +368,10 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
         meta["auto_window"] = serde_json::to_value(w)?;
     }
     meta["files"] = serde_json::json!(set.names_with("json"));
+    if a.shard.is_some() {
+        // what `dtr merge` checks each file against before it reads it
+        meta["files_sha256"] = serde_json::Value::Object(set.digests()?);
+    }
     set.write("json", |p| output::write_json(p, &meta))?;
     let prefix_path = set.commit()?;
     if let Some(ck) = &checkpoint {

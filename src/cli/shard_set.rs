@@ -36,6 +36,15 @@ fn canonical_set(s: &str) -> String {
     }
 }
 
+/// The SHA-256 of a file's bytes, as hex: what a shard's JSON records of each of its files
+/// (`files_sha256`) and `dtr merge` checks before it reads one.
+pub fn file_sha256(path: &Path) -> anyhow::Result<String> {
+    let mut file = std::fs::File::open(path).with_context(|| format!("cannot read {} to hash it", path.display()))?;
+    let mut hash = Sha256::new();
+    std::io::copy(&mut file, &mut hash).with_context(|| format!("cannot read {} to hash it", path.display()))?;
+    Ok(hash.finalize().iter().map(|b| format!("{b:02x}")).collect())
+}
+
 /// Everything that decides a render's numbers, as JSON: the contents of its input files,
 /// the overrides, the sample counts, seed, estimators and modes. Two renders with the same
 /// identity trace the same paths; shards of one render must share it (`dtr merge` and
@@ -333,15 +342,43 @@ fn read_films(s: &ShardFiles, diff: &[String]) -> anyhow::Result<(Transient, Vec
         data,
         steady,
     };
-    let data = read_f32(&with_suffix(&s.prefix, "npy"), &[h, w, t, c], FILM)?;
-    let steady = read_f32(&with_suffix(&s.prefix, "steady.npy"), &[h, w, c], FILM)?;
+    let read = |suffix: &str, shape: &[usize]| {
+        let path = with_suffix(&s.prefix, suffix);
+        check_digest(s, &json, &path)?;
+        read_f32(&path, shape, FILM)
+    };
+    let data = read("npy", &[h, w, t, c])?;
+    let steady = read("steady.npy", &[h, w, c])?;
     let transient = film(data, steady);
     let mut derivs = Vec::new();
     for name in diff {
-        let data = read_f32(&with_suffix(&s.prefix, &format!("d_{name}.npy")), &[h, w, t, c], FILM)?;
+        let data = read(&format!("d_{name}.npy"), &[h, w, t, c])?;
         derivs.push(film(data, vec![0.0; transient.steady.len()]));
     }
     Ok((transient, derivs))
+}
+
+/// Refuses a shard's file whose bytes are not those its render wrote (damaged on disk, or
+/// another render's file copied over it): its SHA-256 against the one the shard's JSON
+/// records (`files_sha256`). Before, a float flipped to 3.4·10³⁸ or another seed's .npy
+/// merged with exit 0.
+fn check_digest(s: &ShardFiles, json: &Path, path: &Path) -> anyhow::Result<()> {
+    let name = path.file_name().unwrap_or_default().to_string_lossy().into_owned();
+    let Some(want) = s.meta["files_sha256"][name.as_str()].as_str() else {
+        bail!(
+            "{}: no field \"files_sha256.{name}\": not written by `dtr render --shard I/N` of this version",
+            json.display()
+        );
+    };
+    let got = file_sha256(path)?;
+    if got != want {
+        bail!(
+            "{}: not the file this shard's render wrote (its SHA-256 is {got}, {} records {want}): damaged, or another render's",
+            path.display(),
+            json.display()
+        );
+    }
+    Ok(())
 }
 
 pub fn run(a: MergeArgs) -> anyhow::Result<()> {
