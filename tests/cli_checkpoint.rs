@@ -195,7 +195,20 @@ fn resume_refuses_what_is_not_this_render() {
     }
     // a checkpoint whose units are cut another way (an earlier dtr's: one unit per path
     // tracer tile, or BDPT chunks) is refused by that field, never resumed into the wrong units
+    // a checkpointed render started without --resume leaves the checkpoint as it is (it
+    // replaced it, warning too late for Ctrl-C, before 2026-11-30)
     let bytes = std::fs::read(&ck).unwrap();
+    let o = dtr(
+        &["render", CORNELL, "--spp", "1024", "-o", "r", "--checkpoint", "100"],
+        dir,
+    );
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{e}");
+    assert!(
+        e.contains("holds an earlier render's checkpoint: --resume continues it"),
+        "{e}"
+    );
+    assert_eq!(std::fs::read(&ck).unwrap(), bytes, "the checkpoint is untouched");
     let (from, to) = (&b"\"checkpoint_units\":3"[..], &b"\"checkpoint_units\":2"[..]);
     let at = bytes
         .windows(from.len())

@@ -96,9 +96,11 @@ pub fn prepare(
         );
         Some(saved)
     } else {
+        // the work it holds may be hours: never replaced unasked (a render started without
+        // --resume overwrote it, with a warning that came too late for Ctrl-C)
         if path.exists() {
-            log::warn!(
-                "{} holds an earlier render's checkpoint; this render replaces it (--resume continues it instead)",
+            bail!(
+                "{} holds an earlier render's checkpoint: --resume continues it; remove it to start over",
                 path.display()
             );
         }
