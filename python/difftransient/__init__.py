@@ -161,6 +161,8 @@ def render(scene: Scene, *, spp: Optional[int] = None, seed: Optional[int] = Non
     """Renders the scene's transient (spp and seed default to the scene's). With
     `auto_window`, the time window is chosen first (`Scene.auto_window`, with this seed) and
     the choice is `stats["auto_window"]`, as in the JSON of `dtr render --auto-window`."""
+    scene = _scene(scene)
+    spp, seed, threads = _count("spp", spp), _count("seed", seed), _count("threads", threads)
     window = None
     if auto_window:
         scene = scene.auto_window(seed=seed, threads=threads)
@@ -180,7 +182,9 @@ def render_diff(scene: Scene, params: Sequence[str], *, spp: Optional[int] = Non
     "full", "interior" or "boundary". `time_edges`: "auto" (the path tracer draws the time
     term f·dS_e/dd·ḋ on the bin edges where that applies; what makes delta pulses
     differentiable) or "off" (`dtr render --time-edges`)."""
-    params = list(params)
+    scene, params = _scene(scene), _names(params)
+    spp, seed, threads = _count("spp", spp), _count("seed", seed), _count("threads", threads)
+    spp_boundary = _count("spp_boundary", spp_boundary)
     t, d, stats = _render_diff(scene._native, params, spp, seed, threads, spp_boundary, estimators, time_edges)
     return DiffRender(t, dict(zip(params, d)), scene.bin_centres, json.loads(stats))
 
@@ -195,8 +199,20 @@ def gradient(scene: Scene, params: Sequence[str], adjoint: np.ndarray, *, spp: O
     the scene's seed or any small seed: an adjoint computed from a render (2(I − T) for an L2
     loss) contracted with dI/dθ of the same samples gives a biased gradient (Cov(I, dI/dθ)
     is added). Returns (gradient as a float64 array, stats; stats["seed"] is the seed used)."""
+    scene = _scene(scene)
+    spp, seed, threads = _count("spp", spp), _count("seed", seed), _count("threads", threads)
+    spp_boundary = _count("spp_boundary", spp_boundary)
+    if not isinstance(adjoint, np.ndarray) or adjoint.dtype.kind not in "fiu":
+        raise TypeError(f"adjoint must be a real numpy array shaped like the film {scene.shape}, got "
+                        f"{type(adjoint).__name__}" + (f" of {adjoint.dtype}" if isinstance(adjoint, np.ndarray) else ""))
+    if adjoint.shape != tuple(scene.shape):
+        raise RenderError(f"adjoint: shape {adjoint.shape} does not match the scene's film [H, W, T, C] = {tuple(scene.shape)}")
+    if not np.isfinite(adjoint).all():
+        raise RenderError("adjoint: every value must be finite")
+    if adjoint.dtype != np.float32 and np.abs(adjoint).max(initial=0.0) > np.finfo(np.float32).max:
+        raise RenderError("adjoint: values beyond float32's range (3.4e38) cannot be rendered with")
     a = np.ascontiguousarray(adjoint, dtype=np.float32)
-    g, stats = _render_adjoint(scene._native, list(params), a, spp, seed, threads, spp_boundary, estimators,
+    g, stats = _render_adjoint(scene._native, _names(params), a, spp, seed, threads, spp_boundary, estimators,
                                time_edges)
     return g, json.loads(stats)
 
@@ -224,8 +240,52 @@ def _settings(params: Optional[Mapping[str, Any]]) -> Tuple[List[tuple], List[tu
         raise TypeError("params must be a mapping {name: value}")
     numbers, texts = [], []
     for k, v in params.items():
+        if isinstance(v, np.ndarray) and v.ndim == 0:
+            v = v.item()  # a 0-d array is its one value
+        if isinstance(v, np.generic):
+            v = v.item()  # numpy scalars (np.float32(0.2), np.int64(1), np.bool_) as Python's
         if isinstance(v, (int, float)) and not isinstance(v, bool):
             numbers.append((str(k), float(v)))
         else:
             texts.append((str(k), _toml_value(v)))
     return numbers, texts
+
+
+def _count(name: str, v: Optional[int]) -> Optional[int]:
+    """`v`, an optional count (spp, seed, threads, spp_boundary), checked by name: a whole
+    number from 0 to 2⁶⁴ − 1 (the renderer refuses the zeros it cannot use)."""
+    if v is None:
+        return None
+    if isinstance(v, np.integer):
+        v = int(v)
+    if isinstance(v, bool) or not isinstance(v, int):
+        raise TypeError(f"{name} must be a whole number, got {v!r} ({type(v).__name__})")
+    if v < 0:
+        raise ValueError(f"{name} must be >= 0, got {v}")
+    limit = 2**64 - 1 if name == "seed" else 2**32 - 1
+    if name == "threads":
+        limit = 2**63 - 1
+    if v > limit:
+        raise ValueError(f"{name} must be at most {limit}, got {v}")
+    return v
+
+
+def _scene(scene: Any) -> "Scene":
+    """`scene`, which must be a loaded Scene (a path is not one: `Scene.load(path)`)."""
+    if not isinstance(scene, Scene):
+        hint = " (load it first: dt.Scene.load(path))" if isinstance(scene, (str, os.PathLike)) else ""
+        raise TypeError(f"scene must be a difftransient.Scene, got {type(scene).__name__}{hint}")
+    return scene
+
+
+def _names(params: Any) -> List[str]:
+    """`params` as a list of parameter names, each once."""
+    if isinstance(params, (str, bytes)):
+        raise TypeError(f"params must be a list of parameter names, got the string {params!r} (use [{params!r}])")
+    names = [str(p) for p in params]
+    seen = set()
+    for n in names:
+        if n in seen:
+            raise ValueError(f"params names {n!r} more than once")
+        seen.add(n)
+    return names

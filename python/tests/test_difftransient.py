@@ -263,6 +263,40 @@ def test_errors_carry_the_renderers_messages(tmp_path):
         dt.render_diff(s, ["no_such_param"])
 
 
+def test_arguments_are_checked_by_name():
+    """Numbers of numpy's types are numbers; a bad count, scene, name list or adjoint is refused
+    naming the argument. Before 2026-11-30: np.float32(0.2) as a parameter value was a
+    TypeError ("cannot set a value of type float32"), spp=-1 an OverflowError naming nothing,
+    render_diff(s, "albedo") looked for parameters "a", "l", ..., a repeated name gave one
+    derivative, a list as the adjoint "'ndarray' object cannot be cast as 'ndarray'", and a
+    path as the scene an AttributeError."""
+    s = scene("diff_room.toml")
+    for v in (np.float32(0.25), np.float64(0.25), np.array(0.25)):
+        assert s.with_params({"albedo": v}).params["albedo"] == pytest.approx(0.25)
+    assert s.with_params({"albedo": np.int64(1)}).params["albedo"] == 1.0
+    for kw, message in (({"spp": -1}, "spp must be >= 0"), ({"spp": 2**40}, "spp must be at most"),
+                        ({"seed": -1}, "seed must be >= 0"), ({"threads": -2}, "threads must be >= 0")):
+        with pytest.raises(ValueError, match=message):
+            dt.render(s, **kw)
+    with pytest.raises(TypeError, match="spp must be a whole number"):
+        dt.render(s, spp=1.5)
+    with pytest.raises(TypeError, match="load it first"):
+        dt.render(str(SCENES / "diff_room.toml"), spp=1)
+    with pytest.raises(TypeError, match="list of parameter names"):
+        dt.render_diff(s, "albedo", spp=1)
+    with pytest.raises(ValueError, match="more than once"):
+        dt.render_diff(s, ["albedo", "albedo"], spp=1)
+    with pytest.raises(ValueError, match="more than once"):
+        dt.gradient(s, ["albedo", "albedo"], np.zeros(s.shape, np.float32), spp=1)
+    for bad in ([[1.0]], None, np.zeros(s.shape, np.complex64)):
+        with pytest.raises(TypeError, match="adjoint must be a real numpy array"):
+            dt.gradient(s, ["albedo"], bad, spp=1)
+    huge = np.zeros(s.shape)
+    huge[0, 0, 0, 0] = 1e300
+    with pytest.raises(dt.RenderError, match="float32's range"):
+        dt.gradient(s, ["albedo"], huge, spp=1)
+
+
 def test_renders_release_the_gil():
     """While a render runs in another thread, this thread keeps running Python: no gap between
     its loop iterations comes near the render's duration."""
