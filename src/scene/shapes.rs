@@ -284,7 +284,17 @@ fn check_obj_text(text: &str) -> ObjResult<()> {
             }
             Some("vt") => nvt += 1,
             Some("vn") => nvn += 1,
-            Some("f") | Some("l") | Some("p") => {
+            Some(key @ ("f" | "l" | "p")) => {
+                let words: Vec<&str> = words.collect();
+                if key == "f" && words.len() < 3 {
+                    // tobj drops such a face without a word: a file cut inside its last face
+                    // line rendered a triangle short
+                    return Err(format!(
+                        "line {ln}: a face of {} corner{}, a face needs at least 3 (is the file cut short?)",
+                        words.len(),
+                        if words.len() == 1 { "" } else { "s" }
+                    ));
+                }
                 for w in words {
                     for (k, part) in w.split('/').enumerate() {
                         if part.is_empty() {
@@ -884,6 +894,14 @@ mod tests {
             &obj_scene("g.obj"),
             &[("g.obj", garbage)],
             &[at, "g.obj", "\"zero\" is not a number"],
+        );
+        // a file cut inside its last face line (tobj dropped the face without a word)
+        let cut = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 3\nf 2 4";
+        expect_err(
+            "cut.toml",
+            &obj_scene("cut.obj"),
+            &[("cut.obj", cut)],
+            &[at, "cut.obj", "line 6: a face of 2 corners", "cut short"],
         );
         let range = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n";
         expect_err(
