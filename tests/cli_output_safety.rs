@@ -370,8 +370,9 @@ fn a_signal_while_the_set_is_written_leaves_nothing_or_the_whole_set() {
     assert!(outcomes.contains(&130), "no try was interrupted: {outcomes:?}");
 }
 
-/// A render removes the staging folders that an earlier, killed render to the same prefix
-/// left (under the prefix's lock), and nothing else. Before, they stayed for good.
+/// A render removes the staging folders and checkpoint temporaries that an earlier, killed
+/// render to the same prefix left (under the prefix's lock), and nothing else. Before, they
+/// stayed for good.
 #[test]
 fn a_render_removes_the_staging_folders_a_killed_render_left() {
     let dir = workdir();
@@ -382,13 +383,20 @@ fn a_render_removes_the_staging_folders_a_killed_render_left() {
     std::fs::create_dir_all(out.join(".y.dtr-staging-Ab3dE9")).unwrap();
     std::fs::create_dir_all(out.join(".x.dtr-staging-mine")).unwrap();
     std::fs::write(out.join(".x.dtr-staging-Zz9zz9"), "a file").unwrap();
+    // the temporary file of a checkpoint being written (kept for good before 2026-11-30),
+    // another prefix's, and a folder of that form
+    std::fs::write(out.join(".x.checkpoint.Qw3rT1.tmp"), "half a checkpoint").unwrap();
+    std::fs::write(out.join(".y.checkpoint.Qw3rT1.tmp"), "half a checkpoint").unwrap();
+    std::fs::create_dir_all(out.join(".x.checkpoint.Dir000.tmp")).unwrap();
     let o = dtr(&["render", "room.toml", "-o", "out/x", "--spp", "1", "-q"], dir.path());
     assert!(o.status.success(), "{}", stderr(&o));
     assert_eq!(
         listing(&out),
         [
+            ".x.checkpoint.Dir000.tmp",
             ".x.dtr-staging-Zz9zz9",
             ".x.dtr-staging-mine",
+            ".y.checkpoint.Qw3rT1.tmp",
             ".y.dtr-staging-Ab3dE9",
             "x.json",
             "x.npy"

@@ -525,22 +525,28 @@ fn is_own_output(name: &str, stem: &str) -> bool {
     FIXED.contains(&suffix) || PREVIEWS.contains(&suffix) || derivative || strategy
 }
 
-/// Removes the staging folders of earlier renders to the prefix named `name` in `dir`
-/// (`.NAME.dtr-staging-` and tempfile's six characters), which a killed render leaves; called
-/// with the prefix's lock held, so no render is writing them.
+/// Removes what earlier renders to the prefix named `name` in `dir` left when killed: their
+/// staging folders (`.NAME.dtr-staging-` and tempfile's six characters) and the temporary
+/// files of checkpoints they were writing (`.NAME.checkpoint.` six characters `.tmp`,
+/// `output::write_atomic`; 50 MB each on a large film, kept by every later render before
+/// 2026-11-30). Called with the prefix's lock held, so no render is writing them.
 fn remove_stale_staging(dir: &Path, name: &str) {
-    let start = format!(".{name}.dtr-staging-");
+    let random = |s: &str| s.len() == 6 && s.bytes().all(|b| b.is_ascii_alphanumeric());
+    let staging = format!(".{name}.dtr-staging-");
+    let checkpoint = format!(".{name}.checkpoint.");
     let Ok(entries) = std::fs::read_dir(dir) else {
         return;
     };
     for e in entries.flatten() {
         let file_name = e.file_name();
-        let Some(rest) = file_name.to_str().and_then(|n| n.strip_prefix(start.as_str())) else {
-            continue;
-        };
-        let random = rest.len() == 6 && rest.bytes().all(|b| b.is_ascii_alphanumeric());
-        if random && e.file_type().is_ok_and(|t| t.is_dir()) {
+        let Some(n) = file_name.to_str() else { continue };
+        let Ok(kind) = e.file_type() else { continue };
+        if n.strip_prefix(staging.as_str()).is_some_and(random) && kind.is_dir() {
             let _ = std::fs::remove_dir_all(e.path());
+        }
+        let temporary = n.strip_prefix(checkpoint.as_str()).and_then(|r| r.strip_suffix(".tmp"));
+        if temporary.is_some_and(random) && kind.is_file() {
+            let _ = std::fs::remove_file(e.path());
         }
     }
 }
