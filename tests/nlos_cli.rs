@@ -300,6 +300,12 @@ fn bad_nlos_input_names_the_field() {
             assert!(err.contains(w), "expected {w:?} in: {err}");
         }
     }
+    // photon counts beyond float32: exit 1 naming a staging file before 2026-11-30
+    let err = refused(&base, &["--set", "laser_power=1e38"]);
+    assert!(
+        err.contains("nlos.noise.photons_per_unit") && err.contains("beyond what a float32 count holds"),
+        "{err}"
+    );
 }
 
 /// What a capture cannot do is refused before rendering: derivatives with respect to the

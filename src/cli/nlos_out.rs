@@ -41,6 +41,17 @@ pub(super) fn write(scene: &Scene, film: &Transient, set: &mut OutputSet, sharde
         crate::output::write_nlos_h5(p, scene, film, "noiseless transient (radiance)")
     })?;
     if let Some(noise) = &n.noise {
+        // counts a float32 file cannot hold are refused by the fields that set them, before
+        // any is written (`--set laser_power=1e38` ended in exit 1 naming a staging file)
+        let brightest = film.data.iter().fold(0.0f32, |m, &v| m.max(v)) as f64;
+        let most = noise.photons_per_unit * brightest + noise.dark_counts;
+        if !(most < f32::MAX as f64) {
+            anyhow::bail!(
+                "{}: the capture's brightest bin ({brightest:e}) expects {most:e} photons (nlos.noise.photons_per_unit = {} times it, plus dark_counts), beyond what a float32 count holds (3.4e38): lower nlos.noise.photons_per_unit or the laser's power",
+                scene.source.display(),
+                noise.photons_per_unit
+            );
+        }
         // the counts are made as each file is written, never held whole beside the film
         let count = |i: usize, v: f32| crate::sensor_noise::photon_count(noise, i, v);
         set.write("noisy.npy", |p| {
