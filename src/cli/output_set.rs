@@ -52,8 +52,23 @@ static WRITING: Mutex<()> = Mutex::new(());
 /// undo.
 static IN_PLACE: AtomicBool = AtomicBool::new(false);
 
+/// Set by the signal thread before it waits for [`WRITING`]: the main thread then takes the
+/// lock for no further write, so the signal thread gets it as soon as the current write ends.
+/// (A mutex is not fair: the main thread, releasing it after one file and taking it again
+/// for the next, won against the waiting signal thread, and a render interrupted while it
+/// wrote its npy went on to write the rest and exit 0.)
+static SIGNALLED: AtomicBool = AtomicBool::new(false);
+
+/// [`WRITING`] for the main thread's next write: never while a signal waits for it.
 fn writing() -> std::sync::MutexGuard<'static, ()> {
-    WRITING.lock().unwrap_or_else(|e| e.into_inner())
+    loop {
+        let guard = WRITING.lock().unwrap_or_else(|e| e.into_inner());
+        if !SIGNALLED.load(Ordering::SeqCst) {
+            return guard;
+        }
+        drop(guard);
+        std::thread::sleep(std::time::Duration::from_millis(1));
+    }
 }
 
 /// Starts the thread that cleans up on SIGINT/SIGTERM (once per process).
@@ -67,9 +82,11 @@ fn install_signal_cleanup() -> anyhow::Result<()> {
                 std::thread::spawn(move || {
                     for sig in signals.forever() {
                         // kept until the exit: the main thread writes nothing more
-                        let _writing = writing();
+                        SIGNALLED.store(true, Ordering::SeqCst);
+                        let _writing = WRITING.lock().unwrap_or_else(|e| e.into_inner());
                         if IN_PLACE.load(Ordering::SeqCst) {
                             // the set is whole and in place; the run ends with 0
+                            SIGNALLED.store(false, Ordering::SeqCst);
                             continue;
                         }
                         let paths = ON_SIGNAL.lock().map(|p| p.clone()).unwrap_or_default();
