@@ -447,6 +447,43 @@ fn a_signal_during_the_first_file_stops_the_rest() {
     }
 }
 
+/// An input named like the prefix's lock file, or inside a folder named like its staging
+/// folder, is refused and kept. Before 2026-11-30 the first was deleted when the render
+/// ended (or was refused), the second with its folder as a killed render's leftovers.
+#[test]
+fn an_input_in_a_name_dtr_reserves_is_refused_and_kept() {
+    let dir = workdir();
+    let room = std::fs::read_to_string(dir.path().join("room.toml")).unwrap();
+    for (file, folder) in [(".p.dtr-lock", ""), ("mesh.obj", ".p.dtr-staging-ABC123/")] {
+        let d = dir.path().join("m").join(folder);
+        std::fs::create_dir_all(&d).unwrap();
+        std::fs::write(d.join(file), "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+        let mesh = format!("m/{folder}{file}");
+        let scene = format!(
+            "{room}\n[[shape]]\nname = \"extra\"\ntype = \"obj\"\nfile = \"{mesh}\"\nmaterial = \"{}\"\n",
+            first_material(&room)
+        );
+        std::fs::write(dir.path().join("s.toml"), scene).unwrap();
+        let o = dtr(&["render", "s.toml", "-o", "m/p", "--spp", "1", "-q"], dir.path());
+        assert_eq!(o.status.code(), Some(2), "{mesh}: {}", stderr(&o));
+        assert!(
+            stderr(&o).contains("lies where dtr keeps the lock"),
+            "{mesh}: {}",
+            stderr(&o)
+        );
+        assert!(dir.path().join(&mesh).is_file(), "{mesh} was removed");
+    }
+}
+
+fn first_material(scene: &str) -> String {
+    let at = scene.find("[[material]]").expect("a material");
+    let name = scene[at..]
+        .lines()
+        .find(|l| l.trim_start().starts_with("name"))
+        .unwrap();
+    name.split('"').nth(1).unwrap().to_string()
+}
+
 /// An output folder that the file system refuses (read-only, root included) is exit 3,
 /// whichever output is refused first: the lock file of `-o ro/out`, the folder of
 /// `-o ro/new/x`. Before, the lock file's refusal was exit 2, as if the input were bad.

@@ -293,6 +293,7 @@ impl OutputSet {
         let inputs = input_metadata(scene_inputs);
         let name = prefix.file_name().unwrap_or_default().to_string_lossy().into_owned();
         let lock_path = dir.join(format!(".{name}.dtr-lock"));
+        refuse_inputs_in_reserved_names(scene_inputs, &dir, &name)?;
         let lock = Self::lock(&lock_path, &prefix)?;
         // a set of its own: a signal from now on undoes it, whatever sets this process put
         // in place before (library use may write several)
@@ -540,6 +541,36 @@ fn is_own_output(name: &str, stem: &str) -> bool {
         .and_then(|s| s.split_once("_t"))
         .is_some_and(|(s, t)| digits(s) && digits(t));
     FIXED.contains(&suffix) || PREVIEWS.contains(&suffix) || derivative || strategy
+}
+
+/// Refuses an input that lies where a render to the prefix named `name` in `dir` keeps its
+/// lock (`.NAME.dtr-lock`, removed at exit), a staging folder or a checkpoint's temporary
+/// file (removed as a killed render's, [`remove_stale_staging`]): an OBJ named like the lock
+/// file was deleted at the exit, one inside a folder named like a staging folder with it.
+fn refuse_inputs_in_reserved_names(inputs: &[PathBuf], dir: &Path, name: &str) -> anyhow::Result<()> {
+    let Ok(dir) = std::fs::canonicalize(dir) else {
+        return Ok(());
+    };
+    for input in inputs {
+        let Ok(path) = std::fs::canonicalize(input) else {
+            continue;
+        };
+        let Ok(rest) = path.strip_prefix(&dir) else { continue };
+        let Some(first) = rest.components().next().and_then(|c| c.as_os_str().to_str()) else {
+            continue;
+        };
+        let reserved = first == format!(".{name}.dtr-lock")
+            || first.starts_with(&format!(".{name}.dtr-staging-"))
+            || (first.starts_with(&format!(".{name}.checkpoint.")) && first.ends_with(".tmp"));
+        if reserved {
+            bail!(
+                "the input {} lies where dtr keeps the lock or temporary files of the output prefix {name} in {} (it would be removed): rename it, or write elsewhere",
+                input.display(),
+                dir.display()
+            );
+        }
+    }
+    Ok(())
 }
 
 /// Removes what earlier renders to the prefix named `name` in `dir` left when killed: their
