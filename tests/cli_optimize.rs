@@ -122,7 +122,7 @@ fn optimize_refuses_bad_input_before_rendering() {
     let dir = tmp.path();
     let o = dtr(&["render", SCENE, "--spp", "1", "-q", "-o", "target"], dir);
     assert!(o.status.success());
-    let other = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/diff_room.toml");
+    let other = ROOM;
     let cases: [(Vec<&str>, &str); 5] = [
         (vec![other, "--target", "target.npy", "--params", "albedo"], "the scene"),
         (
@@ -245,6 +245,41 @@ fn optimize_says_what_a_failed_run_kept() {
     assert!(dir.join("out/best.json").is_file());
 }
 
+const ROOM: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/diff_room.toml");
+
+/// `dtr optimize` of the room's albedo towards `target` at 1 spp on one thread, quiet
+/// (warnings still show), into `out`, with `extra` options.
+fn optimize_albedo(dir: &std::path::Path, target: &str, out: &str, extra: &[&str]) -> std::process::Output {
+    let mut v = vec![
+        "optimize",
+        ROOM,
+        "--target",
+        target,
+        "--threads",
+        "1",
+        "--spp",
+        "1",
+        "--params",
+        "albedo",
+        "-q",
+        "-o",
+        out,
+    ];
+    v.extend(extra);
+    dtr(&v, dir)
+}
+
+/// The albedo of each iteration in `out/log.csv` (iteration,loss,albedo,...).
+fn logged_albedo(dir: &std::path::Path, out: &str) -> (Vec<f64>, String) {
+    let log = std::fs::read_to_string(dir.join(out).join("log.csv")).unwrap();
+    let albedo = log
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').nth(2).unwrap().parse().unwrap())
+        .collect();
+    (albedo, log)
+}
+
 /// No iterate leaves the values its parameter's kind may take, bounds or not: a learning
 /// rate of 5 clamps the albedo to 1 at the second iteration. Until 2026-11-30 Adam had no
 /// bounds without `--bound`, and the run ended there with exit 2 ("an albedo must be in
@@ -253,42 +288,24 @@ fn optimize_says_what_a_failed_run_kept() {
 fn optimize_keeps_each_parameter_in_its_range() {
     let tmp = tempfile::tempdir().unwrap();
     let dir = tmp.path();
-    let room = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/diff_room.toml");
-    rough_target(room, dir, "t");
-    let run = |extra: &[&str], out: &str| {
-        let mut v = vec![
-            "optimize",
-            room,
-            "--target",
-            "t.npy",
-            "--threads",
-            "1",
-            "--spp",
-            "1",
-            "--params",
-            "albedo",
-            "-q",
-            "-o",
-            out,
-        ];
-        v.extend(extra);
-        dtr(&v, dir)
-    };
-    let o = run(&["--set", "albedo=0.3", "--lr", "5", "--iters", "3"], "out");
+    rough_target(ROOM, dir, "t");
+    let o = optimize_albedo(
+        dir,
+        "t.npy",
+        "out",
+        &["--set", "albedo=0.3", "--lr", "5", "--iters", "3"],
+    );
     assert!(o.status.success(), "{}", stderr(&o));
-    let log = std::fs::read_to_string(dir.join("out/log.csv")).unwrap();
-    let albedo: Vec<f64> = log
-        .lines()
-        .skip(1)
-        .map(|l| l.split(',').nth(2).unwrap().parse().unwrap())
-        .collect();
+    let (albedo, log) = logged_albedo(dir, "out");
     assert_eq!(albedo.len(), 3, "{log}");
     assert_eq!(albedo[1], 1.0, "the step past 1 stops at 1: {log}");
     assert!(albedo.iter().all(|a| (0.0..=1.0).contains(a)), "{log}");
 
-    let o = run(
-        &["--set", "albedo=0.9", "--bound", "albedo=0.2:0.5", "--iters", "2"],
+    let o = optimize_albedo(
+        dir,
+        "t.npy",
         "out2",
+        &["--set", "albedo=0.9", "--bound", "albedo=0.2:0.5", "--iters", "2"],
     );
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     assert!(
@@ -307,41 +324,17 @@ fn optimize_keeps_each_parameter_in_its_range() {
 fn optimize_takes_its_first_step_at_the_full_learning_rate() {
     let tmp = tempfile::tempdir().unwrap();
     let dir = tmp.path();
-    let room = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/diff_room.toml");
-    rough_target(room, dir, "t");
+    rough_target(ROOM, dir, "t");
     for iters in ["2", "3"] {
         let out = format!("out{iters}");
-        let o = dtr(
-            &[
-                "optimize",
-                room,
-                "--target",
-                "t.npy",
-                "--threads",
-                "1",
-                "--spp",
-                "1",
-                "--params",
-                "albedo",
-                "--set",
-                "albedo=0.5",
-                "--lr",
-                "0.01",
-                "--iters",
-                iters,
-                "-q",
-                "-o",
-                &out,
-            ],
+        let o = optimize_albedo(
             dir,
+            "t.npy",
+            &out,
+            &["--set", "albedo=0.5", "--lr", "0.01", "--iters", iters],
         );
         assert!(o.status.success(), "{}", stderr(&o));
-        let log = std::fs::read_to_string(dir.join(&out).join("log.csv")).unwrap();
-        let a: Vec<f64> = log
-            .lines()
-            .skip(1)
-            .map(|l| l.split(',').nth(2).unwrap().parse().unwrap())
-            .collect();
+        let (a, log) = logged_albedo(dir, &out);
         assert!(((a[1] - a[0]).abs() - 0.01).abs() < 1e-9, "--iters {iters}: {log}");
     }
 }
@@ -351,12 +344,11 @@ fn optimize_takes_its_first_step_at_the_full_learning_rate() {
 fn optimize_warns_of_a_run_that_did_not_settle() {
     let tmp = tempfile::tempdir().unwrap();
     let dir = tmp.path();
-    let room = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/diff_room.toml");
     // a black room: every gradient of the albedo points down, to its end at 0
     let o = dtr(
         &[
             "render",
-            room,
+            ROOM,
             "--set",
             "albedo=0",
             "--spp",
@@ -370,28 +362,11 @@ fn optimize_warns_of_a_run_that_did_not_settle() {
         dir,
     );
     assert!(o.status.success(), "{}", stderr(&o));
-    let o = dtr(
-        &[
-            "optimize",
-            room,
-            "--target",
-            "dark.npy",
-            "--threads",
-            "1",
-            "--spp",
-            "1",
-            "--params",
-            "albedo",
-            "--set",
-            "albedo=0.3",
-            "--lr",
-            "0.2",
-            "--iters",
-            "8",
-            "-o",
-            "out",
-        ],
+    let o = optimize_albedo(
         dir,
+        "dark.npy",
+        "out",
+        &["--set", "albedo=0.3", "--lr", "0.2", "--iters", "8"],
     );
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(
@@ -400,30 +375,11 @@ fn optimize_warns_of_a_run_that_did_not_settle() {
         stderr(&o)
     );
     // far from the answer with a tiny learning rate: 24 steps all one way
-    let o = dtr(
-        &[
-            "optimize",
-            room,
-            "--target",
-            "dark.npy",
-            "--threads",
-            "1",
-            "--spp",
-            "1",
-            "--params",
-            "albedo",
-            "--set",
-            "albedo=0.6",
-            "--lr",
-            "0.001",
-            "--lr-end",
-            "1",
-            "--iters",
-            "24",
-            "-o",
-            "out2",
-        ],
+    let o = optimize_albedo(
         dir,
+        "dark.npy",
+        "out2",
+        &["--set", "albedo=0.6", "--lr", "0.001", "--lr-end", "1", "--iters", "24"],
     );
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(

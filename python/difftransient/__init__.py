@@ -251,6 +251,10 @@ def _settings(params: Optional[Mapping[str, Any]]) -> Tuple[List[tuple], List[tu
     return numbers, texts
 
 
+# the largest value of each count the renderer takes (u64 seed, usize threads; u32 otherwise)
+_COUNT_LIMITS = {"seed": 2**64 - 1, "threads": 2**63 - 1}
+
+
 def _count(name: str, v: Optional[int]) -> Optional[int]:
     """`v`, an optional count (spp, seed, threads, spp_boundary), checked by name: a whole
     number from 0 to 2⁶⁴ − 1 (the renderer refuses the zeros it cannot use)."""
@@ -262,9 +266,7 @@ def _count(name: str, v: Optional[int]) -> Optional[int]:
         raise TypeError(f"{name} must be a whole number, got {v!r} ({type(v).__name__})")
     if v < 0:
         raise ValueError(f"{name} must be >= 0, got {v}")
-    limit = 2**64 - 1 if name == "seed" else 2**32 - 1
-    if name == "threads":
-        limit = 2**63 - 1
+    limit = _COUNT_LIMITS.get(name, 2**32 - 1)
     if v > limit:
         raise ValueError(f"{name} must be at most {limit}, got {v}")
     return v

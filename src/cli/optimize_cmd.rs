@@ -257,7 +257,7 @@ pub fn run(a: OptimizeArgs) -> anyhow::Result<()> {
     }
     // everything that can stop the run before its first iteration is refused before the
     // folder is made (a parameter whose time derivative cannot be taken, ...)
-    problem.check(&start, &lr, a.lr_end)?;
+    let domains = problem.check(&start, &lr, a.lr_end)?;
     let (dir, created) = prepare_dir(&a.output, &[&a.scene, &a.target])?;
     let recovered = dir.join(if a.scene.extension().and_then(|e| e.to_str()) == Some("json") {
         "recovered.json"
@@ -324,7 +324,6 @@ pub fn run(a: OptimizeArgs) -> anyhow::Result<()> {
         (Ok(_), Some(e)) => return Err(abandon(&dir, created, logged, e)),
     };
     let last = steps.last().context("no iteration ran")?;
-    let domains = problem.domains(&problem.scene_at(&start)?, &start)?;
     for w in crate::optimize::unsettled(&a.params, &steps, &domains) {
         log::warn!("{}: {w}", dir.display());
     }

@@ -292,7 +292,7 @@ impl OutputSet {
         let dir = make_output_folder(output, &prefix)?;
         let inputs = input_metadata(scene_inputs);
         let name = prefix.file_name().unwrap_or_default().to_string_lossy().into_owned();
-        let lock_path = dir.join(format!(".{name}.dtr-lock"));
+        let lock_path = dir.join(Reserved::of(&name).lock);
         refuse_inputs_in_reserved_names(scene_inputs, &dir, &name)?;
         let lock = Self::lock(&lock_path, &prefix)?;
         // a set of its own: a signal from now on undoes it, whatever sets this process put
@@ -427,7 +427,7 @@ impl OutputSet {
                 .to_string_lossy()
                 .into_owned();
             let tmp = tempfile::Builder::new()
-                .prefix(&format!(".{name}.dtr-staging-"))
+                .prefix(&Reserved::of(&name).staging)
                 .tempdir_in(dir)
                 .map_err(|e| OutputError::io(dir, e))
                 .with_context(|| format!("cannot write to the output folder {}", dir.display()))?;
@@ -543,6 +543,25 @@ fn is_own_output(name: &str, stem: &str) -> bool {
     FIXED.contains(&suffix) || PREVIEWS.contains(&suffix) || derivative || strategy
 }
 
+/// The names a render to the prefix named NAME keeps beside its outputs: its lock file, its
+/// staging folders (a prefix, then tempfile's six characters) and its checkpoint's temporary
+/// files (a prefix, six characters, `.tmp`: `output::write_atomic`).
+struct Reserved {
+    lock: String,
+    staging: String,
+    checkpoint: String,
+}
+
+impl Reserved {
+    fn of(name: &str) -> Self {
+        Self {
+            lock: format!(".{name}.dtr-lock"),
+            staging: format!(".{name}.dtr-staging-"),
+            checkpoint: format!(".{name}.checkpoint."),
+        }
+    }
+}
+
 /// Refuses an input that lies where a render to the prefix named `name` in `dir` keeps its
 /// lock (`.NAME.dtr-lock`, removed at exit), a staging folder or a checkpoint's temporary
 /// file (removed as a killed render's, [`remove_stale_staging`]): an OBJ named like the lock
@@ -559,9 +578,10 @@ fn refuse_inputs_in_reserved_names(inputs: &[PathBuf], dir: &Path, name: &str) -
         let Some(first) = rest.components().next().and_then(|c| c.as_os_str().to_str()) else {
             continue;
         };
-        let reserved = first == format!(".{name}.dtr-lock")
-            || first.starts_with(&format!(".{name}.dtr-staging-"))
-            || (first.starts_with(&format!(".{name}.checkpoint.")) && first.ends_with(".tmp"));
+        let r = Reserved::of(name);
+        let reserved = first == r.lock
+            || first.starts_with(&r.staging)
+            || (first.starts_with(&r.checkpoint) && first.ends_with(".tmp"));
         if reserved {
             bail!(
                 "the input {} lies where dtr keeps the lock or temporary files of the output prefix {name} in {} (it would be removed): rename it, or write elsewhere",
@@ -580,8 +600,9 @@ fn refuse_inputs_in_reserved_names(inputs: &[PathBuf], dir: &Path, name: &str) -
 /// 2026-11-30). Called with the prefix's lock held, so no render is writing them.
 fn remove_stale_staging(dir: &Path, name: &str) {
     let random = |s: &str| s.len() == 6 && s.bytes().all(|b| b.is_ascii_alphanumeric());
-    let staging = format!(".{name}.dtr-staging-");
-    let checkpoint = format!(".{name}.checkpoint.");
+    let Reserved {
+        staging, checkpoint, ..
+    } = Reserved::of(name);
     let Ok(entries) = std::fs::read_dir(dir) else {
         return;
     };

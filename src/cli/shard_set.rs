@@ -42,7 +42,12 @@ pub fn file_sha256(path: &Path) -> anyhow::Result<String> {
     let mut file = std::fs::File::open(path).with_context(|| format!("cannot read {} to hash it", path.display()))?;
     let mut hash = Sha256::new();
     std::io::copy(&mut file, &mut hash).with_context(|| format!("cannot read {} to hash it", path.display()))?;
-    Ok(hash.finalize().iter().map(|b| format!("{b:02x}")).collect())
+    Ok(hex(&hash.finalize()))
+}
+
+/// Bytes as lowercase hex (a digest as the JSON records it).
+fn hex(bytes: &[u8]) -> String {
+    bytes.iter().map(|b| format!("{b:02x}")).collect()
 }
 
 /// Everything that decides a render's numbers, as JSON: the contents of its input files,
@@ -63,7 +68,7 @@ pub fn identity(
         hash.update((bytes.len() as u64).to_le_bytes());
         hash.update(&bytes);
     }
-    let digest: String = hash.finalize().iter().map(|b| format!("{b:02x}")).collect();
+    let digest = hex(&hash.finalize());
     let mut sets: Vec<String> = sets.iter().map(|s| canonical_set(s)).collect();
     sets.sort();
     Ok(json!({

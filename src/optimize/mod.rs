@@ -130,19 +130,7 @@ impl Problem {
         let scene = Scene::load_with_text(&self.scene, &self.fixed, &self.fixed_text)?;
         self.params
             .iter()
-            .map(|name| {
-                scene
-                    .params
-                    .iter()
-                    .find(|p| &p.name == name)
-                    .map(|p| p.value)
-                    .ok_or_else(|| {
-                        Error::Invalid(format!(
-                            "{}: no parameter {name:?} (dtr info lists them)",
-                            self.scene.display()
-                        ))
-                    })
-            })
+            .map(|name| Ok(self.param(&scene, name)?.value))
             .collect()
     }
 
@@ -190,12 +178,24 @@ impl Problem {
     /// `lr` decaying to `lr · lr_end` before its first iteration: the schedule, one start
     /// value, bound and rate per parameter, and the parameters on the scene at `start`
     /// (names, and time derivatives the estimators cannot take: `adjoint::check_params`).
-    /// `dtr optimize` calls it before it creates its output folder.
-    pub fn check(&self, start: &[f64], lr: &[f64], lr_end: f64) -> Result<(), Error> {
+    /// `dtr optimize` calls it before it creates its output folder. Returns where each
+    /// parameter may go ([`Problem::domains`]).
+    pub fn check(&self, start: &[f64], lr: &[f64], lr_end: f64) -> Result<Vec<Domain>, Error> {
         self.check_schedule(start, lr, lr_end)?;
         let scene = self.scene_at(start)?;
-        self.domains(&scene, start)?;
-        crate::adjoint::check_params(&scene, &self.params, &self.opts)
+        let domains = self.domains(&scene, start)?;
+        crate::adjoint::check_params(&scene, &self.params, &self.opts)?;
+        Ok(domains)
+    }
+
+    /// The parameter `name` of `scene` (a scene of this problem).
+    fn param<'a>(&self, scene: &'a Scene, name: &str) -> Result<&'a crate::params::Param, Error> {
+        scene.params.iter().find(|p| p.name == name).ok_or_else(|| {
+            Error::Invalid(format!(
+                "{}: no parameter {name:?} (dtr info lists them)",
+                self.scene.display()
+            ))
+        })
     }
 
     /// Where each parameter may go: the values its kind may take (`ParamKind::domain`) within
@@ -211,13 +211,7 @@ impl Problem {
                         "{name}: the start {v} is outside its bounds [{lo}, {hi}] (--bound)"
                     )));
                 }
-                let kind = &scene.params.iter().find(|p| &p.name == name).ok_or_else(|| {
-                    Error::Invalid(format!(
-                        "{}: no parameter {name:?} (dtr info lists them)",
-                        self.scene.display()
-                    ))
-                })?;
-                Ok(kind.kind.domain(v).0.within(lo, hi))
+                Ok(self.param(scene, name)?.kind.domain(v).0.within(lo, hi))
             })
             .collect()
     }
