@@ -343,38 +343,76 @@ fn check_tallies(h: &Header) -> Result<(), String> {
     Ok(())
 }
 
-/// Reads a checkpoint: its identity and what it saved. Every length is checked against the
-/// file, its checksum against its bytes, and its tallies and values for what a render
-/// writes, so a truncated, damaged or foreign file is refused with its name.
-pub fn read(path: &Path) -> Result<(serde_json::Value, Saved), Error> {
+/// The checkpoint's bytes with its header, read whole only once its start and header say it
+/// is a checkpoint no longer than its blobs allow: a 20 GB file of another kind at the
+/// checkpoint's path was read into memory whole before the checksum refused it.
+fn read_bounded(path: &Path) -> Result<(Vec<u8>, Header, u64), Error> {
+    use std::io::Read;
     let bad = |what: &str| Error::Invalid(format!("{}: not a usable dtr checkpoint: {what}", path.display()));
-    let meta = std::fs::metadata(path)
-        .map_err(|e| Error::Invalid(format!("{}: cannot read the checkpoint: {e}", path.display())))?;
-    if !meta.is_file() {
+    let cannot = |e: std::io::Error| Error::Invalid(format!("{}: cannot read the checkpoint: {e}", path.display()));
+    let mut file = std::fs::File::open(path).map_err(cannot)?;
+    let size = file.metadata().map_err(cannot)?;
+    if !size.is_file() {
         return Err(bad("not a regular file"));
     }
-    let bytes = std::fs::read(path)
-        .map_err(|e| Error::Invalid(format!("{}: cannot read the checkpoint: {e}", path.display())))?;
+    let size = size.len();
+    let mut bytes = vec![0u8; 16.min(size) as usize];
+    file.read_exact(&mut bytes).map_err(cannot)?;
     if bytes.starts_with(MAGIC_UNCHECKED) {
         return Err(bad(
             "it was written by an earlier dtr, without a checksum (render again without --resume)",
         ));
     }
-    if bytes.len() < 20 || &bytes[..8] != MAGIC {
+    if size < 20 || &bytes[..8] != MAGIC {
         return Err(bad("it does not start with DTRCKPT2"));
     }
+    let hlen = u64::from_le_bytes(bytes[8..16].try_into().expect("8 bytes"));
+    if hlen > HEADER_CAP || 20 + hlen > size {
+        return Err(bad("its header is cut short"));
+    }
+    (&mut file).take(hlen).read_to_end(&mut bytes).map_err(cannot)?;
+    let header: Header = serde_json::from_slice(&bytes[16..]).map_err(|e| bad(&format!("header: {e}")))?;
+    // the most its blobs can take: runs at most every value, with all their written bits
+    let most = header
+        .blobs
+        .iter()
+        .try_fold(20 + hlen, |sum, b| {
+            let size: u64 = if b.f64 { 8 } else { 4 };
+            let bits = if b.runs {
+                crate::film::written_words(b.len) as u64 * 8
+            } else {
+                0
+            };
+            (b.len as u64).checked_mul(size)?.checked_add(bits)?.checked_add(sum)
+        })
+        .unwrap_or(u64::MAX);
+    if size > most {
+        return Err(bad(&format!(
+            "it has trailing bytes ({size} bytes where its header allows at most {most})"
+        )));
+    }
+    bytes.reserve_exact((size - 16 - hlen) as usize);
+    file.take(most - 16 - hlen + 1)
+        .read_to_end(&mut bytes)
+        .map_err(cannot)?;
+    if bytes.len() as u64 > most || bytes.len() < 20 {
+        return Err(bad("it changed while it was read"));
+    }
+    Ok((bytes, header, hlen))
+}
+
+/// Reads a checkpoint: its identity and what it saved. Every length is checked against the
+/// file, its checksum against its bytes, and its tallies and values for what a render
+/// writes, so a truncated, damaged or foreign file is refused with its name.
+pub fn read(path: &Path) -> Result<(serde_json::Value, Saved), Error> {
+    let bad = |what: &str| Error::Invalid(format!("{}: not a usable dtr checkpoint: {what}", path.display()));
+    let (bytes, header, hlen) = read_bounded(path)?;
     let (bytes, crc) = bytes.split_at(bytes.len() - 4);
     if crc32fast::hash(bytes).to_le_bytes() != crc {
         return Err(bad(
             "its checksum does not match its bytes (the file was damaged or changed)",
         ));
     }
-    let hlen = u64::from_le_bytes(bytes[8..16].try_into().expect("8 bytes"));
-    if hlen > HEADER_CAP || 16 + hlen > bytes.len() as u64 {
-        return Err(bad("its header is cut short"));
-    }
-    let header: Header =
-        serde_json::from_slice(&bytes[16..16 + hlen as usize]).map_err(|e| bad(&format!("header: {e}")))?;
     check_tallies(&header).map_err(|e| bad(&e))?;
     let mut at = 16 + hlen as usize;
     // each blob: its entry, its written bits (stored by runs; else none) and its values' bytes
@@ -822,6 +860,44 @@ mod tests {
             let e = read(&path).unwrap_err().to_string();
             assert!(e.contains(says) && e.contains("r.checkpoint"), "{e}");
         }
+    }
+
+    /// A file far longer than its header allows, or of another kind, is refused from its
+    /// first bytes, never read into memory whole (a 20 GB file at the checkpoint's path took
+    /// 20.9 GB before the checksum refused it; these 4 TB, sparse, abort a whole read).
+    #[test]
+    fn a_checkpoint_is_not_read_past_what_its_header_allows() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("r.checkpoint");
+        let saved = Saved {
+            units: 1,
+            done: vec![true],
+            tallies: vec![None],
+            chunks: vec![None],
+            ..Default::default()
+        };
+        write(&path, &serde_json::json!({}), &saved).unwrap();
+        let good = std::fs::metadata(&path).unwrap().len();
+        read(&path).expect("as written");
+        let huge = 1u64 << 42;
+        std::fs::OpenOptions::new()
+            .write(true)
+            .open(&path)
+            .unwrap()
+            .set_len(huge)
+            .unwrap();
+        let e = read(&path).unwrap_err().to_string();
+        assert!(
+            e.contains(&format!("{huge} bytes where its header allows at most {good}")),
+            "{e}"
+        );
+        let other = dir.path().join("o.checkpoint");
+        std::fs::File::create(&other).unwrap().set_len(huge).unwrap();
+        let e = read(&other).unwrap_err().to_string();
+        assert!(
+            e.contains("o.checkpoint: not a usable dtr checkpoint: it does not start with DTRCKPT2"),
+            "{e}"
+        );
     }
 
     /// A damaged or edited checkpoint is refused by name, never resumed: bytes of its bins
