@@ -518,3 +518,40 @@ fn an_emission_that_overflows_the_film_is_named() {
         "nothing may be written"
     );
 }
+
+/// A refractive index so large that a path's optical path length would pass what 32-bit
+/// floats add up is refused naming its field: the medium's eta and a dielectric's int_ior.
+/// Before, `medium.eta = 3e38 --steady full` rendered all zeros with exit 0, every sample
+/// dropped as not finite (only the JSON's non_finite_samples said so). A large index that
+/// stays finite across the scene still renders.
+#[test]
+fn an_index_whose_path_lengths_overflow_is_named() {
+    let (e, _o) = render_fails(
+        &scenes().join("cornell_box.toml"),
+        &["--set", "medium.eta=3e38", "--steady", "full"],
+    );
+    assert!(
+        e.contains("cornell_box.toml: medium: field 'eta': 3e38 is too large") && e.contains("32-bit"),
+        "{e}"
+    );
+    let e = info_refuses(
+        &scenes().join("cornell_glass.toml"),
+        &["--set", "material.glass.int_ior=1e37"],
+    );
+    assert!(
+        e.contains(r#"cornell_glass.toml: material[2] "glass": field 'int_ior': 1e37 is too large"#),
+        "{e}"
+    );
+    let d = tempfile::tempdir().unwrap();
+    let o = dtr()
+        .args(["render", "--quiet", "--spp", "1", "--threads", "1", "--steady", "full"])
+        .arg(scenes().join("cornell_box.toml"))
+        .args(["--set", "medium.eta=1e30", "-o"])
+        .arg(d.path().join("x"))
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let j: serde_json::Value = serde_json::from_slice(&std::fs::read(d.path().join("x.json")).unwrap()).unwrap();
+    assert_eq!(j["non_finite_samples"], 0);
+    assert!(j["energy"]["primal"]["total"].as_f64().unwrap() > 0.0);
+}

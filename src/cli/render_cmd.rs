@@ -385,6 +385,9 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
     if let Some(w) = stats.energy.warning(&film.axis).filter(|_| primal_rendered) {
         log::warn!("{}: {w}", a.scene.display());
     }
+    if let Some(w) = dropped_samples_warning(stats.non_finite_samples) {
+        log::warn!("{}: {w}", a.scene.display());
+    }
     // the whole run: the interior pass, the boundary stage and the window-energy pilot
     let boundary = match &stats.boundary {
         Some(_) => format!("; boundary stage {:.2} s", stats.boundary_seconds),
@@ -407,6 +410,18 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
 
 /// Emission at or above this, in any channel, can overflow 32-bit floats as light adds up.
 const OVERFLOWING_EMISSION: f32 = 1e30;
+
+/// What a render that dropped samples as not finite says: the transient lacks their light
+/// (the kernel drops them so one bad sample cannot spoil a film; a render that dropped every
+/// sample came out all zeros with nothing said but the JSON's count).
+fn dropped_samples_warning(non_finite_samples: u64) -> Option<String> {
+    (non_finite_samples > 0).then(|| {
+        format!(
+            "{non_finite_samples} samples came out not finite and were dropped, so the transient lacks their light \
+             (non_finite_samples in the JSON); this is a defect of dtr or of an extreme scene value: please report it"
+        )
+    })
+}
 
 /// What a render whose numbers came out non-finite says (nothing is written). The kernel keeps
 /// every sample finite (non-finite ones are counted and dropped), so what is left is sums past
@@ -594,4 +609,18 @@ fn metadata(scene: &Scene, film: &Transient, stats: &RenderStats, a: &RenderArgs
         "opl_cut": stats.opl_cut,
     });
     meta
+}
+
+#[cfg(test)]
+mod tests {
+    /// Dropped samples are said on stderr, with how many, never only counted in the JSON.
+    #[test]
+    fn dropped_samples_are_said() {
+        assert_eq!(super::dropped_samples_warning(0), None);
+        let w = super::dropped_samples_warning(39979).unwrap();
+        assert!(
+            w.starts_with("39979 samples came out not finite and were dropped"),
+            "{w}"
+        );
+    }
 }

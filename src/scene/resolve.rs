@@ -65,6 +65,7 @@ pub(crate) fn resolve(described: Described, path: &Path) -> Result<Scene, SceneE
     }
     let (camera, width, height, filter) = camera_film::camera(&desc.camera, origin, &ctx)?;
     let materials = materials::materials(&desc.material, &ctx)?;
+    refuse_overflowing_opl(&desc, bounds, &integrator, &materials, &ctx)?;
     let emitters = emitters::emitters(&desc, &names, origin, &ctx)?;
     let channels = camera_film::channels(&desc, &params, &ctx)?;
     let mut film = camera_film::film(&desc.film, width, height, channels, filter, &ctx)?;
@@ -137,6 +138,50 @@ pub(crate) fn resolve(described: Described, path: &Path) -> Result<Scene, SceneE
             ..described
         }),
     })
+}
+
+/// Largest optical path length a path may reach: a render adds OPLs and their derivatives
+/// in f32, whose largest value is 3.4·10³⁸; a margin of 2¹⁰ keeps their sums finite.
+const OPL_CAP: f64 = f32::MAX as f64 / 1024.0;
+
+/// Refuses a refractive index so large that a path's OPL (the index times its length) could
+/// pass [`OPL_CAP`] within the scene: each of the path's `max_bounces + 1` segments is at
+/// most the diagonal of the box holding the geometry and the camera. Such a render came out
+/// all zeros, every sample dropped as not finite (`medium.eta = 3e38`), with exit 0.
+fn refuse_overflowing_opl(
+    desc: &SceneDesc,
+    bounds: Option<(glam::DVec3, glam::DVec3)>,
+    integrator: &IntegratorSpec,
+    materials: &[super::NamedMaterial],
+    ctx: &Ctx,
+) -> Result<(), SceneError> {
+    let camera = glam::DVec3::from_array(desc.camera.position);
+    let (lo, hi) = bounds.map_or((camera, camera), |(lo, hi)| (lo.min(camera), hi.max(camera)));
+    let reach = (hi - lo).length() * (integrator.max_bounces as f64 + 1.0);
+    let indices = std::iter::once((table_field("medium", "eta"), desc.medium.eta)).chain(
+        materials.iter().enumerate().filter_map(|(i, m)| match m.material {
+            super::Material::Dielectric { int_ior, .. } => {
+                Some((item_field("material", i, &m.name, "int_ior"), int_ior))
+            }
+            _ => None,
+        }),
+    );
+    for (field, index) in indices {
+        if index as f64 * reach > OPL_CAP {
+            return Err(ctx.invalid(
+                field,
+                format!(
+                    "{index:e} is too large: a path of {} segments across this scene ({:.3e} m corner to corner) \
+                     would reach an optical path length of {:.1e} m, past the {OPL_CAP:.1e} m a render adds up in \
+                     32-bit floats",
+                    integrator.max_bounces + 1,
+                    (hi - lo).length(),
+                    index as f64 * reach
+                ),
+            ));
+        }
+    }
+    Ok(())
 }
 
 fn integrator(desc: &SceneDesc, ctx: &Ctx) -> Result<IntegratorSpec, SceneError> {
