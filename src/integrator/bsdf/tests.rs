@@ -245,6 +245,36 @@ fn white_furnace() {
     }
 }
 
+/// Lobes of a roughness far below what f32 resolves in 1 − α² reflect (and transmit) what
+/// their smooth limit does: a white conductor of α 10⁻⁴ or 10⁻⁶ returns all of it, a
+/// dielectric's R + T is 1. Before, α² − 1 rounded to −1, D vanished at its peak and the
+/// samples drawn at m = n were lost: albedo 0.37 (conductor, α 10⁻⁴) and 0.14 (dielectric).
+#[test]
+fn tiny_roughness_keeps_its_light() {
+    for alpha in [1e-4f32, 1e-6, 5e-4] {
+        let white = Material::Conductor {
+            roughness: alpha,
+            specular: [1.0; 3],
+            ior: None,
+        };
+        for theta in [0.0f64, 0.6] {
+            let wo = dir(theta, 0.3);
+            for (what, l) in [
+                ("conductor", L::uniform(&white, 1.0)),
+                ("dielectric", L::uniform(&dielectric(alpha, 1.5), 1.0)),
+            ] {
+                let (m, se) = albedo(&l, wo, false, 20_000);
+                assert!(
+                    (m[0] - 1.0).abs() <= 4.0 * se[0] + 1e-3,
+                    "{what} α {alpha} θ {theta}: albedo {} ± {}",
+                    m[0],
+                    se[0]
+                );
+            }
+        }
+    }
+}
+
 /// A smooth dielectric reflects with probability F (the Fresnel reflectance at that angle,
 /// against its closed form at normal incidence ((η−1)/(η+1))²), refracts by Snell's law, and
 /// scales radiance by 1/η'² when it refracts; a smooth conductor mirrors with weight F·tint.
