@@ -255,9 +255,18 @@ pub(super) fn film(
 /// on a single channel).
 pub(super) fn channels(desc: &SceneDesc, params: &[Param], ctx: &Ctx) -> Result<usize, SceneError> {
     let mut colours: Vec<(String, Triple)> = Vec::new();
+    // every coloured input of a material: a diffuse albedo, a conductor's tint and complex
+    // index (a gold conductor in a grey scene was rendered mono, with red's Fresnel only)
     for (i, m) in desc.material.iter().enumerate() {
-        if let Some(a) = m.albedo {
-            colours.push((item_field("material", i, &m.name, "albedo"), a));
+        for (field, value) in [
+            ("albedo", m.albedo),
+            ("specular_reflectance", m.specular_reflectance),
+            ("eta", m.eta),
+            ("k", m.k),
+        ] {
+            if let Some(a) = value {
+                colours.push((item_field("material", i, &m.name, field), a));
+            }
         }
     }
     for (i, e) in desc.emitter.iter().enumerate() {
@@ -383,6 +392,30 @@ mod tests {
         assert_eq!(load_text("mono_ok.toml", &text, &[], &[]).unwrap().film.channels, 1);
         let text = mini_with("bins = 10", "bins = 10\nchannels = \"rgb\"");
         assert_eq!(load_text("rgb.toml", &text, &[], &[]).unwrap().film.channels, 3);
+        // a conductor's tint and complex index are colours too: "auto" makes the film rgb,
+        // "mono" refuses them (before, a gold conductor in a grey scene rendered mono, with
+        // red's Fresnel only)
+        for (field, value) in [
+            ("specular_reflectance", "[1.0, 0.9, 0.5]"),
+            ("eta", "[0.2, 0.4, 1.4]\nk = 3.0"),
+            ("k", "[3.6, 2.4, 1.8]\neta = 0.3"),
+        ] {
+            let conductor = |channels: &str| {
+                mini_with("bins = 10", &format!("bins = 10\nchannels = \"{channels}\"")).replacen(
+                    "type = \"diffuse\"\nalbedo = 0.5",
+                    &format!("type = \"conductor\"\n{field} = {value}"),
+                    1,
+                )
+            };
+            let auto = load_text("auto.toml", &conductor("auto"), &[], &[]).unwrap();
+            assert_eq!(auto.film.channels, 3, "{field}");
+            expect_err(
+                "mono.toml",
+                &conductor("mono"),
+                &[],
+                &[&format!("material[0] \"white\": field '{field}'"), "unequal channels"],
+            );
+        }
         let text = mini_with("bins = 10", "bins = 10\nchannels = \"grey\"");
         expect_err(
             "ch.toml",
