@@ -532,6 +532,33 @@ fn check_materials(scene: &Scene, motion: &Motion, kind: IntegratorKind, boundar
     Ok(())
 }
 
+/// Refuses a camera inside a dielectric whose index differs from the scene's medium: every
+/// path starts in `[medium] eta` (the kernel tracks the medium from the camera on), so the
+/// first segment's OPL and the refraction on its way out were those of the medium outside,
+/// silently (a camera in a glass cube of index 1.5 put the arrival 1 m early per metre of
+/// glass).
+fn check_camera_medium(ctx: &RenderContext) -> Result<(), Error> {
+    let scene = ctx.scene;
+    let (_, _, forward) = scene.camera.frame();
+    let mut counts = crate::integrator::trace::RayCounts::default();
+    let Some((prim, eta)) =
+        crate::integrator::medium::first_dielectric(ctx, scene.camera.position, forward, &mut counts)
+    else {
+        return Ok(());
+    };
+    if eta == scene.eta {
+        return Ok(());
+    }
+    let shape = &scene.shapes[scene.geometry.tri_shape[prim as usize] as usize];
+    Err(Error::Invalid(format!(
+        "{}: the camera lies inside {} of shape {:?} (index {eta}), but every path starts in the scene's medium (medium.eta = {}): its first segment would be timed and refracted as if in that medium. Move the camera out of the shape, or set medium.eta = {eta} and leave out the shape around the camera",
+        scene.source.display(),
+        describe_material(scene, ctx.tri_material[prim as usize]),
+        shape.name,
+        scene.eta,
+    )))
+}
+
 /// Refuses a boundary stage whose moving shapes cross another surface or themselves: the
 /// crossing curve is a discontinuity on no mesh edge, which the boundary stage does not sample
 /// (`boundary::interpenetration`).
@@ -830,6 +857,7 @@ impl<'s> Run<'s> {
             ctx.use_time_edges();
         }
         ctx.cut_to_window(opts.steady);
+        check_camera_medium(&ctx)?;
         let boundary_wanted = derivs > 0 && ctx.motion.moves_geometry() && opts.boundary != BoundaryMode::InteriorOnly;
         let pool = thread_pool(opts.threads)?;
         if boundary_wanted {

@@ -555,3 +555,47 @@ fn an_index_whose_path_lengths_overflow_is_named() {
     assert_eq!(j["non_finite_samples"], 0);
     assert!(j["energy"]["primal"]["total"].as_f64().unwrap() > 0.0);
 }
+
+/// A camera inside a dielectric of another index than the scene's medium is refused, naming
+/// the shape, its material and both indices: every path starts in the scene's medium, so a
+/// camera in a glass cube (η 1.5, [−1, 1]³) looking at a lamp 2 m away put the first arrival
+/// at OPL 2.0 m instead of 2.5 m, with exit 0 (found by an independent sweep). The same
+/// camera outside the cube renders, and so does one inside a cube whose index is the medium's.
+#[test]
+fn a_camera_inside_a_dielectric_is_refused() {
+    let d = tempfile::tempdir().unwrap();
+    let scene = |medium: &str| {
+        format!(
+            "{medium}[camera]\nposition = [0.0, 0.0, 0.0]\nlook_at = [0.0, 0.0, -1.0]\nfov = 30.0\nresolution = [8, 8]\n\
+             [film]\nstart_opl = 0.0\nbin_width_opl = 0.05\nbins = 200\n\
+             [[material]]\nname = \"glass\"\ntype = \"dielectric\"\nint_ior = 1.5\n\
+             [[material]]\nname = \"black\"\ntype = \"diffuse\"\nalbedo = 0.0\n\
+             [[shape]]\nname = \"cube\"\ntype = \"cube\"\nmaterial = \"glass\"\n\
+             [[shape]]\nname = \"lamp\"\ntype = \"rectangle\"\nmaterial = \"black\"\ntranslate = [0.0, 0.0, -2.0]\nscale = [3.0, 3.0, 1.0]\n\
+             [[emitter]]\nname = \"light\"\ntype = \"area\"\nshape = \"lamp\"\nradiance = 1.0\n"
+        )
+    };
+    let inside = write(d.path(), "inside.toml", &scene(""));
+    let (e, _o) = render_fails(&inside, &["--threads", "1"]);
+    assert!(
+        e.contains(
+            r#"inside.toml: the camera lies inside material "glass" (type dielectric) of shape "cube" (index 1.5)"#
+        ) && e.contains("medium.eta = 1)"),
+        "{e}"
+    );
+    let renders = |scene: &Path, extra: &[&str]| {
+        let o = dtr()
+            .args(["render", "--quiet", "--spp", "1", "--threads", "1", "-o"])
+            .arg(d.path().join("x"))
+            .arg(scene)
+            .args(extra)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        std::fs::remove_file(d.path().join("x.npy")).unwrap();
+        std::fs::remove_file(d.path().join("x.json")).unwrap();
+    };
+    renders(&inside, &["--set", "camera.position.2=3"]);
+    let matched = write(d.path(), "matched.toml", &scene("[medium]\neta = 1.5\n"));
+    renders(&matched, &[]);
+}

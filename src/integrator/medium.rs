@@ -49,24 +49,30 @@ pub fn has_dielectric(ctx: &RenderContext) -> bool {
 /// nested as their `exterior`s say; a ray that meets no dielectric leaves `p` in the scene's
 /// medium.
 pub fn medium_around(ctx: &RenderContext, p: Vec3, dir: Vec3, counts: &mut RayCounts) -> f32 {
+    first_dielectric(ctx, p, dir, counts).map_or(ctx.scene.eta, |(_, eta)| eta)
+}
+
+/// The first dielectric surface the ray from `p` along unit `dir` crosses (its triangle) and
+/// the index on `p`'s side of it ([`medium_around`]); None when it meets none.
+pub fn first_dielectric(ctx: &RenderContext, p: Vec3, dir: Vec3, counts: &mut RayCounts) -> Option<(u32, f32)> {
     if !has_dielectric(ctx) {
-        return ctx.scene.eta;
+        return None;
     }
     let eps = self_intersection_eps(&V3::<f32>::splat(p), ctx.scene.offset_scale);
     let mut tnear = 0.0f32;
     for _ in 0..MAX_CROSSINGS {
         counts.intersect += 1;
-        let Some(h) = ctx.accel.intersect1(p.to_array(), dir.to_array(), tnear, f32::INFINITY) else {
-            break;
-        };
+        let h = ctx
+            .accel
+            .intersect1(p.to_array(), dir.to_array(), tnear, f32::INFINITY)?;
         let n = ctx.face_normal(h.prim);
         // the side `p` is on: the one the ray arrives from
         if let Some(eta) = side_eta(ctx, h.prim, n, -dir) {
-            return eta;
+            return Some((h.prim, eta));
         }
         tnear = h.t + eps;
     }
-    ctx.scene.eta
+    None
 }
 
 #[cfg(test)]
