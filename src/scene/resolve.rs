@@ -65,11 +65,11 @@ pub(crate) fn resolve(described: Described, path: &Path) -> Result<Scene, SceneE
     }
     let (camera, width, height, filter) = camera_film::camera(&desc.camera, origin, &ctx)?;
     let materials = materials::materials(&desc.material, &ctx)?;
-    refuse_overflowing_opl(&desc, bounds, &integrator, &materials, &ctx)?;
     let emitters = emitters::emitters(&desc, &names, origin, &ctx)?;
     let channels = camera_film::channels(&desc, &params, &ctx)?;
     let mut film = camera_film::film(&desc.film, width, height, channels, filter, &ctx)?;
     let (mut shapes, mut geometry) = super::shapes::build(&desc, &names, &emitters, &ctx, &meshes, origin)?;
+    refuse_overflowing_opl(&desc, bounds, &integrator, &materials, &ctx)?;
     let lifted_emitters = super::flush::lift_flush_emitters(&mut shapes, &mut geometry, offset_scale);
     if let Some((d, o, delta)) = super::flush::flush_dielectric(&shapes, &geometry, &materials, offset_scale) {
         let (name, other) = (&shapes[d].name, &shapes[o].name);
@@ -144,8 +144,8 @@ pub(crate) fn resolve(described: Described, path: &Path) -> Result<Scene, SceneE
 /// in f32, whose largest value is 3.4·10³⁸; a margin of 2¹⁰ keeps their sums finite.
 const OPL_CAP: f64 = f32::MAX as f64 / 1024.0;
 
-/// Refuses a refractive index so large that a path's OPL (the index times its length) could
-/// pass [`OPL_CAP`] within the scene: each of the path's `max_bounces + 1` segments is at
+/// Refuses a refractive index (above 1) so large that a path's OPL (the index times its
+/// length) could pass [`OPL_CAP`] within the scene: each of the path's `max_bounces + 1` segments is at
 /// most the diagonal of the box holding the geometry and the camera. Such a render came out
 /// all zeros, every sample dropped as not finite (`medium.eta = 3e38`), with exit 0.
 fn refuse_overflowing_opl(
@@ -166,8 +166,10 @@ fn refuse_overflowing_opl(
             _ => None,
         }),
     );
+    // an index of 1 or less is the scene's size, not the index (the shapes refuse geometry
+    // beyond 32-bit floats; a path that still overflows is counted and said as dropped)
     for (field, index) in indices {
-        if index as f64 * reach > OPL_CAP {
+        if index > 1.0 && index as f64 * reach > OPL_CAP {
             return Err(ctx.invalid(
                 field,
                 format!(
