@@ -1449,11 +1449,13 @@ const PILOT_STREAM: u64 = 0x9e37_79b9_7f4a_7c15;
 const PILOT_STREAM_2: u64 = 0xd1b5_4a32_d192_ed03;
 
 /// The window-energy pilot traces about 1/`PILOT_SHARE` of the render's paths, at least
-/// `PILOT_PATHS.0` and at most `PILOT_PATHS.1` (and at most two per pixel): a rough estimate
+/// `PILOT_PATHS.0` and at most `PILOT_PATHS.1` (two per pixel at most, unless the film is too
+/// small for `PILOT_PATHS.0` at that: then up to `PILOT_MAX_PASSES` passes): a rough estimate
 /// suffices for the report and its warning, and the pilot must cost far less than the cut
 /// saves.
 const PILOT_SHARE: usize = 256;
 const PILOT_PATHS: (usize, usize) = (1024, 1 << 15);
+const PILOT_MAX_PASSES: usize = 64;
 
 /// The primal energy that arrives after the window, estimated by an uncut pilot of the path
 /// tracer (one sample per pixel of a share of the film; see [`PILOT_SHARE`]), for the energy
@@ -1462,10 +1464,11 @@ const PILOT_PATHS: (usize, usize) = (1024, 1 << 15);
 ///
 /// The film is cut into segments (a tile's rows; a tile of an exhaustive scan, whose paths
 /// start at its sensor points), and the segments, in order, into strata of equal count. Each
-/// stratum sends two segments drawn uniformly from it (with replacement; seed streams of
-/// their own), each weighted by the stratum's count: unbiased, and the difference of the two
-/// gives the standard error, both their Monte Carlo noise and what the segments left out
-/// would have added. Where a pass covers the film, each stratum is one segment traced twice.
+/// stratum sends a segment drawn uniformly from it in each of two passes (or more, on a film
+/// too small for the pilot's paths in two; with replacement; seed streams of their own), each
+/// weighted by the stratum's count: unbiased, and the spread of the passes gives the standard
+/// error, both their Monte Carlo noise and what the segments left out would have added. Where
+/// a pass covers the film, each stratum is one segment traced in every pass.
 /// Until 2026-11-30 the pilot took every n-th tile, which on a film of 8 × 8 tiles was one
 /// column of them: the Cornell box's energy after an early window read 0.2–1.9× its value.
 /// Leaves `ctx` uncut.
@@ -1493,20 +1496,30 @@ fn pilot_energy_after(
             })
         })
         .collect();
-    // paths per pass, and how many segments of (about) TILE paths that takes
+    // paths per pass, and how many segments of (about) TILE paths that takes; a film too
+    // small for that at one path per pixel takes more passes, each stratum a draw in each (an
+    // exhaustive scan of 16 sensor points sent 2 × 16 paths, and reported a third of the
+    // energy after its window with an error bar 3× too small)
     let target = (render_paths / PILOT_SHARE).clamp(PILOT_PATHS.0, PILOT_PATHS.1) / 2;
     let stride = segments.len().div_ceil(target.div_ceil(TILE).max(1)).max(1);
+    let film_paths: usize = segments.iter().map(|s| s.2).sum();
+    let passes = (2 * target).div_ceil(film_paths.max(1)).clamp(2, PILOT_MAX_PASSES);
     let strata: Vec<(usize, usize)> = (0..segments.len())
         .step_by(stride)
         .map(|a| (a, stride.min(segments.len() - a)))
         .collect();
-    // per stratum: its count times each draw's energy after the window, and the paths
-    let draws: Vec<([f64; 2], u64)> = pool.install(|| {
+    // per stratum: its count times each pass's energy after the window, and the paths
+    let draws: Vec<(Vec<f64>, u64)> = pool.install(|| {
         strata
             .par_iter()
             .enumerate()
             .map(|(k, &(first, count))| {
-                let draw = |stream: u64| {
+                let draw = |pass: usize| {
+                    let stream = match pass {
+                        0 => PILOT_STREAM,
+                        1 => PILOT_STREAM_2,
+                        _ => hash_u64(PILOT_STREAM ^ pass as u64),
+                    };
                     let pick = hash_u64(seed ^ stream ^ hash_u64(k as u64)) % count as u64;
                     let (x0, y0, tw, th) = segments[first + pick as usize];
                     let mut film = ctx.tile_film(x0, y0, tw, th, 0);
@@ -1520,14 +1533,21 @@ fn pilot_energy_after(
                     );
                     (count as f64 * film.tails()[1], tw as u64)
                 };
-                let ((a, pa), (b, pb)) = (draw(PILOT_STREAM), draw(PILOT_STREAM_2));
-                ([a, b], pa + pb)
+                let (energies, paths): (Vec<f64>, Vec<u64>) = (0..passes).map(draw).unzip();
+                (energies, paths.iter().sum())
             })
             .collect()
     });
-    let after: f64 = draws.iter().map(|([a, b], _)| 0.5 * (a + b)).sum();
-    // Var((a + b)/2) = Var(a)/2 = E[(a − b)²]/4 for independent draws, summed over the strata
-    let var: f64 = draws.iter().map(|([a, b], _)| 0.25 * (a - b).powi(2)).sum();
+    let mean = |e: &[f64]| e.iter().sum::<f64>() / e.len() as f64;
+    let after: f64 = draws.iter().map(|(e, _)| mean(e)).sum();
+    // the variance of each stratum's mean over its passes, from their spread, summed
+    let var: f64 = draws
+        .iter()
+        .map(|(e, _)| {
+            let m = mean(e);
+            e.iter().map(|a| (a - m).powi(2)).sum::<f64>() / (e.len() * (e.len() - 1)) as f64
+        })
+        .sum();
     (after, var.sqrt(), draws.iter().map(|d| d.1).sum())
 }
 
