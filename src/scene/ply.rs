@@ -28,11 +28,27 @@ pub fn load_ply(path: &Path) -> Result<PlyMesh, String> {
 
 /// [`load_ply`] for bytes already read.
 pub fn parse_ply(bytes: &[u8]) -> Result<PlyMesh, String> {
-    let parsed =
-        std::panic::catch_unwind(|| Parser::<DefaultElement>::new().read_ply(&mut std::io::Cursor::new(bytes)))
-            .map_err(|_| "the PLY parser failed on this file".to_string())?;
-    let ply = parsed.map_err(|e| format!("cannot parse it: {e}"))?;
-    let vertices = ply.payload.get("vertex").ok_or("no vertex element")?;
+    let parsed = std::panic::catch_unwind(|| {
+        // the cursor itself as the parser's reader (`read_ply` reads through a buffer of its
+        // own), so its position says where the elements end
+        let mut reader = ply_rs_bw::parser::Reader::new(std::io::Cursor::new(bytes));
+        let parser = Parser::<DefaultElement>::new();
+        let header = parser.read_header(&mut reader)?;
+        let payload = parser.read_payload(&mut reader, &header)?;
+        Ok::<_, ply_rs_bw::parser::ParseError>((payload, reader.get_ref().position() as usize))
+    })
+    .map_err(|_| "the PLY parser failed on this file".to_string())?;
+    let (payload, read) = parsed.map_err(|e| format!("cannot parse it: {e}"))?;
+    // bytes past the elements the header declares: a header that counts too few faces (the
+    // rest were dropped silently), or another file appended
+    let rest = &bytes[read.min(bytes.len())..];
+    if !rest.iter().all(u8::is_ascii_whitespace) {
+        return Err(format!(
+            "{} bytes follow the elements its header declares (does the header count every vertex and face?)",
+            rest.len()
+        ));
+    }
+    let vertices = payload.get("vertex").ok_or("no vertex element")?;
     let mut mesh = PlyMesh::default();
     for (i, v) in vertices.iter().enumerate() {
         let coord = |k: &str| -> Result<f64, String> {
@@ -50,7 +66,7 @@ pub fn parse_ply(bytes: &[u8]) -> Result<PlyMesh, String> {
         mesh.positions.push(DVec3::new(coord("x")?, coord("y")?, coord("z")?));
     }
     let n = mesh.positions.len();
-    let faces = ply.payload.get("face").map(Vec::as_slice).unwrap_or_default();
+    let faces = payload.get("face").map(Vec::as_slice).unwrap_or_default();
     for (f, face) in faces.iter().enumerate() {
         let list = face
             .get("vertex_indices")
@@ -135,6 +151,12 @@ mod tests {
         [0u32, 1, 2].iter().for_each(|i| b.extend(i.to_le_bytes()));
         let m = parse_ply(&b).unwrap();
         assert_eq!(m.tris, vec![[0, 1, 2]]);
+        // another face after the one the header declares
+        let mut longer = b.clone();
+        longer.push(3);
+        [2u32, 1, 0].iter().for_each(|i| longer.extend(i.to_le_bytes()));
+        let e = parse_ply(&longer).unwrap_err();
+        assert!(e.contains("13 bytes follow the elements its header declares"), "{e}");
         assert_eq!(m.positions[2], DVec3::new(0.0, 3.0, 0.5));
     }
 
@@ -148,5 +170,14 @@ mod tests {
         let bow = QUAD.replace("4 0 1 2 3", "4 0 2 1 3");
         assert!(e(&bow).contains("face 0: its 4 corners do not bound one simple polygon"));
         assert!(e(&QUAD.replace("property float z\n", "").replace(" 0\n", "\n")).contains("no z property"));
+        // a header that counts one face too few (the face was dropped silently) or another
+        // file appended; trailing whitespace is kept
+        let short = QUAD.replace("element face 1", "element face 0");
+        assert!(
+            e(&short).contains("bytes follow the elements its header declares"),
+            "{}",
+            e(&short)
+        );
+        parse_ply(format!("{QUAD}\n\n").as_bytes()).unwrap();
     }
 }
