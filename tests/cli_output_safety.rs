@@ -179,6 +179,26 @@ fn a_second_render_to_a_locked_prefix_is_refused() {
     assert_eq!(listing(dir.path()), ["busy.json", "busy.npy", "room.json", "room.toml"]);
 }
 
+/// A symbolic link where a render keeps its lock file is refused, and what it leads to is left
+/// alone: the lock was opened through it (creating the file a dangling link named, anywhere
+/// the link pointed).
+#[cfg(unix)]
+#[test]
+fn a_link_in_place_of_the_lock_file_is_refused() {
+    let dir = workdir();
+    let target = dir.path().join("elsewhere.txt");
+    std::os::unix::fs::symlink(&target, dir.path().join(".busy.dtr-lock")).unwrap();
+    let o = dtr(&["render", "room.toml", "-o", "busy", "--spp", "1", "-q"], dir.path());
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains(".busy.dtr-lock is a symbolic link where dtr keeps the lock"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(!target.exists(), "the lock was created through the link");
+    assert!(!dir.path().join("busy.npy").exists());
+}
+
 #[cfg(unix)]
 #[test]
 fn sigterm_leaves_no_files_behind() {

@@ -321,10 +321,19 @@ impl OutputSet {
     fn lock(path: &Path, prefix: &Path) -> anyhow::Result<File> {
         loop {
             let _writing = writing();
-            let f = std::fs::OpenOptions::new()
-                .create(true)
-                .truncate(false)
-                .write(true)
+            // a link there would have dtr create, lock and write through it wherever it leads
+            if std::fs::symlink_metadata(path).is_ok_and(|m| m.file_type().is_symlink()) {
+                bail!(
+                    "{} is a symbolic link where dtr keeps the lock of the output prefix {}; remove it",
+                    path.display(),
+                    prefix.display()
+                );
+            }
+            let mut open = std::fs::OpenOptions::new();
+            open.create(true).truncate(false).write(true);
+            #[cfg(unix)]
+            std::os::unix::fs::OpenOptionsExt::custom_flags(&mut open, libc::O_NOFOLLOW);
+            let f = open
                 .open(path)
                 .map_err(|e| OutputError::io(path, e))
                 .with_context(|| format!("cannot lock the output prefix {}", prefix.display()))?;
