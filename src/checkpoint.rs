@@ -577,7 +577,7 @@ pub fn set_signal_writer(f: Option<Box<dyn Fn() + Send>>) {
     *ON_SIGNAL.lock().unwrap_or_else(|e| e.into_inner()) = f;
 }
 
-/// Writes the checkpoint of the running render, if any (called on SIGINT/SIGTERM).
+/// Writes the checkpoint of the running render, if any (called on SIGINT/SIGTERM/SIGHUP).
 pub fn write_on_signal() {
     if let Some(f) = ON_SIGNAL.lock().unwrap_or_else(|e| e.into_inner()).as_ref() {
         f();

@@ -898,7 +898,7 @@ impl<'s> Run<'s> {
         Some(saved)
     }
 
-    /// On SIGINT/SIGTERM, write the state of the running pass, as `snapshot` takes it.
+    /// On SIGINT/SIGTERM/SIGHUP, write the state of the running pass, as `snapshot` takes it.
     fn watch(&self, snapshot: impl Fn() -> Saved + Send + 'static) {
         if let Some(ck) = self.checkpointing() {
             let ck = ck.clone();

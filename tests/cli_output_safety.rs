@@ -199,42 +199,46 @@ fn a_link_in_place_of_the_lock_file_is_refused() {
     assert!(!dir.path().join("busy.npy").exists());
 }
 
+/// SIGTERM, and SIGHUP (the terminal closed; before, it killed the render and left its lock
+/// file and staging folder), end a render with 128 + the signal and nothing left behind.
 #[cfg(unix)]
 #[test]
-fn sigterm_leaves_no_files_behind() {
-    let dir = workdir();
-    let mut child = Command::new(env!("CARGO_BIN_EXE_dtr"))
-        .current_dir(dir.path())
-        .args([
-            "render",
-            "room.toml",
-            "-o",
-            "out/run",
-            "--spp",
-            "1000000",
-            "-q",
-            "--threads",
-            "1",
-        ])
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .unwrap();
-    // the lock file shows that the render has started
-    let lock = dir.path().join("out/.run.dtr-lock");
-    let t0 = std::time::Instant::now();
-    while !lock.exists() && t0.elapsed().as_secs() < 30 {
-        std::thread::sleep(std::time::Duration::from_millis(20));
+fn sigterm_and_sighup_leave_no_files_behind() {
+    for signal in [libc::SIGTERM, libc::SIGHUP] {
+        let dir = workdir();
+        let mut child = Command::new(env!("CARGO_BIN_EXE_dtr"))
+            .current_dir(dir.path())
+            .args([
+                "render",
+                "room.toml",
+                "-o",
+                "out/run",
+                "--spp",
+                "1000000",
+                "-q",
+                "--threads",
+                "1",
+            ])
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap();
+        // the lock file shows that the render has started
+        let lock = dir.path().join("out/.run.dtr-lock");
+        let t0 = std::time::Instant::now();
+        while !lock.exists() && t0.elapsed().as_secs() < 30 {
+            std::thread::sleep(std::time::Duration::from_millis(20));
+        }
+        assert!(lock.exists(), "the render never started");
+        std::thread::sleep(std::time::Duration::from_millis(200));
+        unsafe { libc::kill(child.id() as i32, signal) };
+        let status = child.wait().unwrap();
+        assert_eq!(status.code(), Some(128 + signal), "signal {signal}: {status:?}");
+        assert!(
+            listing(&dir.path().join("out")).is_empty(),
+            "signal {signal}: {:?}",
+            listing(&dir.path().join("out"))
+        );
     }
-    assert!(lock.exists(), "the render never started");
-    std::thread::sleep(std::time::Duration::from_millis(200));
-    unsafe { libc::kill(child.id() as i32, libc::SIGTERM) };
-    let status = child.wait().unwrap();
-    assert_eq!(status.code(), Some(128 + libc::SIGTERM), "{status:?}");
-    assert!(
-        listing(&dir.path().join("out")).is_empty(),
-        "{:?}",
-        listing(&dir.path().join("out"))
-    );
 }
 
 #[test]

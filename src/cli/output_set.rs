@@ -14,7 +14,7 @@
 //! - **Whole or nothing.** Every file is written into a staging folder beside the outputs and
 //!   moved into place only when all of them are written, the JSON last (its presence marks a
 //!   complete set). A failure before that removes the staging folder.
-//! - **Signals.** SIGINT and SIGTERM remove the staging folder and the lock file and exit
+//! - **Signals.** SIGINT, SIGTERM and SIGHUP remove the staging folder and the lock file and exit
 //!   with 128 + the signal number; no temporary file is left behind. The writes into the
 //!   staging folder and the moves into place each hold one lock (`WRITING`) that the signal
 //!   thread takes before it removes anything and keeps until the process exits: a signal
@@ -71,13 +71,14 @@ fn writing() -> std::sync::MutexGuard<'static, ()> {
     }
 }
 
-/// Starts the thread that cleans up on SIGINT/SIGTERM (once per process).
+/// Starts the thread that cleans up on SIGINT/SIGTERM/SIGHUP (once per process).
 fn install_signal_cleanup() -> anyhow::Result<()> {
     static STARTED: std::sync::Once = std::sync::Once::new();
     let mut result = Ok(());
     STARTED.call_once(|| {
-        use signal_hook::consts::{SIGINT, SIGTERM};
-        match signal_hook::iterator::Signals::new([SIGINT, SIGTERM]) {
+        use signal_hook::consts::{SIGHUP, SIGINT, SIGTERM};
+        // SIGHUP: the terminal a render runs in was closed
+        match signal_hook::iterator::Signals::new([SIGINT, SIGTERM, SIGHUP]) {
             Ok(mut signals) => {
                 std::thread::spawn(move || {
                     for sig in signals.forever() {
@@ -107,7 +108,7 @@ fn install_signal_cleanup() -> anyhow::Result<()> {
             Err(e) => result = Err(e),
         }
     });
-    result.context("cannot install the SIGINT/SIGTERM handler")
+    result.context("cannot install the SIGINT/SIGTERM/SIGHUP handler")
 }
 
 fn watch(p: &Path) {

@@ -106,7 +106,7 @@ pub struct RenderArgs {
     /// Also writes PREFIX.steady.npy (the steady image, for the merge).
     #[arg(long, value_name = "I/N", value_parser = parse_shard)]
     pub shard: Option<crate::shard::Shard>,
-    /// Write the finished work to PREFIX.checkpoint every SECONDS (and on SIGINT/SIGTERM), so
+    /// Write the finished work to PREFIX.checkpoint every SECONDS (and on SIGINT/SIGTERM/SIGHUP), so
     /// that `--resume` continues an interrupted render to the same bytes.
     #[arg(long, value_name = "SECONDS")]
     pub checkpoint: Option<f64>,
