@@ -103,3 +103,30 @@ fn a_reader_that_stops_early_is_not_an_error() {
         assert_eq!(out.status.code(), Some(0), "json {json}: {err}");
     }
 }
+
+/// Standard output the file system refuses (a full disk) is an output that could not be
+/// written, exit 3, for every command that prints: before, `dtr info > /dev/full` exited 2, as
+/// if its input were bad.
+#[cfg(target_os = "linux")]
+#[test]
+fn a_full_standard_output_is_an_output_error() {
+    let scene = common::scene_path("diff_room.toml");
+    let s = scene.to_str().unwrap();
+    for args in [
+        vec!["info", s],
+        vec!["import", common::scene_path("cornell_box.xml").to_str().unwrap()],
+        vec!["completions", "bash"],
+    ] {
+        let o = std::process::Command::new(env!("CARGO_BIN_EXE_dtr"))
+            .args(&args)
+            .stdout(std::fs::OpenOptions::new().write(true).open("/dev/full").unwrap())
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(3), "{args:?}: {err}");
+        assert!(
+            err.contains("standard output") && err.contains("No space left"),
+            "{args:?}: {err}"
+        );
+    }
+}

@@ -3,7 +3,7 @@
 
 use super::output_set::{input_metadata, make_output_folder, replaced_input};
 use crate::scene::{Format, Scene, mitsuba};
-use anyhow::{Context, bail};
+use anyhow::bail;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
@@ -33,7 +33,7 @@ pub fn run(a: ImportArgs) -> anyhow::Result<()> {
     // error names the file the user wrote, not the output that is not written yet.
     let scene = Scene::from_str(&imported.toml, Format::Toml, &a.scene, &[]).map_err(|e| imported.annotate(e))?;
     match &a.output {
-        None => super::write_stdout(imported.toml.as_bytes()).context("writing to standard output")?,
+        None => super::write_stdout(imported.toml.as_bytes())?,
         Some(out) => {
             if out.extension().and_then(|e| e.to_str()) != Some("toml") {
                 bail!(

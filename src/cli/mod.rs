@@ -81,13 +81,15 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
 }
 
 /// Writes `bytes` to standard output. A reader that stops early (`dtr info … | head`) is not
-/// an error: the rest is dropped and the command still succeeds.
-pub(crate) fn write_stdout(bytes: &[u8]) -> std::io::Result<()> {
+/// an error: the rest is dropped and the command still succeeds. Any other failure is an
+/// output the file system refused (exit status 3; `dtr info > /dev/full` exited 2, as if its
+/// input were bad).
+pub(crate) fn write_stdout(bytes: &[u8]) -> Result<(), crate::output::OutputError> {
     use std::io::Write;
     let mut out = std::io::stdout().lock();
     match out.write_all(bytes).and_then(|()| out.flush()) {
         Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(()),
-        r => r,
+        r => r.map_err(|e| crate::output::OutputError::io(std::path::Path::new("standard output"), e)),
     }
 }
 
