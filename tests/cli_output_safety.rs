@@ -130,6 +130,14 @@ fn output_prefix_rules() {
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(dir.path().join("out.npy").is_file() && dir.path().join("out.json").is_file());
     assert!(!dir.path().join("out.npy.npy").exists());
+    // the JSON's name names the set too (before: run.json.npy and run.json.json)
+    let o = dtr(
+        &["render", "room.toml", "-o", "run.json", "--spp", "1", "-q"],
+        dir.path(),
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(dir.path().join("run.npy").is_file() && dir.path().join("run.json").is_file());
+    assert!(!dir.path().join("run.json.json").exists());
     let o = dtr(
         &["render", "room.toml", "-o", "folder/", "--spp", "1", "-q"],
         dir.path(),

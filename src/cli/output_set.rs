@@ -1,8 +1,8 @@
 //! The files of one render (`PREFIX.npy`, `PREFIX.json`, derivatives, EXR, previews) appear
 //! whole or not at all, never replace an input, and never mix with another render's.
 //!
-//! - **`-o` rules.** `-o out` writes `out.npy`, `out.json`, …; a trailing `.npy` is dropped
-//!   (`-o out.npy` is `-o out`); `-o dir/` or an existing folder writes `dir/SCENE.npy`, …
+//! - **`-o` rules.** `-o out` writes `out.npy`, `out.json`, …; a trailing `.npy` or `.json` is
+//!   dropped (`-o out.npy` and `-o out.json` are `-o out`); `-o dir/` or an existing folder writes `dir/SCENE.npy`, …
 //!   with the scene file's stem. A missing output folder is created.
 //! - **Checked before rendering.** The folder is created and written to (the lock file), and
 //!   every output the render will write is checked: none may be an input (the scene file or
@@ -136,7 +136,8 @@ pub fn resolve_prefix(output: &Path, scene: &Path) -> anyhow::Result<PathBuf> {
         })?;
         return Ok(output.join(stem));
     }
-    let prefix = match text.strip_suffix(".npy") {
+    // the name of the set's film or of its JSON (a merge's `-o x.json` wrote x.json.json)
+    let prefix = match text.strip_suffix(".npy").or_else(|| text.strip_suffix(".json")) {
         Some(p) => PathBuf::from(p),
         None => output.to_path_buf(),
     };
