@@ -188,3 +188,20 @@ fn words_lists_and_tables_set_on_the_command_line_equal_the_same_in_the_file() {
         );
     }
 }
+
+/// A number given for a field that takes a word is checked like that value in the file, and
+/// the error names the field: before, `--set film.channels=5` said "only numbers can be set",
+/// where words can be set too.
+#[test]
+fn a_number_for_a_word_field_is_checked_as_the_file_would_be() {
+    let dir = tempfile::tempdir().unwrap();
+    let s = common::scene_path("cornell_box.toml");
+    let o = common::dtr(&["info", s.to_str().unwrap(), "--set", "film.channels=5"], dir.path());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("cornell_box.toml: film: field 'channels'") && err.contains("integer '5'"),
+        "{err}"
+    );
+    assert!(!err.contains("only numbers"), "{err}");
+}

@@ -175,7 +175,11 @@ fn number(old: &Value, value: f64) -> Result<Value, String> {
             a.len(),
             a.len() - 1
         )),
-        other => Err(format!("is not a number (it is {other}): only numbers can be set")),
+        // a word, a flag or a table: the number stands in its place, and the description's
+        // own checks say what the field takes (before: "only numbers can be set", for
+        // `--set film.channels=5`, where words can be set too)
+        _ if integral => Ok(Value::from(value as i64)),
+        _ => Ok(Value::from(value)),
     }
 }
 
