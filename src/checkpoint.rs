@@ -343,12 +343,17 @@ fn check_tallies(h: &Header) -> Result<(), String> {
     Ok(())
 }
 
+/// The error of a checkpoint at `path` that cannot be resumed, saying `what` is wrong.
+fn unusable(path: &Path, what: &str) -> Error {
+    Error::Invalid(format!("{}: not a usable dtr checkpoint: {what}", path.display()))
+}
+
 /// The checkpoint's bytes with its header, read whole only once its start and header say it
 /// is a checkpoint no longer than its blobs allow: a 20 GB file of another kind at the
 /// checkpoint's path was read into memory whole before the checksum refused it.
 fn read_bounded(path: &Path) -> Result<(Vec<u8>, Header, u64), Error> {
     use std::io::Read;
-    let bad = |what: &str| Error::Invalid(format!("{}: not a usable dtr checkpoint: {what}", path.display()));
+    let bad = |what: &str| unusable(path, what);
     let cannot = |e: std::io::Error| Error::Invalid(format!("{}: cannot read the checkpoint: {e}", path.display()));
     let mut file = std::fs::File::open(path).map_err(cannot)?;
     let size = file.metadata().map_err(cannot)?;
@@ -405,7 +410,7 @@ fn read_bounded(path: &Path) -> Result<(Vec<u8>, Header, u64), Error> {
 /// file, its checksum against its bytes, and its tallies and values for what a render
 /// writes, so a truncated, damaged or foreign file is refused with its name.
 pub fn read(path: &Path) -> Result<(serde_json::Value, Saved), Error> {
-    let bad = |what: &str| Error::Invalid(format!("{}: not a usable dtr checkpoint: {what}", path.display()));
+    let bad = |what: &str| unusable(path, what);
     let (bytes, header, hlen) = read_bounded(path)?;
     let (bytes, crc) = bytes.split_at(bytes.len() - 4);
     if crc32fast::hash(bytes).to_le_bytes() != crc {

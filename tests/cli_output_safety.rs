@@ -187,6 +187,22 @@ fn a_second_render_to_a_locked_prefix_is_refused() {
     assert_eq!(listing(dir.path()), ["busy.json", "busy.npy", "room.json", "room.toml"]);
 }
 
+/// Starts a render in `dir` to `out/big` whose set takes a while to write (a 32 × 32 × 3000
+/// Cornell film, with its EXR), for the signal tests.
+#[cfg(unix)]
+fn spawn_big_render(dir: &Path) -> std::process::Child {
+    let scene = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell_box.toml");
+    Command::new(env!("CARGO_BIN_EXE_dtr"))
+        .current_dir(dir)
+        .args(["render", scene.to_str().unwrap(), "--spp", "1", "--threads", "1", "-q"])
+        .args(["--set", "camera.resolution.0=32", "--set", "camera.resolution.1=32"])
+        .args(["--set", "film.bins=3000", "--set", "film.bin_width_opl=0.001"])
+        .args(["--exr", "-o", "out/big"])
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap()
+}
+
 /// A symbolic link where a render keeps its lock file is refused, and what it leads to is left
 /// alone: the lock was opened through it (creating the file a dangling link named, anywhere
 /// the link pointed).
@@ -362,19 +378,10 @@ fn stale_cleanup_removes_only_names_dtr_writes() {
 #[cfg(unix)]
 #[test]
 fn a_signal_while_the_set_is_written_leaves_nothing_or_the_whole_set() {
-    let scene = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell_box.toml");
     let mut outcomes = Vec::new();
     for k in 0..8u64 {
         let dir = tempfile::tempdir().unwrap();
-        let mut child = Command::new(env!("CARGO_BIN_EXE_dtr"))
-            .current_dir(dir.path())
-            .args(["render", scene.to_str().unwrap(), "--spp", "1", "--threads", "1", "-q"])
-            .args(["--set", "camera.resolution.0=32", "--set", "camera.resolution.1=32"])
-            .args(["--set", "film.bins=3000", "--set", "film.bin_width_opl=0.001"])
-            .args(["--exr", "-o", "out/big"])
-            .stderr(std::process::Stdio::piped())
-            .spawn()
-            .unwrap();
+        let mut child = spawn_big_render(dir.path());
         let out = dir.path().join("out");
         let staging = || {
             std::fs::read_dir(&out)
@@ -443,18 +450,9 @@ fn a_render_removes_the_staging_folders_a_killed_render_left() {
 #[cfg(unix)]
 #[test]
 fn a_signal_during_the_first_file_stops_the_rest() {
-    let scene = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell_box.toml");
     for k in 0..5 {
         let dir = tempfile::tempdir().unwrap();
-        let mut child = Command::new(env!("CARGO_BIN_EXE_dtr"))
-            .current_dir(dir.path())
-            .args(["render", scene.to_str().unwrap(), "--spp", "1", "--threads", "1", "-q"])
-            .args(["--set", "camera.resolution.0=32", "--set", "camera.resolution.1=32"])
-            .args(["--set", "film.bins=3000", "--set", "film.bin_width_opl=0.001"])
-            .args(["--exr", "-o", "out/big"])
-            .stderr(std::process::Stdio::piped())
-            .spawn()
-            .unwrap();
+        let mut child = spawn_big_render(dir.path());
         let out = dir.path().join("out");
         // the npy being written into the staging folder
         let npy = || {

@@ -279,13 +279,7 @@ fn the_energy_after_a_cut_window_is_estimated_by_the_pilot() {
     assert!(z.abs() < 4.0, "pilot {mp} ± {sp}, uncut {me} ± {se}: z = {z}");
     // the standard error each render reports is the spread of the pilot's estimate from seed
     // to seed
-    let spread = sp * (pilot.len() as f64).sqrt();
-    let (said, _) = common::mean_se(&reported);
-    eprintln!("pilot spread over seeds {spread}, reported standard error {said} (mean)");
-    assert!(
-        (0.6 * spread..=1.6 * spread).contains(&said),
-        "reported {said} against a spread of {spread}"
-    );
+    assert_reported_error_is_the_spread(&pilot, &reported, 0.6..=1.6);
     // and it is a good part of the light (about 30%): this window ends 2.2 m after the first
     // arrival
     let (mt, _) = common::mean_se(&totals);
@@ -310,15 +304,10 @@ fn the_pilot_of_a_film_it_does_not_cover_is_unbiased() {
         reported.push(a.energy.after_standard_error.unwrap());
     }
     let (mp, sp) = common::mean_se(&pilot);
-    let (said, _) = common::mean_se(&reported);
     // the uncut render's own noise, at 64 spp, is far below the pilot's
     let z = (mp - exact) / sp;
     assert!(z.abs() < 4.0, "pilot {mp} ± {sp} against {exact}: z = {z}");
-    let spread = sp * (pilot.len() as f64).sqrt();
-    assert!(
-        (0.5 * spread..=2.0 * spread).contains(&said),
-        "reported {said} against a spread of {spread}"
-    );
+    assert_reported_error_is_the_spread(&pilot, &reported, 0.5..=2.0);
 }
 
 /// An exhaustive NLOS scan of 4 × 4 sensor points (one pilot path per pixel is 16) still has
@@ -342,10 +331,18 @@ fn the_pilot_of_a_small_film_sends_its_paths_in_more_passes() {
     let (me, se) = common::mean_se(&exact);
     let z = (mp - me) / (sp * sp + se * se).sqrt();
     assert!(z.abs() < 4.0, "pilot {mp} ± {sp}, uncut {me} ± {se}: z = {z}");
+    assert_reported_error_is_the_spread(&pilot, &reported, 0.5..=2.0);
+}
+
+/// Asserts that the mean standard error the renders reported for the energy after the window
+/// is within `share` of the spread of their estimates (`pilot`) from seed to seed.
+fn assert_reported_error_is_the_spread(pilot: &[f64], reported: &[f64], share: std::ops::RangeInclusive<f64>) {
+    let (_, sp) = common::mean_se(pilot);
     let spread = sp * (pilot.len() as f64).sqrt();
-    let (said, _) = common::mean_se(&reported);
+    let (said, _) = common::mean_se(reported);
+    eprintln!("pilot spread over seeds {spread}, reported standard error {said} (mean)");
     assert!(
-        (0.5 * spread..=2.0 * spread).contains(&said),
+        (share.start() * spread..=share.end() * spread).contains(&said),
         "reported {said} against a spread of {spread}"
     );
 }

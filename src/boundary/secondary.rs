@@ -847,9 +847,9 @@ impl<'a> Secondary<'a> {
     /// With f64 OPLs: x_B projected in f64 onto its edge, the ends' `p64` moved onto the line
     /// through it along `omega64` (x_L given as `x_l64`, e.g. a light sample or x_B itself,
     /// stays), so that d_B = η|x_S − x_L| is the length of a segment that really grazes the
-    /// edge. Returns x_B in f64. The rays found x_S and x_L from origins ε off x_B (contact.rs), which puts them
-    /// ~ε·(t_L + t_S)/t_L off the edge's shadow line: micrometres of OPL. Without f64 OPLs,
-    /// nothing changes.
+    /// edge. Returns x_B in f64. `contact::segment_ends` already put the ends on the line
+    /// through the f32 x_B, which lies up to an ulp of its coordinates off the edge; this
+    /// takes them onto the edge's own line, for the OPL. Without f64 OPLs, nothing changes.
     fn on_boundary_line(
         &self,
         rec: &EdgeRecord,

@@ -158,27 +158,24 @@ fn keys(map: &Map<String, Value>) -> String {
 }
 
 /// `value` in the type of the number it replaces (integers stay integers; new keys take
-/// integers when `value` is one).
+/// integers when `value` is one). A word, a flag or a table takes the number in its place, and
+/// the description's own checks say what the field takes (before: "only numbers can be set",
+/// for `--set film.channels=5`, where words can be set too).
 fn number(old: &Value, value: f64) -> Result<Value, String> {
     let integral = value.fract() == 0.0 && value.abs() < 2f64.powi(53);
     match old {
         Value::Number(n) if n.is_f64() => Ok(Value::from(value)),
-        Value::Number(_) | Value::Null if integral => Ok(if value < 0.0 {
-            Value::from(value as i64)
-        } else {
-            Value::from(value as u64)
-        }),
-        Value::Number(_) => Err(format!("expected a whole number, got {value}")),
-        Value::Null => Ok(Value::from(value)),
         Value::Array(a) => Err(format!(
             "is a list of {}: set one element (append .0 to .{})",
             a.len(),
             a.len() - 1
         )),
-        // a word, a flag or a table: the number stands in its place, and the description's
-        // own checks say what the field takes (before: "only numbers can be set", for
-        // `--set film.channels=5`, where words can be set too)
-        _ if integral => Ok(Value::from(value as i64)),
+        Value::Number(_) if !integral => Err(format!("expected a whole number, got {value}")),
+        _ if integral => Ok(if value < 0.0 {
+            Value::from(value as i64)
+        } else {
+            Value::from(value as u64)
+        }),
         _ => Ok(Value::from(value)),
     }
 }
