@@ -452,6 +452,133 @@ fn shards_and_checkpoints_of_a_capture() {
     }
     assert_eq!(common::npy(&dir.path().join("ck.npy")).1, whole);
     assert!(!dir.path().join("s0.h5").exists() && !dir.path().join("s0.noisy.npy").exists());
+    // the merge writes the capture's files from the sum, as the whole render did: the noisy
+    // copy draws each bin's count from the same stream, so only a bin whose mean moved by the
+    // sum's rounding across a step of its draw can differ, and then by one count
+    let (noisy_whole, noisy_merged) = (
+        common::npy(&dir.path().join("whole.noisy.npy")).1,
+        common::npy(&dir.path().join("merged.noisy.npy")).1,
+    );
+    assert_eq!(noisy_whole.len(), noisy_merged.len());
+    let moved: Vec<(f32, f32)> = noisy_whole
+        .iter()
+        .zip(&noisy_merged)
+        .filter(|(w, m)| w != m)
+        .map(|(w, m)| (*w, *m))
+        .collect();
+    assert!(
+        moved.len() * 1000 <= noisy_whole.len() && moved.iter().all(|(w, m)| (w - m).abs() == 1.0),
+        "{} of {} counts differ: {:?}",
+        moved.len(),
+        noisy_whole.len(),
+        &moved[..moved.len().min(8)]
+    );
+    assert!(noisy_merged.iter().sum::<f32>() > 0.0);
+    let meta: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("merged.json")).unwrap()).unwrap();
+    let files = &meta["nlos"]["files"];
+    assert!(
+        files["noisy_npy"].as_str().unwrap().ends_with("merged.noisy.npy"),
+        "{files}"
+    );
+    #[cfg(feature = "hdf5")]
+    {
+        assert!(files["hdf5"].as_str().unwrap().ends_with("merged.h5"), "{files}");
+        let h = |name: &str| -> Vec<f32> {
+            hdf5::File::open(dir.path().join(name))
+                .unwrap()
+                .dataset("H")
+                .unwrap()
+                .read_raw()
+                .unwrap()
+        };
+        let (hw, hm) = (h("whole.h5"), h("merged.h5"));
+        assert_eq!(hw.len(), hm.len());
+        let (sum_h, sum_npy) = (
+            hw.iter().map(|&v| v as f64).sum::<f64>(),
+            whole.iter().map(|&v| v as f64).sum::<f64>(),
+        );
+        assert!((sum_h - sum_npy).abs() <= 1e-9 * sum_npy, "{sum_h} against {sum_npy}");
+        for (m, w) in hm.iter().zip(&hw) {
+            let bound = (2.0 * n + 8.0) * f64::from(f32::EPSILON) / 2.0 * w.abs() as f64;
+            assert!(((m - w) as f64).abs() <= bound, "merged H {m} against whole {w}");
+        }
+        assert_eq!(
+            h("merged.noisy.h5").iter().sum::<f32>(),
+            noisy_merged.iter().sum::<f32>()
+        );
+    }
+}
+
+/// The merge of a capture's shards makes its HDF5 file and noisy copy from the scene the
+/// shards rendered, so it refuses, before writing anything, a scene edited since (naming it)
+/// or one it cannot find from where it runs, and `--scene` names the file as rendered.
+#[test]
+fn a_capture_merge_reads_the_scene_the_shards_rendered() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = scene_text("nlos_occluder.toml").replace("grid = [16, 16]", "grid = [4, 4]");
+    let scene = scene_file(dir.path(), "cap.toml", &text);
+    let dtr = |args: &[&str], cwd: &Path| common::dtr(args, cwd);
+    for i in 0..2 {
+        let shard = format!("{i}/2");
+        let out = dtr(
+            &[
+                "render",
+                "cap.toml",
+                "-o",
+                &format!("s{i}"),
+                "--spp",
+                "4",
+                "--shard",
+                &shard,
+                "--quiet",
+            ],
+            dir.path(),
+        );
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    }
+    let left = |prefix: &str| {
+        std::fs::read_dir(dir.path())
+            .unwrap()
+            .any(|e| e.unwrap().file_name().to_string_lossy().starts_with(prefix))
+    };
+    // from another folder the recorded path "cap.toml" does not reach the scene
+    let elsewhere = dir.path().join("elsewhere");
+    std::fs::create_dir(&elsewhere).unwrap();
+    let out = dtr(&["merge", "../s0", "../s1", "-o", "../far"], &elsewhere);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("s0.json") && err.contains("cap.toml") && err.contains("--scene"),
+        "{err}"
+    );
+    assert!(!left("far"));
+    let out = dtr(
+        &["merge", "../s0", "../s1", "-o", "../far", "--scene", "../cap.toml"],
+        &elsewhere,
+    );
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(dir.path().join("far.noisy.npy").exists());
+    // an edited scene is not the one rendered
+    std::fs::copy(&scene, dir.path().join("as_rendered.toml")).unwrap();
+    std::fs::write(&scene, text.replace("photons_per_unit = 1e6", "photons_per_unit = 1e3")).unwrap();
+    let out = dtr(&["merge", "s0", "s1", "-o", "edited"], dir.path());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("cap.toml: not the scene the shards rendered") && err.contains("--scene"),
+        "{err}"
+    );
+    assert!(!left("edited"));
+    let out = dtr(
+        &["merge", "s0", "s1", "-o", "kept", "--scene", "as_rendered.toml"],
+        dir.path(),
+    );
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert_eq!(
+        std::fs::read(dir.path().join("kept.noisy.npy")).unwrap(),
+        std::fs::read(dir.path().join("far.noisy.npy")).unwrap()
+    );
 }
 
 /// A capture aims its laser at each laser point, so the laser's own `direction` plays no part:

@@ -2,7 +2,8 @@
 //! PREFIX.h5 (y-tal's capture layout, `output::nlos_h5`) and, with `[nlos.noise]`, a noisy
 //! copy as photon counts (PREFIX.noisy.npy and PREFIX.noisy.h5; `crate::sensor_noise`); the
 //! noiseless transient stays in PREFIX.npy. A shard writes none of them: its film is a part of
-//! the render, so `dtr merge`'s sum is what a capture is made from.
+//! the render, so `dtr merge` writes them from the shards' sum (`shard_set::capture_scene`
+//! loads the scene they rendered for it).
 
 use super::output_set::{OutputSet, with_suffix};
 use crate::film::Transient;
@@ -85,7 +86,7 @@ pub(super) fn describe(scene: &Scene, prefix: &Path, sharded: bool) -> Option<se
             "relay_legs = included: OPL from the laser to the SPAD, the laser-to-wall and wall-to-SPAD legs counted",
     });
     v["files"] = if sharded {
-        json!({"about": "a shard writes no HDF5 or noisy copy; render unsharded (or from the merged film) for those"})
+        json!({"about": "a shard writes no HDF5 or noisy copy; dtr merge writes them from the shards' sum"})
     } else {
         json!({
             "hdf5": if HDF5 { json!(file("h5")) } else { json!(null) },

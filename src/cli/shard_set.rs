@@ -61,14 +61,7 @@ pub fn identity(
     opts: &RenderOptions,
     spp: u32,
 ) -> anyhow::Result<Value> {
-    let mut hash = Sha256::new();
-    for input in &scene.inputs {
-        let bytes =
-            std::fs::read(input).with_context(|| format!("cannot read {} again to hash it", input.display()))?;
-        hash.update((bytes.len() as u64).to_le_bytes());
-        hash.update(&bytes);
-    }
-    let digest = hex(&hash.finalize());
+    let digest = inputs_sha256(scene)?;
     let mut sets: Vec<String> = sets.iter().map(|s| canonical_set(s)).collect();
     sets.sort();
     Ok(json!({
@@ -92,6 +85,19 @@ pub fn identity(
     }))
 }
 
+/// The SHA-256 of the contents of a scene's input files (the description and the meshes it
+/// reads), each preceded by its length: the identity's `inputs_sha256`.
+fn inputs_sha256(scene: &Scene) -> anyhow::Result<String> {
+    let mut hash = Sha256::new();
+    for input in &scene.inputs {
+        let bytes =
+            std::fs::read(input).with_context(|| format!("cannot read {} again to hash it", input.display()))?;
+        hash.update((bytes.len() as u64).to_le_bytes());
+        hash.update(&bytes);
+    }
+    Ok(hex(&hash.finalize()))
+}
+
 #[derive(clap::Args, Debug)]
 pub struct MergeArgs {
     /// The shards' output prefixes (as given to `dtr render -o`; a trailing .json or .npy is
@@ -107,6 +113,12 @@ pub struct MergeArgs {
     /// Also write the previews (contact sheet, steady image, plot), as `dtr render --preview`.
     #[arg(long)]
     pub preview: bool,
+    /// The scene file the shards rendered, where the path their JSON records does not reach it
+    /// from here. Only an NLOS capture's merge reads it: its HDF5 file and noisy copy are made
+    /// from the scene's relay wall, laser and noise model. Its inputs must hash to what the
+    /// shards rendered.
+    #[arg(long, value_name = "FILE")]
+    pub scene: Option<PathBuf>,
 }
 
 /// One shard's output set, read back.
@@ -395,6 +407,7 @@ pub fn run(a: MergeArgs) -> anyhow::Result<()> {
     check_complete(&mut shards)?;
     let diff: Vec<String> = serde_json::from_value(shards[0].meta["identity"]["diff"].clone())
         .context("the shards' identity.diff should be a list of parameter names")?;
+    let capture = capture_scene(&shards[0], a.scene.as_deref())?;
     // every file of every shard is an input: the merge never replaces one
     let mut inputs = Vec::new();
     for s in &shards {
@@ -404,6 +417,10 @@ pub fn run(a: MergeArgs) -> anyhow::Result<()> {
     let scene_path = PathBuf::from(shards[0].meta["scene"].as_str().unwrap_or("merged"));
     let mut planned: Vec<String> = vec!["npy".into(), "json".into()];
     planned.extend(diff.iter().map(|n| format!("d_{n}.npy")));
+    if let Some(scene) = &capture {
+        inputs.extend(scene.inputs.iter().cloned());
+        planned.extend(super::nlos_out::planned(scene, false));
+    }
     if a.exr {
         planned.push("exr".into());
     }
@@ -431,6 +448,9 @@ pub fn run(a: MergeArgs) -> anyhow::Result<()> {
             crate::output::write_npy(p, &d.shape(), &d.data)
         })?;
     }
+    if let Some(scene) = &capture {
+        super::nlos_out::write(scene, &film, &mut set, false)?;
+    }
     if a.exr {
         let axis = (film.axis.start_opl, film.axis.bin_width_opl);
         set.write("exr", |p| {
@@ -441,6 +461,12 @@ pub fn run(a: MergeArgs) -> anyhow::Result<()> {
         super::render_cmd::write_previews(&film, &mut set, None, crate::output::Normalise::Global)?;
     }
     let mut meta = merged_metadata(&shards, set.prefix(), &diff);
+    if let Some(n) = capture
+        .as_ref()
+        .and_then(|scene| super::nlos_out::describe(scene, set.prefix(), false))
+    {
+        meta["nlos"] = n;
+    }
     meta["files"] = json!(set.names_with("json"));
     let warning = meta["energy"]["warning"].as_str().map(str::to_string);
     set.write("json", |p| crate::output::write_json(p, &meta))?;
@@ -458,6 +484,51 @@ pub fn run(a: MergeArgs) -> anyhow::Result<()> {
         film.channels
     );
     Ok(())
+}
+
+/// The scene an NLOS capture's shards rendered, loaded with their `--set`s, for the merged
+/// capture's HDF5 file and noisy copy (`nlos_out`), which the relay wall, the laser and the
+/// noise model make; `None` for any other render. Refused, naming the file, where the scene
+/// does not load (give `--scene`) or its inputs no longer hash to what the shards rendered.
+fn capture_scene(first: &ShardFiles, given: Option<&Path>) -> anyhow::Result<Option<Scene>> {
+    if first.meta["nlos"].is_null() {
+        return Ok(None);
+    }
+    let json = with_suffix(&first.prefix, "json");
+    let identity = &first.meta["identity"];
+    let path = match (given, first.meta["scene"].as_str()) {
+        (Some(p), _) => p.to_path_buf(),
+        (None, Some(p)) => PathBuf::from(p),
+        (None, None) => bail!(
+            "{}: an NLOS capture without its field \"scene\": give the scene it rendered with --scene FILE",
+            json.display()
+        ),
+    };
+    let sets: Vec<String> = serde_json::from_value(identity["set"].clone()).with_context(|| {
+        format!(
+            "{}: field \"identity.set\" should be a list of NAME=VALUE",
+            json.display()
+        )
+    })?;
+    let super::Sets { numbers, texts } =
+        super::parse_sets(&sets).with_context(|| format!("{}: field \"identity.set\"", json.display()))?;
+    let scene = Scene::load_with_text(&path, &numbers, &texts).with_context(|| {
+        format!(
+            "{}: the merged capture's HDF5 file and noisy copy are made from the scene the shards rendered ({}), which does not load here; give it with --scene FILE",
+            json.display(),
+            path.display()
+        )
+    })?;
+    let digest = inputs_sha256(&scene)?;
+    let want = identity["inputs_sha256"].as_str().unwrap_or("");
+    if digest != want {
+        bail!(
+            "{}: not the scene the shards rendered: its input files hash to {digest}, {} records {want} (edited since?); give the scene as rendered with --scene FILE",
+            path.display(),
+            json.display()
+        );
+    }
+    Ok(Some(scene))
 }
 
 /// The merged render's JSON: the first shard's, with the additive tallies summed over the
