@@ -3,12 +3,57 @@
 //! order and finiteness are checked, each refusal naming the file and what it should hold.
 
 use anyhow::{Context, bail};
+use sha2::{Digest, Sha256};
 use std::io::Read;
 use std::path::Path;
 
 /// The values of the float32, C-order `.npy` at `path`, which must have shape `shape`;
 /// `what` says what the file is for in messages (e.g. "the shard's film").
 pub fn read_f32(path: &Path, shape: &[usize], what: &str) -> anyhow::Result<Vec<f32>> {
+    let file = open_capped(path, shape, what)?;
+    parse_f32(std::io::BufReader::new(file), path, shape, what)
+}
+
+/// [`read_f32`] of a file whose bytes must be the ones a render wrote, in one pass: every
+/// byte is hashed (SHA-256) as it is read, and `check` gets the file's digest as hex before
+/// anything the file holds is used. A file that `check` refuses is refused for that, before
+/// any complaint about what it holds (a damaged film is damaged, whatever it now parses as).
+pub fn read_f32_hashed(
+    path: &Path,
+    shape: &[usize],
+    what: &str,
+    check: impl FnOnce(&str) -> anyhow::Result<()>,
+) -> anyhow::Result<Vec<f32>> {
+    let file = open_capped(path, shape, what)?;
+    let mut hashing = Hashing {
+        inner: std::io::BufReader::new(file),
+        hash: Sha256::new(),
+    };
+    let parsed = parse_f32(&mut hashing, path, shape, what);
+    // the bytes a refusal left unread count too (at most the cap of `open_capped`)
+    std::io::copy(&mut hashing, &mut std::io::sink())
+        .with_context(|| format!("{}: cannot read {what}", path.display()))?;
+    check(&super::shard_set::hex(&hashing.hash.finalize()))?;
+    parsed
+}
+
+/// A reader that hashes every byte it passes on.
+struct Hashing<R> {
+    inner: R,
+    hash: Sha256,
+}
+
+impl<R: Read> Read for Hashing<R> {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        let n = self.inner.read(buf)?;
+        self.hash.update(&buf[..n]);
+        Ok(n)
+    }
+}
+
+/// Opens `path`, refusing anything but a regular file no longer than a `.npy` of `shape`
+/// (with a header of up to 4 KiB) before a byte is read.
+fn open_capped(path: &Path, shape: &[usize], what: &str) -> anyhow::Result<std::fs::File> {
     let Some(expected) = shape.iter().try_fold(4u64, |n, &d| n.checked_mul(d as u64)) else {
         bail!("{}: {what} cannot have shape {shape:?}: too large", path.display());
     };
@@ -16,9 +61,12 @@ pub fn read_f32(path: &Path, shape: &[usize], what: &str) -> anyhow::Result<Vec<
     if !meta.is_file() || meta.len() > expected + 4096 {
         bail!("{}: {what} should be a float32 .npy of shape {shape:?}", path.display());
     }
-    let file = std::fs::File::open(path).with_context(|| format!("{}: cannot read {what}", path.display()))?;
-    let npy = npyz::NpyFile::new(std::io::BufReader::new(file))
-        .with_context(|| format!("{}: {what} is not a .npy file", path.display()))?;
+    std::fs::File::open(path).with_context(|| format!("{}: cannot read {what}", path.display()))
+}
+
+/// The values of the `.npy` read from `reader` (the file `path`), checked as [`read_f32`] says.
+fn parse_f32(reader: impl Read, path: &Path, shape: &[usize], what: &str) -> anyhow::Result<Vec<f32>> {
+    let npy = npyz::NpyFile::new(reader).with_context(|| format!("{}: {what} is not a .npy file", path.display()))?;
     let got: Vec<usize> = npy.shape().iter().map(|&d| d as usize).collect();
     let f4 = npyz::DType::new_scalar("<f4".parse().expect("<f4 is a type string"));
     if got != shape || npy.dtype() != f4 || npy.order() != npyz::Order::C {
@@ -102,5 +150,40 @@ mod tests {
         nan[at..at + 4].copy_from_slice(&f32::NAN.to_le_bytes());
         let nan = refusal(&nan, &shape);
         assert!(nan.contains("value 7 of the film is not finite"), "{nan}");
+    }
+
+    /// The one-pass read hashes every byte of the file (the digest `file_sha256` gives, also
+    /// for a file with bytes after its values), returns the values when the check passes, and
+    /// puts the check's refusal before any complaint about what the file holds.
+    #[test]
+    fn the_hashed_read_sees_every_byte_and_refuses_on_the_digest_first() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("film.npy");
+        let shape = [2, 3, 5, 2];
+        let data: Vec<f32> = (0..60).map(|i| i as f32 * 0.5 - 3.0).collect();
+        crate::output::write_npy(&p, &shape, &data).unwrap();
+        let want = super::super::shard_set::file_sha256(&p).unwrap();
+        let mut seen = String::new();
+        let back = read_f32_hashed(&p, &shape, "the film", |got| {
+            seen = got.to_string();
+            Ok(())
+        })
+        .unwrap();
+        assert_eq!(seen, want);
+        assert_eq!(back, data);
+        // bytes after the values are hashed too, and the check's refusal comes first
+        let mut long = std::fs::read(&p).unwrap();
+        long.extend_from_slice(&[7, 7, 7]);
+        std::fs::write(&p, &long).unwrap();
+        let want_long = super::super::shard_set::file_sha256(&p).unwrap();
+        assert_ne!(want_long, want);
+        let err = read_f32_hashed(&p, &shape, "the film", |got| {
+            anyhow::ensure!(got == want, "digest {got}");
+            Ok(())
+        })
+        .unwrap_err();
+        assert_eq!(format!("{err:#}"), format!("digest {want_long}"));
+        let err = read_f32_hashed(&p, &shape, "the film", |_| Ok(())).unwrap_err();
+        assert!(format!("{err:#}").contains("holds more than its 60 values"), "{err:#}");
     }
 }

@@ -8,7 +8,7 @@
 //! `spp` samples the two differ by at most about `(2·spp + 8)·2⁻²⁴` of the value
 //! (recursive summation of non-negative terms); tests/cli_shards.rs asserts that bound.
 
-use super::npy_in::read_f32;
+use super::npy_in::read_f32_hashed;
 use super::output_set::{OutputSet, with_suffix};
 use crate::film::Transient;
 use crate::render::RenderOptions;
@@ -46,7 +46,7 @@ pub fn file_sha256(path: &Path) -> anyhow::Result<String> {
 }
 
 /// Bytes as lowercase hex (a digest as the JSON records it).
-fn hex(bytes: &[u8]) -> String {
+pub(super) fn hex(bytes: &[u8]) -> String {
     bytes.iter().map(|b| format!("{b:02x}")).collect()
 }
 
@@ -361,8 +361,7 @@ fn read_films(s: &ShardFiles, diff: &[String]) -> anyhow::Result<(Transient, Vec
     };
     let read = |suffix: &str, shape: &[usize]| {
         let path = with_suffix(&s.prefix, suffix);
-        check_digest(s, &json, &path)?;
-        read_f32(&path, shape, FILM)
+        read_f32_hashed(&path, shape, FILM, |got| check_digest(s, &json, &path, got))
     };
     let data = read("npy", &[h, w, t, c])?;
     let steady = read("steady.npy", &[h, w, c])?;
@@ -376,10 +375,10 @@ fn read_films(s: &ShardFiles, diff: &[String]) -> anyhow::Result<(Transient, Vec
 }
 
 /// Refuses a shard's file whose bytes are not those its render wrote (damaged on disk, or
-/// another render's file copied over it): its SHA-256 against the one the shard's JSON
-/// records (`files_sha256`). Before, a float flipped to 3.4·10³⁸ or another seed's .npy
+/// another render's file copied over it): its SHA-256 `got`, hashed as the file was read
+/// (`npy_in::read_f32_hashed`), against the one the shard's JSON records (`files_sha256`). Before, a float flipped to 3.4·10³⁸ or another seed's .npy
 /// merged with exit 0.
-fn check_digest(s: &ShardFiles, json: &Path, path: &Path) -> anyhow::Result<()> {
+fn check_digest(s: &ShardFiles, json: &Path, path: &Path, got: &str) -> anyhow::Result<()> {
     let name = path.file_name().unwrap_or_default().to_string_lossy().into_owned();
     let Some(want) = s.meta["files_sha256"][name.as_str()].as_str() else {
         bail!(
@@ -387,7 +386,6 @@ fn check_digest(s: &ShardFiles, json: &Path, path: &Path) -> anyhow::Result<()> 
             json.display()
         );
     };
-    let got = file_sha256(path)?;
     if got != want {
         bail!(
             "{}: not the file this shard's render wrote (its SHA-256 is {got}, {} records {want}): damaged, or another render's",
