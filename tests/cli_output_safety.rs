@@ -5,6 +5,8 @@
 //! `out.npy.npy`, `-o dir/` wrote a hidden `dir/.npy`, a failed JSON write left `y.npy`
 //! without `y.json`, and a signal during the write left hidden `.tmp` files.
 
+#[cfg(unix)]
+use std::os::unix::fs::FileTypeExt;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -118,6 +120,53 @@ fn a_file_that_no_render_wrote_is_never_replaced() {
     assert!(!o.status.success());
     assert!(stderr(&o).contains("does not list it"), "{}", stderr(&o));
     assert_eq!(std::fs::read_to_string(dir.path().join("x.exr")).unwrap(), "mine");
+}
+
+/// Whatever stands at PREFIX.json that cannot be read as a JSON (a FIFO, a file of
+/// gigabytes) is refused at once, naming it and why, and left as it was. Before, a FIFO there
+/// hung the render before it began (killed after 10 s here), and an 8 GB file took 8 GB of
+/// memory and 30 s to be called foreign.
+#[cfg(unix)]
+#[test]
+fn what_cannot_be_read_as_an_earlier_json_is_refused_at_once() {
+    let dir = workdir();
+    let fifo = dir.path().join("pipe.json");
+    let made = Command::new("mkfifo").arg(&fifo).status().unwrap();
+    assert!(made.success());
+    std::fs::File::create(dir.path().join("big.json"))
+        .unwrap()
+        .set_len(8 << 30)
+        .unwrap();
+    std::fs::write(dir.path().join("big.npy"), "not dtr's").unwrap();
+    for (prefix, why) in [("pipe", "not a regular file"), ("big", "more than the")] {
+        let mut child = Command::new(env!("CARGO_BIN_EXE_dtr"))
+            .current_dir(dir.path())
+            .args(["render", "room.toml", "-o", prefix, "--spp", "1", "-q"])
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap();
+        let start = std::time::Instant::now();
+        while child.try_wait().unwrap().is_none() {
+            if start.elapsed() > std::time::Duration::from_secs(10) {
+                child.kill().unwrap();
+                panic!("-o {prefix}: still running after 10 s");
+            }
+            std::thread::sleep(std::time::Duration::from_millis(20));
+        }
+        let o = child.wait_with_output().unwrap();
+        let e = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "-o {prefix}: {e}");
+        assert!(
+            e.contains(&format!("{prefix}.json cannot be read as a dtr render's JSON")) && e.contains(why),
+            "-o {prefix}: {e}"
+        );
+    }
+    assert!(std::fs::symlink_metadata(&fifo).unwrap().file_type().is_fifo());
+    assert_eq!(std::fs::metadata(dir.path().join("big.json")).unwrap().len(), 8 << 30);
+    assert_eq!(
+        listing(dir.path()),
+        ["big.json", "big.npy", "pipe.json", "room.json", "room.toml"]
+    );
 }
 
 #[test]

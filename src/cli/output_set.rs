@@ -204,6 +204,10 @@ pub struct OutputSet {
     earlier: EarlierSet,
 }
 
+/// The most bytes of an earlier set's JSON read to learn its files (a render's JSON is
+/// kilobytes; a merge of many shards' stays far below this).
+const JSON_CAP: u64 = 64 << 20;
+
 /// The set an earlier render left at a prefix, as its JSON (`PREFIX.json`) describes it.
 #[derive(Debug, PartialEq)]
 enum EarlierSet {
@@ -212,6 +216,10 @@ enum EarlierSet {
     /// A JSON that is not a dtr set's (not an object with dtr's `"version"`): someone
     /// else's file.
     Foreign,
+    /// Something at the JSON's path that cannot be read as one (why): a FIFO, a folder, a file
+    /// larger than any JSON of dtr's, one it may not read. Its set is unknown, so nothing
+    /// there is taken for dtr's.
+    Unreadable(String),
     /// A dtr set; `files` its list of file names (None: written before the list existed,
     /// its files known by their form, [`is_own_output`]).
     Dtr { files: Option<Vec<String>> },
@@ -219,12 +227,14 @@ enum EarlierSet {
 
 impl EarlierSet {
     fn read(json: &Path) -> Self {
-        let Ok(text) = std::fs::read_to_string(json) else {
-            return if std::fs::symlink_metadata(json).is_ok() {
-                Self::Foreign
-            } else {
-                Self::None
-            };
+        if std::fs::symlink_metadata(json).is_err() {
+            return Self::None;
+        }
+        // regular files only, and no more than a JSON of dtr's holds: a FIFO there hung the
+        // render before it began, an 8 GB file took 8 GB of memory to be found foreign
+        let text = match crate::scene::read_regular_file(json, JSON_CAP) {
+            Ok(text) => text,
+            Err(e) => return Self::Unreadable(e.to_string()),
         };
         let Ok(serde_json::Value::Object(map)) = serde_json::from_str::<serde_json::Value>(&text) else {
             return Self::Foreign;
@@ -383,9 +393,12 @@ impl OutputSet {
         let name = dest.file_name().unwrap_or_default().to_string_lossy();
         if !self.earlier.holds(&name, &self.stem()) {
             let json = with_suffix(&self.prefix, "json");
-            let why = match self.earlier {
+            let why = match &self.earlier {
                 EarlierSet::None => format!("no dtr render's set is at this prefix ({} is missing)", json.display()),
                 EarlierSet::Foreign => format!("{} is not a dtr render's JSON", json.display()),
+                EarlierSet::Unreadable(why) => {
+                    format!("{} cannot be read as a dtr render's JSON: {why}", json.display())
+                }
                 EarlierSet::Dtr { .. } => format!("the set at this prefix ({}) does not list it", json.display()),
             };
             bail!(
