@@ -168,6 +168,50 @@ fn optimize_refuses_bad_input_before_rendering() {
     }
 }
 
+/// A target rendered in another time window than the scene's (its JSON beside it says so)
+/// is refused before the folder is made, naming the JSON and its field: a film of the same
+/// shape from `film.start_opl` 0.2 m later was fitted with exit 0, the recovered depth off by
+/// 0.1 m (the shift's half). A target without its JSON runs, with a warning that its window
+/// cannot be checked.
+#[test]
+fn optimize_refuses_a_target_from_another_time_window() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path();
+    let o = dtr(
+        &[
+            "render",
+            SCENE,
+            "--spp",
+            "1",
+            "--threads",
+            "1",
+            "-q",
+            "-o",
+            "late",
+            "--set",
+            "film.start_opl=5.2",
+        ],
+        dir,
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = dtr(&one_iteration(SCENE, "late.npy", "plate_z", "out"), dir);
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{e}");
+    assert!(
+        e.contains("late.json") && e.contains("another time window") && e.contains("from 5.2 m, field time_axis"),
+        "{e}"
+    );
+    assert!(!dir.join("out").exists());
+    std::fs::remove_file(dir.join("late.json")).unwrap();
+    let o = dtr(&one_iteration(SCENE, "late.npy", "plate_z", "out"), dir);
+    let e = stderr(&o);
+    assert!(o.status.success(), "{e}");
+    assert!(
+        e.contains("no ") && e.contains("late.json beside it") && e.contains("40 bins of 0.1 m from 5 m"),
+        "{e}"
+    );
+}
+
 /// Options and parameters that would stop the run are refused before the output folder is
 /// made, so nothing blocks a rerun. Before, `--lr-end 0` or `nan` and a
 /// parameter that shifts paths in time under a delta pulse and a box gate (refused by the

@@ -58,15 +58,24 @@ fn open_capped(path: &Path, shape: &[usize], what: &str) -> anyhow::Result<std::
         bail!("{}: {what} cannot have shape {shape:?}: too large", path.display());
     };
     let meta = std::fs::metadata(path).with_context(|| format!("{}: cannot read {what}", path.display()))?;
-    if !meta.is_file() || meta.len() > expected + 4096 {
+    if !meta.is_file() {
         bail!("{}: {what} should be a float32 .npy of shape {shape:?}", path.display());
     }
-    std::fs::File::open(path).with_context(|| format!("{}: cannot read {what}", path.display()))
+    let file = std::fs::File::open(path).with_context(|| format!("{}: cannot read {what}", path.display()))?;
+    if meta.len() > expected + 4096 {
+        // too long to be the film: say what it holds where its header says (a float64 or an
+        // rgb film for a mono scene), reading no more than the header
+        if let Ok(npy) = npyz::NpyFile::new(std::io::BufReader::new(file)) {
+            check_header(&npy, path, shape, what)?;
+        }
+        bail!("{}: {what} should be a float32 .npy of shape {shape:?}", path.display());
+    }
+    Ok(file)
 }
 
-/// The values of the `.npy` read from `reader` (the file `path`), checked as [`read_f32`] says.
-fn parse_f32(reader: impl Read, path: &Path, shape: &[usize], what: &str) -> anyhow::Result<Vec<f32>> {
-    let npy = npyz::NpyFile::new(reader).with_context(|| format!("{}: {what} is not a .npy file", path.display()))?;
+/// Refuses a `.npy` whose header says it is not a float32, C-order array of `shape`, saying
+/// what it holds.
+fn check_header<R: Read>(npy: &npyz::NpyFile<R>, path: &Path, shape: &[usize], what: &str) -> anyhow::Result<()> {
     let got: Vec<usize> = npy.shape().iter().map(|&d| d as usize).collect();
     let f4 = npyz::DType::new_scalar("<f4".parse().expect("<f4 is a type string"));
     if got != shape || npy.dtype() != f4 || npy.order() != npyz::Order::C {
@@ -81,6 +90,13 @@ fn parse_f32(reader: impl Read, path: &Path, shape: &[usize], what: &str) -> any
             dtype_name(&npy.dtype())
         );
     }
+    Ok(())
+}
+
+/// The values of the `.npy` read from `reader` (the file `path`), checked as [`read_f32`] says.
+fn parse_f32(reader: impl Read, path: &Path, shape: &[usize], what: &str) -> anyhow::Result<Vec<f32>> {
+    let npy = npyz::NpyFile::new(reader).with_context(|| format!("{}: {what} is not a .npy file", path.display()))?;
+    check_header(&npy, path, shape, what)?;
     // the values straight from the file into the film's memory (npyz parsed the header; its
     // element-wise reader and a copy of the whole file cost more than a 1.5 GB shard's read)
     let mut reader = npy.into_inner();
@@ -145,6 +161,22 @@ mod tests {
         assert!(long.contains("holds more than its 60 values"), "{long}");
         let other = refusal(&bytes, &[2, 3, 10, 1]);
         assert!(other.contains("expected float32 [2, 3, 10, 1]"), "{other}");
+        // a file too long for the film still says what its header holds (a float64 film, an
+        // rgb one where one channel is expected); before, only what it should be
+        use npyz::WriterBuilder;
+        let mut wide = Vec::new();
+        let mut npy = npyz::WriteOptions::<f64>::new()
+            .dtype(npyz::DType::new_scalar("<f8".parse().unwrap()))
+            .shape(&[2, 3, 5, 2])
+            .writer(&mut wide)
+            .begin_nd()
+            .unwrap();
+        npy.extend((0..60).map(|i| i as f64)).unwrap();
+        npy.finish().unwrap();
+        let wide = refusal(&wide, &shape);
+        assert!(wide.contains("holds '<f8' of shape [2, 3, 5, 2]"), "{wide}");
+        let rgb = refusal(&bytes, &[2, 3, 5, 1]);
+        assert!(rgb.contains("holds '<f4' of shape [2, 3, 5, 2]"), "{rgb}");
         let mut nan = bytes.clone();
         let at = nan.len() - 4 * 60 + 4 * 7;
         nan[at..at + 4].copy_from_slice(&f32::NAN.to_le_bytes());

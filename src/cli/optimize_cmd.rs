@@ -24,7 +24,8 @@ pub struct OptimizeArgs {
     /// Scene description (.toml or .json) whose [[param]] entries are recovered.
     pub scene: PathBuf,
     /// The measured or rendered transient to match: float32 .npy of the scene's film shape
-    /// [H, W, T, C] (as `dtr render` writes it).
+    /// [H, W, T, C] (as `dtr render` writes it). Where the render's JSON lies beside it
+    /// (TARGET.json), its time window must be the scene's.
     #[arg(long, value_name = "TARGET.npy")]
     pub target: PathBuf,
     /// The parameters to recover (comma-separated names from `dtr info`).
@@ -121,7 +122,62 @@ fn read_target(path: &Path, scene: &Scene) -> anyhow::Result<Transient> {
     );
     let mut t = Transient::zeros(shape[1], shape[0], f.axis, f.channels);
     t.data = super::npy_in::read_f32(path, &shape, &what)?;
+    check_target_axis(path, scene)?;
     Ok(t)
+}
+
+/// Refuses a target whose render's JSON (TARGET.json beside TARGET.npy, as `dtr render`
+/// writes it) records another time window or unwarping than the scene's: a film of the
+/// scene's shape rendered from another `film.start_opl` fits the parameters that shift the
+/// light by the difference (0.2 m of OPL moved the recovered depth by 0.1 m, exit 0). A
+/// target without such a JSON (a measurement, an array saved from numpy) cannot be checked,
+/// and the run says so.
+fn check_target_axis(path: &Path, scene: &Scene) -> anyhow::Result<()> {
+    let axis = scene.film.axis;
+    let json = super::output_set::with_suffix(&path.with_extension(""), "json");
+    let window = format!(
+        "{} bins of {} m from {} m",
+        axis.bins, axis.bin_width_opl, axis.start_opl
+    );
+    if std::fs::symlink_metadata(&json).is_err() {
+        log::warn!(
+            "{}: no {} beside it, so its time window cannot be checked: it must be the scene's ({window}{})",
+            path.display(),
+            json.display(),
+            if scene.film.unwarp { ", unwarped" } else { "" }
+        );
+        return Ok(());
+    }
+    let text = crate::scene::read_regular_file(&json, 64 << 20)
+        .with_context(|| format!("{}: cannot read the target's JSON", json.display()))?;
+    let meta: serde_json::Value =
+        serde_json::from_str(&text).with_context(|| format!("{}: the target's JSON is not JSON", json.display()))?;
+    let t = &meta["time_axis"];
+    let (Some(start), Some(width), Some(bins)) =
+        (t["start_opl"].as_f64(), t["bin_width_opl"].as_f64(), t["bins"].as_u64())
+    else {
+        bail!(
+            "{}: the target's JSON has no time_axis (start_opl, bin_width_opl, bins) to check against the scene's ({window}); move it away if it is not the JSON of the target's render",
+            json.display()
+        );
+    };
+    let same = |a: f64, b: f64| (a - b).abs() <= 1e-9 * a.abs().max(b.abs()).max(1.0);
+    if bins as usize != axis.bins || !same(start, axis.start_opl) || !same(width, axis.bin_width_opl) {
+        bail!(
+            "{}: the target was rendered in another time window ({bins} bins of {width} m from {start} m, field time_axis) than the scene renders ({window}, {}); set the scene's film.start_opl, film.bin_width_opl and film.bins to the target's",
+            json.display(),
+            scene.source.display()
+        );
+    }
+    if let Some(unwarp) = meta["unwarp"].as_bool().filter(|&u| u != scene.film.unwarp) {
+        bail!(
+            "{}: the target was rendered with film.unwarp = {unwarp}, the scene {} has {}",
+            json.display(),
+            scene.source.display(),
+            scene.film.unwarp
+        );
+    }
+    Ok(())
 }
 
 /// The scene the run fitted, as a file in the folder `out_dir`: the scene file's text with
