@@ -35,10 +35,16 @@ fn one_iteration<'a>(scene: &'a str, target: &'a str, params: &'a str, out: &'a 
 /// Renders `scene` at 1 spp on one thread to `dir/NAME.npy`: a target for runs that test
 /// what optimize writes or refuses, not what it recovers.
 fn rough_target(scene: &str, dir: &std::path::Path, name: &str) {
-    let o = dtr(
-        &["render", scene, "--spp", "1", "--threads", "1", "-q", "-o", name],
-        dir,
-    );
+    rough_target_with(scene, dir, name, &[]);
+}
+
+/// [`rough_target`] with `--set` overrides (`NAME=VALUE` each).
+fn rough_target_with(scene: &str, dir: &std::path::Path, name: &str, sets: &[&str]) {
+    let mut args = vec!["render", scene, "--spp", "1", "--threads", "1", "-q", "-o", name];
+    for s in sets {
+        args.extend(["--set", s]);
+    }
+    let o = dtr(&args, dir);
     assert!(o.status.success(), "{}", stderr(&o));
 }
 
@@ -177,23 +183,7 @@ fn optimize_refuses_bad_input_before_rendering() {
 fn optimize_refuses_a_target_from_another_time_window() {
     let tmp = tempfile::tempdir().unwrap();
     let dir = tmp.path();
-    let o = dtr(
-        &[
-            "render",
-            SCENE,
-            "--spp",
-            "1",
-            "--threads",
-            "1",
-            "-q",
-            "-o",
-            "late",
-            "--set",
-            "film.start_opl=5.2",
-        ],
-        dir,
-    );
-    assert!(o.status.success(), "{}", stderr(&o));
+    rough_target_with(SCENE, dir, "late", &["film.start_opl=5.2"]);
     let o = dtr(&one_iteration(SCENE, "late.npy", "plate_z", "out"), dir);
     let e = stderr(&o);
     assert_eq!(o.status.code(), Some(2), "{e}");
@@ -389,23 +379,7 @@ fn optimize_warns_of_a_run_that_did_not_settle() {
     let tmp = tempfile::tempdir().unwrap();
     let dir = tmp.path();
     // a black room: every gradient of the albedo points down, to its end at 0
-    let o = dtr(
-        &[
-            "render",
-            ROOM,
-            "--set",
-            "albedo=0",
-            "--spp",
-            "1",
-            "--threads",
-            "1",
-            "-q",
-            "-o",
-            "dark",
-        ],
-        dir,
-    );
-    assert!(o.status.success(), "{}", stderr(&o));
+    rough_target_with(ROOM, dir, "dark", &["albedo=0"]);
     let o = optimize_albedo(
         dir,
         "dark.npy",
