@@ -7,6 +7,7 @@ pub mod logging;
 mod nlos_out;
 mod npy_in;
 mod optimize_cmd;
+mod optimize_files;
 pub mod output_set;
 mod render_cmd;
 mod shard_set;

@@ -9,15 +9,17 @@
 //! keeps the log and the best values so far. Everything that can be checked before the first
 //! render (options, the target, the parameters at their start) is checked before the folder
 //! is made; a run that fails before it logs an iteration removes what it made, and one that
-//! fails later keeps its log as Ctrl-C does and says so ([`abandon`]).
+//! fails later keeps its log as Ctrl-C does and says so (`optimize_files`, which writes the
+//! run's files and keeps them on a signal).
 
+use super::optimize_files::{RunFiles, RunState, Shared, write_text};
 use crate::film::Transient;
 use crate::optimize::{Problem, Step, loss::Loss};
 use crate::render::{BoundaryMode, RenderOptions};
 use crate::scene::Scene;
 use anyhow::{Context, bail};
-use std::io::Write;
 use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex};
 
 #[derive(clap::Args, Debug)]
 pub struct OptimizeArgs {
@@ -185,14 +187,16 @@ fn check_target_axis(path: &Path, scene: &Scene) -> anyhow::Result<()> {
 /// the run rendered it), then each `[[param]]` named in `values` set to its recovered value.
 /// Relative file names (meshes) are made absolute when `out_dir` is another folder than the
 /// scene's, as `dtr import` makes them, so that it renders.
-fn scene_with(a: &OptimizeArgs, values: &[(String, f64)], out_dir: &Path) -> anyhow::Result<String> {
+/// `text` is the scene file as the run read it at its start: a file edited or moved while
+/// the run goes on does not change what it writes (it did: the lamp of an edit made 3 s into
+/// a run moved in the recovered scene, and a moved file stopped the run).
+fn scene_with(a: &OptimizeArgs, text: &str, values: &[(String, f64)], out_dir: &Path) -> anyhow::Result<String> {
     let path = &a.scene;
-    let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {} again", path.display()))?;
     let json = path.extension().and_then(|e| e.to_str()) == Some("json");
     let mut doc: serde_json::Value = if json {
-        serde_json::from_str(&text)?
+        serde_json::from_str(text)?
     } else {
-        serde_json::to_value(toml::from_str::<toml::Value>(&text)?)?
+        serde_json::to_value(toml::from_str::<toml::Value>(text)?)?
     };
     crate::scene::shapes::rebase_file_names(&mut doc, path, out_dir);
     let sets = super::parse_sets(&a.set)?;
@@ -226,14 +230,6 @@ fn scene_with(a: &OptimizeArgs, values: &[(String, f64)], out_dir: &Path) -> any
     })
 }
 
-fn write_text(path: &Path, text: &str) -> anyhow::Result<()> {
-    crate::output::write_atomic(path, |w| {
-        w.write_all(text.as_bytes())
-            .map_err(|e| crate::output::OutputError::io(path, e))
-    })?;
-    Ok(())
-}
-
 pub fn run(a: OptimizeArgs) -> anyhow::Result<()> {
     let sets = super::parse_sets(&a.set)?;
     if let Some(name) = a
@@ -264,15 +260,21 @@ pub fn run(a: OptimizeArgs) -> anyhow::Result<()> {
         );
     }
     let (start_sets, fixed): (Vec<_>, Vec<_>) = sets.numbers.into_iter().partition(|(n, _)| a.params.contains(n));
+    // the scene file as the run found it: the recovered scenes are made from this text
+    let scene_text = crate::scene::read_regular_file(&a.scene, 64 << 20)
+        .with_context(|| format!("cannot read {}", a.scene.display()))?;
     let scene = Scene::load_with_text(&a.scene, &fixed, &sets.texts)?;
     let target = read_target(&a.target, &scene)?;
+    for w in target_warnings(&target.data) {
+        log::warn!("{}: {w}", a.target.display());
+    }
     let mut lr = vec![a.lr; a.params.len()];
     for (k, v) in named(
         "--lr-of",
         &a.lr_of,
         &a.params,
-        |s| s.parse().ok().filter(|v: &f64| *v > 0.0),
-        "X (X > 0)",
+        |s| s.parse().ok().filter(|v: &f64| v.is_finite() && *v > 0.0),
+        "X (a finite X > 0)",
     )? {
         lr[k] = v;
     }
@@ -314,79 +316,63 @@ pub fn run(a: OptimizeArgs) -> anyhow::Result<()> {
     // everything that can stop the run before its first iteration is refused before the
     // folder is made (a parameter whose time derivative cannot be taken, ...)
     let domains = problem.check(&start, &lr, a.lr_end)?;
-    let (dir, created) = prepare_dir(&a.output, &[&a.scene, &a.target])?;
-    let recovered = dir.join(if a.scene.extension().and_then(|e| e.to_str()) == Some("json") {
-        "recovered.json"
-    } else {
-        "recovered.toml"
-    });
-    // a log the file system refuses (a full disk) is an output error naming it, and leaves
-    // nothing behind, as any failure before the first logged iteration
-    let log_path = dir.join("log.csv");
-    let log_error = |e: std::io::Error| anyhow::Error::new(crate::output::OutputError::io(&log_path, e));
-    let names = a.params.join(",");
-    let grads: Vec<String> = a.params.iter().map(|p| format!("d_{p}")).collect();
-    let header = format!("iteration,loss,{names},{},seconds\n", grads.join(","));
-    let mut log = match std::fs::File::create(&log_path)
-        .map(std::io::BufWriter::new)
-        .and_then(|mut log| {
-            log.write_all(header.as_bytes())?;
-            log.flush()?;
-            Ok(log)
-        }) {
-        Ok(log) => log,
-        Err(e) => return Err(abandon(&dir, created, 0, log_error(e))),
+    // a signal from here on waits for the write in progress, then keeps what the run has
+    let state: Shared = Arc::new(Mutex::new(RunState::Before));
+    super::optimize_files::end_on_signal(state.clone())?;
+    let lock = || state.lock().unwrap_or_else(|e| e.into_inner());
+    let dir = {
+        let mut guard = lock();
+        let (dir, created) = prepare_dir(&a.output, &[&a.scene, &a.target])?;
+        let recovered = dir.join(if a.scene.extension().and_then(|e| e.to_str()) == Some("json") {
+            "recovered.json"
+        } else {
+            "recovered.toml"
+        });
+        *guard = RunState::Running(RunFiles::start(&dir, created, recovered, &a.params)?);
+        dir
     };
     let bar = crate::render::progress_bar(
         super::logging::chatty(),
         a.iters as u64,
         "{elapsed_precise} [{bar:30}] {pos}/{len} {msg}",
     );
-    let mut best = f64::INFINITY;
-    let mut logged = 0;
     let mut failure: Option<anyhow::Error> = None;
     let steps = problem.optimize(&start, a.iters, &lr, a.lr_end, |s: &Step| {
-        let row = |v: &[f64]| v.iter().map(|x| format!("{x:e}")).collect::<Vec<_>>().join(",");
-        let mut ok = writeln!(
-            log,
-            "{},{:e},{},{},{}",
-            s.iteration,
-            s.loss,
-            row(&s.values),
-            row(&s.grad),
-            s.seconds
-        )
-        .and_then(|_| log.flush())
-        .map_err(log_error);
-        if ok.is_ok() {
-            logged += 1;
-        }
-        if ok.is_ok() && s.loss < best {
-            best = s.loss;
-            ok = write_best(&dir, &recovered, &a, s);
-        }
+        let logged = match &mut *lock() {
+            RunState::Running(run) => run.log_step(s, |values| scene_with(&a, &scene_text, values, &dir)),
+            _ => Ok(()),
+        };
         bar.set_message(format!("loss {:.3e}  {}", s.loss, pairs(&a.params, &s.values)));
         bar.inc(1);
-        if let Err(e) = ok {
+        if let Err(e) = logged {
             failure = Some(e);
             return false;
         }
         true
     });
     bar.finish_and_clear();
+    // the result is written under the lock: a signal now lets the run end
+    let mut guard = lock();
+    let RunState::Running(run) = std::mem::replace(&mut *guard, RunState::Done) else {
+        unreachable!("only this thread ends a running run");
+    };
     let steps = match (steps, failure) {
         (Ok(steps), None) => steps,
-        (Err(e), _) => return Err(abandon(&dir, created, logged, e.into())),
-        (Ok(_), Some(e)) => return Err(abandon(&dir, created, logged, e)),
+        (Err(e), _) => return Err(run.abandon(e.into())),
+        (Ok(_), Some(e)) => return Err(run.abandon(e)),
     };
     let last = steps.last().context("no iteration ran")?;
     for w in crate::optimize::unsettled(&a.params, &steps, &domains) {
         log::warn!("{}: {w}", dir.display());
     }
     let result = crate::optimize::tail_average(&steps, a.average).context("no iteration ran")?;
-    let values: Vec<(String, f64)> = a.params.iter().cloned().zip(result.iter().copied()).collect();
-    write_text(&recovered, &scene_with(&a, &values, &dir)?)?;
-    write_plots(&dir, &a.params, &steps)?;
+    let finished = scene_with(&a, &scene_text, &run.values(&result), &dir)
+        .and_then(|text| write_text(run.recovered(), &text))
+        .and_then(|()| run.write_plots());
+    if let Err(e) = finished {
+        return Err(run.abandon(e));
+    }
+    drop(guard);
     log::info!(
         "{}: {} iterations, loss {:.3e} → {:.3e}; {}{}",
         dir.display(),
@@ -403,6 +389,25 @@ pub fn run(a: OptimizeArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// What a target's values say before a run fits them: a film holding no light (every loss
+/// is 0 whatever the parameters, so nothing moves), and negative values (a measurement with
+/// its background subtracted?), which no render reaches.
+fn target_warnings(data: &[f32]) -> Vec<String> {
+    let mut out = Vec::new();
+    let negative = data.iter().filter(|&&v| v < 0.0).count();
+    if negative > 0 {
+        let lowest = data.iter().fold(0.0f32, |m, &v| m.min(v));
+        out.push(format!(
+            "{negative} of its {} values are negative (the lowest {lowest:e}); a render is never negative, so the loss cannot reach 0 there",
+            data.len()
+        ));
+    }
+    if !data.iter().any(|&v| v > 0.0) {
+        out.push("it holds no light in the window (no value above 0): every parameter that only moves light is fitted to darkness".to_string());
+    }
+    out
+}
+
 fn pairs(names: &[String], values: &[f64]) -> String {
     names
         .iter()
@@ -410,61 +415,6 @@ fn pairs(names: &[String], values: &[f64]) -> String {
         .map(|(n, v)| format!("{n} = {v:.6}"))
         .collect::<Vec<_>>()
         .join(", ")
-}
-
-fn write_best(dir: &Path, recovered: &Path, a: &OptimizeArgs, s: &Step) -> anyhow::Result<()> {
-    let values: Vec<(String, f64)> = a.params.iter().cloned().zip(s.values.iter().copied()).collect();
-    let json = serde_json::json!({
-        "about": "the iterate with the lowest loss so far (losses are Monte Carlo estimates)",
-        "iteration": s.iteration,
-        "loss": s.loss,
-        "params": values.iter().map(|(n, v)| (n.clone(), serde_json::json!(v))).collect::<serde_json::Map<_, _>>(),
-    });
-    crate::output::write_json(&dir.join("best.json"), &json)?;
-    write_text(recovered, &scene_with(a, &values, dir)?)
-}
-
-fn write_plots(dir: &Path, params: &[String], steps: &[Step]) -> anyhow::Result<()> {
-    let loss: Vec<(f64, f64)> = steps.iter().map(|s| ((s.iteration + 1) as f64, s.loss)).collect();
-    crate::output::write_loglog_plot(
-        &dir.join("loss.png"),
-        "loss over the iterations",
-        "iteration + 1",
-        "loss",
-        &[("loss".to_string(), loss)],
-    )?;
-    for (k, name) in params.iter().enumerate() {
-        let v: Vec<(f64, f64)> = steps.iter().map(|s| (s.iteration as f64, s.values[k])).collect();
-        crate::output::write_line_plot(
-            &dir.join(format!("param_{name}.png")),
-            &format!("{name} over the iterations"),
-            "iteration",
-            name,
-            &[(name.clone(), v)],
-        )?;
-    }
-    Ok(())
-}
-
-/// The error of a run that failed after its folder was made. With no iteration logged, its
-/// `log.csv` is removed, and the folder too when this run created it, so that the folder does
-/// not refuse a rerun. With some, the log and the best values so far are kept, as Ctrl-C
-/// keeps them, and the error says so.
-fn abandon(dir: &Path, created: bool, logged: usize, e: anyhow::Error) -> anyhow::Error {
-    if logged == 0 {
-        let _ = std::fs::remove_file(dir.join("log.csv"));
-        if created {
-            let _ = std::fs::remove_dir(dir);
-        }
-        return e;
-    }
-    let iterations = if logged == 1 { "iteration" } else { "iterations" };
-    e.context(format!(
-        "{}: the run stopped after {logged} {iterations}; the log.csv and the best values so far \
-         (best.json and the recovered scene) are kept, as an interrupted run keeps them. Give \
-         another -o (or remove the folder) to run again",
-        dir.display()
-    ))
 }
 
 /// Creates `dir` (or accepts it empty): an optimisation never mixes its files with another

@@ -80,7 +80,8 @@ pub fn tail_average(steps: &[Step], fraction: f64) -> Option<Vec<f64>> {
 }
 
 /// What a run's iterates say about whether it got where it was going, as warnings naming
-/// the parameter: one whose last steps all went one way (the last quarter of the run, at
+/// the parameter: one whose gradient was 0 at every iteration never moved, and its value is
+/// only its start; one whose last steps all went one way (the last quarter of the run, at
 /// least 10 steps: a run settled near its answer steps back and forth in its noise) was
 /// still on its way when the iterations ran out; one that ended on a closed end of its
 /// domain (`domains`, from [`Problem::domains`]: its kind's range within `--bound`) was
@@ -91,6 +92,13 @@ pub fn unsettled(names: &[String], steps: &[Step], domains: &[Domain]) -> Vec<St
     for (k, name) in names.iter().enumerate() {
         let values: Vec<f64> = steps.iter().map(|s| s.values[k]).collect();
         let Some(&last) = values.last() else { continue };
+        if steps.iter().all(|s| s.grad[k] == 0.0) {
+            out.push(format!(
+                "{name} never moved from its start ({}): its gradient was 0 at every iteration, so nothing in the rendered window depends on it there (out of view, or the boundary term it needs left out: --estimators interior)",
+                values[0]
+            ));
+            continue;
+        }
         if let Some(d) = domains.get(k) {
             let at_lo = !d.open_lo && last == d.lo;
             if at_lo || (!d.open_hi && last == d.hi) {
@@ -229,6 +237,11 @@ impl Problem {
                 "one start value, one bound and one learning rate per parameter".into(),
             ));
         }
+        if let Some((name, rate)) = self.params.iter().zip(lr).find(|(_, r)| !(r.is_finite() && **r > 0.0)) {
+            return Err(Error::Invalid(format!(
+                "{name}: the learning rate {rate} must be a finite number above 0"
+            )));
+        }
         Ok(())
     }
 
@@ -257,7 +270,22 @@ impl Problem {
         for it in 0..iters {
             let t0 = std::time::Instant::now();
             let seed = base.wrapping_add(2 * it as u64);
-            self.set_values(&mut scene, &x)?;
+            if let Some((name, v)) = self.params.iter().zip(&x).find(|(_, v)| !v.is_finite()) {
+                return Err(Error::Invalid(format!(
+                    "iteration {it}: Adam's step took {name} to {v}: its learning rate is too large for it"
+                )));
+            }
+            self.set_values(&mut scene, &x).map_err(|e| {
+                Error::Invalid(format!(
+                    "iteration {it}: the scene does not take the values the steps reached ({}): {e}",
+                    self.params
+                        .iter()
+                        .zip(&x)
+                        .map(|(n, v)| format!("{n} = {v}"))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ))
+            })?;
             let (l, g) = self.loss_and_gradient_of(&scene, seed)?;
             if !l.is_finite() || g.iter().any(|v| !v.is_finite()) {
                 return Err(Error::Invalid(format!(
@@ -297,7 +325,7 @@ mod tests {
                 iteration: i,
                 loss: 0.0,
                 values: vec![v, -v],
-                grad: vec![0.0, 0.0],
+                grad: vec![1.0, -1.0],
                 seconds: 0.0,
             })
             .collect()
@@ -329,6 +357,16 @@ mod tests {
         assert_eq!(w.len(), 1, "{w:?}");
         assert!(
             w[0].starts_with("a ended at 0, the lower end") && w[0].contains("in [0, 1]"),
+            "{w:?}"
+        );
+        // a gradient of 0 at every iteration: the value is its start, whatever else holds
+        // (before, a constant value counted as settled and the run ended with no warning)
+        let mut still = steps(&[1.5; 40]);
+        still.iter_mut().for_each(|s| s.grad[1] = 0.0);
+        let w = unsettled(&names, &still, &any);
+        assert_eq!(w.len(), 1, "{w:?}");
+        assert!(
+            w[0].starts_with("b never moved from its start (-1.5)") && w[0].contains("--estimators interior"),
             "{w:?}"
         );
     }

@@ -1,0 +1,221 @@
+//! The files a `dtr optimize` run writes as it goes, in its folder: `log.csv` (a row per
+//! iteration, flushed as it goes), `best.json` and the recovered scene (the lowest loss so
+//! far), and at the end the recovered scene of the result and the plots.
+//!
+//! A run interrupted by SIGINT, SIGTERM or SIGHUP waits for the write in progress (the row,
+//! best.json and the recovered scene are written together, under one lock), then keeps what
+//! it has: with iterations logged, the log, the best values so far and the plots of those
+//! iterations; with none, nothing (the log's header and the folder it made are removed, so a
+//! rerun into the same folder is not refused). Before, Ctrl-C killed the process wherever it
+//! was: best.json and the recovered scene could disagree, a staging file stayed behind, and a
+//! run stopped before its first iteration left a folder that refused the rerun.
+
+use crate::optimize::Step;
+use anyhow::Context;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex};
+
+/// What a run has written so far, shared with the signal thread.
+pub(super) struct RunFiles {
+    dir: PathBuf,
+    /// whether this run made the folder (an empty one given with -o is kept)
+    created: bool,
+    recovered: PathBuf,
+    names: Vec<String>,
+    log: std::io::BufWriter<std::fs::File>,
+    best: f64,
+    steps: Vec<Step>,
+}
+
+/// Where a run is, as the signal thread sees it.
+pub(super) enum RunState {
+    /// Its folder is not made yet: a signal ends it at once.
+    Before,
+    /// It logs iterations: a signal keeps what it has ([`RunFiles`]'s module doc).
+    Running(RunFiles),
+    /// It writes its result: a signal waits for it to end.
+    Done,
+}
+
+/// The run's state behind the lock the signal thread takes before it acts.
+pub(super) type Shared = Arc<Mutex<RunState>>;
+
+impl RunFiles {
+    /// Starts the log in `dir` (made by this run when `created`) with its header. A log the
+    /// file system refuses is an output error naming it, and the folder is left as it was
+    /// found.
+    pub(super) fn start(dir: &Path, created: bool, recovered: PathBuf, names: &[String]) -> anyhow::Result<Self> {
+        let log_path = dir.join("log.csv");
+        let grads: Vec<String> = names.iter().map(|p| format!("d_{p}")).collect();
+        let header = format!("iteration,loss,{},{},seconds\n", names.join(","), grads.join(","));
+        let log = std::fs::File::create(&log_path)
+            .map(std::io::BufWriter::new)
+            .and_then(|mut log| {
+                log.write_all(header.as_bytes())?;
+                log.flush()?;
+                Ok(log)
+            });
+        match log {
+            Ok(log) => Ok(Self {
+                dir: dir.to_path_buf(),
+                created,
+                recovered,
+                names: names.to_vec(),
+                log,
+                best: f64::INFINITY,
+                steps: Vec::new(),
+            }),
+            Err(e) => {
+                remove_run(dir, created);
+                Err(crate::output::OutputError::io(&log_path, e).into())
+            }
+        }
+    }
+
+    /// Logs `s`, and where its loss is the lowest so far writes `best.json` and the recovered
+    /// scene (`scene_text` makes its text from the values).
+    pub(super) fn log_step(
+        &mut self,
+        s: &Step,
+        scene_text: impl Fn(&[(String, f64)]) -> anyhow::Result<String>,
+    ) -> anyhow::Result<()> {
+        let row = |v: &[f64]| v.iter().map(|x| format!("{x:e}")).collect::<Vec<_>>().join(",");
+        writeln!(
+            self.log,
+            "{},{:e},{},{},{}",
+            s.iteration,
+            s.loss,
+            row(&s.values),
+            row(&s.grad),
+            s.seconds
+        )
+        .and_then(|_| self.log.flush())
+        .map_err(|e| crate::output::OutputError::io(&self.dir.join("log.csv"), e))?;
+        self.steps.push(s.clone());
+        if s.loss < self.best {
+            self.best = s.loss;
+            let values = self.values(&s.values);
+            let json = serde_json::json!({
+                "about": "the iterate with the lowest loss so far (losses are Monte Carlo estimates)",
+                "iteration": s.iteration,
+                "loss": s.loss,
+                "params": values.iter().map(|(n, v)| (n.clone(), serde_json::json!(v))).collect::<serde_json::Map<_, _>>(),
+            });
+            crate::output::write_json(&self.dir.join("best.json"), &json)?;
+            write_text(&self.recovered, &scene_text(&values)?)?;
+        }
+        Ok(())
+    }
+
+    /// The parameters' names paired with `values`.
+    pub(super) fn values(&self, values: &[f64]) -> Vec<(String, f64)> {
+        self.names.iter().cloned().zip(values.iter().copied()).collect()
+    }
+
+    /// The recovered scene's file.
+    pub(super) fn recovered(&self) -> &Path {
+        &self.recovered
+    }
+
+    /// Writes the plots of the iterations logged: `loss.png` (log-log where every loss is
+    /// above 0, else on linear axes: a run whose window holds no light has losses of 0) and
+    /// `param_NAME.png`.
+    pub(super) fn write_plots(&self) -> anyhow::Result<()> {
+        let loss: Vec<(f64, f64)> = self.steps.iter().map(|s| ((s.iteration + 1) as f64, s.loss)).collect();
+        let series = [("loss".to_string(), loss)];
+        let path = self.dir.join("loss.png");
+        let title = "loss over the iterations";
+        if series[0].1.iter().all(|&(_, l)| l > 0.0) {
+            crate::output::write_loglog_plot(&path, title, "iteration + 1", "loss", &series)?;
+        } else {
+            crate::output::write_line_plot(&path, title, "iteration + 1", "loss", &series)?;
+        }
+        for (k, name) in self.names.iter().enumerate() {
+            let v: Vec<(f64, f64)> = self.steps.iter().map(|s| (s.iteration as f64, s.values[k])).collect();
+            crate::output::write_line_plot(
+                &self.dir.join(format!("param_{name}.png")),
+                &format!("{name} over the iterations"),
+                "iteration",
+                name,
+                &[(name.clone(), v)],
+            )?;
+        }
+        Ok(())
+    }
+
+    /// The error of a run that failed after its folder was made. With no iteration logged,
+    /// its `log.csv` is removed, and the folder too when this run made it, so that the folder
+    /// does not refuse a rerun. With some, the log, the best values so far and their plots
+    /// are kept, as Ctrl-C keeps them, and the error says so.
+    pub(super) fn abandon(self, e: anyhow::Error) -> anyhow::Error {
+        let logged = self.steps.len();
+        if logged == 0 {
+            remove_run(&self.dir, self.created);
+            return e;
+        }
+        let _ = self.write_plots();
+        let iterations = if logged == 1 { "iteration" } else { "iterations" };
+        e.context(format!(
+            "{}: the run stopped after {logged} {iterations}; the log.csv, its plots and the best \
+             values so far (best.json and the recovered scene) are kept, as an interrupted run keeps \
+             them. Give another -o (or remove the folder) to run again",
+            self.dir.display()
+        ))
+    }
+}
+
+/// Removes the log of a run that logged no iteration, and its folder when the run made it.
+fn remove_run(dir: &Path, created: bool) {
+    let _ = std::fs::remove_file(dir.join("log.csv"));
+    if created {
+        let _ = std::fs::remove_dir(dir);
+    }
+}
+
+/// Writes `text` to `path` whole or not at all.
+pub(super) fn write_text(path: &Path, text: &str) -> anyhow::Result<()> {
+    crate::output::write_atomic(path, |w| {
+        w.write_all(text.as_bytes())
+            .map_err(|e| crate::output::OutputError::io(path, e))
+    })?;
+    Ok(())
+}
+
+/// Starts the thread that ends the run on SIGINT, SIGTERM or SIGHUP: it takes the lock on
+/// `state` (so no write is cut in two) and, while the run logs iterations, keeps what it has
+/// ([`RunFiles`]'s module doc), says so, and exits with 128 + the signal, holding the lock.
+/// Before the folder is made it exits at once; once the run writes its result it lets it end.
+pub(super) fn end_on_signal(state: Shared) -> anyhow::Result<()> {
+    use signal_hook::consts::{SIGHUP, SIGINT, SIGTERM};
+    let mut signals = signal_hook::iterator::Signals::new([SIGINT, SIGTERM, SIGHUP])
+        .context("cannot install the SIGINT/SIGTERM/SIGHUP handler")?;
+    std::thread::spawn(move || {
+        for sig in signals.forever() {
+            let guard = state.lock().unwrap_or_else(|e| e.into_inner());
+            let said = match &*guard {
+                RunState::Done => continue,
+                RunState::Before => "nothing was written".to_string(),
+                RunState::Running(run) if run.steps.is_empty() => {
+                    remove_run(&run.dir, run.created);
+                    "no iteration was logged, so nothing was kept".to_string()
+                }
+                RunState::Running(run) => {
+                    let plots = match run.write_plots() {
+                        Ok(()) => "the plots of those iterations".to_string(),
+                        Err(e) => format!("no plots ({e:#})"),
+                    };
+                    format!(
+                        "{} keeps the log.csv of {} iterations, the best values so far (best.json and {}) and {plots}",
+                        run.dir.display(),
+                        run.steps.len(),
+                        run.recovered.file_name().unwrap_or_default().to_string_lossy()
+                    )
+                }
+            };
+            eprintln!("dtr: interrupted (signal {sig}); {said}");
+            std::process::exit(128 + sig);
+        }
+    });
+    Ok(())
+}
