@@ -23,6 +23,8 @@ from __future__ import annotations
 
 import json
 import os
+import secrets
+import warnings
 from dataclasses import dataclass, field
 from typing import Any, Dict, Iterable, List, Mapping, Optional, Sequence, Tuple
 
@@ -168,7 +170,7 @@ def render(scene: Scene, *, spp: Optional[int] = None, seed: Optional[int] = Non
         scene = scene.auto_window(seed=seed, threads=threads)
         window = scene.window
     t, steady, stats = _render(scene._native, spp, seed, threads)
-    stats = json.loads(stats)
+    stats = _warn_of_window(json.loads(stats))
     if window is not None:
         stats["auto_window"] = window
     return Render(t, steady, scene.bin_centres, stats)
@@ -186,7 +188,25 @@ def render_diff(scene: Scene, params: Sequence[str], *, spp: Optional[int] = Non
     spp, seed, threads = _count("spp", spp), _count("seed", seed), _count("threads", threads)
     spp_boundary = _count("spp_boundary", spp_boundary)
     t, d, stats = _render_diff(scene._native, params, spp, seed, threads, spp_boundary, estimators, time_edges)
-    return DiffRender(t, dict(zip(params, d)), scene.bin_centres, json.loads(stats))
+    return DiffRender(t, dict(zip(params, d)), scene.bin_centres, _warn_of_window(json.loads(stats)))
+
+
+def _draw_seed(seed: Optional[int]) -> int:
+    """`seed` where one is given; else a fresh one (62 random bits), so that calls without a
+    seed draw new samples each time: an optimiser fed gradients of one frozen set of samples
+    settles where that noise puts it, not at the answer (`dtr optimize` renders iteration i
+    at seeds S + 2i and S + 2i + 1 for that reason)."""
+    return seed if seed is not None else secrets.randbits(62)
+
+
+def _warn_of_window(stats: dict) -> dict:
+    """Raises the energy report's warning (the time window holds no light, or too little of
+    it) as a RuntimeWarning, as `dtr render` warns on stderr: an empty answer is never silent.
+    Returns `stats`, whose `stats["energy"]["warning"]` holds it too (None when it looks right)."""
+    warning = stats.get("energy", {}).get("warning")
+    if warning:
+        warnings.warn(warning, RuntimeWarning, stacklevel=3)
+    return stats
 
 
 def gradient(scene: Scene, params: Sequence[str], adjoint: np.ndarray, *, spp: Optional[int] = None,

@@ -9,10 +9,12 @@
     loss.backward()                                                  # theta.grad
 
 The forward pass renders the scene with the parameter values of `theta`; the backward pass
-runs the adjoint (`difftransient.gradient`) with ∂loss/∂image, on samples of its own (seed
-`seed + 1`, as in the optimizer of `dtr optimize`; with no seed, `gradient`'s own default,
-independent of the scene's seed the forward pass used), so the gradient is independent of
-the forward noise.
+runs the adjoint (`difftransient.gradient`) with ∂loss/∂image on samples of its own (seed
+`seed + 1`, as in the optimizer of `dtr optimize`), so the gradient is independent of the
+forward noise. With no seed, every call draws a fresh one, so that an optimiser's iterations
+see new noise each time (with one frozen set of samples it would settle where that noise
+puts it); a seed fixes the samples of every call (for finite differences with common random
+numbers).
 """
 
 from __future__ import annotations
@@ -22,7 +24,7 @@ from typing import Optional, Sequence
 import numpy as np
 import torch
 
-from . import Scene, gradient
+from . import Scene, _draw_seed, gradient
 from . import render as _render
 
 __all__ = ["render", "RenderFunction"]
@@ -37,6 +39,7 @@ class RenderFunction(torch.autograd.Function):
                 estimators: str = "full"):
         values = {n: float(v) for n, v in zip(names, theta.detach().cpu().tolist())}
         at = scene.with_params(values)
+        options = dict(options, seed=_draw_seed(options.get("seed")))
         r = _render(at, **options)
         ctx.scene, ctx.names, ctx.options, ctx.estimators = at, list(names), options, estimators
         ctx.theta_dtype, ctx.theta_device = theta.dtype, theta.device
@@ -45,8 +48,7 @@ class RenderFunction(torch.autograd.Function):
     @staticmethod
     def backward(ctx, grad_output: torch.Tensor):
         options = dict(ctx.options, estimators=ctx.estimators)
-        if options.get("seed") is not None:
-            options["seed"] += 1
+        options["seed"] += 1
         adj = grad_output.detach().to("cpu", torch.float32).contiguous().numpy()
         g, _ = gradient(ctx.scene, ctx.names, adj, **options)
         grad = torch.from_numpy(np.asarray(g)).to(ctx.theta_dtype).to(ctx.theta_device)

@@ -261,6 +261,15 @@ fn stats_json(s: &impl serde::Serialize) -> PyResult<String> {
     serde_json::to_string(s).map_err(|e| RenderError::new_err(e.to_string()))
 }
 
+/// A render's stats as JSON text with the energy report's `warning` (the window holds no or
+/// too little of the light; `null` when it looks right), as `dtr render` writes it in its
+/// JSON; the Python package raises it as a `RuntimeWarning`.
+fn stats_with_warning(s: &difftransient::RenderStats, warning: Option<String>) -> PyResult<String> {
+    let mut v = serde_json::to_value(s).map_err(|e| RenderError::new_err(e.to_string()))?;
+    v["energy"]["warning"] = serde_json::json!(warning);
+    stats_json(&v)
+}
+
 type Film<'py> = Bound<'py, PyArray4<f32>>;
 
 /// Renders the transient: (transient [H, W, T, C], steady [H, W, C], stats as JSON text).
@@ -279,11 +288,8 @@ fn render<'py>(
         .map_err(render_err)?;
     let [h, w, _, c] = t.shape();
     let steady = std::mem::take(&mut t.steady);
-    Ok((
-        film_array(py, t)?,
-        steady_array(py, h, w, c, steady)?,
-        stats_json(&stats)?,
-    ))
+    let stats = stats_with_warning(&stats, stats.energy.warning(&t.axis))?;
+    Ok((film_array(py, t)?, steady_array(py, h, w, c, steady)?, stats))
 }
 
 /// Renders the transient and its derivative with respect to each of `params`:
@@ -306,8 +312,9 @@ fn render_diff<'py>(
     let (t, d, stats) = py
         .detach(|| difftransient::render_diff(&scene.scene, &params, &opts))
         .map_err(render_err)?;
+    let stats = stats_with_warning(&stats, stats.energy.warning(&t.axis))?;
     let d = d.into_iter().map(|t| film_array(py, t)).collect::<PyResult<Vec<_>>>()?;
-    Ok((film_array(py, t)?, d, stats_json(&stats)?))
+    Ok((film_array(py, t)?, d, stats))
 }
 
 /// What `gradient` adds to the scene's seed when it is given none. An adjoint ∂L/∂I computed

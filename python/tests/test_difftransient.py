@@ -388,3 +388,34 @@ def test_time_edges_option_reaches_the_renderer():
     assert stats["time_edges"] is False
     with pytest.raises(dt.RenderError, match="time_edges"):
         dt.render_diff(s, ["tall_box_x"], spp=1, time_edges="sometimes")
+
+
+def test_an_empty_time_window_is_warned_about():
+    """A window that holds none of the light returns zeros with a RuntimeWarning and the
+    warning in stats["energy"], as `dtr render` warns on stderr and writes it in its JSON.
+    Before, Python returned the zeros silently (helper 20)."""
+    s = scene("diff_room.toml").with_params({"film.start_opl": 100.0})
+    with pytest.warns(RuntimeWarning, match="holds no energy"):
+        r = dt.render(s, spp=1, threads=1)
+    assert not r.transient.any()
+    assert "holds no energy" in r.stats["energy"]["warning"]
+    with pytest.warns(RuntimeWarning, match="holds no energy"):
+        d = dt.render_diff(s, ["albedo"], spp=1, threads=1)
+    assert "holds no energy" in d.stats["energy"]["warning"]
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        r = dt.render(scene("diff_room.toml"), spp=1, threads=1)
+    assert r.stats["energy"]["warning"] is None
+
+
+def test_calls_without_a_seed_draw_fresh_samples():
+    """The torch adapter's seed: a given one is kept (common random numbers), none draws a new
+    one at each call, so that an optimiser's iterations do not all see one frozen set of
+    samples (before, every call without a seed rendered at the scene's seed; helper 20)."""
+    from difftransient import _draw_seed
+
+    assert _draw_seed(5) == 5 and _draw_seed(0) == 0
+    drawn = {_draw_seed(None) for _ in range(64)}
+    assert len(drawn) == 64 and all(0 <= s < 2**62 for s in drawn)
