@@ -58,6 +58,19 @@ class Scene:
         #: the window chosen by `auto_window` (a dict), or None
         self.window: Optional[dict] = None
 
+    def __copy__(self) -> "Scene":
+        # the native scene is immutable: copies share it (they raised TypeError)
+        s = Scene(self._native)
+        s.window = self.window
+        return s
+
+    def __deepcopy__(self, memo: dict) -> "Scene":
+        import copy
+
+        s = Scene(self._native)
+        s.window = copy.deepcopy(self.window, memo)
+        return s
+
     @staticmethod
     def load(path: "os.PathLike[str] | str", params: Optional[Mapping[str, Any]] = None) -> "Scene":
         """Loads a scene file (.toml, .json, or a Mitsuba 3 .xml converted on load), with `params`

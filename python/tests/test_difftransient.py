@@ -419,3 +419,15 @@ def test_calls_without_a_seed_draw_fresh_samples():
     assert _draw_seed(5) == 5 and _draw_seed(0) == 0
     drawn = {_draw_seed(None) for _ in range(64)}
     assert len(drawn) == 64 and all(0 <= s < 2**62 for s in drawn)
+
+
+def test_a_scene_copies():
+    """copy.copy and copy.deepcopy of a Scene (as optimisation loops and dataclasses make them)
+    give a scene that renders the same bytes; they raised TypeError (helper 20)."""
+    import copy
+
+    s = scene("diff_room.toml")
+    for c in (copy.copy(s), copy.deepcopy(s), copy.deepcopy({"scene": s})["scene"]):
+        assert isinstance(c, dt.Scene) and c.shape == s.shape
+        assert np.array_equal(dt.render(c, spp=1, seed=3, threads=1).transient,
+                              dt.render(s, spp=1, seed=3, threads=1).transient)
