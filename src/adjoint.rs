@@ -329,6 +329,7 @@ fn render_adjoint_group(
         stats.non_finite_samples += b.non_finite();
         stats.boundary = Some(b);
     }
+    run.not_cancelled()?;
     stats.wall_seconds = t0.elapsed().as_secs_f64();
     Ok((grad[..derivs].to_vec(), stats))
 }

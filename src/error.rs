@@ -26,6 +26,9 @@ pub enum Error {
     /// adjoint of the wrong shape, a malformed shard); the message says what was expected.
     #[error("{0}")]
     Invalid(String),
+    /// The render was stopped from outside ([`crate::cancel::Cancel`]) before it finished.
+    #[error("the render was cancelled before it finished")]
+    Cancelled,
 }
 
 impl From<AccelError> for Error {

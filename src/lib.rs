@@ -55,6 +55,7 @@ pub mod adjoint;
 pub mod auto_window;
 #[doc(hidden)]
 pub mod boundary;
+pub mod cancel;
 #[doc(hidden)]
 pub mod checkpoint;
 #[doc(hidden)]

@@ -110,6 +110,9 @@ pub struct RenderOptions {
     /// the time edges (`integrator::time_edges`; default: wherever they apply) or from its
     /// ordinary contributions (`dtr render --time-edges off`).
     pub time_edges: TimeEdgeMode,
+    /// Stops the render from outside when set ([`crate::cancel`]): it then returns
+    /// [`Error::Cancelled`].
+    pub cancel: crate::cancel::Cancel,
 }
 
 /// Whether the render's draws on the time edges take a delta pulse's time term
@@ -255,6 +258,7 @@ pub fn render(scene: &Scene, opts: &RenderOptions) -> Result<(Transient, RenderS
     let mut run = Run::new(scene, Motion::none(), opts, false)?;
     let mut interior = run.interior(opts, false);
     let stats = run.finish(opts, &mut interior, None);
+    run.not_cancelled()?;
     Ok((interior.films.swap_remove(0), stats))
 }
 
@@ -350,6 +354,7 @@ pub fn render_diff_parts(scene: &Scene, params: &[String], opts: &RenderOptions)
     let mut interior = run.interior(opts, false);
     let boundary = run.boundary(opts);
     let stats = run.finish(opts, &mut interior, boundary.as_ref());
+    run.not_cancelled()?;
     let mut films = interior.films.into_iter();
     let primal = films.next().expect("the primal film");
     let (primary, secondary) = boundary.map_or((Vec::new(), Vec::new()), |b| (b.primary, b.secondary));
@@ -392,6 +397,7 @@ pub fn render_strategies(
     let mut run = Run::new(scene, Motion::none(), opts, true)?;
     let mut interior = run.interior(opts, true);
     let stats = run.finish(opts, &mut interior, None);
+    run.not_cancelled()?;
     let strategies = std::mem::take(&mut interior.strategies);
     Ok((
         interior.films.swap_remove(0),
@@ -853,6 +859,7 @@ impl<'s> Run<'s> {
         let robust = derivs > 0 || !opts.fast_traversal;
         let mut ctx = RenderContext::with_traversal(scene, &device, robust)?;
         ctx.motion = motion;
+        ctx.cancel = opts.cancel.clone();
         if opts.time_edges == TimeEdgeMode::Auto {
             ctx.use_time_edges();
         }
@@ -1185,6 +1192,10 @@ impl<'s> Run<'s> {
                 // traced before is added first, so the checkpoint holds every traced wave
                 let mut due = false;
                 for (k, wave) in waves.iter().enumerate() {
+                    // a cancelled render stops between waves (`crate::cancel`)
+                    if ctx.cancel.is_cancelled() {
+                        break;
+                    }
                     if lock(&state).done[k] {
                         continue;
                     }
@@ -1237,8 +1248,16 @@ impl<'s> Run<'s> {
                     report(ck, ck.write(&lock(&state)));
                 }
                 let mut st = self.finish_pass(Self::end_watch(state));
-                let mut tallies: Vec<crate::checkpoint::Tally> =
-                    st.tallies.drain(..).map(|t| t.expect("every wave ran")).collect();
+                let mut tallies: Vec<crate::checkpoint::Tally> = st
+                    .tallies
+                    .drain(..)
+                    .map(|t| {
+                        t.unwrap_or_else(|| {
+                            assert!(ctx.cancel.is_cancelled(), "every wave ran");
+                            Default::default()
+                        })
+                    })
+                    .collect();
                 let list_len = rows.first().map_or(0, |r| r.strategies.len());
                 strategy_out = Transient::zeros_many(list_len, w, h, axis, channels);
                 for (row, sums) in rows.iter_mut().zip(st.chunks.drain(..)) {
@@ -1334,6 +1353,16 @@ impl<'s> Run<'s> {
             }
             parts
         })
+    }
+
+    /// [`Error::Cancelled`] when the render was stopped from outside (its films are then
+    /// partial and are not returned).
+    pub(crate) fn not_cancelled(&self) -> Result<(), Error> {
+        if self.ctx.cancel.is_cancelled() {
+            Err(Error::Cancelled)
+        } else {
+            Ok(())
+        }
     }
 
     /// The run's statistics and energy report (the window-energy pilot runs here, after
@@ -1574,6 +1603,9 @@ pub(crate) fn render_tile<R: Real, const C: usize, S: Sink<C>>(
         th
     };
     for s in samples.clone() {
+        if ctx.cancel.is_cancelled() {
+            return;
+        }
         for ty in 0..rows {
             let mut x = 0;
             while x < tw {

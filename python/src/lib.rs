@@ -5,7 +5,8 @@
 //!   scenes/README.md); parameter values are set on a copy of a loaded scene
 //!   (`Scene::set_params`: the same scene as loading with `--set`, without reading files).
 //! - Renders release the GIL and run on the library's own thread pool; their films are moved
-//!   into numpy arrays without copying (the array's memory is the film's `Vec`).
+//!   into numpy arrays without copying (the array's memory is the film's `Vec`). Ctrl-C stops
+//!   a render and raises KeyboardInterrupt ([`cancellable`]).
 //! - Errors become `SceneError` (bad scene description or parameter) or `RenderError`
 //!   (anything a render refuses) with the library's messages.
 
@@ -244,6 +245,43 @@ fn options(
     })
 }
 
+/// Runs `job` (a render with `opts`) with the GIL released, on a thread of its own, while
+/// this thread checks every 50 ms for a signal Python must act on (Ctrl-C's
+/// KeyboardInterrupt): on one, it sets the render's cancel flag (`difftransient::cancel`),
+/// waits for the render to stop (within a second or so) and raises the signal's exception.
+/// Before, a long render could be stopped only by ending the process: in a notebook, the
+/// kernel.
+fn cancellable<T: Send>(
+    py: Python<'_>,
+    mut opts: RenderOptions,
+    job: impl FnOnce(&RenderOptions) -> Result<T, difftransient::Error> + Send,
+) -> PyResult<T> {
+    let cancel = difftransient::cancel::Cancel::new();
+    opts.cancel = cancel.clone();
+    let opts = &opts;
+    let (result, interrupted) = py.detach(|| {
+        std::thread::scope(|scope| {
+            let worker = scope.spawn(move || job(opts));
+            let mut interrupted = None;
+            while !worker.is_finished() {
+                std::thread::sleep(std::time::Duration::from_millis(50));
+                if interrupted.is_none()
+                    && let Err(e) = Python::attach(|py| py.check_signals())
+                {
+                    cancel.cancel();
+                    interrupted = Some(e);
+                }
+            }
+            let result = worker.join().unwrap_or_else(|panic| std::panic::resume_unwind(panic));
+            (result, interrupted)
+        })
+    });
+    match interrupted {
+        Some(e) => Err(e),
+        None => result.map_err(render_err),
+    }
+}
+
 /// A film as a [H, W, T, C] float32 array, moved (not copied) into numpy.
 fn film_array(py: Python<'_>, t: Transient) -> PyResult<Bound<'_, PyArray4<f32>>> {
     let [h, w, b, c] = t.shape();
@@ -283,9 +321,7 @@ fn render<'py>(
     threads: Option<usize>,
 ) -> PyResult<(Film<'py>, Bound<'py, PyArray3<f32>>, String)> {
     let opts = options(spp, seed, threads, None, "full", "auto")?;
-    let (mut t, stats) = py
-        .detach(|| difftransient::render(&scene.scene, &opts))
-        .map_err(render_err)?;
+    let (mut t, stats) = cancellable(py, opts, |o| difftransient::render(&scene.scene, o))?;
     let [h, w, _, c] = t.shape();
     let steady = std::mem::take(&mut t.steady);
     let stats = stats_with_warning(&stats, stats.energy.warning(&t.axis))?;
@@ -309,9 +345,7 @@ fn render_diff<'py>(
     time_edges: &str,
 ) -> PyResult<(Film<'py>, Vec<Film<'py>>, String)> {
     let opts = options(spp, seed, threads, spp_boundary, estimators, time_edges)?;
-    let (t, d, stats) = py
-        .detach(|| difftransient::render_diff(&scene.scene, &params, &opts))
-        .map_err(render_err)?;
+    let (t, d, stats) = cancellable(py, opts, |o| difftransient::render_diff(&scene.scene, &params, o))?;
     let stats = stats_with_warning(&stats, stats.energy.warning(&t.axis))?;
     let d = d.into_iter().map(|t| film_array(py, t)).collect::<PyResult<Vec<_>>>()?;
     Ok((film_array(py, t)?, d, stats))
@@ -361,9 +395,9 @@ fn render_adjoint<'py>(
     if a.data.iter().any(|v| !v.is_finite()) {
         return Err(RenderError::new_err("adjoint: every value must be finite".to_string()));
     }
-    let (g, stats) = py
-        .detach(|| difftransient::render_adjoint(&scene.scene, &params, &a, &opts))
-        .map_err(render_err)?;
+    let (g, stats) = cancellable(py, opts, |o| {
+        difftransient::render_adjoint(&scene.scene, &params, &a, o)
+    })?;
     Ok((g.into_pyarray(py), stats_json(&stats)?))
 }
 

@@ -534,7 +534,8 @@ impl Secondary<'_> {
         let my_chunks = (mine.end.div_ceil(CHUNK).min(chunks)).saturating_sub(batch0);
         settings.progress.set_length(my_chunks);
         let batch_len = (BATCH_PER_THREAD * pool.current_num_threads() as u64).max(8);
-        while batch0 < chunks && batch0 * CHUNK < mine.end {
+        // a cancelled render stops between batches (`crate::cancel`)
+        while batch0 < chunks && batch0 * CHUNK < mine.end && !self.ctx.cancel.is_cancelled() {
             let batch: Vec<u64> = (batch0..(batch0 + batch_len).min(chunks)).collect();
             let parts: Vec<(T, Scratch)> = pool.install(|| {
                 batch

@@ -240,6 +240,10 @@ fn for_each_wave<T: Send>(
         .collect();
     // Waves of a few chunks per thread bound the memory; jumps are consumed in chunk order.
     for wave in chunks.chunks(4 * pool.current_num_threads().max(1)) {
+        // a cancelled render stops between waves (`crate::cancel`)
+        if ctx.cancel.is_cancelled() {
+            break;
+        }
         let done: Vec<(T, PrimaryStats)> = pool.install(|| {
             wave.par_iter()
                 .map(|&(a, b)| {

@@ -33,7 +33,7 @@ pub fn read_f32_hashed(
     // the bytes a refusal left unread count too (at most the cap of `open_capped`)
     std::io::copy(&mut hashing, &mut std::io::sink())
         .with_context(|| format!("{}: cannot read {what}", path.display()))?;
-    check(&super::shard_set::hex(&hashing.hash.finalize()))?;
+    check(&super::digest::hex(&hashing.hash.finalize()))?;
     parsed
 }
 
@@ -194,7 +194,7 @@ mod tests {
         let shape = [2, 3, 5, 2];
         let data: Vec<f32> = (0..60).map(|i| i as f32 * 0.5 - 3.0).collect();
         crate::output::write_npy(&p, &shape, &data).unwrap();
-        let want = super::super::shard_set::file_sha256(&p).unwrap();
+        let want = super::super::digest::file_sha256(&p).unwrap();
         let mut seen = String::new();
         let back = read_f32_hashed(&p, &shape, "the film", |got| {
             seen = got.to_string();
@@ -207,7 +207,7 @@ mod tests {
         let mut long = std::fs::read(&p).unwrap();
         long.extend_from_slice(&[7, 7, 7]);
         std::fs::write(&p, &long).unwrap();
-        let want_long = super::super::shard_set::file_sha256(&p).unwrap();
+        let want_long = super::super::digest::file_sha256(&p).unwrap();
         assert_ne!(want_long, want);
         let err = read_f32_hashed(&p, &shape, "the film", |got| {
             anyhow::ensure!(got == want, "digest {got}");

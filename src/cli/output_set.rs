@@ -470,7 +470,7 @@ impl OutputSet {
             .iter()
             .map(|(staged, dest)| {
                 let name = dest.file_name().unwrap_or_default().to_string_lossy().into_owned();
-                Ok((name, serde_json::Value::from(super::shard_set::file_sha256(staged)?)))
+                Ok((name, serde_json::Value::from(super::digest::file_sha256(staged)?)))
             })
             .collect()
     }

@@ -260,6 +260,7 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
             TimeEdges::Auto => TimeEdgeMode::Auto,
             TimeEdges::Off => TimeEdgeMode::Off,
         },
+        ..Default::default()
     };
     if let Some(t) = a.checkpoint {
         super::checkpoint_cmd::check_interval(t)?;

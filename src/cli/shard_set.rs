@@ -8,6 +8,7 @@
 //! `spp` samples the two differ by at most about `(2·spp + 8)·2⁻²⁴` of the value
 //! (recursive summation of non-negative terms); tests/cli_shards.rs asserts that bound.
 
+use super::digest::hex;
 use super::npy_in::read_f32_hashed;
 use super::output_set::{OutputSet, with_suffix};
 use crate::film::Transient;
@@ -34,20 +35,6 @@ fn canonical_set(s: &str) -> String {
         }
         _ => s.replace(' ', ""),
     }
-}
-
-/// The SHA-256 of a file's bytes, as hex: what a shard's JSON records of each of its files
-/// (`files_sha256`) and `dtr merge` checks before it reads one.
-pub fn file_sha256(path: &Path) -> anyhow::Result<String> {
-    let mut file = std::fs::File::open(path).with_context(|| format!("cannot read {} to hash it", path.display()))?;
-    let mut hash = Sha256::new();
-    std::io::copy(&mut file, &mut hash).with_context(|| format!("cannot read {} to hash it", path.display()))?;
-    Ok(hex(&hash.finalize()))
-}
-
-/// Bytes as lowercase hex (a digest as the JSON records it).
-pub(super) fn hex(bytes: &[u8]) -> String {
-    bytes.iter().map(|b| format!("{b:02x}")).collect()
 }
 
 /// Everything that decides a render's numbers, as JSON: the contents of its input files,

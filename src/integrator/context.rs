@@ -48,6 +48,9 @@ pub struct RenderContext<'a> {
     /// Draws on the time edges for the path tracer's time term (`super::time_edges`), when
     /// the render asked for them and they apply; set with [`Self::use_time_edges`].
     pub time_edges: Option<super::time_edges::TimeEdges>,
+    /// Stops the render's loops when set (`crate::cancel`; never set unless the render's
+    /// options hold a flag someone sets).
+    pub cancel: crate::cancel::Cancel,
 }
 
 impl<'a> RenderContext<'a> {
@@ -128,6 +131,7 @@ impl<'a> RenderContext<'a> {
             nlos,
             diffuse_only: scene.diffuse_only(),
             time_edges: None,
+            cancel: crate::cancel::Cancel::new(),
         })
     }
 

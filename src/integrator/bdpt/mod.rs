@@ -196,6 +196,9 @@ pub fn render_tiles<R: Real, const C: usize, S: Sink<C>>(
     for &(x0, y0) in tiles {
         let (tw, th) = (tile.min(w - x0), tile.min(h - y0));
         for s in samples.clone() {
+            if ctx.cancel.is_cancelled() {
+                return;
+            }
             for ty in 0..th {
                 let mut x = 0;
                 while x < tw {
