@@ -277,7 +277,10 @@ def _settings(params: Optional[Mapping[str, Any]]) -> Tuple[List[tuple], List[tu
             v = v.item()  # a 0-d array is its one value
         if isinstance(v, np.generic):
             v = v.item()  # numpy scalars (np.float32(0.2), np.int64(1), np.bool_) as Python's
-        if isinstance(v, (int, float)) and not isinstance(v, bool):
+        if isinstance(v, int) and not isinstance(v, bool) and abs(v) > 2**53:
+            # beyond what a float holds exactly (a 64-bit seed): as the TOML integer it is
+            texts.append((str(k), str(v)))
+        elif isinstance(v, (int, float)) and not isinstance(v, bool):
             numbers.append((str(k), float(v)))
         else:
             texts.append((str(k), _toml_value(v)))

@@ -145,7 +145,11 @@ pub fn parse_sets(sets: &[String]) -> anyhow::Result<Sets> {
             .split_once('=')
             .ok_or_else(|| anyhow::anyhow!("--set {s:?}: expected NAME=VALUE, e.g. --set eta=1.33"))?;
         let name = name.trim().to_string();
+        // a whole number beyond 2⁵³ (a 64-bit seed) goes as the TOML integer it is: as a
+        // float it lost its last digits and the field refused it ("expected a whole number")
+        let exact_integer = value.trim().parse::<i64>().is_ok_and(|i| i.unsigned_abs() > 1 << 53);
         match set_number(value) {
+            Some(_) if exact_integer => out.texts.push((name, value.trim().to_string())),
             Some(v) if !v.is_finite() => anyhow::bail!("--set {s:?}: value must be finite"),
             Some(v) => out.numbers.push((name, v)),
             None => out.texts.push((name, value.trim().to_string())),
