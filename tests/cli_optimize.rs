@@ -104,6 +104,16 @@ fn optimize_recovers_the_pose_and_writes_its_files() {
     };
     assert!((value("plate_x") - 0.1).abs() < 0.01, "{}", value("plate_x"));
     assert!((value("plate_roll") - 20.0).abs() < 1.0, "{}", value("plate_roll"));
+    // result.json: the recovered values and how far the last 15 iterates (a quarter of 60)
+    // wandered, well below the distance each parameter travelled
+    let result: serde_json::Value = serde_json::from_slice(&std::fs::read(run.join("result.json")).unwrap()).unwrap();
+    assert_eq!(result["tail_iterations"], 15, "{result}");
+    for (name, travelled) in [("plate_x", 0.15), ("plate_roll", 8.0)] {
+        let p = &result["params"][name];
+        assert_eq!(p["value"].as_f64().unwrap(), value(name), "{result}");
+        let spread = p["tail_spread"].as_f64().unwrap();
+        assert!(spread > 0.0 && spread < 0.1 * travelled, "{name}: {result}");
+    }
     // a second run never mixes its files into the first's folder
     let again = dtr(
         &[

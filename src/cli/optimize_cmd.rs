@@ -5,7 +5,8 @@
 //! values), `recovered.toml` or `.json` (the scene with the run's `--set` overrides and the
 //! recovered values: the best so
 //! far while running, the last iterate at the end, or the mean of the last iterates with
-//! `--average`), and the plots `loss.png` and `param_NAME.png`. An interrupted run (Ctrl-C)
+//! `--average`), `result.json` (those values and how far the last iterates wandered), and
+//! the plots `loss.png` and `param_NAME.png`. An interrupted run (Ctrl-C)
 //! keeps the log and the best values so far. Everything that can be checked before the first
 //! render (options, the target, the parameters at their start) is checked before the folder
 //! is made; a run that fails before it logs an iteration removes what it made, and one that
@@ -366,15 +367,17 @@ pub fn run(a: OptimizeArgs) -> anyhow::Result<()> {
         log::warn!("{}: {w}", dir.display());
     }
     let result = crate::optimize::tail_average(&steps, a.average).context("no iteration ran")?;
+    let spread = crate::optimize::tail_spread(&steps);
     let finished = scene_with(&a, &scene_text, &run.values(&result), &dir)
         .and_then(|text| write_text(run.recovered(), &text))
+        .and_then(|()| write_result(&dir, &a, &result, spread.as_ref(), steps.len()))
         .and_then(|()| run.write_plots());
     if let Err(e) = finished {
         return Err(run.abandon(e));
     }
     drop(guard);
     log::info!(
-        "{}: {} iterations, loss {:.3e} → {:.3e}; {}{}",
+        "{}: {} iterations, loss {:.3e} → {:.3e}; {}{}{}",
         dir.display(),
         steps.len(),
         steps[0].loss,
@@ -384,8 +387,50 @@ pub fn run(a: OptimizeArgs) -> anyhow::Result<()> {
             " (mean of the last iterates, --average)"
         } else {
             ""
+        },
+        match &spread {
+            Some((s, n)) => format!(
+                "; the last {n} iterates spread by {} (result.json)",
+                pairs(&a.params, s)
+            ),
+            None => String::new(),
         }
     );
+    Ok(())
+}
+
+/// `result.json`: the recovered values (what the recovered scene holds) and, per parameter,
+/// how far its iterates wandered over the end of the run (`optimize::tail_spread`): the noise
+/// left in the answer, which a single number hides.
+fn write_result(
+    dir: &Path,
+    a: &OptimizeArgs,
+    result: &[f64],
+    spread: Option<&(Vec<f64>, usize)>,
+    iterations: usize,
+) -> anyhow::Result<()> {
+    let params: serde_json::Map<String, serde_json::Value> = a
+        .params
+        .iter()
+        .enumerate()
+        .map(|(k, name)| {
+            (
+                name.clone(),
+                serde_json::json!({
+                    "value": result[k],
+                    "tail_spread": spread.map(|(s, _)| s[k]),
+                }),
+            )
+        })
+        .collect();
+    let json = serde_json::json!({
+        "about": "the recovered values (the recovered scene's) and, per parameter, tail_spread: the standard deviation of its iterates over the last tail_iterations iterations, the scale of the gradient noise left in the last iterate (null for a run of fewer than 10); --average's mean wanders less. A measure of noise, not of the distance to the truth",
+        "iterations": iterations,
+        "average": a.average,
+        "tail_iterations": spread.map(|(_, n)| *n),
+        "params": params,
+    });
+    crate::output::write_json(&dir.join("result.json"), &json)?;
     Ok(())
 }
 

@@ -79,6 +79,29 @@ pub fn tail_average(steps: &[Step], fraction: f64) -> Option<Vec<f64>> {
     Some(mean)
 }
 
+/// How far each parameter's iterates wander over the end of a run: the standard deviation of
+/// the values of the last quarter of `steps` (at least 10 steps; `None` for a run shorter
+/// than that), with the number of steps it spans. With noisy gradients the iterates wander
+/// around the answer, so this is the scale of the noise left in the last iterate (the mean
+/// of `--average` wanders less, by up to the square root of the steps it takes, fewer where
+/// successive iterates are alike). A measure of the run's noise, not of the distance to the
+/// truth: a run that settled on the wrong side of a bound or in a local minimum spreads as
+/// little.
+pub fn tail_spread(steps: &[Step]) -> Option<(Vec<f64>, usize)> {
+    let n = (steps.len() / 4).max(10);
+    if steps.len() < n {
+        return None;
+    }
+    let tail = &steps[steps.len() - n..];
+    let spread = (0..tail[0].values.len())
+        .map(|k| {
+            let mean = tail.iter().map(|s| s.values[k]).sum::<f64>() / n as f64;
+            (tail.iter().map(|s| (s.values[k] - mean).powi(2)).sum::<f64>() / (n - 1) as f64).sqrt()
+        })
+        .collect();
+    Some((spread, n))
+}
+
 /// What a run's iterates say about whether it got where it was going, as warnings naming
 /// the parameter: one whose gradient was 0 at every iteration never moved, and its value is
 /// only its start; one whose last steps all went one way (the last quarter of the run, at
@@ -369,6 +392,19 @@ mod tests {
             w[0].starts_with("b never moved from its start (-1.5)") && w[0].contains("--estimators interior"),
             "{w:?}"
         );
+    }
+
+    #[test]
+    fn tail_spread_is_the_deviation_of_the_last_quarter() {
+        // 40 steps: the last 10 alternate 1 and 3 (sample standard deviation √(10/9))
+        let values: Vec<f64> = (0..40)
+            .map(|i| if i < 30 { 100.0 } else { 1.0 + 2.0 * (i % 2) as f64 })
+            .collect();
+        let (spread, n) = tail_spread(&steps(&values)).unwrap();
+        assert_eq!(n, 10);
+        assert!((spread[0] - (10.0f64 / 9.0).sqrt()).abs() < 1e-12, "{spread:?}");
+        assert_eq!(spread[0], spread[1]);
+        assert!(tail_spread(&steps(&[1.0; 9])).is_none(), "too few steps");
     }
 
     #[test]
