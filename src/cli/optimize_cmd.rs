@@ -151,24 +151,21 @@ fn check_target_axis(path: &Path, scene: &Scene) -> anyhow::Result<()> {
         );
         return Ok(());
     }
-    let text = crate::scene::read_regular_file(&json, 64 << 20)
+    let text = crate::scene::read_regular_file(&json, super::output_set::JSON_CAP)
         .with_context(|| format!("{}: cannot read the target's JSON", json.display()))?;
     let meta: serde_json::Value =
         serde_json::from_str(&text).with_context(|| format!("{}: the target's JSON is not JSON", json.display()))?;
-    let t = &meta["time_axis"];
-    let (Some(start), Some(width), Some(bins)) =
-        (t["start_opl"].as_f64(), t["bin_width_opl"].as_f64(), t["bins"].as_u64())
-    else {
-        bail!(
-            "{}: the target's JSON has no time_axis (start_opl, bin_width_opl, bins) to check against the scene's ({window}); move it away if it is not the JSON of the target's render",
-            json.display()
-        );
-    };
+    let got = super::shard_set::axis_of(&meta, &json).with_context(|| {
+        format!("the target's JSON, to check against the scene's window ({window}); move it away if it is not the JSON of the target's render")
+    })?;
     let same = |a: f64, b: f64| (a - b).abs() <= 1e-9 * a.abs().max(b.abs()).max(1.0);
-    if bins as usize != axis.bins || !same(start, axis.start_opl) || !same(width, axis.bin_width_opl) {
+    if got.bins != axis.bins || !same(got.start_opl, axis.start_opl) || !same(got.bin_width_opl, axis.bin_width_opl) {
         bail!(
-            "{}: the target was rendered in another time window ({bins} bins of {width} m from {start} m, field time_axis) than the scene renders ({window}, {}); set the scene's film.start_opl, film.bin_width_opl and film.bins to the target's",
+            "{}: the target was rendered in another time window ({} bins of {} m from {} m, field time_axis) than the scene renders ({window}, {}); set the scene's film.start_opl, film.bin_width_opl and film.bins to the target's",
             json.display(),
+            got.bins,
+            got.bin_width_opl,
+            got.start_opl,
             scene.source.display()
         );
     }
@@ -262,7 +259,7 @@ pub fn run(a: OptimizeArgs) -> anyhow::Result<()> {
     }
     let (start_sets, fixed): (Vec<_>, Vec<_>) = sets.numbers.into_iter().partition(|(n, _)| a.params.contains(n));
     // the scene file as the run found it: the recovered scenes are made from this text
-    let scene_text = crate::scene::read_regular_file(&a.scene, 64 << 20)
+    let scene_text = crate::scene::read_regular_file(&a.scene, crate::scene::MAX_SCENE_BYTES)
         .with_context(|| format!("cannot read {}", a.scene.display()))?;
     let scene = Scene::load_with_text(&a.scene, &fixed, &sets.texts)?;
     let target = read_target(&a.target, &scene)?;

@@ -204,9 +204,10 @@ pub struct OutputSet {
     earlier: EarlierSet,
 }
 
-/// The most bytes of an earlier set's JSON read to learn its files (a render's JSON is
-/// kilobytes; a merge of many shards' stays far below this).
-const JSON_CAP: u64 = 64 << 20;
+/// The most bytes of a render's JSON dtr reads back: an earlier set's (to learn its files), a
+/// shard's (`dtr merge`), an optimisation target's (its time window). A render's JSON is
+/// kilobytes; a merge of many shards' stays far below this.
+pub(super) const JSON_CAP: u64 = 64 << 20;
 
 /// The set an earlier render left at a prefix, as its JSON (`PREFIX.json`) describes it.
 #[derive(Debug, PartialEq)]

@@ -10,7 +10,7 @@
 
 use super::digest::hex;
 use super::npy_in::read_f32_hashed;
-use super::output_set::{OutputSet, with_suffix};
+use super::output_set::{JSON_CAP, OutputSet, with_suffix};
 use crate::film::Transient;
 use crate::render::RenderOptions;
 use crate::scene::Scene;
@@ -121,9 +121,6 @@ fn strip_ext(p: &Path) -> PathBuf {
         _ => p.to_path_buf(),
     }
 }
-
-/// The most bytes of a shard's JSON `dtr merge` reads.
-const JSON_CAP: u64 = 64 << 20;
 
 fn read_shard(prefix: &Path) -> anyhow::Result<ShardFiles> {
     let path = with_suffix(prefix, "json");
@@ -312,7 +309,7 @@ fn shape_of(meta: &Value, path: &Path) -> anyhow::Result<[usize; 4]> {
         .map_err(|_| anyhow::anyhow!("{}: field \"shape\" should be [H, W, T, C]", path.display()))
 }
 
-fn axis_of(meta: &Value, path: &Path) -> anyhow::Result<crate::temporal::TimeAxis> {
+pub(super) fn axis_of(meta: &Value, path: &Path) -> anyhow::Result<crate::temporal::TimeAxis> {
     serde_json::from_value(meta["time_axis"].clone()).with_context(|| {
         format!(
             "{}: field \"time_axis\" should hold start_opl, bin_width_opl, bins",

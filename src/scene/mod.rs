@@ -32,7 +32,7 @@ mod origin;
 pub mod ply;
 pub(crate) mod polygon;
 mod read;
-pub(crate) use read::read_regular_file;
+pub(crate) use read::{MAX_SCENE_BYTES, read_regular_file};
 mod resolve;
 pub mod shapes;
 #[cfg(test)]
