@@ -261,10 +261,18 @@ fn cancellable<T: Send>(
     let opts = &opts;
     let (result, interrupted) = py.detach(|| {
         std::thread::scope(|scope| {
-            let worker = scope.spawn(move || job(opts));
+            // the render's end wakes this thread at once (a render of a few milliseconds,
+            // as an optimisation loop makes them, waits for no poll)
+            let (done, finished) = std::sync::mpsc::channel();
+            let worker = scope.spawn(move || {
+                let result = job(opts);
+                let _ = done.send(());
+                result
+            });
             let mut interrupted = None;
-            while !worker.is_finished() {
-                std::thread::sleep(std::time::Duration::from_millis(50));
+            while let Err(std::sync::mpsc::RecvTimeoutError::Timeout) =
+                finished.recv_timeout(std::time::Duration::from_millis(50))
+            {
                 if interrupted.is_none()
                     && let Err(e) = Python::attach(|py| py.check_signals())
                 {
