@@ -51,7 +51,8 @@ __all__ = [
 class Scene:
     """A loaded scene (immutable). Set parameter values with `with_params`, which gives a copy
     with the new values (the scene `dtr render --set NAME=VALUE` renders) without reading any
-    file again."""
+    file again. A scene pickles whole (its description, values, estimator, sampler and
+    meshes), so `multiprocessing` can send it to workers, which read no file."""
 
     def __init__(self, native: _NativeScene):
         self._native = native

@@ -12,13 +12,15 @@
 
 use difftransient::kernel::SampleSequence;
 use difftransient::render::TimeEdgeMode;
-use difftransient::scene::{Format, IntegratorKind};
+use difftransient::scene::shapes::LocalMesh;
+use difftransient::scene::{Format, IntegratorKind, SceneState};
 use difftransient::{BoundaryMode, RenderOptions, Scene, Transient};
+use glam::DVec3;
 use numpy::ndarray::{Array1, Array4};
 use numpy::{IntoPyArray, PyArray1, PyArray3, PyArray4, PyReadonlyArray4};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
-use pyo3::types::PyDict;
+use pyo3::types::{PyBytes, PyDict, PyTuple};
 use std::path::{Path, PathBuf};
 
 pyo3::create_exception!(
@@ -33,6 +35,10 @@ pyo3::create_exception!(
     PyValueError,
     "A render was refused or failed."
 );
+
+/// The layout of a pickled scene's state ([`PyScene::__reduce__`]); a pickle of another
+/// layout is refused by name.
+const STATE_VERSION: u32 = 1;
 
 fn scene_err(e: impl std::fmt::Display) -> PyErr {
     SceneError::new_err(e.to_string())
@@ -116,7 +122,8 @@ impl PyScene {
     fn with_sampler(&self, name: &str) -> PyResult<Self> {
         let sampler = SampleSequence::from_name(name).map_err(PyValueError::new_err)?;
         let mut scene = self.scene.clone();
-        scene.integrator.sampler = sampler;
+        // in the description the scene keeps, so that later settings keep it too
+        scene.set_integrator(None, Some(sampler)).map_err(scene_err)?;
         Ok(Self { scene })
     }
 
@@ -131,7 +138,7 @@ impl PyScene {
     fn with_integrator(&self, name: &str) -> PyResult<Self> {
         let kind = IntegratorKind::from_name(name).map_err(PyValueError::new_err)?;
         let mut scene = self.scene.clone();
-        scene.integrator.kind = kind;
+        scene.set_integrator(Some(kind), None).map_err(scene_err)?;
         Ok(Self { scene })
     }
 
@@ -194,6 +201,85 @@ impl PyScene {
     fn bin_centres<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
         let a = &self.scene.film.axis;
         Array1::from_iter((0..a.bins).map(|l| a.bin_centre(l))).into_pyarray(py)
+    }
+
+    /// Pickling (`multiprocessing`, a job queue, a file): the scene's state
+    /// (`difftransient::SceneState`: its description, the values set, its meshes), from which
+    /// [`PyScene::from_state`] builds the same scene without reading any file.
+    fn __reduce__<'py>(slf: &Bound<'py, Self>) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyTuple>)> {
+        let py = slf.py();
+        let state = slf.get().scene.state();
+        let meshes: Vec<(Bound<'py, PyBytes>, Bound<'py, PyBytes>)> = state
+            .meshes
+            .iter()
+            .map(|m| {
+                let p: Vec<u8> = m
+                    .positions
+                    .iter()
+                    .flat_map(|v| v.to_array())
+                    .flat_map(f64::to_le_bytes)
+                    .collect();
+                let t: Vec<u8> = m.tris.iter().flatten().flat_map(|i| i.to_le_bytes()).collect();
+                (PyBytes::new(py, &p), PyBytes::new(py, &t))
+            })
+            .collect();
+        let args = (
+            STATE_VERSION,
+            state.source,
+            state.description,
+            state.fields,
+            state.params,
+            meshes,
+        );
+        Ok((py.get_type::<Self>().getattr("_from_state")?, args.into_pyobject(py)?))
+    }
+
+    /// The scene of a pickled state ([`PyScene::__reduce__`]).
+    #[staticmethod]
+    fn _from_state(
+        version: u32,
+        source: PathBuf,
+        description: String,
+        fields: Vec<(String, f64)>,
+        params: Vec<(String, f64)>,
+        meshes: Vec<(Vec<u8>, Vec<u8>)>,
+    ) -> PyResult<Self> {
+        if version != STATE_VERSION {
+            return Err(scene_err(format!(
+                "{}: a pickled scene of format {version}; this difftransient reads format {STATE_VERSION}: load the scene file again",
+                source.display()
+            )));
+        }
+        let meshes = meshes
+            .iter()
+            .enumerate()
+            .map(|(k, (p, t))| {
+                if p.len() % 24 != 0 || t.len() % 12 != 0 {
+                    return Err(scene_err(format!(
+                        "{}: the pickled mesh of shape[{k}] holds {} bytes of positions and {} of triangles, not whole vertices and triangles",
+                        source.display(),
+                        p.len(),
+                        t.len()
+                    )));
+                }
+                let f = |b: &[u8]| f64::from_le_bytes(b.try_into().expect("8 bytes"));
+                let u = |b: &[u8]| u32::from_le_bytes(b.try_into().expect("4 bytes"));
+                Ok(LocalMesh {
+                    positions: p.chunks_exact(24).map(|v| DVec3::new(f(&v[..8]), f(&v[8..16]), f(&v[16..]))).collect(),
+                    tris: t.chunks_exact(12).map(|v| [u(&v[..4]), u(&v[4..8]), u(&v[8..])]).collect(),
+                })
+            })
+            .collect::<PyResult<Vec<_>>>()?;
+        let state = SceneState {
+            source,
+            description,
+            fields,
+            params,
+            meshes,
+        };
+        Ok(Self {
+            scene: Scene::from_state(state).map_err(scene_err)?,
+        })
     }
 
     fn __repr__(&self) -> String {

@@ -20,6 +20,14 @@ fn put(list: &mut Vec<(String, f64)>, name: &str, value: f64) {
     list.push((name.to_string(), value));
 }
 
+fn invalid(path: &std::path::Path, at: &str, message: &str) -> SceneError {
+    SceneError::Invalid {
+        path: path.to_path_buf(),
+        at: at.into(),
+        message: message.into(),
+    }
+}
+
 /// Whether two descriptions give the same local meshes (type, file, subdivisions per shape).
 fn same_meshes(a: &SceneDesc, b: &SceneDesc) -> bool {
     a.shape.len() == b.shape.len()
@@ -91,6 +99,37 @@ impl Scene {
         self.resolve_again(Arc::new(raw), d.fields.clone(), d.params.clone())
     }
 
+    /// Sets the estimator and the numbers paths draw (`[integrator] kind` and `sampler`) in
+    /// the description the scene keeps, so that they stay through every later
+    /// [`Scene::set_params`] or [`Scene::set_text`], which resolve the scene again from that
+    /// description. (Written on `Scene::integrator` alone, they went back to the file's at the
+    /// next value set: Python's `with_sampler("independent").with_params(...)` rendered with
+    /// Sobol points.) `None` keeps what the scene has.
+    pub fn set_integrator(
+        &mut self,
+        kind: Option<crate::scene::IntegratorKind>,
+        sampler: Option<crate::kernel::SampleSequence>,
+    ) -> Result<(), SceneError> {
+        let d = &self.described;
+        let mut raw = (*d.raw).clone();
+        let Some(root) = raw.as_object_mut() else {
+            return Err(invalid(&self.source, "the scene", "expected a table"));
+        };
+        let table = root
+            .entry("integrator")
+            .or_insert_with(|| serde_json::Value::Object(Default::default()));
+        let Some(table) = table.as_object_mut() else {
+            return Err(invalid(&self.source, "integrator", "expected a table"));
+        };
+        if let Some(k) = kind {
+            table.insert("kind".into(), k.name().into());
+        }
+        if let Some(s) = sampler {
+            table.insert("sampler".into(), s.name().into());
+        }
+        self.resolve_again(Arc::new(raw), d.fields.clone(), d.params.clone())
+    }
+
     /// Resolves the scene again from the description tree `raw` with the number overrides
     /// `fields` and `params`: the typed description and the meshes are kept where `raw` and
     /// `fields` are the scene's own, and the meshes are read again only where a shape's file
@@ -118,5 +157,44 @@ impl Scene {
         };
         *self = super::resolve::resolve(described, &self.source.clone())?;
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::kernel::SampleSequence;
+    use crate::scene::{IntegratorKind, Scene};
+
+    #[test]
+    fn the_estimator_and_sampler_set_stay_through_later_settings() {
+        // pose_plate.toml has an [integrator] table, `bare` none
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/pose_plate.toml");
+        let bare = "[camera]\nposition = [0.0, 0.0, 1.0]\nlook_at = [0.0, 0.0, 0.0]\nresolution = [4, 4]\n[film]\nbins = 8\nbin_width_opl = 0.1\n\
+                    [[material]]\nname = \"w\"\ntype = \"diffuse\"\nalbedo = 0.5\n\
+                    [[shape]]\nname = \"p\"\ntype = \"rectangle\"\nmaterial = \"w\"\ntranslate = [0.0, 0.0, -1.0]\n\
+                    [[param]]\nname = \"p_x\"\nkind = \"translate\"\nshape = \"p\"\naxis = \"x\"\nvalue = 0.0\n";
+        let scenes = [
+            Scene::load(&path, &[]).unwrap(),
+            Scene::from_str(bare, crate::scene::Format::Toml, std::path::Path::new("bare.toml"), &[]).unwrap(),
+        ];
+        for mut scene in scenes {
+            assert_eq!(scene.integrator.kind, IntegratorKind::Path);
+            assert_eq!(scene.integrator.sampler, SampleSequence::Sobol);
+            scene.set_integrator(Some(IntegratorKind::Bdpt), None).unwrap();
+            scene.set_integrator(None, Some(SampleSequence::Independent)).unwrap();
+            let name = scene.params[0].name.clone();
+            scene.set_param(&name, 0.01).unwrap();
+            scene.set_text(&[("film.bins", "9")]).unwrap();
+            assert_eq!(
+                scene.integrator.kind,
+                IntegratorKind::Bdpt,
+                "{}",
+                scene.source.display()
+            );
+            assert_eq!(scene.integrator.sampler, SampleSequence::Independent);
+            let back = Scene::from_state(scene.state()).unwrap();
+            assert_eq!(back.integrator.kind, IntegratorKind::Bdpt);
+            assert_eq!(back.integrator.sampler, SampleSequence::Independent);
+        }
     }
 }
