@@ -342,6 +342,66 @@ fn sliding_ball_silhouette_matches_finite_differences() {
     check(&Case::tangent("ball_slide.toml", "ball_x", 0.1, 0.01));
 }
 
+/// The ball's limbs in time: the light of a limb arrives last (bins 8–11 of ball_slide.toml,
+/// OPL 5.8–6.2 m), and its derivative there is the small sum of an interior and a primary
+/// term of about ±2.5 each, of opposite signs at the two limbs. The primary term's side
+/// paths started where each side ray met its surface, ε beside the edge: on a face seen
+/// nearly edge-on that point lies far along the face in depth (up to half its sliver), so
+/// the inside's light was binned late. Summed over the image the two limbs cancel (the
+/// check above passed); per limb the derivative was 2–4× the finite difference in those
+/// bins, with the wrong sign at the right limb (an independent sweep, 2026-11-30). The side
+/// paths now start where the edge's own ray meets each side's surface (the limit ε → 0,
+/// `PrimaryRays::limit`). Statistic: bins 8–11 summed over the image's left part minus its
+/// right part (about −1.10), AD − FD over 16 seeds, FD at 1024 spp.
+#[test]
+fn a_balls_limbs_send_their_light_to_the_bins_it_arrives_in() {
+    let path = common::scene_path("ball_slide.toml");
+    let at = |v: f64| Scene::load(&path, &[("ball_x".to_string(), v)]).unwrap();
+    // FD at h = 0.02 and 0.01 (its truncation is still quadratic there; at 0.005 the FD's
+    // noise swamps the statistic)
+    let (scene, h) = (at(0.1), 0.02);
+    let (plus, minus, plus2, minus2) = (at(0.1 + h), at(0.1 - h), at(0.1 + h / 2.0), at(0.1 - h / 2.0));
+    // the ball's centre projects to column 13.5 of 24: left of 13 against right of 14
+    let statistic = |t: &Transient| -> f64 {
+        let mut s = 0.0f64;
+        for y in 0..t.height {
+            for x in (0..13).chain(14..t.width) {
+                let sign = if x < 13 { 1.0 } else { -1.0 };
+                s += sign * (8..12).map(|l| t.at(x, y, l, 0) as f64).sum::<f64>();
+            }
+        }
+        s
+    };
+    let (mut d, mut trunc, mut ads) = (Vec::new(), Vec::new(), Vec::new());
+    for seed in 0..16 {
+        let o = |spp: u32| RenderOptions {
+            spp: Some(spp),
+            seed: Some(7000 + seed),
+            threads: Some(2),
+            ..Default::default()
+        };
+        let ad = statistic(&render_diff(&scene, &["ball_x".to_string()], &o(256)).unwrap().1[0]);
+        let fd = |p: &Scene, m: &Scene, h: f64| {
+            (statistic(&render(p, &o(1024)).unwrap().0) - statistic(&render(m, &o(1024)).unwrap().0)) / (2.0 * h)
+        };
+        let (fd_h, fd_half) = (fd(&plus, &minus, h), fd(&plus2, &minus2, h / 2.0));
+        d.push(ad - fd_h);
+        ads.push(ad);
+        // Richardson: FD_h's truncation error is about (4/3)(FD_h − FD_h/2)
+        trunc.push(4.0 / 3.0 * (fd_h - fd_half));
+    }
+    let (m, se) = common::mean_se(&d);
+    let (t, t_se) = common::mean_se(&trunc);
+    let allowed = 4.0 * (se * se + t_se * t_se).sqrt() + t.abs();
+    let ad_mean = common::mean_se(&ads).0;
+    eprintln!("AD {ad_mean:.4}: AD − FD = {m:.4} ± {se:.4}, truncation {t:.4} ± {t_se:.4}, allowed {allowed:.4}");
+    assert!(
+        m.abs() <= allowed,
+        "limbs' late bins, left − right: AD {:.4}, AD − FD = {m:.4} ± {se:.4} (FD truncation {t:.4} ± {t_se:.4}), allowed {allowed:.4}",
+        ad_mean
+    );
+}
+
 /// The pose demo's plate (scenes/pose_plate.toml) sliding and turning in its plane: the
 /// gradient is all primary term (the plate's shading does not change, and its shadow lies
 /// behind it: tests/secondary_fd.rs checks that the secondary term adds nothing there). At

@@ -34,7 +34,12 @@
 //! per packet of eight lanes). ε_∓ is [`SIDE_OFFSET_PX`],
 //! shortened to half the width of the edge's own face on that side along n: a face seen
 //! nearly edge-on beside a silhouette projects to a sliver thinner than a fixed offset, and a
-//! side ray past it would take the silhouette's jump for the crease's. Their difference is
+//! side ray past it would take the silhouette's jump for the crease's. A side ray only finds
+//! its side's surface: the side path starts where the edge's own ray (through u) meets that
+//! surface's plane, the limit ε → 0 (`PrimaryRays::limit`). From the side ray's own hit, a
+//! face seen nearly edge-on put the inside's light up to half the face's depth late, which
+//! the time-summed image does not show (tests/boundary_primary.rs,
+//! `a_balls_limbs_send_their_light_to_the_bins_it_arrives_in`). Their difference is
 //! splatted with weight h_j(u)·V_k / (pdf · N) into every pixel j the filter reaches, in
 //! derivative film k. N = `spp_boundary` × pixels samples are split into fixed chunks traced in
 //! parallel; each chunk keeps its jumps (only the bins the side paths reached) and they are
@@ -369,6 +374,8 @@ struct SideSample {
     normal: DVec2,
     /// Film offsets of the −n and +n side rays (pixels).
     offset: [f64; 2],
+    /// The edge's faces (`u32::MAX` for a border edge's missing one).
+    faces: [u32; 2],
     /// V_k / (pdf · N) per parameter.
     weight: [f32; MAX_PARAMS],
 }
@@ -461,6 +468,7 @@ impl Estimator<'_> {
             film: e.film,
             normal: e.normal,
             offset: self.side_offsets(edge, e.film, e.normal),
+            faces: [edge.face0, edge.face1.unwrap_or(u32::MAX)],
             weight,
         })
     }
@@ -516,17 +524,24 @@ impl Estimator<'_> {
             count: 2 * batch.len(),
             spp: 0,
         };
-        let mut dirs = [Vec3::Z; 8];
+        let (mut dirs, mut limit, mut own) = ([Vec3::Z; 8], [Vec3::Z; 8], [[u32::MAX; 2]; 8]);
         for (i, s) in batch.iter().enumerate() {
             for (side, sign) in [(0, -1.0), (1, 1.0)] {
                 let f = s.film + s.normal * (sign * s.offset[side]);
                 dirs[2 * i + side] = ctx.camera.direction(f.x as f32, f.y as f32);
+                limit[2 * i + side] = ctx.camera.direction(s.film.x as f32, s.film.y as f32);
+                own[2 * i + side] = s.faces;
                 lanes.ids[2 * i + side] = s.id;
             }
         }
         let mut scratch = TileFilm::new(0, 0, 8, 1, &axis, C, 0).with_steady(ctx.steady);
         let mut counts = PathCounts::default();
-        let rays = PrimaryRays { dirs };
+        // each side's surface at the edge itself (`PrimaryRays::limit`)
+        let rays = PrimaryRays {
+            dirs,
+            limit: Some(limit),
+            own,
+        };
         trace_packet_from::<f32x8, C, _>(
             ctx,
             self.seed ^ PATH_STREAM,

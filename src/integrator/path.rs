@@ -71,6 +71,18 @@ impl PacketLanes {
 pub struct PrimaryRays {
     /// Unit directions from the camera position, one per lane.
     pub dirs: [glam::Vec3; 8],
+    /// Where given, the ray each lane's first vertex is put on: the surface that `dirs`
+    /// finds, met by this ray from the camera instead (its plane's point). The primary edge
+    /// estimator traces each side of a silhouette ε beside it to find that side's surface,
+    /// and wants that side's radiance at the edge itself, the limit ε → 0: on a face seen
+    /// nearly edge-on the side ray's own hit lies far along the face in depth (up to half
+    /// its sliver), so its OPL, hence the bins of the side's light, were off.
+    pub limit: Option<[glam::Vec3; 8]>,
+    /// The faces whose hits are moved to `limit` (the edge's own faces, `u32::MAX` for
+    /// none): any other surface the side ray finds keeps its hit, since the edge's ray meets
+    /// it where it may be ambiguous (a shadow line that continues the silhouette under a
+    /// light at the camera, the floor under a resting or hovering edge).
+    pub own: [[u32; 2]; 8],
 }
 
 /// First vertices chosen by the caller instead of a camera ray: the source subpaths of the
@@ -280,6 +292,22 @@ pub fn trace_packet_from<R: Real, const C: usize, S: Sink<C>>(
                 }
                 let mut x = surface_at::<R>(ctx, &hit.prim, hit.u, hit.v);
                 let from_camera = depth == 1 && nlos.is_none();
+                let limit = match start {
+                    PathStart::Rays(PrimaryRays { limit: Some(l), .. }) if depth == 1 => Some(l),
+                    _ => None,
+                };
+                let mut own = [false; 8];
+                if let (Some(l), PathStart::Rays(r)) = (limit, start) {
+                    // the edge's own faces where the edge's own ray meets them (`PrimaryRays::limit`)
+                    for (i, o) in own.iter_mut().enumerate().take(R::LANES) {
+                        *o = r.own[i].contains(&hit.prim[i]) && hit.prim[i] != u32::MAX;
+                    }
+                    let m = R::Mask::from_bools(&own[..R::LANES]);
+                    let w = V3::from_lane_vecs(&l[..R::LANES]);
+                    ray_d = V3::select(m, w, ray_d);
+                    let lim = ray_plane_point(&prev_p, &V3::from_value(ray_d), &x.p, &x.n);
+                    x.p = V3::select(m, near_limit(&lim, &x.p, scene.offset_scale), x.p);
+                }
                 if R::DERIVS > 0 && from_camera {
                     // The camera ray is fixed in the image plane: the first vertex moves along it
                     // (x₁ = o + t(θ)·ω), so the pixel filter is never differentiated.
@@ -339,6 +367,17 @@ pub fn trace_packet_from<R: Real, const C: usize, S: Sink<C>>(
                     let u: [f32; 8] = std::array::from_fn(|i| if i < R::LANES { hit.u.lane(i) } else { 0.0 });
                     let v: [f32; 8] = std::array::from_fn(|i| if i < R::LANES { hit.v.lane(i) } else { 0.0 });
                     x64 = points64(ctx, R::LANES, &hit.prim, &u, &v);
+                    if let Some(l) = limit {
+                        let o = ctx.camera.position.as_dvec3();
+                        for i in (0..R::LANES).filter(|&i| own[i]) {
+                            let (n, w) = (ctx.face_normal64(hit.prim[i]), l[i].as_dvec3());
+                            let lim = o + w * (n.dot(x64[i] - o) / n.dot(w));
+                            let d = x64[i] - lim;
+                            let keep =
+                                LIMIT_MARGIN * lim.abs().max_element().max(scene.offset_scale as f64) / 262_144.0;
+                            x64[i] = lim + d * (keep / d.length()).min(1.0);
+                        }
+                    }
                 }
                 if counted {
                     opl += eta_med * r;
@@ -630,6 +669,25 @@ fn splat<R: Real, const C: usize, S: Sink<C>>(
             sink.add(ctx, strategy, x, y, lc, 1.0);
         }
     });
+}
+
+/// How far from the edge a side path of the primary edge estimator starts on the edge's own
+/// face, in self-intersection offsets ([`super::surface::self_intersection_eps`]).
+const LIMIT_MARGIN: f64 = 4.0;
+
+/// The first vertex of a side path on the edge's own face (`PrimaryRays::limit`): `p`, the
+/// side ray's hit, moved along the face towards `lim`, where the edge's own ray meets the
+/// face's plane (on the edge), until it is [`LIMIT_MARGIN`] offsets from it. On a face seen
+/// nearly edge-on the side ray's hit lies far along the face in depth (up to half its
+/// sliver), and the side's light was binned that much late; the margin keeps the start off
+/// the edge itself, where a surface the edge rests on or is sunk into (a floor) would block
+/// its shadow rays.
+#[inline(always)]
+fn near_limit<R: Real>(lim: &V3<R>, p: &V3<R>, scale: f32) -> V3<R> {
+    let keep = super::surface::self_intersection_eps(lim, scale) * R::splat(LIMIT_MARGIN as f32);
+    let d = *p - *lim;
+    let len = d.length();
+    lim.add_scaled(d, R::safe_div(keep.min(len), len))
 }
 
 /// The point where the ray `o + t·ω` meets the plane through `p` with normal `n`, with `p`
