@@ -44,10 +44,22 @@ fn scene_err(e: impl std::fmt::Display) -> PyErr {
     SceneError::new_err(e.to_string())
 }
 
+/// A refused setting, named as Python sets it: `params["NAME"]` where the CLI's message says
+/// `--set NAME` (the same error otherwise).
+fn setting_err(e: difftransient::scene::SceneError) -> PyErr {
+    match e {
+        difftransient::scene::SceneError::Override { path, name, message } => {
+            SceneError::new_err(format!("{}: params[{name:?}]: {message}", path.display()))
+        }
+        other => scene_err(other),
+    }
+}
+
 fn render_err(e: difftransient::Error) -> PyErr {
     match e {
-        difftransient::Error::Scene(s) => scene_err(s),
-        other => RenderError::new_err(other.to_string()),
+        difftransient::Error::Scene(s) => setting_err(s),
+        // the parameters of a derivative render are its `params` argument, not `--diff`
+        other => RenderError::new_err(other.to_string().replacen(": --diff: ", ": params: ", 1)),
     }
 }
 
@@ -66,7 +78,7 @@ impl PyScene {
         overrides: &[(String, f64)],
         texts: &[(String, String)],
     ) -> PyResult<Self> {
-        let scene = Scene::from_str_with_text(text, format, source, overrides, texts).map_err(scene_err)?;
+        let scene = Scene::from_str_with_text(text, format, source, overrides, texts).map_err(setting_err)?;
         Ok(Self { scene })
     }
 }
@@ -82,7 +94,7 @@ impl PyScene {
         // `Scene::load`, as `dtr render` loads it: its errors about an entry converted from a
         // Mitsuba XML scene name the XML element and line, as the CLI's do
         let scene =
-            Scene::load_with_text(&path, &set.unwrap_or_default(), &text.unwrap_or_default()).map_err(scene_err)?;
+            Scene::load_with_text(&path, &set.unwrap_or_default(), &text.unwrap_or_default()).map_err(setting_err)?;
         Ok(Self { scene })
     }
 
@@ -111,9 +123,9 @@ impl PyScene {
     fn with_params(&self, values: Vec<(String, f64)>, text: Option<Vec<(String, String)>>) -> PyResult<Self> {
         let mut scene = self.scene.clone();
         if let Some(text) = text.filter(|t| !t.is_empty()) {
-            scene.set_text(&text).map_err(scene_err)?;
+            scene.set_text(&text).map_err(setting_err)?;
         }
-        scene.set_params(&values).map_err(scene_err)?;
+        scene.set_params(&values).map_err(setting_err)?;
         Ok(Self { scene })
     }
 

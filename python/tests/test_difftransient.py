@@ -456,6 +456,20 @@ def test_the_estimator_and_sampler_chosen_stay_through_later_settings():
     assert not np.array_equal(got.transient, path.transient)
 
 
+def test_refused_settings_are_named_as_python_sets_them():
+    """A refused parameter or field names it as the Python call gave it (params["NAME"],
+    params), not as the CLI flag (--set NAME, --diff) the same error names in dtr."""
+    s = scene("pose_plate.toml")
+    with pytest.raises(dt.SceneError, match=r'params\["nope"\]: no parameter named "nope"') as e:
+        s.with_params({"nope": 1.0})
+    assert "--set" not in str(e.value)
+    with pytest.raises(dt.SceneError, match=r'params\["plate_x"\]: expected a finite number'):
+        dt.Scene.load(SCENES / "pose_plate.toml", {"plate_x": float("nan")})
+    with pytest.raises(dt.RenderError, match=r': params: no parameter named "nope"') as e:
+        dt.render_diff(s, ["nope"], spp=1, threads=1)
+    assert "--diff" not in str(e.value)
+
+
 def test_a_scene_pickles_whole():
     """A Scene pickles (multiprocessing sends scenes so) with its values set, estimator,
     sampler, meshes and chosen window, and the unpickled scene renders the same bytes without
