@@ -71,17 +71,19 @@ impl PacketLanes {
 pub struct PrimaryRays {
     /// Unit directions from the camera position, one per lane.
     pub dirs: [glam::Vec3; 8],
-    /// Where given, the ray each lane's first vertex is put on: the surface that `dirs`
-    /// finds, met by this ray from the camera instead (its plane's point). The primary edge
-    /// estimator traces each side of a silhouette ε beside it to find that side's surface,
-    /// and wants that side's radiance at the edge itself, the limit ε → 0: on a face seen
-    /// nearly edge-on the side ray's own hit lies far along the face in depth (up to half
-    /// its sliver), so its OPL, hence the bins of the side's light, were off.
+    /// Where given, each lane's edge ray: the primary edge estimator traces each side of an
+    /// edge ε beside it to find that side's surface, and wants that side's light at the edge
+    /// itself, the limit ε → 0. Where the side ray finds one of the lane's `own` faces, the
+    /// edge ray meets that face's plane at the edge point; the path starts a few offsets
+    /// from it on the face (`near_limit`) and takes its OPL for the eye's segment and the
+    /// first next-event connection. On a face seen nearly edge-on the side ray's own hit
+    /// lies far along the face in depth (up to half its sliver): from there the side's light
+    /// was binned late. (Later segments start from the path's own vertex, a few offsets off.)
     pub limit: Option<[glam::Vec3; 8]>,
-    /// The faces whose hits are moved to `limit` (the edge's own faces, `u32::MAX` for
-    /// none): any other surface the side ray finds keeps its hit, since the edge's ray meets
-    /// it where it may be ambiguous (a shadow line that continues the silhouette under a
-    /// light at the camera, the floor under a resting or hovering edge).
+    /// Each lane's edge's faces (`u32::MAX` for none). Any other surface the side ray finds
+    /// keeps its hit: the edge ray may meet it where the light is ambiguous (a shadow line
+    /// that continues the silhouette under a light at the camera, the floor under a resting
+    /// or hovering edge).
     pub own: [[u32; 2]; 8],
 }
 
