@@ -35,10 +35,11 @@
 //! shortened to half the width of the edge's own face on that side along n: a face seen
 //! nearly edge-on beside a silhouette projects to a sliver thinner than a fixed offset, and a
 //! side ray past it would take the silhouette's jump for the crease's. A side ray only finds
-//! its side's surface: the side path starts where the edge's own ray (through u) meets that
-//! surface's plane, the limit ε → 0 (`PrimaryRays::limit`). From the side ray's own hit, a
-//! face seen nearly edge-on put the inside's light up to half the face's depth late, which
-//! the time-summed image does not show (tests/boundary_primary.rs,
+//! its side's surface: where that is one of the edge's own faces, the side path starts a few
+//! offsets from where the edge's own ray (through u) meets the face, with that point's OPL,
+//! the limit ε → 0 (`PrimaryRays::limit`; other surfaces keep the side ray's hit). From the
+//! side ray's own hit, a face seen nearly edge-on put the inside's light up to half the
+//! face's depth late, which the time-summed image does not show (tests/boundary_primary.rs,
 //! `a_balls_limbs_send_their_light_to_the_bins_it_arrives_in`). Their difference is
 //! splatted with weight h_j(u)·V_k / (pdf · N) into every pixel j the filter reaches, in
 //! derivative film k. N = `spp_boundary` × pixels samples are split into fixed chunks traced in
@@ -526,17 +527,18 @@ impl Estimator<'_> {
         };
         let (mut dirs, mut limit, mut own) = ([Vec3::Z; 8], [Vec3::Z; 8], [[u32::MAX; 2]; 8]);
         for (i, s) in batch.iter().enumerate() {
+            let edge_ray = ctx.camera.direction(s.film.x as f32, s.film.y as f32);
             for (side, sign) in [(0, -1.0), (1, 1.0)] {
                 let f = s.film + s.normal * (sign * s.offset[side]);
                 dirs[2 * i + side] = ctx.camera.direction(f.x as f32, f.y as f32);
-                limit[2 * i + side] = ctx.camera.direction(s.film.x as f32, s.film.y as f32);
+                limit[2 * i + side] = edge_ray;
                 own[2 * i + side] = s.faces;
                 lanes.ids[2 * i + side] = s.id;
             }
         }
         let mut scratch = TileFilm::new(0, 0, 8, 1, &axis, C, 0).with_steady(ctx.steady);
         let mut counts = PathCounts::default();
-        // each side's surface at the edge itself (`PrimaryRays::limit`)
+        // each side's light at the edge itself (`PrimaryRays::limit`)
         let rays = PrimaryRays {
             dirs,
             limit: Some(limit),

@@ -20,14 +20,6 @@ fn put(list: &mut Vec<(String, f64)>, name: &str, value: f64) {
     list.push((name.to_string(), value));
 }
 
-fn invalid(path: &std::path::Path, at: &str, message: &str) -> SceneError {
-    SceneError::Invalid {
-        path: path.to_path_buf(),
-        at: at.into(),
-        message: message.into(),
-    }
-}
-
 /// Whether two descriptions give the same local meshes (type, file, subdivisions per shape).
 fn same_meshes(a: &SceneDesc, b: &SceneDesc) -> bool {
     a.shape.len() == b.shape.len()
@@ -111,15 +103,19 @@ impl Scene {
         sampler: Option<crate::kernel::SampleSequence>,
     ) -> Result<(), SceneError> {
         let d = &self.described;
+        let ctx = super::context::Ctx {
+            path: &self.source,
+            set_by: Default::default(),
+        };
         let mut raw = (*d.raw).clone();
         let Some(root) = raw.as_object_mut() else {
-            return Err(invalid(&self.source, "the scene", "expected a table"));
+            return Err(ctx.invalid("the scene", "expected a table"));
         };
         let table = root
             .entry("integrator")
             .or_insert_with(|| serde_json::Value::Object(Default::default()));
         let Some(table) = table.as_object_mut() else {
-            return Err(invalid(&self.source, "integrator", "expected a table"));
+            return Err(ctx.invalid("integrator", "expected a table"));
         };
         if let Some(k) = kind {
             table.insert("kind".into(), k.name().into());

@@ -52,11 +52,11 @@ impl Scene {
             params,
             meshes,
         } = state;
-        let invalid = |at: String, message: String| SceneError::Invalid {
-            path: source.clone(),
-            at,
-            message,
+        let ctx = super::context::Ctx {
+            path: &source,
+            set_by: Default::default(),
         };
+        let invalid = |at: String, message: String| ctx.invalid(at, message);
         let raw: serde_json::Value = serde_json::from_str(&description)
             .map_err(|e| invalid("the saved scene".into(), format!("its description is not JSON: {e}")))?;
         let desc = super::load::desc_from_tree(&raw, &source, &fields)?;
