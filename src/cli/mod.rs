@@ -1,6 +1,7 @@
 //! The `dtr` command line: argument parsing and the commands it runs.
 
 mod checkpoint_cmd;
+mod commit_journal;
 mod digest;
 mod import_cmd;
 mod info;

@@ -14,6 +14,10 @@
 //! - **Whole or nothing.** Every file is written into a staging folder beside the outputs and
 //!   moved into place only when all of them are written, the JSON last (its presence marks a
 //!   complete set). A failure before that removes the staging folder.
+//! - **A kill while the set moves.** The moves are journalled ([`commit_journal`]): the
+//!   earlier set's JSON is removed before the first file moves, so a render killed part-way
+//!   (SIGKILL, a power cut) leaves no JSON beside a mix of two sets, and the next render to
+//!   the prefix learns from the journal which files there were either set's.
 //! - **Signals.** SIGINT, SIGTERM and SIGHUP remove the staging folder and the lock file and exit
 //!   with 128 + the signal number; no temporary file is left behind. The writes into the
 //!   staging folder and the moves into place each hold one lock (`WRITING`) that the signal
@@ -33,6 +37,7 @@
 //!   `notes.json` under `-o notes`, a measurement `meas.npy` under `-o meas`) is refused
 //!   before rendering, naming it.
 
+use super::commit_journal;
 use crate::output::OutputError;
 use anyhow::{Context, bail};
 use std::fs::File;
@@ -311,8 +316,13 @@ impl OutputSet {
         // a set of its own: a signal from now on undoes it, whatever sets this process put
         // in place before (library use may write several)
         IN_PLACE.store(false, Ordering::SeqCst);
+        let earlier = match EarlierSet::read(&with_suffix(&prefix, "json")) {
+            // a render killed while it moved its set into place left no JSON, and its journal
+            EarlierSet::None => commit_journal::read_left(&dir, &Reserved::of(&name).staging)
+                .map_or(EarlierSet::None, |files| EarlierSet::Dtr { files }),
+            earlier => earlier,
+        };
         remove_stale_staging(&dir, &name);
-        let earlier = EarlierSet::read(&with_suffix(&prefix, "json"));
         let set = Self {
             prefix,
             inputs,
@@ -487,29 +497,85 @@ impl OutputSet {
 
     /// Moves every staged file into place, the JSON last, after checking every destination
     /// once more; files of the set the old JSON at this prefix listed and this one does not
-    /// write are removed before the new JSON lands (module docs).
+    /// write are removed before the new JSON lands (module docs). The moves are journalled so
+    /// that a render killed part-way leaves no JSON beside a mix of two sets
+    /// ([`commit_journal`]).
     pub fn commit(mut self) -> anyhow::Result<PathBuf> {
         let _writing = writing();
+        self.move_into_place(usize::MAX)?;
+        IN_PLACE.store(true, Ordering::SeqCst);
+        Ok(self.prefix.clone())
+    }
+
+    /// [`commit`]'s work in its order ([`commit_journal`]), stopping after `steps` steps (the
+    /// journal, the earlier JSON's removal, each move and removal), as a kill would: tests
+    /// stop it part-way. Once the earlier JSON is gone, a failure keeps the staging folder, so
+    /// that the next render to the prefix finds the journal.
+    ///
+    /// [`commit`]: Self::commit
+    fn move_into_place(&mut self, steps: usize) -> anyhow::Result<()> {
         for (_, dest) in &self.files {
             self.check_destination(dest)?;
         }
         let stale = self.stale_files();
         self.files
             .sort_by_key(|(_, d)| d.extension().is_some_and(|e| e == "json"));
-        for (staged, dest) in &self.files {
-            if dest.extension().is_some_and(|e| e == "json") {
-                for old in &stale {
-                    std::fs::remove_file(old)
-                        .map_err(|e| OutputError::io(old, e))
-                        .with_context(|| format!("cannot remove {}, left by an earlier render", old.display()))?;
-                }
-            }
-            std::fs::rename(staged, dest)
-                .map_err(|e| OutputError::io(dest, e))
-                .with_context(|| format!("cannot move {} into place", dest.display()))?;
+        let Some(staging) = self.staging.as_ref().map(|s| s.path().to_path_buf()) else {
+            return Ok(());
+        };
+        let earlier: Option<Vec<String>> = match &self.earlier {
+            EarlierSet::Dtr { files } => files.clone(),
+            _ => Some(Vec::new()),
+        };
+        let name = |p: &Path| p.file_name().unwrap_or_default().to_string_lossy().into_owned();
+        let names: Vec<String> = self.files.iter().map(|(_, d)| name(d)).collect();
+        let mut taken = 0usize;
+        let mut go = || {
+            taken += 1;
+            taken <= steps
+        };
+        if !go() {
+            return Ok(());
         }
-        IN_PLACE.store(true, Ordering::SeqCst);
-        Ok(self.prefix.clone())
+        commit_journal::write(&staging, earlier.as_deref(), &names)?;
+        let result = (|| -> anyhow::Result<()> {
+            let old_json = with_suffix(&self.prefix, "json");
+            if std::fs::symlink_metadata(&old_json).is_ok() {
+                if !go() {
+                    return Ok(());
+                }
+                std::fs::remove_file(&old_json)
+                    .map_err(|e| OutputError::io(&old_json, e))
+                    .with_context(|| format!("cannot remove {}, the earlier set's JSON", old_json.display()))?;
+            }
+            for (staged, dest) in &self.files {
+                if dest.extension().is_some_and(|e| e == "json") {
+                    for old in &stale {
+                        if !go() {
+                            return Ok(());
+                        }
+                        std::fs::remove_file(old)
+                            .map_err(|e| OutputError::io(old, e))
+                            .with_context(|| format!("cannot remove {}, left by an earlier render", old.display()))?;
+                    }
+                }
+                if !go() {
+                    return Ok(());
+                }
+                std::fs::rename(staged, dest)
+                    .map_err(|e| OutputError::io(dest, e))
+                    .with_context(|| format!("cannot move {} into place", dest.display()))?;
+            }
+            Ok(())
+        })();
+        if result.is_err() {
+            // the journal stays for the next render to the prefix
+            if let Some(s) = self.staging.take() {
+                unwatch(s.path());
+                let _ = s.keep();
+            }
+        }
+        result
     }
 
     /// The files the JSON already at `PREFIX.json` lists (an earlier render's set) that this
@@ -688,6 +754,97 @@ mod tests {
             "p.checkpoint",
         ] {
             assert!(!is_own_output(other, "p"), "{other}");
+        }
+    }
+
+    /// Writes a set of `suffixes` (and the JSON) at `out`, each file holding `label`; with
+    /// `kill_after`, stops moving it into place after that many steps and leaves its staging
+    /// folder, as a SIGKILL would.
+    fn write_set(
+        out: &Path,
+        scene: &Path,
+        label: &str,
+        suffixes: &[&str],
+        kill_after: Option<usize>,
+    ) -> anyhow::Result<()> {
+        let planned: Vec<String> = suffixes
+            .iter()
+            .map(|s| s.to_string())
+            .chain(["json".to_string()])
+            .collect();
+        let mut set = OutputSet::prepare(out, &[scene.to_path_buf()], scene, &planned)?;
+        for s in suffixes {
+            set.write(s, |p| std::fs::write(p, label))?;
+        }
+        let files = set.names_with("json");
+        let json = serde_json::json!({ "version": "test", "label": label, "files": files });
+        set.write("json", |p| std::fs::write(p, json.to_string()))?;
+        match kill_after {
+            None => set.commit().map(|_| ()),
+            Some(steps) => {
+                set.move_into_place(steps)?;
+                if let Some(s) = set.staging.take() {
+                    unwatch(s.path());
+                    let _ = s.keep();
+                }
+                Ok(())
+            }
+        }
+    }
+
+    /// The files in `dir` other than the scene, sorted.
+    fn listing(dir: &Path) -> Vec<String> {
+        let mut v: Vec<String> = std::fs::read_dir(dir)
+            .unwrap()
+            .flatten()
+            .map(|e| e.file_name().to_string_lossy().into_owned())
+            .filter(|n| n != "s.toml")
+            .collect();
+        v.sort();
+        v
+    }
+
+    /// A render killed at any step of moving its set into place never leaves a JSON beside
+    /// files that are not that JSON's set's (before the journal, the earlier set's JSON stayed
+    /// while the new files replaced its own), and the next render to the prefix replaces
+    /// whatever either set wrote and leaves nothing of them behind.
+    #[test]
+    fn a_render_killed_while_moving_its_set_leaves_no_mixed_set() {
+        // the killed set's steps: journal, earlier JSON, two moves, a stale file, its JSON
+        for kill_after in 0..7 {
+            let dir = tempfile::tempdir().unwrap();
+            let (out, scene) = (dir.path().join("x"), dir.path().join("s.toml"));
+            std::fs::write(&scene, "").unwrap();
+            write_set(&out, &scene, "A", &["npy", "d_a.npy"], None).unwrap();
+            write_set(&out, &scene, "B", &["npy", "d_b.npy"], Some(kill_after)).unwrap();
+            let json = dir.path().join("x.json");
+            if let Ok(text) = std::fs::read_to_string(&json) {
+                let set: serde_json::Value = serde_json::from_str(&text).unwrap();
+                let label = set["label"].as_str().unwrap();
+                let files: Vec<&str> = set["files"]
+                    .as_array()
+                    .unwrap()
+                    .iter()
+                    .filter_map(|f| f.as_str())
+                    .collect();
+                for f in &files {
+                    if *f != "x.json" {
+                        let held = std::fs::read_to_string(dir.path().join(f)).unwrap();
+                        assert_eq!(held, label, "killed after {kill_after} steps: {f} is not set {label}'s");
+                    }
+                }
+                for f in listing(dir.path()) {
+                    let outputs = f.starts_with("x.");
+                    assert!(
+                        !outputs || files.contains(&f.as_str()),
+                        "killed after {kill_after}: {f} beside set {label}"
+                    );
+                }
+            }
+            write_set(&out, &scene, "C", &["npy"], None)
+                .unwrap_or_else(|e| panic!("killed after {kill_after}: the next render was refused: {e:#}"));
+            assert_eq!(listing(dir.path()), ["x.json", "x.npy"], "killed after {kill_after}");
+            assert_eq!(std::fs::read_to_string(dir.path().join("x.npy")).unwrap(), "C");
         }
     }
 
