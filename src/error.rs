@@ -26,9 +26,33 @@ pub enum Error {
     /// adjoint of the wrong shape, a malformed shard); the message says what was expected.
     #[error("{0}")]
     Invalid(String),
+    /// A derivative was asked for with respect to a parameter the scene does not declare
+    /// (`dtr render --diff NAME`; front ends that take the names otherwise say so in their
+    /// own words, [`Error::available_parameters`]).
+    #[error("{}: --diff: no parameter named {name:?} (parameters: {})", .path.display(), Error::available_parameters(.available))]
+    UnknownParameter {
+        /// The scene's file.
+        path: std::path::PathBuf,
+        /// The name asked for.
+        name: String,
+        /// The parameters the scene declares.
+        available: Vec<String>,
+    },
     /// The render was stopped from outside ([`crate::cancel::Cancel`]) before it finished.
     #[error("the render was cancelled before it finished")]
     Cancelled,
+}
+
+impl Error {
+    /// The parameters a scene declares, for [`Error::UnknownParameter`]'s message: their
+    /// names, or how to declare some.
+    pub fn available_parameters(names: &[String]) -> String {
+        if names.is_empty() {
+            "none; add [[param]] entries".to_string()
+        } else {
+            names.join(", ")
+        }
+    }
 }
 
 impl From<AccelError> for Error {
@@ -82,6 +106,14 @@ mod tests {
                 "must be in (0, 180)",
             ),
             (Error::Invalid("no parameter named x".into()), "no parameter named x"),
+            (
+                Error::UnknownParameter {
+                    path: "s.toml".into(),
+                    name: "x".into(),
+                    available: vec!["a".into(), "b".into()],
+                },
+                "s.toml: --diff: no parameter named \"x\" (parameters: a, b)",
+            ),
         ];
         for (e, cause) in cases {
             let chain = format!("{:#}", anyhow::Error::from(e));

@@ -30,6 +30,12 @@ fn exit_status_names_what_failed() {
         let (c, err) = code(&args, d);
         assert_eq!(c, Some(2), "{args:?}: {err}");
     }
+    // the unknown parameter of a derivative render is named as the option that asked for it
+    let (_, err) = code(&["render", s, "--diff", "nope", "-o", "x"], d);
+    assert!(
+        err.contains("--diff: no parameter named \"nope\" (parameters: "),
+        "{err}"
+    );
     let bad = d.join("bad.toml");
     std::fs::write(
         &bad,

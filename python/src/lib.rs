@@ -59,7 +59,12 @@ fn render_err(e: difftransient::Error) -> PyErr {
     match e {
         difftransient::Error::Scene(s) => setting_err(s),
         // the parameters of a derivative render are its `params` argument, not `--diff`
-        other => RenderError::new_err(other.to_string().replacen(": --diff: ", ": params: ", 1)),
+        difftransient::Error::UnknownParameter { path, name, available } => RenderError::new_err(format!(
+            "{}: params: no parameter named {name:?} (parameters: {})",
+            path.display(),
+            difftransient::Error::available_parameters(&available)
+        )),
+        other => RenderError::new_err(other.to_string()),
     }
 }
 

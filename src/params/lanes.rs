@@ -87,16 +87,11 @@ impl Motion {
         let mut m = Motion::default();
         for name in names {
             let Some(p) = scene.params.iter().find(|p| &p.name == name) else {
-                let avail: Vec<&str> = scene.params.iter().map(|p| p.name.as_str()).collect();
-                return Err(crate::error::Error::Invalid(format!(
-                    "{}: --diff: no parameter named {name:?} (parameters: {})",
-                    scene.source.display(),
-                    if avail.is_empty() {
-                        "none; add [[param]] entries".to_string()
-                    } else {
-                        avail.join(", ")
-                    }
-                )));
+                return Err(crate::error::Error::UnknownParameter {
+                    path: scene.source.clone(),
+                    name: name.clone(),
+                    available: scene.params.iter().map(|p| p.name.clone()).collect(),
+                });
             };
             let mut fields = Vec::new();
             let mut albedo = Vec::new();
