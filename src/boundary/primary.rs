@@ -35,12 +35,15 @@
 //! shortened to half the width of the edge's own face on that side along n: a face seen
 //! nearly edge-on beside a silhouette projects to a sliver thinner than a fixed offset, and a
 //! side ray past it would take the silhouette's jump for the crease's. A side ray only finds
-//! its side's surface: where that is one of the edge's own faces, the side path starts a few
-//! offsets from where the edge's own ray (through u) meets the face, with that point's OPL,
-//! the limit ε → 0 (`PrimaryRays::limit`; other surfaces keep the side ray's hit). From the
-//! side ray's own hit, a face seen nearly edge-on put the inside's light up to half the
-//! face's depth late, which the time-summed image does not show (tests/boundary_primary.rs,
-//! `a_balls_limbs_send_their_light_to_the_bins_it_arrives_in`). Their difference is
+//! its side's surface: the side path takes the OPL of the point where the edge's own ray
+//! (through u) meets that surface's plane, the limit ε → 0, and where the surface is one of
+//! the edge's own faces it also starts a few offsets from that point (`PrimaryRays::limit`;
+//! on other surfaces its vertex stays at the side ray's hit, whose light is unambiguous).
+//! From the side ray's own hit, a face seen nearly edge-on put the inside's light up to half
+//! the face's depth late, and a floor seen at 89° behind a silhouette its light 28 mm of OPL
+//! early; the time-summed image shows neither (tests/boundary_primary.rs,
+//! `a_balls_limbs_send_their_light_to_the_bins_it_arrives_in`,
+//! `a_background_seen_edge_on_sends_its_light_to_the_bins_it_arrives_in`). Their difference is
 //! splatted with weight h_j(u)·V_k / (pdf · N) into every pixel j the filter reaches, in
 //! derivative film k. N = `spp_boundary` × pixels samples are split into fixed chunks traced in
 //! parallel; each chunk keeps its jumps (only the bins the side paths reached) and they are

@@ -14,7 +14,7 @@
 //! - **Whole or nothing.** Every file is written into a staging folder beside the outputs and
 //!   moved into place only when all of them are written, the JSON last (its presence marks a
 //!   complete set). A failure before that removes the staging folder.
-//! - **A kill while the set moves.** The moves are journalled ([`commit_journal`]): the
+//! - **A kill while the set moves.** The moves are journalled (`commit_journal.rs`): the
 //!   earlier set's JSON is removed before the first file moves, so a render killed part-way
 //!   (SIGKILL, a power cut) leaves no JSON beside a mix of two sets, and the next render to
 //!   the prefix learns from the journal which files there were either set's.

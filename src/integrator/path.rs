@@ -73,17 +73,19 @@ pub struct PrimaryRays {
     pub dirs: [glam::Vec3; 8],
     /// Where given, each lane's edge ray: the primary edge estimator traces each side of an
     /// edge ε beside it to find that side's surface, and wants that side's light at the edge
-    /// itself, the limit ε → 0. Where the side ray finds one of the lane's `own` faces, the
-    /// edge ray meets that face's plane at the edge point; the path starts a few offsets
-    /// from it on the face (`near_limit`) and takes its OPL for the eye's segment and the
-    /// first next-event connection. On a face seen nearly edge-on the side ray's own hit
-    /// lies far along the face in depth (up to half its sliver): from there the side's light
-    /// was binned late. (Later segments start from the path's own vertex, a few offsets off.)
+    /// itself, the limit ε → 0. The edge ray meets the plane of the face the side ray found at
+    /// that side's limit point, whose OPL the path takes for every segment that meets its first
+    /// vertex (the eye's, the next-event connection and the next bounce's; `opl_at`). Where
+    /// that face is one of the lane's `own`, the vertex itself also moves there, to a few
+    /// offsets from it on the face (`near_limit`). On a surface seen nearly edge-on, the side
+    /// ray's own hit lies far from the limit in depth: on a face beside a silhouette up to half
+    /// its sliver (its light was binned late), on a floor seen at 89° behind a silhouette 7 mm
+    /// a thousandth of a pixel away (binned early).
     pub limit: Option<[glam::Vec3; 8]>,
-    /// Each lane's edge's faces (`u32::MAX` for none). Any other surface the side ray finds
-    /// keeps its hit: the edge ray may meet it where the light is ambiguous (a shadow line
-    /// that continues the silhouette under a light at the camera, the floor under a resting
-    /// or hovering edge).
+    /// Each lane's edge's faces (`u32::MAX` for none). On any other surface the side ray finds,
+    /// the vertex stays at its hit (the OPL only is the limit's): the edge ray may meet such a
+    /// surface where its light is ambiguous (a shadow line that continues the silhouette under
+    /// a light at the camera, the floor under a resting or hovering edge).
     pub own: [[u32; 2]; 8],
 }
 
@@ -266,9 +268,10 @@ pub fn trace_packet_from<R: Real, const C: usize, S: Sink<C>>(
         eta_med = R::from_lanes(&s.eta[..R::LANES]);
     }
 
-    // lanes whose first vertex stands in for the edge point `lim` beside it, whose OPL they
-    // take (`PrimaryRays::limit`, `near_limit`)
-    let mut at_limit: Option<(R::Mask, V3<R>)> = None;
+    // the points whose OPL this vertex and the previous one take, where they stand in for
+    // the limit of a primary edge's side (`PrimaryRays::limit`, `near_limit`): set at the
+    // first vertex only, so every other path measures its OPL between its own vertices
+    let (mut opl_at, mut opl_prev): (Option<V3<R>>, Option<V3<R>>) = (None, None);
     for depth in 1..=max_bounces + 1 {
         let (x, w_in) = match surface.filter(|_| depth == 1) {
             Some(s) => {
@@ -301,18 +304,26 @@ pub fn trace_packet_from<R: Real, const C: usize, S: Sink<C>>(
                     PathStart::Rays(PrimaryRays { limit: Some(l), .. }) if depth == 1 => Some(l),
                     _ => None,
                 };
-                let mut own = [false; 8];
+                // lanes whose vertex takes the OPL of the edge ray's limit (`PrimaryRays::limit`)
+                let mut at_limit = [false; 8];
                 if let (Some(l), PathStart::Rays(r)) = (limit, start) {
-                    // the edge's own faces where the edge's own ray meets them (`PrimaryRays::limit`)
+                    let mut own = [false; 8];
                     for (i, o) in own.iter_mut().enumerate().take(R::LANES) {
                         *o = r.own[i].contains(&hit.prim[i]) && hit.prim[i] != u32::MAX;
                     }
-                    let m = R::Mask::from_bools(&own[..R::LANES]);
-                    let w = V3::from_lane_vecs(&l[..R::LANES]);
-                    ray_d = V3::select(m, w, ray_d);
-                    let lim = ray_plane_point(&prev_p, &V3::from_value(ray_d), &x.p, &x.n);
-                    x.p = V3::select(m, near_limit(&lim, &x.p, scene.offset_scale), x.p);
-                    at_limit = Some((m, lim));
+                    let own = R::Mask::from_bools(&own[..R::LANES]);
+                    let w = V3::from_value(V3::from_lane_vecs(&l[..R::LANES]));
+                    // where the edge ray meets the plane of the face the side ray found
+                    let lim = ray_plane_point(&prev_p, &w, &x.p, &x.n);
+                    let steady = limit_is_steady::<R>(&x.n.value(), &w.value(), &ray_d);
+                    // the edge's own faces: the vertex itself moves to the edge ray
+                    ray_d = V3::select(own, w.value(), ray_d);
+                    x.p = V3::select(own, near_limit(&lim, &x.p, scene.offset_scale), x.p);
+                    let m = own | steady;
+                    for (i, a) in at_limit.iter_mut().enumerate().take(R::LANES) {
+                        *a = m.bit(i);
+                    }
+                    opl_at = Some(V3::select(m, lim, x.p));
                 }
                 if R::DERIVS > 0 && from_camera {
                     // The camera ray is fixed in the image plane: the first vertex moves along it
@@ -375,18 +386,18 @@ pub fn trace_packet_from<R: Real, const C: usize, S: Sink<C>>(
                     x64 = points64(ctx, R::LANES, &hit.prim, &u, &v);
                     if let Some(l) = limit {
                         let o = ctx.camera.position.as_dvec3();
-                        for i in (0..R::LANES).filter(|&i| own[i]) {
+                        for i in (0..R::LANES).filter(|&i| at_limit[i]) {
                             let (n, w) = (ctx.face_normal64(hit.prim[i]), l[i].as_dvec3());
-                            // the OPL is the edge point's (`at_limit`)
+                            // the OPL is the limit's (`opl_at`); x64 carries OPLs only
                             x64[i] = o + w * (n.dot(x64[i] - o) / n.dot(w));
                         }
                     }
                 }
                 if counted {
-                    // a stand-in for the edge point takes that point's OPL
-                    let r_opl = match &at_limit {
-                        Some((m, lim)) if depth == 1 => R::select(*m, (*lim - prev_p).length(), r),
-                        _ => r,
+                    // a stand-in for the edge ray's limit takes that point's OPL
+                    let r_opl = match (&opl_at, &opl_prev) {
+                        (None, None) => r,
+                        (to, from) => (to.unwrap_or(x.p) - from.unwrap_or(prev_p)).length(),
                     };
                     opl += eta_med * r_opl;
                     if exact {
@@ -483,9 +494,9 @@ pub fn trace_packet_from<R: Real, const C: usize, S: Sink<C>>(
             let cos_y = R::select(ls.has_cos, -ls.n.dot(wl), R::one());
             // the connection runs in the medium the path is in; the laser's beam and the
             // sensor point's leg to the SPAD in the scene's
-            let dist_opl = match &at_limit {
-                Some((m, lim)) if depth == 1 => R::select(*m, (ls.p - *lim).length(), dist),
-                _ => dist,
+            let dist_opl = match &opl_at {
+                Some(from) => (ls.p - *from).length(),
+                None => dist,
             };
             let mut d = opl + eta_med * dist_opl + eta * ls.pre_length;
             if let Some(leg) = &spad_leg {
@@ -626,6 +637,7 @@ pub fn trace_packet_from<R: Real, const C: usize, S: Sink<C>>(
         };
         ray_d = dir;
         prev_p = x.p;
+        opl_prev = opl_at.take();
         prev64 = x64;
         prev_n = x.n;
         prev_pdf = pdf;
@@ -694,7 +706,7 @@ const LIMIT_MARGIN: f64 = 4.0;
 /// sliver), and the side's light was binned that much late; the margin keeps the start off
 /// the edge itself, where a surface the edge rests on or is sunk into (a floor) would block
 /// its shadow rays. The path's OPL is taken from `lim` for the segments that meet it (the
-/// eye's and the next-event connection's): the statistic of
+/// eye's, the next-event connection's and the next bounce's): the statistic of
 /// `boundary_primary::a_balls_limbs_send_their_light_to_the_bins_it_arrives_in` moved by
 /// 0.006 per offset of margin otherwise, the limbs' jumps being many times their last bins.
 #[inline(always)]
@@ -703,6 +715,17 @@ fn near_limit<R: Real>(lim: &V3<R>, p: &V3<R>, scale: f32) -> V3<R> {
     let d = *p - *lim;
     let len = d.length();
     lim.add_scaled(d, R::safe_div(keep.min(len), len))
+}
+
+/// Per lane, whether the edge ray `w` meets the plane (normal `n`) of the surface the side ray
+/// `d` found about as squarely as the side ray did: then that point is the side's limit as
+/// the side ray's offset goes to zero, and its OPL the side's (`PrimaryRays::limit`). A plane
+/// the edge ray meets far more obliquely, or from its other side, has no limit near the side
+/// ray's hit, which keeps its own OPL.
+#[inline(always)]
+fn limit_is_steady<R: Real>(n: &V3<R::Value>, w: &V3<R::Value>, d: &V3<R::Value>) -> R::Mask {
+    let (nw, nd) = (n.dot(*w), n.dot(*d));
+    (nw * nd).gt(R::Value::zero()) & nw.abs().ge(nd.abs() * R::Value::splat(0.5))
 }
 
 /// The point where the ray `o + t·ω` meets the plane through `p` with normal `n`, with `p`
