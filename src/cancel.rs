@@ -96,4 +96,31 @@ mod tests {
             );
         }
     }
+
+    /// The secondary pass's pilot (an eighth of its samples) stops too: a scene whose moving
+    /// occluder the camera never sees (no primary edges), one interior sample and 2²⁰
+    /// boundary samples per pixel, so the pilot alone is 2²⁷ samples. Before, the flag was
+    /// read only between the pass's batches, after the pilot.
+    #[test]
+    fn a_boundary_pilot_stops_when_cancelled() {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/shadow_hidden_occluder.toml");
+        let scene = crate::Scene::load(&path, &[]).unwrap();
+        let cancel = Cancel::new();
+        let opts = RenderOptions {
+            spp: Some(1),
+            spp_boundary: Some(1 << 20),
+            threads: Some(2),
+            cancel: cancel.clone(),
+            ..Default::default()
+        };
+        let start = Instant::now();
+        let stopper = std::thread::spawn(move || {
+            std::thread::sleep(Duration::from_millis(300));
+            cancel.cancel();
+        });
+        let result = crate::render_diff(&scene, &["occluder_x".to_string()], &opts);
+        stopper.join().unwrap();
+        assert!(matches!(result, Err(Error::Cancelled)), "{result:?}");
+        assert!(start.elapsed() < Duration::from_secs(5), "{:?}", start.elapsed());
+    }
 }

@@ -308,7 +308,13 @@ impl Secondary<'_> {
                     let mut queue = [Queue::new(seed), Queue::new(seed ^ LIGHT_STREAM)];
                     let mut shares = ShareTally::new(table.edges.len());
                     let params = self.params;
-                    for id in c * CHUNK..((c + 1) * CHUNK).min(samples) {
+                    // a cancelled render's pilot draws no more chunks (`crate::cancel`); the
+                    // pass then traces nothing
+                    let end = match self.ctx.cancel.is_cancelled() {
+                        true => c * CHUNK,
+                        false => ((c + 1) * CHUNK).min(samples),
+                    };
+                    for id in c * CHUNK..end {
                         for s in 0..2 {
                             let before = scratch[s].rays();
                             let p = match s {
