@@ -80,21 +80,27 @@ mod tests {
                 cancel: cancel.clone(),
                 ..Default::default()
             };
-            let start = Instant::now();
-            let stopper = std::thread::spawn(move || {
-                std::thread::sleep(Duration::from_millis(300));
-                cancel.cancel();
-            });
-            let result = job(&opts);
-            stopper.join().unwrap();
-            assert!(matches!(result, Err(Error::Cancelled)), "{what}: {result:?}");
-            eprintln!("{what}: stopped after {:?}", start.elapsed());
-            assert!(
-                start.elapsed() < Duration::from_secs(5),
-                "{what}: {:?}",
-                start.elapsed()
-            );
+            stops_when_cancelled(what, cancel, || job(&opts));
         }
+    }
+
+    /// Runs `job`, sets `cancel` 300 ms after it started, and checks that the job returned
+    /// [`Error::Cancelled`] within 5 s.
+    fn stops_when_cancelled(what: &str, cancel: Cancel, job: impl FnOnce() -> Result<(), Error>) {
+        let start = Instant::now();
+        let stopper = std::thread::spawn(move || {
+            std::thread::sleep(Duration::from_millis(300));
+            cancel.cancel();
+        });
+        let result = job();
+        stopper.join().unwrap();
+        assert!(matches!(result, Err(Error::Cancelled)), "{what}: {result:?}");
+        eprintln!("{what}: stopped after {:?}", start.elapsed());
+        assert!(
+            start.elapsed() < Duration::from_secs(5),
+            "{what}: {:?}",
+            start.elapsed()
+        );
     }
 
     /// The secondary pass's pilot (an eighth of its samples) stops too: a scene whose moving
@@ -113,14 +119,8 @@ mod tests {
             cancel: cancel.clone(),
             ..Default::default()
         };
-        let start = Instant::now();
-        let stopper = std::thread::spawn(move || {
-            std::thread::sleep(Duration::from_millis(300));
-            cancel.cancel();
+        stops_when_cancelled("boundary pilot", cancel, || {
+            crate::render_diff(&scene, &["occluder_x".to_string()], &opts).map(|_| ())
         });
-        let result = crate::render_diff(&scene, &["occluder_x".to_string()], &opts);
-        stopper.join().unwrap();
-        assert!(matches!(result, Err(Error::Cancelled)), "{result:?}");
-        assert!(start.elapsed() < Duration::from_secs(5), "{:?}", start.elapsed());
     }
 }
