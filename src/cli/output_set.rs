@@ -10,7 +10,9 @@
 //!   none may be an existing folder. A bad `-o` fails in milliseconds, not after the render.
 //! - **One writer per prefix.** `.NAME.dtr-lock` in the output folder is locked (an advisory
 //!   `flock`) from before the render until the set is in place; a second render to the same
-//!   prefix is refused with a message naming the lock.
+//!   prefix is refused with a message naming the lock. An output whose name is also one of
+//!   another prefix's outputs (`x.steady.npy`: the steady image of `x`, the film of
+//!   `x.steady`) takes that prefix's lock too, so two renders never write one file.
 //! - **Whole or nothing.** Every file is written into a staging folder beside the outputs and
 //!   moved into place only when all of them are written, the JSON last (its presence marks a
 //!   complete set). A failure before that removes the staging folder.
@@ -201,6 +203,9 @@ pub struct OutputSet {
     inputs: Vec<(PathBuf, std::fs::Metadata)>,
     lock_path: PathBuf,
     _lock: File,
+    /// The locks of the other prefixes that an output's name belongs to as well
+    /// ([`prefixes_sharing_names`]), and their paths.
+    shared: Vec<(File, PathBuf)>,
     staging: Option<tempfile::TempDir>,
     /// (staged file, destination), in the order they were added.
     files: Vec<(PathBuf, PathBuf)>,
@@ -323,15 +328,28 @@ impl OutputSet {
             earlier => earlier,
         };
         remove_stale_staging(&dir, &name);
-        let set = Self {
+        let mut set = Self {
             prefix,
             inputs,
             lock_path,
             _lock: lock,
+            shared: Vec::new(),
             staging: None,
             files: Vec::new(),
             earlier,
         };
+        let names: Vec<String> = suffixes.iter().map(|s| format!("{name}.{s}")).collect();
+        for other in prefixes_sharing_names(&name, &names) {
+            refuse_inputs_in_reserved_names(scene_inputs, &dir, &other)?;
+            let path = dir.join(Reserved::of(&other).lock);
+            let lock = Self::lock(&path, &dir.join(&other)).with_context(|| {
+                format!(
+                    "an output of {} is also named as one of {other}'s",
+                    set.prefix.display()
+                )
+            })?;
+            set.shared.push((lock, path));
+        }
         for s in suffixes {
             set.check_destination(&with_suffix(&set.prefix, s))?;
         }
@@ -634,6 +652,23 @@ fn is_own_output(name: &str, stem: &str) -> bool {
     FIXED.contains(&suffix) || PREVIEWS.contains(&suffix) || derivative || strategy
 }
 
+/// The other prefixes (file names in the same folder) that one of `names`, the outputs of the
+/// prefix `stem`, is also an output of: `x.steady.npy` is the steady image of `x` and the film
+/// of `x.steady`, `x.d_a.npy` a derivative of `x` and the film of `x.d_a`. A render locks
+/// them too, so two renders at once never write one file (`-o x --preview` and `-o x.steady`
+/// would each have written `x.steady.npy` and listed it in their JSON). In a fixed order.
+fn prefixes_sharing_names(stem: &str, names: &[String]) -> Vec<String> {
+    let mut out: Vec<String> = names
+        .iter()
+        .flat_map(|name| name.match_indices('.').map(move |(k, _)| (name, &name[..k])))
+        .filter(|(name, other)| !other.is_empty() && *other != stem && is_own_output(name, other))
+        .map(|(_, other)| other.to_string())
+        .collect();
+    out.sort();
+    out.dedup();
+    out
+}
+
 /// The names a render to the prefix named NAME keeps beside its outputs: its lock file, its
 /// staging folders (a prefix, then tempfile's six characters) and its checkpoint's temporary
 /// files (a prefix, six characters, `.tmp`: `output::write_atomic`).
@@ -717,6 +752,10 @@ impl Drop for OutputSet {
         if let Some(s) = self.staging.take() {
             unwatch(s.path());
             drop(s);
+        }
+        for (_, path) in &self.shared {
+            unwatch(path);
+            let _ = std::fs::remove_file(path);
         }
         unwatch(&self.lock_path);
         let _ = std::fs::remove_file(&self.lock_path);
@@ -846,6 +885,44 @@ mod tests {
             assert_eq!(listing(dir.path()), ["x.json", "x.npy"], "killed after {kill_after}");
             assert_eq!(std::fs::read_to_string(dir.path().join("x.npy")).unwrap(), "C");
         }
+    }
+
+    /// Two renders whose outputs share a file name never run at once: `-o q --preview` writes
+    /// `q.steady.npy`, which is `-o q.steady`'s film. Before, each took only its own prefix's
+    /// lock, and both wrote that file and listed it in their JSON. Prefixes that share no
+    /// output name still run at once, and no lock file is left behind.
+    #[test]
+    fn renders_whose_outputs_share_a_name_do_not_run_at_once() {
+        let dir = tempfile::tempdir().unwrap();
+        let scene = dir.path().join("s.toml");
+        std::fs::write(&scene, "").unwrap();
+        let prepare = |prefix: &str, suffixes: &[&str]| {
+            let suffixes: Vec<String> = suffixes.iter().map(|s| s.to_string()).collect();
+            OutputSet::prepare(
+                &dir.path().join(prefix),
+                std::slice::from_ref(&scene),
+                &scene,
+                &suffixes,
+            )
+        };
+        let preview = ["npy", "steady.npy", "json"];
+        let first = prepare("q", &preview).unwrap();
+        let err = prepare("q.steady", &["npy", "json"])
+            .err()
+            .expect("q.steady.npy is written by both");
+        assert!(format!("{err:#}").contains("another dtr render"), "{err:#}");
+        drop(first);
+        let first = prepare("q.steady", &["npy", "json"]).unwrap();
+        assert!(prepare("q", &preview).is_err(), "the other way round");
+        drop(first);
+        let first = prepare("q", &["npy", "d_a.npy", "json"]).unwrap();
+        assert!(
+            prepare("q.d_a", &["npy", "json"]).is_err(),
+            "q.d_a.npy is written by both"
+        );
+        let apart = prepare("q.v2", &["npy", "json"]).expect("q.v2's outputs are not q's");
+        drop((first, apart));
+        assert_eq!(listing(dir.path()), Vec::<String>::new());
     }
 
     #[test]
