@@ -1,4 +1,4 @@
-//! The journal of an output set's move into place ([`OutputSet::commit`]).
+//! The journal of an output set's move into place (`output_set::OutputSet::commit`).
 //!
 //! The files of a set cannot be renamed into place in one step, so a render killed part-way
 //! through the moves (SIGKILL, a power cut: nothing runs to undo them) would leave some new
@@ -13,8 +13,6 @@
 //! A render to the same prefix that finds no JSON there reads the journals in the staging
 //! folders a killed render left (before it removes them): their files are what it may replace
 //! and, where it does not write them, remove.
-//!
-//! [`OutputSet::commit`]: super::output_set::OutputSet::commit
 
 use crate::output::OutputError;
 use anyhow::Context;
@@ -50,10 +48,11 @@ pub(super) fn write(staging: &Path, earlier: Option<&[String]>, files: &[String]
 }
 
 /// The files of the sets that the journals in `dir`'s folders whose names start with
-/// `staging` describe (folders a killed render left): None when there is no readable journal,
+/// `staging` describe (folders a killed render left; journals read up to `cap` bytes): None
+/// when there is no readable journal,
 /// Some(None) when one describes a set known only by the form of its files, otherwise the
 /// union of their names.
-pub(super) fn read_left(dir: &Path, staging: &str) -> Option<Option<Vec<String>>> {
+pub(super) fn read_left(dir: &Path, staging: &str, cap: u64) -> Option<Option<Vec<String>>> {
     let mut found: Option<Option<Vec<String>>> = None;
     for entry in std::fs::read_dir(dir).ok()?.flatten() {
         let name = entry.file_name();
@@ -61,7 +60,7 @@ pub(super) fn read_left(dir: &Path, staging: &str) -> Option<Option<Vec<String>>
             continue;
         }
         let path = entry.path().join(JOURNAL);
-        let Ok(text) = crate::scene::read_regular_file(&path, super::output_set::JSON_CAP) else {
+        let Ok(text) = crate::scene::read_regular_file(&path, cap) else {
             continue;
         };
         let Ok(journal) = serde_json::from_str::<Journal>(&text) else {

@@ -323,7 +323,7 @@ impl OutputSet {
         IN_PLACE.store(false, Ordering::SeqCst);
         let earlier = match EarlierSet::read(&with_suffix(&prefix, "json")) {
             // a render killed while it moved its set into place left no JSON, and its journal
-            EarlierSet::None => commit_journal::read_left(&dir, &Reserved::of(&name).staging)
+            EarlierSet::None => commit_journal::read_left(&dir, &Reserved::of(&name).staging, JSON_CAP)
                 .map_or(EarlierSet::None, |files| EarlierSet::Dtr { files }),
             earlier => earlier,
         };
