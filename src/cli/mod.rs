@@ -127,6 +127,25 @@ pub fn exit_code(e: &anyhow::Error) -> u8 {
     }
 }
 
+/// Ends the process at once with `code`, from a signal thread: standard output and error
+/// flushed, then `_exit`, which runs no exit handlers. `std::process::exit` ran the C
+/// library's exit handlers and static destructors while the rendering threads went on, and
+/// Embree's destructor of a mutex one of them held aborted the process instead of the exit
+/// with 128 + the signal (`MutexSys::~MutexSys(): Assertion 'ok' failed`; tests/cli_optimize.rs
+/// in CI rehearsal 74).
+pub(crate) fn exit_from_signal(code: i32) -> ! {
+    use std::io::Write;
+    let _ = std::io::stdout().flush();
+    let _ = std::io::stderr().flush();
+    #[cfg(unix)]
+    // SAFETY: `_exit` ends the process; nothing after it runs, and it takes no pointers.
+    unsafe {
+        libc::_exit(code)
+    }
+    #[cfg(not(unix))]
+    std::process::exit(code)
+}
+
 /// The `--set` overrides of a command: numbers (a `[[param]]` value, or a number of the
 /// description by its dotted path) and other values of fields (a word, a list, a table;
 /// `scene::field_set`).

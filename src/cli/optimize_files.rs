@@ -214,7 +214,7 @@ pub(super) fn end_on_signal(state: Shared) -> anyhow::Result<()> {
                 }
             };
             eprintln!("dtr: interrupted (signal {sig}); {said}");
-            std::process::exit(128 + sig);
+            super::exit_from_signal(128 + sig);
         }
     });
     Ok(())

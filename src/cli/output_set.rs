@@ -108,7 +108,7 @@ fn install_signal_cleanup() -> anyhow::Result<()> {
                         // a checkpointing render saves what it has finished (crate::checkpoint)
                         crate::checkpoint::write_on_signal();
                         eprintln!("dtr: interrupted (signal {sig}); no output was written");
-                        std::process::exit(128 + sig);
+                        super::exit_from_signal(128 + sig);
                     }
                 });
             }
