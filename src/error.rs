@@ -27,9 +27,9 @@ pub enum Error {
     #[error("{0}")]
     Invalid(String),
     /// A derivative was asked for with respect to a parameter the scene does not declare
-    /// (`dtr render --diff NAME`; front ends that take the names otherwise say so in their
-    /// own words, [`Error::available_parameters`]).
-    #[error("{}: --diff: no parameter named {name:?} (parameters: {})", .path.display(), Error::available_parameters(.available))]
+    /// (`dtr render --diff NAME`; front ends that take the names otherwise name their own
+    /// argument, [`Error::unknown_parameter`]).
+    #[error("{}", Error::unknown_parameter(.path, "--diff", .name, .available))]
     UnknownParameter {
         /// The scene's file.
         path: std::path::PathBuf,
@@ -44,14 +44,18 @@ pub enum Error {
 }
 
 impl Error {
-    /// The parameters a scene declares, for [`Error::UnknownParameter`]'s message: their
-    /// names, or how to declare some.
-    pub fn available_parameters(names: &[String]) -> String {
-        if names.is_empty() {
+    /// [`Error::UnknownParameter`]'s message, naming `asked_by`, the option or argument that
+    /// gave the names (`--diff` for the CLI), and listing the parameters the scene declares.
+    pub fn unknown_parameter(path: &std::path::Path, asked_by: &str, name: &str, available: &[String]) -> String {
+        let available = if available.is_empty() {
             "none; add [[param]] entries".to_string()
         } else {
-            names.join(", ")
-        }
+            available.join(", ")
+        };
+        format!(
+            "{}: {asked_by}: no parameter named {name:?} (parameters: {available})",
+            path.display()
+        )
     }
 }
 

@@ -74,12 +74,9 @@ enum Reference {
 
 fn opts(spp: u32, seed: u64) -> RenderOptions {
     RenderOptions {
-        spp: Some(spp),
-        seed: Some(seed),
-        threads: Some(2),
         // the interior alone: this file adds the primary term itself, from `render_primary`
         boundary: BoundaryMode::InteriorOnly,
-        ..Default::default()
+        ..common::options(spp, seed)
     }
 }
 
@@ -375,12 +372,7 @@ fn a_balls_limbs_send_their_light_to_the_bins_it_arrives_in() {
     };
     let (mut d, mut trunc, mut ads) = (Vec::new(), Vec::new(), Vec::new());
     for seed in 0..16 {
-        let o = |spp: u32| RenderOptions {
-            spp: Some(spp),
-            seed: Some(7000 + seed),
-            threads: Some(2),
-            ..Default::default()
-        };
+        let o = |spp: u32| common::options(spp, 7000 + seed);
         let ad = statistic(&render_diff(&scene, &["ball_x".to_string()], &o(256)).unwrap().1[0]);
         let fd = |p: &Scene, m: &Scene, h: f64| {
             (statistic(&render(p, &o(1024)).unwrap().0) - statistic(&render(m, &o(1024)).unwrap().0)) / (2.0 * h)
@@ -433,13 +425,7 @@ fn a_background_seen_edge_on_sends_its_light_to_the_bins_it_arrives_in() {
         }
         (m1, m0)
     };
-    let o = |spp: u32, seed: u64| RenderOptions {
-        spp: Some(spp),
-        seed: Some(seed),
-        threads: Some(2),
-        ..Default::default()
-    };
-    let ad = render_diff(&scene, &["box_y".to_string()], &o(64, 1))
+    let ad = render_diff(&scene, &["box_y".to_string()], &common::options(64, 1))
         .unwrap()
         .1
         .remove(0);
@@ -466,11 +452,12 @@ fn a_background_seen_edge_on_sends_its_light_to_the_bins_it_arrives_in() {
     }
     let (m1, m0) = moments(&ad, columns.clone());
     let centroid = m1 / m0;
+    let (plus, minus) = (at(0.275 + h), at(0.275 - h));
     let fd: Vec<f64> = (0..16)
         .map(|seed| {
             let (p, m) = (
-                render(&at(0.275 + h), &o(1024, seed)).unwrap().0,
-                render(&at(0.275 - h), &o(1024, seed)).unwrap().0,
+                render(&plus, &common::options(1024, seed)).unwrap().0,
+                render(&minus, &common::options(1024, seed)).unwrap().0,
             );
             let ((p1, p0), (q1, q0)) = (moments(&p, columns.clone()), moments(&m, columns.clone()));
             (p1 - q1) / (p0 - q0)

@@ -814,36 +814,39 @@ fn optimize_interrupted_keeps_a_consistent_run_or_nothing() {
         assert_eq!(recovered, at);
     }
     // before the first iteration is logged (a slow first render): nothing is kept
+    interrupt_the_first_render(dir, "");
+    let o = dtr(&one_iteration(SCENE, "t.npy", "plate_x", "early"), dir);
+    assert!(o.status.success(), "{}", stderr(&o));
+}
+
+/// Sends SIGINT to an optimisation (`-o early`, in `dir`) as soon as its log exists, during its
+/// first render, and checks that it ends with 130 and keeps nothing (`what` names the run in
+/// messages).
+fn interrupt_the_first_render(dir: &std::path::Path, what: &str) {
     let child = spawn_optimize(dir, "early", &["--spp", "4096", "--iters", "2"]);
     wait_for("the log's header", || dir.join("early/log.csv").exists());
     unsafe { libc::kill(child.id() as i32, libc::SIGINT) };
     let o = child.wait_with_output().unwrap();
     let e = stderr(&o);
-    assert_eq!(o.status.code(), Some(130), "{e}");
-    assert!(e.contains("no iteration was logged"), "{e}");
-    assert!(!dir.join("early").exists(), "{e}");
-    let o = dtr(&one_iteration(SCENE, "t.npy", "plate_x", "early"), dir);
-    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(o.status.code(), Some(130), "{what}{e}");
+    assert!(e.contains("no iteration was logged"), "{what}{e}");
+    assert!(!dir.join("early").exists(), "{what}{e}");
 }
 
 /// An optimisation interrupted while it renders ends with 130, never with an abort: 200 runs,
 /// each sent SIGINT as soon as its log exists. Before, the signal thread's
 /// `std::process::exit` ran the exit handlers and Embree's static destructors while the render
-/// thread held one of Embree's mutexes: 26 of 600 such runs (`/tmp/sig/rep.sh`, one and two
-/// threads) aborted with 134 ("pure virtual method called", or `MutexSys::~MutexSys():
-/// Assertion 'ok' failed` in CI rehearsal 74). Now `_exit` (`cli::exit_from_signal`).
+/// thread held one of Embree's mutexes: 26 of 600 such runs (a shell loop of 300 runs at one
+/// thread and 300 at two) aborted with 134 ("pure virtual method called", or
+/// `MutexSys::~MutexSys(): Assertion 'ok' failed` in CI rehearsal 74). Now `_exit`
+/// (`cli::exit_from_signal`).
 #[test]
 fn an_interrupted_optimisation_never_aborts() {
     let tmp = tempfile::tempdir().unwrap();
     let dir = tmp.path();
     rough_target(SCENE, dir, "t");
     for run in 0..200 {
-        let child = spawn_optimize(dir, "early", &["--spp", "4096", "--iters", "2"]);
-        wait_for("the log's header", || dir.join("early/log.csv").exists());
-        unsafe { libc::kill(child.id() as i32, libc::SIGINT) };
-        let o = child.wait_with_output().unwrap();
-        assert_eq!(o.status.code(), Some(130), "run {run}: {}", stderr(&o));
-        assert!(!dir.join("early").exists(), "run {run}: {}", stderr(&o));
+        interrupt_the_first_render(dir, &format!("run {run}: "));
     }
 }
 

@@ -10,7 +10,7 @@
 
 use crate::common;
 use difftransient::scene::{EmitterKind, Material};
-use difftransient::{RenderOptions, Scene, Transient, render};
+use difftransient::{Scene, Transient, render};
 
 /// The closed-form transient of sensor point (sx, sy) (on the wall z = 0) for the patch
 /// [-a, a]² at height z, per bin of `axis`.
@@ -43,15 +43,6 @@ fn closed_form(scene: &Scene, s: (f64, f64), z: f64, a: f64) -> Vec<f64> {
     out
 }
 
-fn opts(spp: u32, seed: u64) -> RenderOptions {
-    RenderOptions {
-        spp: Some(spp),
-        seed: Some(seed),
-        threads: Some(2),
-        ..Default::default()
-    }
-}
-
 /// Every bin holding at least 2% of a sensor point's light agrees with the closed form within
 /// 5 standard errors (16 independent renders of 16384 paths per sensor point), the totals
 /// within 4, and bins no path can reach are zero, at two patch distances (the 1/z⁴-like falloff and the arrival
@@ -66,7 +57,7 @@ fn confocal_patch_matches_closed_form() {
         scene.nlos.as_mut().unwrap().hidden.probability = aimed;
         let nlos = scene.nlos.as_ref().unwrap();
         let runs: Vec<Transient> = (0..16)
-            .map(|seed| render(&scene, &opts(16384, seed)).unwrap().0)
+            .map(|seed| render(&scene, &common::options(16384, seed)).unwrap().0)
             .collect();
         let mut checked = 0;
         for (i, p) in nlos.sensors.points.iter().enumerate() {
@@ -145,8 +136,12 @@ fn relay_legs_shift_by_the_laser_and_spad_distances() {
         text.replace(&format!("start_opl = {}", 0.95 + shift), "start_opl = 0.95"),
     )
     .unwrap();
-    let a = render(&Scene::load(&excl, &[]).unwrap(), &opts(64, 3)).unwrap().0;
-    let b = render(&Scene::load(&incl, &[]).unwrap(), &opts(64, 3)).unwrap().0;
+    let a = render(&Scene::load(&excl, &[]).unwrap(), &common::options(64, 3))
+        .unwrap()
+        .0;
+    let b = render(&Scene::load(&incl, &[]).unwrap(), &common::options(64, 3))
+        .unwrap()
+        .0;
     let series_a: Vec<f32> = (0..a.axis.bins).map(|k| a.at(0, 0, k, 0)).collect();
     let series_b: Vec<f32> = (0..b.axis.bins).map(|k| b.at(0, 0, k, 0)).collect();
     let total: f32 = series_a.iter().sum();
@@ -179,8 +174,8 @@ fn confocal_is_the_diagonal_of_exhaustive() {
     let (ex, conf_small) = (Scene::load(&ex, &[]).unwrap(), Scene::load(&conf_small, &[]).unwrap());
     assert_eq!(conf.film.width, 16);
     assert_eq!((ex.film.width, ex.film.height), (12, 12));
-    let a = render(&conf_small, &opts(32, 5)).unwrap().0;
-    let b = render(&ex, &opts(32, 5)).unwrap().0;
+    let a = render(&conf_small, &common::options(32, 5)).unwrap().0;
+    let b = render(&ex, &common::options(32, 5)).unwrap().0;
     assert_eq!((a.width, a.height), (4, 3));
     let mut energy = 0.0;
     for i in 0..12 {
@@ -208,7 +203,7 @@ fn huge_exhaustive_scan_is_refused() {
     let p = dir.path().join("huge.toml");
     std::fs::write(&p, text).unwrap();
     let scene = Scene::load(&p, &[]).unwrap();
-    let err = render(&scene, &opts(1, 0)).unwrap_err().to_string();
+    let err = render(&scene, &common::options(1, 0)).unwrap_err().to_string();
     assert!(err.contains("huge.toml"), "{err}");
     assert!(
         err.contains("nlos") && err.contains("GiB") && err.contains("bins"),
@@ -318,7 +313,7 @@ fn laser_spots_are_the_scan_points_whatever_the_bvh() {
         }
     }
     // the pixel that jumped: with the same paths, 50 µm of motion changes it by far less
-    let px = |y: f64| render(&load(y), &opts(4096, 0)).unwrap().0.time_sum(5, 4, 0) as f64;
+    let px = |y: f64| render(&load(y), &common::options(4096, 0)).unwrap().0.time_sum(5, 4, 0) as f64;
     let (a, b) = (px(-0.05165), px(-0.0516));
     assert!(
         a > 0.0 && (a / b - 1.0).abs() < 5e-3,

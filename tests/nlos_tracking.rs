@@ -18,11 +18,8 @@ use difftransient::{BoundaryMode, RenderOptions, Scene, render, render_diff};
 
 fn opts(spp: u32, seed: u64) -> RenderOptions {
     RenderOptions {
-        spp: Some(spp),
-        seed: Some(seed),
-        threads: Some(2),
         boundary: BoundaryMode::InteriorOnly,
-        ..Default::default()
+        ..common::options(spp, seed)
     }
 }
 

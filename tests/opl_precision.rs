@@ -74,15 +74,6 @@ fn load(text: &str) -> Scene {
     Scene::load(&p, &[]).unwrap()
 }
 
-fn opts(spp: u32, seed: u64) -> RenderOptions {
-    RenderOptions {
-        spp: Some(spp),
-        seed: Some(seed),
-        threads: Some(2),
-        ..Default::default()
-    }
-}
-
 /// k = ρ·I/π: the radiance at tan-plane radius² s is k / (h² (1 + s)^{3/2}) and its OPL
 /// 2h·√(1 + s).
 fn k() -> f64 {
@@ -142,7 +133,7 @@ fn smooth_and_closed_form(kind: IntegratorKind) {
         .map(|seed| {
             let o = RenderOptions {
                 integrator: Some(kind),
-                ..opts(4096, seed)
+                ..common::options(4096, seed)
             };
             let (t, stats) = render(&scene, &o).unwrap();
             assert!(stats.opl.f64_paths, "{:?}", stats.opl);
@@ -390,7 +381,7 @@ fn a_start_opl_that_is_not_an_f32_lands_the_peak_in_its_bin() {
     let scene = load(&scene_text("3.9999999505", 100, "{ type = \"tent\", radius = 1e-3 }"));
     assert_eq!(scene.film.axis.start_opl, 3.9999999505);
     assert_eq!(scene.film.axis.bin_width_opl, 1e-9);
-    let (t, _) = render(&scene, &opts(16, 1)).unwrap();
+    let (t, _) = render(&scene, &common::options(16, 1)).unwrap();
     let series = t.pixel_series(0, 0);
     let peak = (0..series.len())
         .max_by(|&a, &b| series[a].total_cmp(&series[b]))
@@ -420,7 +411,7 @@ fn a_nanometre_pulse_time_summed_derivative_matches_the_closed_form() {
     });
     let o = RenderOptions {
         boundary: BoundaryMode::InteriorOnly,
-        ..opts(4096, 0)
+        ..common::options(4096, 0)
     };
     let (mut sums, mut stored) = (Vec::new(), Vec::new());
     let mut storage = 0.0f64;

@@ -59,11 +59,9 @@ fn render_err(e: difftransient::Error) -> PyErr {
     match e {
         difftransient::Error::Scene(s) => setting_err(s),
         // the parameters of a derivative render are its `params` argument, not `--diff`
-        difftransient::Error::UnknownParameter { path, name, available } => RenderError::new_err(format!(
-            "{}: params: no parameter named {name:?} (parameters: {})",
-            path.display(),
-            difftransient::Error::available_parameters(&available)
-        )),
+        difftransient::Error::UnknownParameter { path, name, available } => RenderError::new_err(
+            difftransient::Error::unknown_parameter(&path, "params", &name, &available),
+        ),
         other => RenderError::new_err(other.to_string()),
     }
 }

@@ -314,7 +314,7 @@ impl OutputSet {
         let prefix = resolve_prefix(output, scene)?;
         let dir = make_output_folder(output, &prefix)?;
         let inputs = input_metadata(scene_inputs);
-        let name = prefix.file_name().unwrap_or_default().to_string_lossy().into_owned();
+        let name = file_name(&prefix);
         let lock_path = dir.join(Reserved::of(&name).lock);
         refuse_inputs_in_reserved_names(scene_inputs, &dir, &name)?;
         let lock = Self::lock(&lock_path, &prefix)?;
@@ -441,11 +441,7 @@ impl OutputSet {
 
     /// The file name of the prefix.
     fn stem(&self) -> String {
-        self.prefix
-            .file_name()
-            .unwrap_or_default()
-            .to_string_lossy()
-            .into_owned()
+        file_name(&self.prefix)
     }
 
     /// The prefix the outputs are named after.
@@ -473,12 +469,7 @@ impl OutputSet {
     fn stage(&mut self, suffix: &str) -> anyhow::Result<PathBuf> {
         if self.staging.is_none() {
             let dir = self.lock_path.parent().unwrap_or(Path::new("."));
-            let name = self
-                .prefix
-                .file_name()
-                .unwrap_or_default()
-                .to_string_lossy()
-                .into_owned();
+            let name = self.stem();
             let tmp = tempfile::Builder::new()
                 .prefix(&Reserved::of(&name).staging)
                 .tempdir_in(dir)
@@ -498,7 +489,7 @@ impl OutputSet {
         self.files
             .iter()
             .map(|(staged, dest)| {
-                let name = dest.file_name().unwrap_or_default().to_string_lossy().into_owned();
+                let name = file_name(dest);
                 Ok((name, serde_json::Value::from(super::digest::file_sha256(staged)?)))
             })
             .collect()
@@ -507,10 +498,23 @@ impl OutputSet {
     /// The file names (in the output folder) of the outputs staged so far and of
     /// `PREFIX.suffix`: the set the JSON lists.
     pub fn names_with(&self, suffix: &str) -> Vec<String> {
-        let name = |p: &Path| p.file_name().unwrap_or_default().to_string_lossy().into_owned();
-        let mut v: Vec<String> = self.files.iter().map(|(_, d)| name(d)).collect();
-        v.push(name(&with_suffix(&self.prefix, suffix)));
+        let mut v = self.staged_names();
+        v.push(file_name(&with_suffix(&self.prefix, suffix)));
         v
+    }
+
+    /// The file names (in the output folder) of the outputs staged so far.
+    fn staged_names(&self) -> Vec<String> {
+        self.files.iter().map(|(_, d)| file_name(d)).collect()
+    }
+
+    /// Leaves the staging folder in place (with its journal, [`commit_journal`]) for the next
+    /// render to the prefix, as a killed render would.
+    fn keep_staging(&mut self) {
+        if let Some(s) = self.staging.take() {
+            unwatch(s.path());
+            let _ = s.keep();
+        }
     }
 
     /// Moves every staged file into place, the JSON last, after checking every destination
@@ -527,7 +531,7 @@ impl OutputSet {
 
     /// [`commit`]'s work in its order ([`commit_journal`]), stopping after `steps` steps (the
     /// journal, the earlier JSON's removal, each move and removal), as a kill would: tests
-    /// stop it part-way. Once the earlier JSON is gone, a failure keeps the staging folder, so
+    /// stop it part-way. A failure once the journal is written keeps the staging folder, so
     /// that the next render to the prefix finds the journal.
     ///
     /// [`commit`]: Self::commit
@@ -545,8 +549,7 @@ impl OutputSet {
             EarlierSet::Dtr { files } => files.clone(),
             _ => Some(Vec::new()),
         };
-        let name = |p: &Path| p.file_name().unwrap_or_default().to_string_lossy().into_owned();
-        let names: Vec<String> = self.files.iter().map(|(_, d)| name(d)).collect();
+        let names = self.staged_names();
         let mut taken = 0usize;
         let mut go = || {
             taken += 1;
@@ -587,11 +590,7 @@ impl OutputSet {
             Ok(())
         })();
         if result.is_err() {
-            // the journal stays for the next render to the prefix
-            if let Some(s) = self.staging.take() {
-                unwatch(s.path());
-                let _ = s.keep();
-            }
+            self.keep_staging();
         }
         result
     }
@@ -650,6 +649,11 @@ fn is_own_output(name: &str, stem: &str) -> bool {
         .and_then(|s| s.split_once("_t"))
         .is_some_and(|(s, t)| digits(s) && digits(t));
     FIXED.contains(&suffix) || PREVIEWS.contains(&suffix) || derivative || strategy
+}
+
+/// The file name of `p`, as text.
+fn file_name(p: &Path) -> String {
+    p.file_name().unwrap_or_default().to_string_lossy().into_owned()
 }
 
 /// The other prefixes (file names in the same folder) that one of `names`, the outputs of the
@@ -822,10 +826,7 @@ mod tests {
             None => set.commit().map(|_| ()),
             Some(steps) => {
                 set.move_into_place(steps)?;
-                if let Some(s) = set.staging.take() {
-                    unwatch(s.path());
-                    let _ = s.keep();
-                }
+                set.keep_staging();
                 Ok(())
             }
         }

@@ -300,16 +300,19 @@ pub fn trace_packet_from<R: Real, const C: usize, S: Sink<C>>(
                 }
                 let mut x = surface_at::<R>(ctx, &hit.prim, hit.u, hit.v);
                 let from_camera = depth == 1 && nlos.is_none();
+                // a primary edge's side rays: their edge rays and the edge's faces
                 let limit = match start {
-                    PathStart::Rays(PrimaryRays { limit: Some(l), .. }) if depth == 1 => Some(l),
+                    PathStart::Rays(PrimaryRays {
+                        limit: Some(l), own, ..
+                    }) if depth == 1 => Some((l, own)),
                     _ => None,
                 };
                 // lanes whose vertex takes the OPL of the edge ray's limit (`PrimaryRays::limit`)
                 let mut at_limit = [false; 8];
-                if let (Some(l), PathStart::Rays(r)) = (limit, start) {
+                if let Some((l, faces)) = limit {
                     let mut own = [false; 8];
                     for (i, o) in own.iter_mut().enumerate().take(R::LANES) {
-                        *o = r.own[i].contains(&hit.prim[i]) && hit.prim[i] != u32::MAX;
+                        *o = faces[i].contains(&hit.prim[i]) && hit.prim[i] != u32::MAX;
                     }
                     let own = R::Mask::from_bools(&own[..R::LANES]);
                     let w = V3::from_value(V3::from_lane_vecs(&l[..R::LANES]));
@@ -384,7 +387,7 @@ pub fn trace_packet_from<R: Real, const C: usize, S: Sink<C>>(
                     let u: [f32; 8] = std::array::from_fn(|i| if i < R::LANES { hit.u.lane(i) } else { 0.0 });
                     let v: [f32; 8] = std::array::from_fn(|i| if i < R::LANES { hit.v.lane(i) } else { 0.0 });
                     x64 = points64(ctx, R::LANES, &hit.prim, &u, &v);
-                    if let Some(l) = limit {
+                    if let Some((l, _)) = limit {
                         let o = ctx.camera.position.as_dvec3();
                         for i in (0..R::LANES).filter(|&i| at_limit[i]) {
                             let (n, w) = (ctx.face_normal64(hit.prim[i]), l[i].as_dvec3());

@@ -81,6 +81,17 @@ fn bin_groups(t: &Transient, group: usize) -> Vec<f64> {
         .collect()
 }
 
+/// Options of a render at `spp` samples per pixel from `seed` on two threads, everything else
+/// as the scene or the defaults say (a derivative render: both terms of the gradient).
+pub fn options(spp: u32, seed: u64) -> RenderOptions {
+    RenderOptions {
+        spp: Some(spp),
+        seed: Some(seed),
+        threads: Some(2),
+        ..Default::default()
+    }
+}
+
 /// Mean and standard error over independent estimates.
 pub fn mean_se(xs: &[f64]) -> (f64, f64) {
     let n = xs.len() as f64;
