@@ -20,6 +20,8 @@ pub struct RenderContext<'a> {
     pub tri_material: Vec<u32>,
     /// Emitter index of each triangle (`u32::MAX` where it emits nothing).
     pub tri_emitter: Vec<u32>,
+    /// The side of each closed shape a camera ray may first meet (`super::entry`).
+    pub entry: super::entry::EntrySides,
     pub emitters: EmitterTable,
     /// S_e of each emitter's pulse with the film's gate (supplemental Eq. 24).
     pub correlations: Vec<Correlation>,
@@ -80,6 +82,7 @@ impl<'a> RenderContext<'a> {
             .map(|&s| scene.shapes[s as usize].emitter.unwrap_or(u32::MAX))
             .collect();
         let emitters = EmitterTable::new(scene, &accel)?;
+        let entry = super::entry::EntrySides::new(geo, scene.shapes.len(), scene.camera.position);
         let nlos = scene
             .nlos
             .as_ref()
@@ -119,6 +122,7 @@ impl<'a> RenderContext<'a> {
             tri_verts,
             tri_material,
             tri_emitter,
+            entry,
             emitters,
             correlations,
             camera,

@@ -18,6 +18,7 @@ pub mod emitter_table;
 pub mod emitters;
 #[cfg(test)]
 mod emitters_tests;
+pub mod entry;
 pub mod importance;
 pub mod medium;
 pub mod nlos;

@@ -294,12 +294,17 @@ pub fn trace_packet_from<R: Real, const C: usize, S: Sink<C>>(
                     depth == 1,
                     &mut counts.rays,
                 );
-                active = found;
+                let from_camera = depth == 1 && nlos.is_none();
+                // a camera ray met a closed shape from the side the camera is not on: it
+                // entered through an edge (`super::entry`)
+                active = match from_camera {
+                    true => ctx.entry.admits::<R>(&ctx.tri_verts, &hit.prim, &ray_d, found),
+                    false => found,
+                };
                 if active.none() {
                     break;
                 }
                 let mut x = surface_at::<R>(ctx, &hit.prim, hit.u, hit.v);
-                let from_camera = depth == 1 && nlos.is_none();
                 // a primary edge's side rays: their edge rays and the edge's faces
                 let limit = match start {
                     PathStart::Rays(PrimaryRays {

@@ -82,7 +82,11 @@ fn random_walk<R: Real, const C: usize>(
             ray_form,
             counts,
         );
-        active = found;
+        // a camera ray that entered a closed shape through an edge (`crate::integrator::entry`)
+        active = match ray_form {
+            true => ctx.entry.admits::<R>(&ctx.tri_verts, &hit.prim, &ray_d, found),
+            false => found,
+        };
         if active.none() {
             break;
         }

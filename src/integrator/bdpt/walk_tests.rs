@@ -109,3 +109,62 @@ fn area_light_directions_are_cosine_weighted() {
     let nv = V3::<f32x8>::splat(n);
     check_directions("area light", &v, n, 0.0, |u1, u2| sample_cosine(&nv, &nv, u1, u2));
 }
+
+/// BDPT's camera subpaths take the path tracer's rule (`crate::integrator::entry`): camera
+/// rays aimed exactly at the silhouette edges of a box (as rounding allows) that are reported
+/// on the face turned away from the camera add no vertex; the others add theirs. Before the
+/// check, every such ray's subpath went on inside the box.
+#[test]
+fn camera_subpaths_do_not_enter_a_closed_shape_at_its_edge() {
+    use crate::integrator::entry::tests::{BOX, box_context, meets_the_inside, silhouette_rays};
+    use crate::kernel::Dual8;
+    type R = Dual8<1>;
+    let scene = crate::integrator::testutil::load(BOX, &[]);
+    let device = crate::accel::Device::new("threads=1").unwrap();
+    let ctx = box_context(&scene, &device);
+    let dirs = silhouette_rays(&ctx, 256);
+    let met = meets_the_inside(&ctx, &dirs);
+    let eye = scene.camera.position;
+    let mut counts = crate::integrator::trace::RayCounts::default();
+    let (mut inside, mut outside) = (0, 0);
+    for (k, chunk) in dirs.chunks(8).enumerate() {
+        let ids: Vec<u64> = (0..chunk.len()).map(|i| (k * 8 + i) as u64).collect();
+        let mut sampler = PathSampler::new(3, &ids);
+        let mut d = [Vec3::Z; 8];
+        d[..chunk.len()].copy_from_slice(chunk);
+        let on: [bool; 8] = std::array::from_fn(|i| i < chunk.len());
+        let alive = <R as Real>::Mask::from_bools(&on);
+        let mut path = vec![Vertex::<R, 3>::point(V3::splat(eye), Spectrum::splat(R::one()), alive)];
+        super::random_walk(
+            &ctx,
+            &mut sampler,
+            &mut path,
+            V3::splat(eye),
+            V3::from_lane_vecs(&d),
+            f32x8::ONE,
+            Spectrum::splat(R::one()),
+            alive,
+            2,
+            true,
+            &mut counts,
+        );
+        for (i, m) in met[k * 8..k * 8 + chunk.len()].iter().enumerate() {
+            let added = path.len() > 1 && path[1].alive.bit(i);
+            match m {
+                Some(true) => {
+                    inside += 1;
+                    assert!(!added, "ray {} met the box's inside and its subpath went on", k * 8 + i);
+                }
+                Some(false) => {
+                    outside += 1;
+                    assert!(added, "ray {} met the box's front and added no vertex", k * 8 + i);
+                }
+                None => {}
+            }
+        }
+    }
+    assert!(
+        inside >= dirs.len() / 20 && outside >= dirs.len() / 20,
+        "{inside} inside, {outside} outside"
+    );
+}
