@@ -84,8 +84,9 @@ impl EntrySides {
             if side == Side::Any {
                 return true;
             }
-            let n = crate::scene::triangle_normal(tri_verts[prim[i] as usize]);
-            let against = n.dot(Vec3::new(d.x.lane(i), d.y.lane(i), d.z.lane(i))) < 0.0;
+            // the sign of the winding's normal along the ray (no need to normalise it)
+            let [a, b, c] = tri_verts[prim[i] as usize];
+            let against = (b - a).cross(c - a).dot(Vec3::new(d.x.lane(i), d.y.lane(i), d.z.lane(i))) < 0.0;
             against == (side == Side::Front)
         });
         active & R::Mask::from_bools(&keep[..R::LANES])
