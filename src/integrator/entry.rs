@@ -86,7 +86,10 @@ impl EntrySides {
             }
             // the sign of the winding's normal along the ray (no need to normalise it)
             let [a, b, c] = tri_verts[prim[i] as usize];
-            let against = (b - a).cross(c - a).dot(Vec3::new(d.x.lane(i), d.y.lane(i), d.z.lane(i))) < 0.0;
+            let against = (b - a)
+                .cross(c - a)
+                .dot(Vec3::new(d.x.lane(i), d.y.lane(i), d.z.lane(i)))
+                < 0.0;
             against == (side == Side::Front)
         });
         active & R::Mask::from_bools(&keep[..R::LANES])
