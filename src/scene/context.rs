@@ -17,7 +17,15 @@ pub(crate) struct Ctx<'a> {
     pub set_by: HashMap<String, String>,
 }
 
-impl Ctx<'_> {
+impl<'a> Ctx<'a> {
+    /// Errors of the file at `path`, no location set by a parameter yet.
+    pub fn new(path: &'a Path) -> Self {
+        Self {
+            path,
+            set_by: HashMap::new(),
+        }
+    }
+
     pub fn invalid(&self, at: impl Into<String>, message: impl Into<String>) -> SceneError {
         let at = at.into();
         let mut message = message.into();

@@ -13,7 +13,6 @@ use super::described::Described;
 use super::error::{item_field, table_field};
 use super::shapes::LocalMesh;
 use super::{IntegratorSpec, Scene, SceneError, camera_film, emitters, materials};
-use std::collections::HashMap;
 use std::path::Path;
 use std::sync::Arc;
 
@@ -25,10 +24,7 @@ pub const MAX_BOUNCES: i64 = 1024;
 pub(crate) fn resolve(described: Described, path: &Path) -> Result<Scene, SceneError> {
     let mut desc: SceneDesc = described.desc.clone();
     let overrides = described.params.as_slice();
-    let mut ctx = Ctx {
-        path,
-        set_by: HashMap::new(),
-    };
+    let mut ctx = Ctx::new(path);
     let names = Names {
         materials: index_names(&ctx, "material", desc.material.iter().map(|m| &m.name))?,
         shapes: index_names(&ctx, "shape", desc.shape.iter().map(|s| &s.name))?,
@@ -37,16 +33,7 @@ pub(crate) fn resolve(described: Described, path: &Path) -> Result<Scene, SceneE
     };
     // The scene as the file describes it (params at their file values), for the origin.
     let mut as_written = desc.clone();
-    let written_ok = crate::params::resolve::apply_params(
-        &mut as_written,
-        &names,
-        &mut Ctx {
-            path,
-            set_by: HashMap::new(),
-        },
-        &[],
-    )
-    .is_ok();
+    let written_ok = crate::params::resolve::apply_params(&mut as_written, &names, &mut Ctx::new(path), &[]).is_ok();
     let overridden = crate::params::resolve::apply_overrides(&mut desc, overrides, &names, path)?;
     let params = crate::params::resolve::apply_params(&mut desc, &names, &mut ctx, &overridden)?;
     // The meshes depend on no parameter (types, files and sphere subdivisions only).

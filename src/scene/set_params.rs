@@ -103,10 +103,7 @@ impl Scene {
         sampler: Option<crate::kernel::SampleSequence>,
     ) -> Result<(), SceneError> {
         let d = &self.described;
-        let ctx = super::context::Ctx {
-            path: &self.source,
-            set_by: Default::default(),
-        };
+        let ctx = super::context::Ctx::new(&self.source);
         let mut raw = (*d.raw).clone();
         let Some(root) = raw.as_object_mut() else {
             return Err(ctx.invalid("the scene", "expected a table"));

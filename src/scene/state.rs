@@ -52,10 +52,7 @@ impl Scene {
             params,
             meshes,
         } = state;
-        let ctx = super::context::Ctx {
-            path: &source,
-            set_by: Default::default(),
-        };
+        let ctx = super::context::Ctx::new(&source);
         let invalid = |at: String, message: String| ctx.invalid(at, message);
         let raw: serde_json::Value = serde_json::from_str(&description)
             .map_err(|e| invalid("the saved scene".into(), format!("its description is not JSON: {e}")))?;
