@@ -44,31 +44,37 @@ fn only_meshes_closed_with_one_orientation_count_as_closed() {
         flipped(&cube),
         shapes::icosphere(2),
     ]);
-    assert_eq!(closed_shapes(&geo, 7), [true, false, false, false, true, true, false]);
+    assert_eq!(
+        ShapeSums::new(&geo, 7).closed,
+        [true, false, false, false, true, true, false]
+    );
 }
 
 #[test]
 fn the_camera_side_follows_the_winding_and_where_the_camera_is() {
     let cube = shapes::cube();
-    let geo = geometry(&[cube.clone(), flipped(&cube)]);
-    let side = |s: u32, eye: [f64; 3]| camera_side(&geo, s, DVec3::from_array(eye));
+    let geo = geometry(&[cube.clone(), flipped(&cube), shapes::icosphere(3)]);
+    let first = |s: u32| geo.tri_shape.iter().position(|&t| t == s).unwrap();
+    let side = |s: u32, eye: [f32; 3]| {
+        let e = EntrySides::new(&geo, 3, Vec3::from_array(eye));
+        e.sides.get(first(s)).copied().unwrap_or(Side::Any)
+    };
     // outward normals: seen from outside, the front; from inside (a room), the back
     assert_eq!(side(0, [0.3, 2.5, -4.0]), Side::Front);
-    assert_eq!(side(0, [0.5, 1.5, 0.2]), Side::Front); // inside the box around it, not the cube
     assert_eq!(side(0, [0.2, -0.3, 0.9]), Side::Back);
     // inward normals: the other way round
     assert_eq!(side(1, [0.3, 2.5, -4.0]), Side::Back);
     assert_eq!(side(1, [0.2, -0.3, 0.9]), Side::Front);
     // on the surface: not checked
     assert_eq!(side(0, [0.2, -0.3, 1.0]), Side::Any);
+    // inside the ball's bounding box but outside the ball, and inside it
+    assert_eq!(side(2, [0.9, 0.9, 0.0]), Side::Front);
+    assert_eq!(side(2, [0.1, 0.2, -0.3]), Side::Back);
     let ball = geometry(&[shapes::icosphere(3)]);
-    let ball_tris = || {
-        ball.indices
-            .iter()
-            .map(|t| t.map(|i| ball.positions[i as usize].as_dvec3()))
-    };
-    assert!((winding_number(ball_tris(), DVec3::new(0.1, 0.2, -0.3)).unwrap() - 1.0).abs() < 1e-9);
-    assert!(winding_number(ball_tris(), DVec3::new(0.1, 2.2, -0.3)).unwrap().abs() < 1e-9);
+    let w = |p: [f64; 3]| winding_numbers(&ball, &[true], DVec3::from_array(p))[0].unwrap();
+    assert!((w([0.1, 0.2, -0.3]) - 1.0).abs() < 1e-9);
+    assert!(w([0.9, 0.9, 0.0]).abs() < 1e-9);
+    assert!(winding_numbers(&ball, &[false], DVec3::ZERO)[0] == Some(0.0));
 }
 
 /// A box seen by a camera, lit by a point light beside the camera (on the side of the box's
