@@ -18,6 +18,16 @@ fn dtr(args: &[&str], cwd: &Path) -> Output {
         .unwrap()
 }
 
+/// Starts dtr with `args` in `cwd`, its stderr piped (for the tests that signal or stop it).
+fn spawn(args: &[&str], cwd: &Path) -> std::process::Child {
+    Command::new(env!("CARGO_BIN_EXE_dtr"))
+        .current_dir(cwd)
+        .args(args)
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap()
+}
+
 fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
 }
@@ -139,12 +149,7 @@ fn what_cannot_be_read_as_an_earlier_json_is_refused_at_once() {
         .unwrap();
     std::fs::write(dir.path().join("big.npy"), "not dtr's").unwrap();
     for (prefix, why) in [("pipe", "not a regular file"), ("big", "more than the")] {
-        let mut child = Command::new(env!("CARGO_BIN_EXE_dtr"))
-            .current_dir(dir.path())
-            .args(["render", "room.toml", "-o", prefix, "--spp", "1", "-q"])
-            .stderr(std::process::Stdio::piped())
-            .spawn()
-            .unwrap();
+        let mut child = spawn(&["render", "room.toml", "-o", prefix, "--spp", "1", "-q"], dir.path());
         let start = std::time::Instant::now();
         while child.try_wait().unwrap().is_none() {
             if start.elapsed() > std::time::Duration::from_secs(10) {
@@ -236,20 +241,37 @@ fn a_second_render_to_a_locked_prefix_is_refused() {
     assert_eq!(listing(dir.path()), ["busy.json", "busy.npy", "room.json", "room.toml"]);
 }
 
+/// Starts a render in `dir` of the Cornell box at 32 × 32 with `args` added, for the signal
+/// tests.
+#[cfg(unix)]
+fn spawn_cornell(dir: &Path, args: &[&str]) -> std::process::Child {
+    let scene = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell_box.toml");
+    let mut all = vec!["render", scene.to_str().unwrap(), "-q"];
+    all.extend(["--set", "camera.resolution.0=32", "--set", "camera.resolution.1=32"]);
+    all.extend(args);
+    spawn(&all, dir)
+}
+
 /// Starts a render in `dir` to `out/big` whose set takes a while to write (a 32 × 32 × 3000
 /// Cornell film, with its EXR), for the signal tests.
 #[cfg(unix)]
 fn spawn_big_render(dir: &Path) -> std::process::Child {
-    let scene = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell_box.toml");
-    Command::new(env!("CARGO_BIN_EXE_dtr"))
-        .current_dir(dir)
-        .args(["render", scene.to_str().unwrap(), "--spp", "1", "--threads", "1", "-q"])
-        .args(["--set", "camera.resolution.0=32", "--set", "camera.resolution.1=32"])
-        .args(["--set", "film.bins=3000", "--set", "film.bin_width_opl=0.001"])
-        .args(["--exr", "-o", "out/big"])
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .unwrap()
+    spawn_cornell(
+        dir,
+        &[
+            "--spp",
+            "1",
+            "--threads",
+            "1",
+            "--set",
+            "film.bins=3000",
+            "--set",
+            "film.bin_width_opl=0.001",
+            "--exr",
+            "-o",
+            "out/big",
+        ],
+    )
 }
 
 /// A symbolic link where a render keeps its lock file is refused, and what it leads to is left
@@ -279,9 +301,8 @@ fn a_link_in_place_of_the_lock_file_is_refused() {
 fn sigterm_and_sighup_leave_no_files_behind() {
     for signal in [libc::SIGTERM, libc::SIGHUP] {
         let dir = workdir();
-        let mut child = Command::new(env!("CARGO_BIN_EXE_dtr"))
-            .current_dir(dir.path())
-            .args([
+        let mut child = spawn(
+            &[
                 "render",
                 "room.toml",
                 "-o",
@@ -291,10 +312,9 @@ fn sigterm_and_sighup_leave_no_files_behind() {
                 "-q",
                 "--threads",
                 "1",
-            ])
-            .stderr(std::process::Stdio::piped())
-            .spawn()
-            .unwrap();
+            ],
+            dir.path(),
+        );
         // the lock file shows that the render has started
         let lock = dir.path().join("out/.run.dtr-lock");
         let t0 = std::time::Instant::now();
@@ -468,25 +488,9 @@ fn a_signal_while_the_set_is_written_leaves_nothing_or_the_whole_set() {
 #[test]
 fn a_render_interrupted_while_it_traces_never_aborts() {
     let dir = tempfile::tempdir().unwrap();
-    let scene = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell_box.toml");
     let out = dir.path().join("out");
     for run in 0..200u64 {
-        let child = Command::new(env!("CARGO_BIN_EXE_dtr"))
-            .current_dir(dir.path())
-            .args([
-                "render",
-                scene.to_str().unwrap(),
-                "--spp",
-                "4096",
-                "--threads",
-                "2",
-                "-q",
-            ])
-            .args(["--set", "camera.resolution.0=32", "--set", "camera.resolution.1=32"])
-            .args(["-o", "out/r"])
-            .stderr(std::process::Stdio::piped())
-            .spawn()
-            .unwrap();
+        let child = spawn_cornell(dir.path(), &["--spp", "4096", "--threads", "2", "-o", "out/r"]);
         let t0 = std::time::Instant::now();
         while !out.join(".r.dtr-lock").exists() && t0.elapsed().as_secs() < 60 {
             std::thread::sleep(std::time::Duration::from_micros(200));

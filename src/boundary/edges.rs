@@ -144,12 +144,7 @@ pub(crate) mod tests {
 
     /// A one-shape scene geometry of `mesh` (shared by the boundary tests).
     pub(crate) fn geometry(mesh: shapes::Mesh) -> Geometry {
-        Geometry {
-            positions: mesh.positions.clone(),
-            indices: mesh.tris.clone(),
-            tri_shape: vec![0; mesh.tris.len()],
-            ..Default::default()
-        }
+        crate::scene::testutil::geometry_of(&[mesh])
     }
 
     #[test]

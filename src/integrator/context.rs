@@ -82,7 +82,11 @@ impl<'a> RenderContext<'a> {
             .map(|&s| scene.shapes[s as usize].emitter.unwrap_or(u32::MAX))
             .collect();
         let emitters = EmitterTable::new(scene, &accel)?;
-        let entry = super::entry::EntrySides::new(geo, scene.shapes.len(), scene.camera.position);
+        // a capture's paths start on the relay wall, not at the camera
+        let entry = match scene.nlos {
+            Some(_) => super::entry::EntrySides::default(),
+            None => super::entry::EntrySides::new(geo, scene.shapes.len(), scene.camera.position),
+        };
         let nlos = scene
             .nlos
             .as_ref()

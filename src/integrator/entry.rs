@@ -8,12 +8,12 @@
 //! (micrometres), and light that leaks back out through the crack brings it a derivative
 //! weight as large as the segment is short. The first vertex is in ray form (it slides along
 //! its face as the shape moves, `super::path`), the second vertex on the other face moves
-//! with the shape, so the geometry term's derivative (supplemental Eq. 14, the G·J factor)
-//! is their relative speed over a distance of micrometres.
+//! with the shape, so the derivative of the geometry term (the G·J of α = ρ·G·J in
+//! Algorithm 1 of the supplemental) is their relative speed over a distance of micrometres.
 //!
-//! Seen in the wild: `narrow_pulse_box` at 512 spp, one sample of one seed in 768 put
-//! +1.8 × 10⁶ into one voxel of `d/d tall_box_x` (a typical voxel of the whole image is
-//! below 0.3), through a camera ray that met the tall box's right (back-facing) face at its
+//! Seen in the wild: `narrow_pulse_box` at 512 spp, one sample of one seed in 768 carried
+//! ḟ = 1.8 × 10⁶, which put +2 695 into one voxel of `d/d tall_box_x` (a typical voxel of the
+//! whole image is below 0.3), through a camera ray that met the tall box's right (back-facing) face at its
 //! edge with the front face and a 13 µm segment inside the box. As the rounding shrinks,
 //! such paths get rarer in proportion and heavier in inverse proportion, so they are a bias
 //! of the derivative, not only a heavy tail.

@@ -8,20 +8,8 @@ use crate::integrator::testutil::load;
 use crate::kernel::Dual8;
 use crate::params::lanes::Motion;
 use crate::scene::shapes;
-use crate::scene::testutil::header;
+use crate::scene::testutil::{geometry_of, header};
 use wide::f32x8;
-
-/// A geometry of the given local meshes, each its own shape, placed as given.
-fn geometry(meshes: &[shapes::Mesh]) -> Geometry {
-    let mut geo = Geometry::default();
-    for (s, m) in meshes.iter().enumerate() {
-        let base = geo.positions.len() as u32;
-        geo.positions.extend(&m.positions);
-        geo.indices.extend(m.tris.iter().map(|t| t.map(|i| i + base)));
-        geo.tri_shape.extend(m.tris.iter().map(|_| s as u32));
-    }
-    geo
-}
 
 fn flipped(m: &shapes::Mesh) -> shapes::Mesh {
     let mut m = m.clone();
@@ -36,7 +24,7 @@ fn only_meshes_closed_with_one_orientation_count_as_closed() {
     holed.tris.pop();
     let mut one_flipped = cube.clone();
     one_flipped.tris[3].swap(1, 2);
-    let geo = geometry(&[
+    let geo = geometry_of(&[
         cube.clone(),
         shapes::rectangle(),
         holed,
@@ -53,7 +41,7 @@ fn only_meshes_closed_with_one_orientation_count_as_closed() {
 #[test]
 fn the_camera_side_follows_the_winding_and_where_the_camera_is() {
     let cube = shapes::cube();
-    let geo = geometry(&[cube.clone(), flipped(&cube), shapes::icosphere(3)]);
+    let geo = geometry_of(&[cube.clone(), flipped(&cube), shapes::icosphere(3)]);
     let first = |s: u32| geo.tri_shape.iter().position(|&t| t == s).unwrap();
     let side = |s: u32, eye: [f32; 3]| {
         let e = EntrySides::new(&geo, 3, Vec3::from_array(eye));
@@ -70,7 +58,7 @@ fn the_camera_side_follows_the_winding_and_where_the_camera_is() {
     // inside the ball's bounding box but outside the ball, and inside it
     assert_eq!(side(2, [0.9, 0.9, 0.0]), Side::Front);
     assert_eq!(side(2, [0.1, 0.2, -0.3]), Side::Back);
-    let ball = geometry(&[shapes::icosphere(3)]);
+    let ball = geometry_of(&[shapes::icosphere(3)]);
     let w = |p: [f64; 3]| winding_numbers(&ball, &[true], DVec3::from_array(p))[0].unwrap();
     assert!((w([0.1, 0.2, -0.3]) - 1.0).abs() < 1e-9);
     assert!(w([0.9, 0.9, 0.0]).abs() < 1e-9);

@@ -1,6 +1,7 @@
-//! Helpers for the scene tests: temp scene files and error assertions.
+//! Helpers for the scene tests: temp scene files and error assertions, and geometry made of
+//! local meshes.
 
-use super::{Scene, SceneError};
+use super::{Geometry, Scene, SceneError};
 use std::path::{Path, PathBuf};
 
 pub fn scenes_dir() -> PathBuf {
@@ -105,4 +106,16 @@ pub fn expect_err_set(
 pub fn mini_with(from: &str, to: &str) -> String {
     assert!(MINI.contains(from), "{from:?} not in MINI");
     MINI.replacen(from, to, 1)
+}
+
+/// A scene geometry of `meshes` as they are (local space), each its own shape, in order.
+pub(crate) fn geometry_of(meshes: &[super::shapes::Mesh]) -> Geometry {
+    let mut geo = Geometry::default();
+    for (s, m) in meshes.iter().enumerate() {
+        let base = geo.positions.len() as u32;
+        geo.positions.extend(&m.positions);
+        geo.indices.extend(m.tris.iter().map(|t| t.map(|i| i + base)));
+        geo.tri_shape.extend(m.tris.iter().map(|_| s as u32));
+    }
+    geo
 }
