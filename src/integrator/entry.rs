@@ -1,4 +1,4 @@
-//! Camera rays that would enter a closed shape through one of its edges.
+//! Rays in ray form that would enter a closed shape through one of its edges.
 //!
 //! A camera ray that passes within rounding error of a closed shape's silhouette edge meets
 //! the face turned towards the camera and the face turned away at the same distance, and the
@@ -10,6 +10,8 @@
 //! its face as the shape moves, `super::path`), the second vertex on the other face moves
 //! with the shape, so the derivative of the geometry term (the G·J of α = ρ·G·J in
 //! Algorithm 1 of the supplemental) is their relative speed over a distance of micrometres.
+//! The same holds for the ray a Dirac lobe turned (a mirror, smooth glass): the vertex it
+//! reaches is in ray form too (`super::bsdf::delta`).
 //!
 //! Seen in the wild: `narrow_pulse_box` at 512 spp, one sample of one seed in 768 carried
 //! ḟ = 1.8 × 10⁶, which put +2 695 into one voxel of `d/d tall_box_x` (a typical voxel of the
@@ -19,10 +21,15 @@
 //! of the derivative, not only a heavy tail.
 //!
 //! The camera's side of each closed shape is fixed for a render (outside, or inside a shape
-//! that encloses it, a room built as one closed mesh), so a first hit on the other side is
-//! one of these cracks: such a camera ray starts no path. Shapes that are not closed and
-//! consistently wound (an open rectangle, a mesh with duplicated vertices along its seams or
-//! a hole), and shapes the camera sits on, are not checked.
+//! that encloses it, a room built as one closed mesh), so a camera ray's first hit on the
+//! other side is one of these cracks: such a camera ray starts no path. A path stays on the
+//! camera's side of every closed shape except those it has crossed by transmission
+//! ([`Crossings`]), so a turned ray's hit on the other side ends its path in the same way.
+//! Shapes that are not closed and consistently wound (an open rectangle, a mesh with
+//! duplicated vertices along its seams or a hole), shapes the camera sits on, and the rays
+//! of paths that crossed more than [`Crossings::MAX`] shapes are not checked. Rays whose
+//! next vertex moves with its surface (after a rough or diffuse vertex) carry no such weight
+//! and are not checked either: their leaks are as rare as the rounding and bounded.
 
 use crate::kernel::{Mask, Real, V3};
 use crate::scene::Geometry;
@@ -69,13 +76,15 @@ impl EntrySides {
         Self { sides }
     }
 
-    /// The lanes of `active` whose first hit (`prim`, reached along `d`, with the triangles'
-    /// vertices `tri_verts`) lies on the side of its shape the camera is on.
+    /// The lanes of `active` whose hit (`prim`, reached along `d`, with the triangles'
+    /// vertices `tri_verts` and shapes `tri_shape`) lies on the side of its shape the
+    /// lane's path is on: the camera's, or the other for the shapes it crossed (`crossed`).
     pub fn admits<R: Real>(
         &self,
-        tri_verts: &[[Vec3; 3]],
+        (tri_verts, tri_shape): (&[[Vec3; 3]], &[u32]),
         prim: &[u32; 8],
         d: &V3<R::Value>,
+        crossed: &[Crossings; 8],
         active: R::Mask,
     ) -> R::Mask {
         if self.sides.is_empty() {
@@ -85,19 +94,73 @@ impl EntrySides {
             if i >= R::LANES || !active.bit(i) {
                 return false;
             }
-            let side = self.sides[prim[i] as usize];
-            if side == Side::Any {
-                return true;
-            }
+            let t = prim[i] as usize;
+            let front = match (self.sides[t], crossed[i].holds(tri_shape[t])) {
+                (Side::Any, _) | (_, None) => return true,
+                (side, Some(c)) => (side == Side::Front) != c,
+            };
             // the sign of the winding's normal along the ray (no need to normalise it)
-            let [a, b, c] = tri_verts[prim[i] as usize];
+            let [a, b, c] = tri_verts[t];
             let against = (b - a)
                 .cross(c - a)
                 .dot(Vec3::new(d.x.lane(i), d.y.lane(i), d.z.lane(i)))
                 < 0.0;
-            against == (side == Side::Front)
+            against == front
         });
         active & R::Mask::from_bools(&keep[..R::LANES])
+    }
+
+    /// Records in `crossed` that the lanes of `through` passed through the surface of their
+    /// vertex's shape (triangle `prim`), where that shape is checked.
+    pub fn cross<R: Real>(&self, tri_shape: &[u32], prim: &[u32; 8], through: R::Mask, crossed: &mut [Crossings; 8]) {
+        if self.sides.is_empty() || through.none() {
+            return;
+        }
+        for (i, c) in crossed.iter_mut().enumerate().take(R::LANES) {
+            let t = prim[i] as usize;
+            if through.bit(i) && self.sides[t] != Side::Any {
+                c.toggle(tri_shape[t]);
+            }
+        }
+    }
+}
+
+/// The closed shapes one path has crossed an odd number of times (by transmission, since the
+/// camera): it is on the camera's side of every other one. Up to [`Crossings::MAX`] at once
+/// (glass in glass in glass); past that the path is no longer checked.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Crossings {
+    shapes: [u32; Crossings::MAX],
+    /// How many of `shapes` are held; `u8::MAX` once more were.
+    len: u8,
+}
+
+impl Crossings {
+    pub const MAX: usize = 4;
+
+    /// Whether the path has crossed `shape`; `None` when that is no longer known.
+    fn holds(&self, shape: u32) -> Option<bool> {
+        let n = self.len as usize;
+        (n <= Self::MAX).then(|| self.shapes[..n].contains(&shape))
+    }
+
+    /// One more crossing of `shape`'s surface.
+    fn toggle(&mut self, shape: u32) {
+        let n = self.len as usize;
+        if n > Self::MAX {
+            return;
+        }
+        match self.shapes[..n].iter().position(|&s| s == shape) {
+            Some(k) => {
+                self.shapes[k] = self.shapes[n - 1];
+                self.len -= 1;
+            }
+            None if n < Self::MAX => {
+                self.shapes[n] = shape;
+                self.len += 1;
+            }
+            None => self.len = u8::MAX,
+        }
     }
 }
 

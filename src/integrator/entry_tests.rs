@@ -114,10 +114,17 @@ impl<const C: usize> Sink<C> for PerRay {
 /// camera and one facing away), and `per_edge` directions from the camera aimed at points
 /// evenly along each.
 pub(crate) fn silhouette_rays(ctx: &RenderContext, per_edge: usize) -> Vec<Vec3> {
-    let scene = ctx.scene;
-    let eye = scene.camera.position;
-    let geo = &scene.geometry;
-    let boxed = scene.shapes.iter().position(|s| s.name == "box").unwrap() as u32;
+    let eye = ctx.scene.camera.position;
+    silhouette_points(ctx, eye, per_edge)
+        .into_iter()
+        .map(|p| (p - eye).normalize())
+        .collect()
+}
+
+/// `per_edge` points evenly along each of the box's silhouette edges seen from `eye`.
+fn silhouette_points(ctx: &RenderContext, eye: Vec3, per_edge: usize) -> Vec<Vec3> {
+    let geo = &ctx.scene.geometry;
+    let boxed = ctx.scene.shapes.iter().position(|s| s.name == "box").unwrap() as u32;
     let tris: Vec<usize> = (0..geo.indices.len()).filter(|&t| geo.tri_shape[t] == boxed).collect();
     let mut silhouette = Vec::new();
     for &a in &tris {
@@ -128,7 +135,7 @@ pub(crate) fn silhouette_rays(ctx: &RenderContext, per_edge: usize) -> Vec<Vec3>
                 .collect();
             if a < b && shared.len() == 2 {
                 let [p, q] = [0, 1].map(|k| geo.positions[shared[k] as usize]);
-                if facing(ctx, a, (p + q) * 0.5) != facing(ctx, b, (p + q) * 0.5) {
+                if facing(ctx, a, eye, (p + q) * 0.5) != facing(ctx, b, eye, (p + q) * 0.5) {
                     silhouette.push((p, q));
                 }
             }
@@ -137,15 +144,13 @@ pub(crate) fn silhouette_rays(ctx: &RenderContext, per_edge: usize) -> Vec<Vec3>
     assert!(silhouette.len() >= 4, "{} silhouette edges", silhouette.len());
     silhouette
         .iter()
-        .flat_map(|&(p, q)| {
-            (0..per_edge).map(move |j| (p + (q - p) * ((j as f32 + 0.5) / per_edge as f32) - eye).normalize())
-        })
+        .flat_map(|&(p, q)| (0..per_edge).map(move |j| p + (q - p) * ((j as f32 + 0.5) / per_edge as f32)))
         .collect()
 }
 
-/// Whether triangle `t` faces the camera at its point `p`.
-fn facing(ctx: &RenderContext, t: usize, p: Vec3) -> bool {
-    crate::scene::triangle_normal(ctx.tri_verts[t]).dot(p - ctx.scene.camera.position) < 0.0
+/// Whether triangle `t` faces `eye` at its point `p`.
+fn facing(ctx: &RenderContext, t: usize, eye: Vec3, p: Vec3) -> bool {
+    crate::scene::triangle_normal(ctx.tri_verts[t]).dot(p - eye) < 0.0
 }
 
 /// For each of `dirs`, traced from the camera in packets of 8 as the kernels do: `Some(true)`
@@ -174,7 +179,7 @@ pub(crate) fn meets_the_inside(ctx: &RenderContext, dirs: &[Vec3]) -> Vec<Option
             let prim = hit.prim[i];
             out.push(
                 (prim != u32::MAX && ctx.scene.geometry.tri_shape[prim as usize] == boxed)
-                    .then(|| !facing(ctx, prim as usize, eye + *dir)),
+                    .then(|| !facing(ctx, prim as usize, eye, eye + *dir)),
             );
         }
     }
@@ -188,6 +193,42 @@ pub(crate) fn box_context<'a>(scene: &'a crate::scene::Scene, device: &Device) -
     ctx
 }
 
+/// Checks what the rays' paths gave the film (`sink`) against where their ray-form vertex
+/// met the box (`met`, as [`meets_the_inside`]): at least 1/`share` of them met the face
+/// turned away and none of those lit the film, at least half of those that met the face
+/// turned towards them did. Returns the largest |ḟ| of any ray.
+fn no_path_from_the_inside(sink: &PerRay, met: &[Option<bool>], share: usize, how: &str) -> f64 {
+    let n = met.len();
+    let inside: Vec<usize> = (0..n).filter(|&i| met[i] == Some(true)).collect();
+    let outside: Vec<usize> = (0..n).filter(|&i| met[i] == Some(false)).collect();
+    let lit = |set: &[usize]| set.iter().filter(|&&i| sink.0[i].0 > 0.0).count();
+    let largest = sink.0.iter().map(|s| s.1).fold(0.0, f64::max);
+    println!(
+        "{n} rays: {} {how} the back-facing face ({} of them lit), {} the front ({} lit); largest |ḟ| {largest:.3e}",
+        inside.len(),
+        lit(&inside),
+        outside.len(),
+        lit(&outside),
+    );
+    assert!(
+        inside.len() >= n / share,
+        "too few rays {how} the back-facing face to test: {}",
+        inside.len()
+    );
+    for &i in &inside {
+        assert_eq!(
+            sink.0[i],
+            (0.0, 0.0),
+            "ray {i} {how} the box's inside and its path reached the film"
+        );
+    }
+    assert!(
+        lit(&outside) >= outside.len() / 2,
+        "the rays that {how} the front are lit as before"
+    );
+    largest
+}
+
 /// Camera rays aimed exactly at points of the box's silhouette edges (as rounding allows)
 /// meet either face there. The ones reported on the back-facing face start no path, so they
 /// give the film nothing; the others do as before. Before the check, such rays lit their
@@ -199,6 +240,115 @@ fn camera_rays_that_meet_a_closed_shape_from_inside_start_no_path() {
     let device = Device::new("threads=1").unwrap();
     let ctx = box_context(&scene, &device);
     let dirs = silhouette_rays(&ctx, 1024);
+    let sink = trace_camera_rays(&ctx, &dirs);
+    let largest = no_path_from_the_inside(&sink, &meets_the_inside(&ctx, &dirs), 20, "met");
+    assert!(largest < 1e3, "largest |ḟ| {largest:.3e}");
+}
+
+/// [`BOX`] with its wall a mirror, the camera moved aside (to x = 2.5, z = 2) so that the
+/// box does not hide its own image in the mirror, and the lamp between the box and the mirror
+/// where it lights the faces the camera sees in the mirror.
+fn mirror_box() -> String {
+    let wall = "material = \"white\"\ntranslate = [0.0, 0.0, -1.5]";
+    let (eye, lamp) = ("position = [0.0, 0.0, 3.0]", "position = [0.4, 0.5, 3.0]");
+    assert!(BOX.contains(wall) && BOX.contains(eye) && BOX.contains(lamp));
+    BOX.replace(wall, "material = \"mirror\"\ntranslate = [0.0, 0.0, -1.5]")
+        .replace(eye, "position = [2.5, 0.0, 2.0]")
+        .replace(lamp, "position = [1.5, 0.5, -1.2]")
+        + "\n[[material]]\nname = \"mirror\"\ntype = \"conductor\"\n"
+}
+
+/// The plane z = const of the mirror of [`mirror_box`] (it faces +z), in the render's frame.
+fn mirror_z(ctx: &RenderContext) -> f32 {
+    let wall = ctx.scene.shapes.iter().position(|s| s.name == "wall").unwrap() as u32;
+    let t = ctx.scene.geometry.tri_shape.iter().position(|&s| s == wall).unwrap();
+    ctx.tri_verts[t][0].z
+}
+
+/// Camera rays whose reflections in the mirror of [`mirror_box`] pass through (as rounding
+/// allows) points of the box's silhouette edges seen from the camera's mirror image, in a
+/// 5 × 5 grid of offsets of 10⁻⁷ of the distance around each. Aimed so that the reflected
+/// ray, which starts off the mirror (`spawn_point`), runs through the point.
+fn rays_reflected_at_the_silhouette(ctx: &RenderContext, per_edge: usize) -> Vec<Vec3> {
+    let eye = ctx.scene.camera.position;
+    let z = mirror_z(ctx);
+    let image = Vec3::new(eye.x, eye.y, 2.0 * z - eye.z);
+    let scale = ctx.scene.offset_scale;
+    let on_mirror = |from: Vec3, to: Vec3| from + (to - from) * ((z - from.z) / (to.z - from.z));
+    let mut dirs = Vec::new();
+    for q in silhouette_points(ctx, image, per_edge) {
+        let view = (q - image).normalize();
+        let u = view.cross(Vec3::Y).normalize();
+        let v = view.cross(u);
+        let step = 1e-7 * (q - image).length();
+        for (i, j) in (-2..=2).flat_map(|i| (-2..=2).map(move |j| (i as f32, j as f32))) {
+            let target = q + (u * i + v * j) * step;
+            let mut m = on_mirror(image, target);
+            for _ in 0..3 {
+                // the reflected ray's origin: off the mirror along its normal, then back along
+                // the arrival (`spawn_point`)
+                let eps = m.abs().max_element().max(scale) / 262_144.0;
+                let c = Vec3::Z * eps - (m - eye).normalize() * eps;
+                m = on_mirror(image, target - c);
+            }
+            dirs.push((m - eye).normalize());
+        }
+    }
+    // only the rays that reach the mirror, so that each packet's second rays are all mirrored
+    // as [`reflections_meet_the_inside`] traces them: a ray passing through an edge meets two
+    // triangles at the same distance, and which is reported can depend on the other rays of
+    // its packet
+    let met = reflections_meet_the_inside(ctx, &dirs);
+    (0..dirs.len()).filter(|&i| met[i].is_some()).map(|i| dirs[i]).collect()
+}
+
+/// For each of `dirs` from the camera of [`mirror_box`], as the path tracer continues it
+/// (first vertex in ray form, mirrored, `spawn_point`): `Some(true)` where the reflected ray
+/// first meets the box on a face turned away from it, `Some(false)` on one turned towards it,
+/// `None` where the camera ray misses the mirror or the reflection misses the box. Traced in
+/// packets of 8 as the path tracer does.
+fn reflections_meet_the_inside(ctx: &RenderContext, dirs: &[Vec3]) -> Vec<Option<bool>> {
+    use crate::integrator::path::ray_plane_point;
+    use crate::integrator::surface::surface_at;
+    use crate::integrator::trace::{RayCounts, intersect, spawn_point};
+    let eye = ctx.scene.camera.position;
+    let shape = |name: &str| ctx.scene.shapes.iter().position(|s| s.name == name).unwrap() as u32;
+    let (boxed, mirror) = (shape("box"), shape("wall"));
+    let on = |prim: u32, s: u32| prim != u32::MAX && ctx.scene.geometry.tri_shape[prim as usize] == s;
+    let mut counts = RayCounts::default();
+    let mut out = Vec::new();
+    for chunk in dirs.chunks(8) {
+        let mut d = [Vec3::Z; 8];
+        d[..chunk.len()].copy_from_slice(chunk);
+        let live: [bool; 8] = std::array::from_fn(|i| i < chunk.len());
+        let all = <f32x8 as Real>::Mask::from_bools(&live);
+        let (o, d) = (V3::splat(eye), V3::from_lane_vecs(&d));
+        let far = f32x8::splat(f32::INFINITY);
+        let hit = intersect::<f32x8>(&ctx.accel, &o, &d, f32x8::ZERO, far, all, true, &mut counts);
+        // the vertex as the path tracer places it, in its number type
+        let x = surface_at::<Dual8<1>>(ctx, &hit.prim, hit.u, hit.v);
+        let p = ray_plane_point(&V3::from_value(o), &V3::from_value(d), &x.p, &x.n).value();
+        let n = x.n.value();
+        // the mirror direction as the path tracer draws it (`transport::scatter_lobes`)
+        let lobes = crate::integrator::bsdf::Lobes::<f32x8, 3>::gather(ctx, &hit.prim);
+        let u = f32x8::splat(0.5);
+        let wi = lobes.value().sample(&n, &-d, u, u, u, true).wi;
+        let from = spawn_point(&p, &n, &d, &wi, ctx.scene.offset_scale);
+        let second = intersect::<f32x8>(&ctx.accel, &from, &wi, f32x8::ZERO, far, all, false, &mut counts);
+        for i in 0..chunk.len() {
+            let prim = second.prim[i];
+            let start = Vec3::new(from.x.lane(i), from.y.lane(i), from.z.lane(i));
+            let w = Vec3::new(wi.x.lane(i), wi.y.lane(i), wi.z.lane(i));
+            out.push(
+                (on(hit.prim[i], mirror) && on(prim, boxed)).then(|| !facing(ctx, prim as usize, start, start + w)),
+            );
+        }
+    }
+    out
+}
+
+/// Traces one path per direction from the camera with `box_x`'s derivative; what each gave.
+fn trace_camera_rays(ctx: &RenderContext, dirs: &[Vec3]) -> PerRay {
     let n = dirs.len();
     let mut sink = PerRay(vec![(0.0, 0.0); n]);
     let mut counts = PathCounts::default();
@@ -215,35 +365,81 @@ fn camera_rays_that_meet_a_closed_shape_from_inside_start_no_path() {
             own: [[u32::MAX; 2]; 8],
         };
         rays.dirs[..chunk.len()].copy_from_slice(chunk);
-        trace_packet_from::<Dual8<1>, 3, _>(&ctx, 5, &lanes, PathStart::Rays(&rays), &mut sink, &mut counts);
+        trace_packet_from::<Dual8<1>, 3, _>(ctx, 5, &lanes, PathStart::Rays(&rays), &mut sink, &mut counts);
     }
+    sink
+}
+
+/// A mirror turns a camera ray into a ray-form vertex's ray (`bsdf::delta`): reflected through
+/// the box's silhouette edge, it meets either face there, and the ones on the face turned
+/// away from it have entered the box through the crack along the edge, as a camera ray can
+/// (`camera_rays_that_meet_a_closed_shape_from_inside_start_no_path`). Their paths end there.
+/// Before, all 125 such rays lit the film, with |ḟ| up to 1.5 × 10⁵.
+#[test]
+fn mirrored_rays_that_meet_a_closed_shape_from_inside_end_their_path() {
+    let scene = load(&mirror_box(), &[]);
+    let device = Device::new("threads=1").unwrap();
+    let ctx = box_context(&scene, &device);
+    let dirs = rays_reflected_at_the_silhouette(&ctx, 48);
+    let sink = trace_camera_rays(&ctx, &dirs);
+    let largest = no_path_from_the_inside(&sink, &reflections_meet_the_inside(&ctx, &dirs), 50, "reflected onto");
+    assert!(largest < 1e3, "largest |ḟ| {largest:.3e}");
+}
+
+#[test]
+fn crossings_toggle_per_shape_and_give_up_past_their_capacity() {
+    let mut c = Crossings::default();
+    assert_eq!(c.holds(7), Some(false));
+    c.toggle(7);
+    c.toggle(2);
+    assert_eq!(
+        (c.holds(7), c.holds(2), c.holds(3)),
+        (Some(true), Some(true), Some(false))
+    );
+    c.toggle(7);
+    assert_eq!((c.holds(7), c.holds(2)), (Some(false), Some(true)));
+    for s in 10..10 + Crossings::MAX as u32 {
+        c.toggle(s);
+    }
+    assert_eq!(c.holds(2), None, "one more shape than it holds");
+    c.toggle(2);
+    assert_eq!(c.holds(2), None, "and it stays unknown");
+}
+
+/// The turned rays of a path that crossed into smooth glass meet the glass's faces from
+/// inside, and are let through: the path records its crossings. Were it not, these rays
+/// would end their paths and the glass box would be dark. (The lamp is moved aside, where
+/// it lights the wall the camera sees through the glass.)
+#[test]
+fn rays_refracted_into_a_closed_glass_shape_go_on_inside_it() {
+    let glass = BOX
+        .replace(
+            "material = \"white\"\ntranslate = [-0.33",
+            "material = \"glass\"\ntranslate = [-0.33",
+        )
+        .replace("position = [0.4, 0.5, 3.0]", "position = [2.0, 1.5, -1.0]")
+        + "\n[[material]]\nname = \"glass\"\ntype = \"dielectric\"\nint_ior = 1.5\n";
+    assert!(glass.contains("material = \"glass\"\ntranslate"));
+    let scene = load(&glass, &[]);
+    let device = Device::new("threads=1").unwrap();
+    let ctx = box_context(&scene, &device);
+    // rays at the inner parts of the box's faces turned to the camera
+    let eye = ctx.scene.camera.position;
+    let geo = &ctx.scene.geometry;
+    let corners: Vec<Vec3> = (0..geo.indices.len())
+        .filter(|&t| geo.tri_shape[t] == 0)
+        .flat_map(|t| ctx.tri_verts[t])
+        .collect();
+    let centre = corners.iter().sum::<Vec3>() / corners.len() as f32;
+    let dirs: Vec<Vec3> = silhouette_points(&ctx, eye, 64)
+        .into_iter()
+        .map(|p| (p * 0.6 + centre * 0.4 - eye).normalize())
+        .collect();
     let met = meets_the_inside(&ctx, &dirs);
-    let inside: Vec<usize> = (0..n).filter(|&i| met[i] == Some(true)).collect();
-    let outside: Vec<usize> = (0..n).filter(|&i| met[i] == Some(false)).collect();
-    let lit = |set: &[usize]| set.iter().filter(|&&i| sink.0[i].0 > 0.0).count();
-    println!(
-        "{} rays: {} met the back-facing face ({} of them lit), {} the front ({} lit); largest |ḟ| {:.3e}",
-        n,
-        inside.len(),
-        lit(&inside),
-        outside.len(),
-        lit(&outside),
-        sink.0.iter().map(|s| s.1).fold(0.0, f64::max)
-    );
-    assert!(
-        inside.len() >= n / 20,
-        "too few rays met the back-facing face to test: {}",
-        inside.len()
-    );
-    for &i in &inside {
-        assert_eq!(
-            sink.0[i],
-            (0.0, 0.0),
-            "ray {i} met the box's inside and its path reached the film"
-        );
-    }
-    assert!(
-        lit(&outside) >= outside.len() / 2,
-        "the rays that met the front are lit as before"
-    );
+    let on_front: Vec<usize> = (0..dirs.len()).filter(|&i| met[i] == Some(false)).collect();
+    let sink = trace_camera_rays(&ctx, &dirs);
+    let lit = on_front.iter().filter(|&&i| sink.0[i].0 > 0.0).count();
+    println!("{} of {} rays into the glass lit", lit, on_front.len());
+    assert!(on_front.len() >= dirs.len() / 2);
+    assert!(lit * 10 >= on_front.len() * 9, "{lit} of {} lit", on_front.len());
 }

@@ -20,6 +20,7 @@
 use super::bsdf::{Lobes, albedo, diffuse_eval};
 use super::context::RenderContext;
 use super::deposit::{PathCounts, for_each_lane};
+use super::entry::Crossings;
 use super::opl::points64;
 use super::power_heuristic;
 use super::sink::Sink;
@@ -206,6 +207,13 @@ pub fn trace_packet_from<R: Real, const C: usize, S: Sink<C>>(
     // direction it sent them in with its derivatives: their next vertex is in ray form
     // (`super::bsdf::delta`)
     let mut attached: Option<(R::Mask, V3<R>)> = None;
+    // A path from the camera stays on the camera's side of each closed shape but those it
+    // crossed; its rays in ray form (the camera's, and those a Dirac lobe turned, `turned`)
+    // that meet one from the other side came through an edge (`super::entry`). Paths from
+    // given surface points or the relay wall start on no known side.
+    let camera_path = surface.is_none() && ctx.nlos.is_none();
+    let mut crossed = [Crossings::default(); 8];
+    let mut turned = R::Mask::splat(false);
     // each lane's OPL in f64 from f64 hit points, when the film needs it (`super::opl`)
     let exact = ctx.opl.f64_paths;
     let mut opl64 = [0.0f64; 8];
@@ -295,10 +303,18 @@ pub fn trace_packet_from<R: Real, const C: usize, S: Sink<C>>(
                     &mut counts.rays,
                 );
                 let from_camera = depth == 1 && nlos.is_none();
-                // a camera ray met a closed shape from the side the camera is not on: it
-                // entered through an edge (`super::entry`)
-                active = match from_camera {
-                    true => ctx.entry.admits::<R>(&ctx.tri_verts, &hit.prim, &ray_d, found),
+                // a ray in ray form met a closed shape from the other side of it than the
+                // path is on: it entered through an edge (`super::entry`)
+                let checked = match (from_camera, camera_path) {
+                    (true, _) => found,
+                    (false, true) => found & turned,
+                    (false, false) => no_lanes,
+                };
+                active = match checked.any() {
+                    true => {
+                        let tris = (&ctx.tri_verts[..], &ctx.scene.geometry.tri_shape[..]);
+                        found.and_not(checked) | ctx.entry.admits::<R>(tris, &hit.prim, &ray_d, &crossed, checked)
+                    }
                     false => found,
                 };
                 if active.none() {
@@ -625,6 +641,15 @@ pub fn trace_packet_from<R: Real, const C: usize, S: Sink<C>>(
                 let inside = n_v.dot(s.wi).lt(V::<R>::zero());
                 eta_med = R::select(s.transmitted, R::select(inside, l.eta_int, l.eta_ext), eta_med);
                 no_mis = s.delta | s.transmitted;
+                if camera_path {
+                    turned = s.delta;
+                    ctx.entry.cross::<R>(
+                        &ctx.scene.geometry.tri_shape,
+                        &x.prim,
+                        s.transmitted & active,
+                        &mut crossed,
+                    );
+                }
                 if R::DERIVS > 0 {
                     let wo = -traced(&w_in, &ray_d);
                     attached = None;

@@ -9,6 +9,7 @@
 use super::vertex::{Vertex, camera_dir_pdf, link, to_area};
 use crate::integrator::bsdf::{Lobes, albedo, diffuse_eval, sample_cosine};
 use crate::integrator::context::RenderContext;
+use crate::integrator::entry::Crossings;
 use crate::integrator::nlos_start::{start, weigh_first_hit};
 use crate::integrator::path::{PacketLanes, ray_plane_point, traced};
 use crate::integrator::surface::{offset_origin, surface_at};
@@ -84,7 +85,11 @@ fn random_walk<R: Real, const C: usize>(
         );
         // a camera ray that entered a closed shape through an edge (`crate::integrator::entry`)
         active = match ray_form {
-            true => ctx.entry.admits::<R>(&ctx.tri_verts, &hit.prim, &ray_d, found),
+            true => {
+                let tris = (&ctx.tri_verts[..], &ctx.scene.geometry.tri_shape[..]);
+                ctx.entry
+                    .admits::<R>(tris, &hit.prim, &ray_d, &[Crossings::default(); 8], found)
+            }
             false => found,
         };
         if active.none() {
