@@ -25,8 +25,8 @@
 //! other side is one of these cracks: such a camera ray starts no path. A path stays on the
 //! camera's side of every closed shape except those it has crossed by transmission
 //! ([`Crossings`]), so a turned ray's hit on the other side ends its path in the same way.
-//! Shapes that are not closed and consistently wound (an open rectangle, a mesh with
-//! duplicated vertices along its seams or a hole), shapes the camera sits on, and the rays
+//! Shapes that are not closed and consistently wound (an open rectangle, a mesh with a
+//! hole), shapes the camera sits on, and the rays
 //! of paths that crossed more than [`Crossings::MAX`] shapes are not checked. Rays whose
 //! next vertex moves with its surface (after a rough or diffuse vertex) carry no such weight
 //! and are not checked either: their leaks are as rare as the rounding and bounded.
@@ -166,12 +166,13 @@ impl Crossings {
 
 /// What one pass over the triangles gathers per shape.
 struct ShapeSums {
-    /// Whether the shape's triangles close a surface: along every edge (by vertex index) as
-    /// many of them run one way as the other, so the edges' sum is empty and the winding
-    /// number is a whole number off the surface. Tested with a sum of 64-bit hashes of the
-    /// directed edges against that of the reversed ones (equal by chance with probability
-    /// about 2⁻⁶⁴), in one pass, where sorting the edges of a million triangles took 60 ms
-    /// per render.
+    /// Whether the shape's triangles close a surface: along every edge (between vertex
+    /// positions, so a mesh whose vertices are repeated along seams, as an OBJ file's with a
+    /// normal per face, counts) as many of them run one way as the other, so the edges' sum
+    /// is empty and the winding number is a whole number off the surface. Tested with a sum
+    /// of 64-bit hashes of the directed edges against that of the reversed ones (equal by
+    /// chance with probability about 2⁻⁶⁴), in one pass, where sorting the edges of a
+    /// million triangles took 60 ms per render.
     closed: Vec<bool>,
     /// Six times the enclosed volume, positive when the normals point out of it.
     volume: Vec<f64>,
@@ -188,11 +189,13 @@ impl ShapeSums {
         let mut hi = vec![DVec3::NEG_INFINITY; shape_count];
         // each shape's volume about a point of its own, for precision
         let mut origin = vec![None; shape_count];
+        let keys: Vec<u64> = geo.positions.iter().map(|&p| position_key(p)).collect();
         for (t, &s) in geo.indices.iter().zip(&geo.tri_shape) {
             let s = s as usize;
             has[s] = true;
-            for k in 0..3 {
-                let (a, b) = (t[k], t[(k + 1) % 3]);
+            let k = t.map(|i| keys[i as usize]);
+            for j in 0..3 {
+                let (a, b) = (k[j], k[(j + 1) % 3]);
                 edges[s] = edges[s].wrapping_add(edge_hash(a, b)).wrapping_sub(edge_hash(b, a));
             }
             let p = t.map(|i| geo.positions[i as usize].as_dvec3());
@@ -209,9 +212,21 @@ impl ShapeSums {
     }
 }
 
-/// A 64-bit hash of the directed edge a → b (SplitMix64's finaliser).
-fn edge_hash(a: u32, b: u32) -> u64 {
-    let mut z = ((a as u64) << 32 | b as u64).wrapping_add(0x9E37_79B9_7F4A_7C15);
+/// A 64-bit key of a vertex position (its coordinates' bits, mixed): equal positions have
+/// equal keys, whatever their index (−0 and +0 are one position).
+fn position_key(p: Vec3) -> u64 {
+    let [x, y, z] = (p + Vec3::ZERO).to_array().map(|c| c.to_bits() as u64);
+    mix(mix(x << 32 | y) ^ z)
+}
+
+/// A 64-bit hash of the directed edge between the positions of keys `a` → `b`.
+fn edge_hash(a: u64, b: u64) -> u64 {
+    mix(a ^ b.rotate_left(29))
+}
+
+/// SplitMix64's step and finaliser.
+fn mix(z: u64) -> u64 {
+    let mut z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
     z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
     z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
     z ^ (z >> 31)

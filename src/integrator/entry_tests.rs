@@ -17,6 +17,16 @@ fn flipped(m: &shapes::Mesh) -> shapes::Mesh {
     m
 }
 
+/// `m` with its own three vertices for each triangle, as a mesh with a seam along every edge.
+fn unwelded(m: &shapes::Mesh) -> shapes::Mesh {
+    shapes::Mesh {
+        positions: m.tris.iter().flat_map(|t| t.map(|i| m.positions[i as usize])).collect(),
+        tris: (0..m.tris.len() as u32)
+            .map(|t| [3 * t, 3 * t + 1, 3 * t + 2])
+            .collect(),
+    }
+}
+
 #[test]
 fn only_meshes_closed_with_one_orientation_count_as_closed() {
     let cube = shapes::cube();
@@ -27,14 +37,16 @@ fn only_meshes_closed_with_one_orientation_count_as_closed() {
     let geo = geometry_of(&[
         cube.clone(),
         shapes::rectangle(),
-        holed,
+        holed.clone(),
         one_flipped,
         flipped(&cube),
         shapes::icosphere(2),
+        unwelded(&cube),
+        unwelded(&holed),
     ]);
     assert_eq!(
-        ShapeSums::new(&geo, 7).closed,
-        [true, false, false, false, true, true, false]
+        ShapeSums::new(&geo, 9).closed,
+        [true, false, false, false, true, true, true, false, false]
     );
 }
 
@@ -129,12 +141,11 @@ fn silhouette_points(ctx: &RenderContext, eye: Vec3, per_edge: usize) -> Vec<Vec
     let mut silhouette = Vec::new();
     for &a in &tris {
         for &b in &tris {
-            let shared: Vec<u32> = geo.indices[a]
-                .into_iter()
-                .filter(|i| geo.indices[b].contains(i))
-                .collect();
+            // the corners the two triangles share, by position (a mesh may repeat them)
+            let corners = |t: usize| geo.indices[t].map(|i| geo.positions[i as usize]);
+            let shared: Vec<Vec3> = corners(a).into_iter().filter(|p| corners(b).contains(p)).collect();
             if a < b && shared.len() == 2 {
-                let [p, q] = [0, 1].map(|k| geo.positions[shared[k] as usize]);
+                let [p, q] = [shared[0], shared[1]];
                 if facing(ctx, a, eye, (p + q) * 0.5) != facing(ctx, b, eye, (p + q) * 0.5) {
                     silhouette.push((p, q));
                 }
@@ -236,9 +247,42 @@ fn no_path_from_the_inside(sink: &PerRay, met: &[Option<bool>], share: usize, ho
 /// `bdpt::walk::tests::camera_subpaths_do_not_enter_a_closed_shape_at_its_edge`).
 #[test]
 fn camera_rays_that_meet_a_closed_shape_from_inside_start_no_path() {
-    let scene = load(BOX, &[]);
+    no_camera_path_through_the_edges(&load(BOX, &[]));
+}
+
+/// A cube in an OBJ file with a normal per face: the loader gives each face its own four
+/// vertices (`shapes::load_obj`), so no edge joins two triangles by vertex index, only by
+/// position. Before the closed test went by position, the box counted as open and its
+/// back-facing faces were not checked.
+const CUBE_OBJ: &str = "v -1 -1 -1\nv 1 -1 -1\nv 1 1 -1\nv -1 1 -1\nv -1 -1 1\nv 1 -1 1\nv 1 1 1\nv -1 1 1
+vn 0 0 1\nvn 0 0 -1\nvn 1 0 0\nvn -1 0 0\nvn 0 1 0\nvn 0 -1 0
+f 5//1 6//1 7//1 8//1\nf 1//2 4//2 3//2 2//2\nf 2//3 3//3 7//3 6//3
+f 1//4 5//4 8//4 4//4\nf 4//5 8//5 7//5 3//5\nf 1//6 2//6 6//6 5//6
+";
+
+#[test]
+fn camera_rays_that_meet_a_closed_mesh_with_seams_from_inside_start_no_path() {
+    let cube = "type = \"cube\"\nmaterial = \"white\"\ntranslate = [-0.33";
+    assert!(BOX.contains(cube));
+    let text = BOX.replace(
+        cube,
+        "type = \"obj\"\nfile = \"cube.obj\"\nmaterial = \"white\"\ntranslate = [-0.33",
+    );
+    let scene = crate::scene::testutil::load_text("box.toml", &text, &[("cube.obj", CUBE_OBJ)], &[]).unwrap();
+    let boxed = scene.shapes.iter().position(|s| s.name == "box").unwrap() as u32;
+    let geo = &scene.geometry;
+    let corners = (0..geo.indices.len())
+        .filter(|&t| geo.tri_shape[t] == boxed)
+        .flat_map(|t| geo.indices[t])
+        .collect::<std::collections::BTreeSet<u32>>();
+    assert_eq!(corners.len(), 24, "each face its own vertices");
+    no_camera_path_through_the_edges(&scene);
+}
+
+/// Camera rays aimed at the silhouette edges of `scene`'s box: [`no_path_from_the_inside`].
+fn no_camera_path_through_the_edges(scene: &crate::scene::Scene) {
     let device = Device::new("threads=1").unwrap();
-    let ctx = box_context(&scene, &device);
+    let ctx = box_context(scene, &device);
     let dirs = silhouette_rays(&ctx, 1024);
     let sink = trace_camera_rays(&ctx, &dirs);
     let largest = no_path_from_the_inside(&sink, &meets_the_inside(&ctx, &dirs), 20, "met");
