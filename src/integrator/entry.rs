@@ -25,17 +25,18 @@
 //! other side is one of these cracks: such a camera ray starts no path. A path stays on the
 //! camera's side of every closed shape except those it has crossed by transmission
 //! ([`Crossings`]), so a turned ray's hit on the other side ends its path in the same way.
-//! Shapes that are not closed and consistently wound (an open rectangle, a mesh with a
-//! hole), shapes the camera sits on, and the rays
-//! of paths that crossed more than [`Crossings::MAX`] shapes are not checked. Rays whose
-//! next vertex moves with its surface (after a rough or diffuse vertex) carry no such weight
-//! and are not checked either: their leaks are as rare as the rounding and bounded.
+//! Not checked: shapes that are not closed and consistently wound (an open rectangle, a mesh
+//! with a hole, a box made of several shapes), shapes the camera sits on, the rays of paths
+//! that crossed more than [`Crossings::MAX`] shapes, and paths that start on a surface or on
+//! a relay wall (their side of each shape is not known). Rays whose next vertex moves with
+//! its surface (after a rough or diffuse vertex) carry no such weight and are not checked
+//! either: their leaks are as rare as the rounding, and bounded.
 
 use crate::kernel::{Mask, Real, V3};
 use crate::scene::Geometry;
 use glam::{DVec3, Vec3};
 
-/// Which side of its triangle a camera ray's first hit may lie on.
+/// Which side of its triangle the camera is on, so a camera ray's first hit may lie on.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Side {
     /// Not a closed shape, or the camera is on it: any hit.
@@ -46,7 +47,7 @@ enum Side {
     Back,
 }
 
-/// For each triangle, the side of it a camera ray may first hit (see the module's doc).
+/// For each triangle, the side of it the camera is on (see the module's doc).
 #[derive(Clone, Debug, Default)]
 pub struct EntrySides {
     /// Per triangle; empty when no shape is checked.
