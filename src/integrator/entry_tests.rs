@@ -112,6 +112,23 @@ value = -0.33
 "#
 );
 
+/// [`BOX`] with each `(from, to)` replaced (each `from` must be in it), as
+/// `scene::testutil::mini_with` edits its scene.
+fn box_with(edits: &[(&str, &str)]) -> String {
+    edits.iter().fold(BOX.to_string(), |text, (from, to)| {
+        assert!(text.contains(from), "{from:?} not in BOX");
+        text.replacen(from, to, 1)
+    })
+}
+
+/// The triangles of the shape named `name`.
+fn triangles_of(scene: &crate::scene::Scene, name: &str) -> Vec<usize> {
+    let s = scene.shapes.iter().position(|s| s.name == name).unwrap() as u32;
+    (0..scene.geometry.indices.len())
+        .filter(|&t| scene.geometry.tri_shape[t] == s)
+        .collect()
+}
+
 /// What each ray's path gave the film: Σ|f| and Σ|ḟ| (film x = ray index).
 struct PerRay(Vec<(f64, f64)>);
 
@@ -136,8 +153,7 @@ pub(crate) fn silhouette_rays(ctx: &RenderContext, per_edge: usize) -> Vec<Vec3>
 /// `per_edge` points evenly along each of the box's silhouette edges seen from `eye`.
 fn silhouette_points(ctx: &RenderContext, eye: Vec3, per_edge: usize) -> Vec<Vec3> {
     let geo = &ctx.scene.geometry;
-    let boxed = ctx.scene.shapes.iter().position(|s| s.name == "box").unwrap() as u32;
-    let tris: Vec<usize> = (0..geo.indices.len()).filter(|&t| geo.tri_shape[t] == boxed).collect();
+    let tris = triangles_of(ctx.scene, "box");
     let mut silhouette = Vec::new();
     for &a in &tris {
         for &b in &tris {
@@ -262,18 +278,11 @@ f 1//4 5//4 8//4 4//4\nf 4//5 8//5 7//5 3//5\nf 1//6 2//6 6//6 5//6
 
 #[test]
 fn camera_rays_that_meet_a_closed_mesh_with_seams_from_inside_start_no_path() {
-    let cube = "type = \"cube\"\nmaterial = \"white\"\ntranslate = [-0.33";
-    assert!(BOX.contains(cube));
-    let text = BOX.replace(
-        cube,
-        "type = \"obj\"\nfile = \"cube.obj\"\nmaterial = \"white\"\ntranslate = [-0.33",
-    );
+    let text = box_with(&[("type = \"cube\"", "type = \"obj\"\nfile = \"cube.obj\"")]);
     let scene = crate::scene::testutil::load_text("box.toml", &text, &[("cube.obj", CUBE_OBJ)], &[]).unwrap();
-    let boxed = scene.shapes.iter().position(|s| s.name == "box").unwrap() as u32;
-    let geo = &scene.geometry;
-    let corners = (0..geo.indices.len())
-        .filter(|&t| geo.tri_shape[t] == boxed)
-        .flat_map(|t| geo.indices[t])
+    let corners = triangles_of(&scene, "box")
+        .into_iter()
+        .flat_map(|t| scene.geometry.indices[t])
         .collect::<std::collections::BTreeSet<u32>>();
     assert_eq!(corners.len(), 24, "each face its own vertices");
     no_camera_path_through_the_edges(&scene);
@@ -293,20 +302,19 @@ fn no_camera_path_through_the_edges(scene: &crate::scene::Scene) {
 /// box does not hide its own image in the mirror, and the lamp between the box and the mirror
 /// where it lights the faces the camera sees in the mirror.
 fn mirror_box() -> String {
-    let wall = "material = \"white\"\ntranslate = [0.0, 0.0, -1.5]";
-    let (eye, lamp) = ("position = [0.0, 0.0, 3.0]", "position = [0.4, 0.5, 3.0]");
-    assert!(BOX.contains(wall) && BOX.contains(eye) && BOX.contains(lamp));
-    BOX.replace(wall, "material = \"mirror\"\ntranslate = [0.0, 0.0, -1.5]")
-        .replace(eye, "position = [2.5, 0.0, 2.0]")
-        .replace(lamp, "position = [1.5, 0.5, -1.2]")
-        + "\n[[material]]\nname = \"mirror\"\ntype = \"conductor\"\n"
+    box_with(&[
+        (
+            "material = \"white\"\ntranslate = [0.0, 0.0, -1.5]",
+            "material = \"mirror\"\ntranslate = [0.0, 0.0, -1.5]",
+        ),
+        ("position = [0.0, 0.0, 3.0]", "position = [2.5, 0.0, 2.0]"),
+        ("position = [0.4, 0.5, 3.0]", "position = [1.5, 0.5, -1.2]"),
+    ]) + "\n[[material]]\nname = \"mirror\"\ntype = \"conductor\"\n"
 }
 
 /// The plane z = const of the mirror of [`mirror_box`] (it faces +z), in the render's frame.
 fn mirror_z(ctx: &RenderContext) -> f32 {
-    let wall = ctx.scene.shapes.iter().position(|s| s.name == "wall").unwrap() as u32;
-    let t = ctx.scene.geometry.tri_shape.iter().position(|&s| s == wall).unwrap();
-    ctx.tri_verts[t][0].z
+    ctx.tri_verts[triangles_of(ctx.scene, "wall")[0]][0].z
 }
 
 /// Camera rays whose reflections in the mirror of [`mirror_box`] pass through (as rounding
@@ -456,22 +464,20 @@ fn crossings_toggle_per_shape_and_give_up_past_their_capacity() {
 /// it lights the wall the camera sees through the glass.)
 #[test]
 fn rays_refracted_into_a_closed_glass_shape_go_on_inside_it() {
-    let glass = BOX
-        .replace(
+    let glass = box_with(&[
+        (
             "material = \"white\"\ntranslate = [-0.33",
             "material = \"glass\"\ntranslate = [-0.33",
-        )
-        .replace("position = [0.4, 0.5, 3.0]", "position = [2.0, 1.5, -1.0]")
-        + "\n[[material]]\nname = \"glass\"\ntype = \"dielectric\"\nint_ior = 1.5\n";
-    assert!(glass.contains("material = \"glass\"\ntranslate"));
+        ),
+        ("position = [0.4, 0.5, 3.0]", "position = [2.0, 1.5, -1.0]"),
+    ]) + "\n[[material]]\nname = \"glass\"\ntype = \"dielectric\"\nint_ior = 1.5\n";
     let scene = load(&glass, &[]);
     let device = Device::new("threads=1").unwrap();
     let ctx = box_context(&scene, &device);
     // rays at the inner parts of the box's faces turned to the camera
     let eye = ctx.scene.camera.position;
-    let geo = &ctx.scene.geometry;
-    let corners: Vec<Vec3> = (0..geo.indices.len())
-        .filter(|&t| geo.tri_shape[t] == 0)
+    let corners: Vec<Vec3> = triangles_of(ctx.scene, "box")
+        .into_iter()
         .flat_map(|t| ctx.tri_verts[t])
         .collect();
     let centre = corners.iter().sum::<Vec3>() / corners.len() as f32;
