@@ -44,10 +44,70 @@ fn only_meshes_closed_with_one_orientation_count_as_closed() {
         unwelded(&cube),
         unwelded(&holed),
     ]);
-    assert_eq!(
-        ShapeSums::new(&geo, 9).closed,
-        [true, false, false, false, true, true, true, false, false]
+    let bodies = Bodies::new(&geo, 9);
+    let closed: Vec<bool> = (0..9).map(|s| bodies.closed[bodies.of_shape[s] as usize]).collect();
+    assert_eq!(closed, [true, false, false, false, true, true, true, false, false]);
+}
+
+/// `m`'s faces (pairs of triangles) as meshes of their own, `flip` of them wound the other way.
+fn faces_of(m: &shapes::Mesh, flip: &[usize]) -> Vec<shapes::Mesh> {
+    m.tris
+        .chunks(2)
+        .enumerate()
+        .map(|(f, pair)| {
+            let face = shapes::Mesh {
+                positions: m.positions.clone(),
+                tris: pair.to_vec(),
+            };
+            if flip.contains(&f) { flipped(&face) } else { face }
+        })
+        .collect()
+}
+
+/// Open shapes that close a surface together along shared edges are one closed body (a box
+/// of six rectangles); five of them (a room without its front), or six with one wound the
+/// other way, are open. Closed shapes and shapes that share no edge stay bodies of their own.
+#[test]
+fn open_shapes_that_close_a_surface_together_are_one_closed_body() {
+    let cube = shapes::cube();
+    let six = faces_of(&cube, &[]);
+    assert_eq!(six.len(), 6);
+    let apart = |m: &shapes::Mesh, by: f32| shapes::Mesh {
+        positions: m.positions.iter().map(|p| *p + Vec3::splat(by)).collect(),
+        tris: m.tris.clone(),
+    };
+    // a box of six faces, a room of five (moved off the box), six with one flipped (moved
+    // further), a cube and a lone rectangle
+    let mut meshes: Vec<shapes::Mesh> = six.iter().map(unwelded).collect();
+    meshes.extend(six[..5].iter().map(|f| apart(f, 10.0)));
+    meshes.extend(faces_of(&cube, &[2]).iter().map(|f| apart(f, 20.0)));
+    meshes.push(apart(&cube, 30.0));
+    meshes.push(apart(&shapes::rectangle(), 40.0));
+    let n = meshes.len();
+    let geo = geometry_of(&meshes);
+    let bodies = Bodies::new(&geo, n);
+    let body = |s: usize| bodies.of_shape[s] as usize;
+    assert!((0..6).all(|s| body(s) == body(0)), "the six faces are one body");
+    assert!(
+        (6..11).all(|s| body(s) == body(6)) && body(6) != body(0),
+        "the room is another"
     );
+    assert!((11..17).all(|s| body(s) == body(11)));
+    assert_eq!(
+        [0, 6, 11, 17, 18].map(|s| bodies.closed[body(s)]),
+        [true, false, false, true, false]
+    );
+    assert_eq!(bodies.closed.len(), 5);
+    // the body's volume is the cube's (six times 8, outward)
+    assert!(
+        (bodies.volume[body(0)] - 48.0).abs() < 1e-9,
+        "{}",
+        bodies.volume[body(0)]
+    );
+    // and the camera's side of it, from outside and inside
+    let side = |eye: [f32; 3]| EntrySides::new(&geo, n, Vec3::from_array(eye)).sides[0];
+    assert_eq!(side([0.3, 2.5, -4.0]), Side::Front);
+    assert_eq!(side([0.2, -0.3, 0.9]), Side::Back);
 }
 
 #[test]
@@ -71,10 +131,10 @@ fn the_camera_side_follows_the_winding_and_where_the_camera_is() {
     assert_eq!(side(2, [0.9, 0.9, 0.0]), Side::Front);
     assert_eq!(side(2, [0.1, 0.2, -0.3]), Side::Back);
     let ball = geometry_of(&[shapes::icosphere(3)]);
-    let w = |p: [f64; 3]| winding_numbers(&ball, &[true], DVec3::from_array(p))[0].unwrap();
+    let w = |p: [f64; 3]| winding_numbers(&ball, &[0], &[true], DVec3::from_array(p))[0].unwrap();
     assert!((w([0.1, 0.2, -0.3]) - 1.0).abs() < 1e-9);
     assert!(w([0.9, 0.9, 0.0]).abs() < 1e-9);
-    assert!(winding_numbers(&ball, &[false], DVec3::ZERO)[0] == Some(0.0));
+    assert!(winding_numbers(&ball, &[0], &[false], DVec3::ZERO)[0] == Some(0.0));
 }
 
 /// A box seen by a camera, lit by a point light beside the camera (on the side of the box's
@@ -121,12 +181,23 @@ fn box_with(edits: &[(&str, &str)]) -> String {
     })
 }
 
-/// The triangles of the shape named `name`.
+/// The triangles of the shape named `name`, or with `name` "box", of the box: every shape
+/// whose name starts with "box" (one, or the faces of [`box_of_faces`]).
 fn triangles_of(scene: &crate::scene::Scene, name: &str) -> Vec<usize> {
-    let s = scene.shapes.iter().position(|s| s.name == name).unwrap() as u32;
-    (0..scene.geometry.indices.len())
-        .filter(|&t| scene.geometry.tri_shape[t] == s)
-        .collect()
+    let named = |s: u32| match name {
+        "box" => in_the_box(scene, s),
+        _ => scene.shapes[s as usize].name == name,
+    };
+    let tris: Vec<usize> = (0..scene.geometry.indices.len())
+        .filter(|&t| named(scene.geometry.tri_shape[t]))
+        .collect();
+    assert!(!tris.is_empty(), "no shape {name:?}");
+    tris
+}
+
+/// Whether shape `s` is (a part of) the box.
+fn in_the_box(scene: &crate::scene::Scene, s: u32) -> bool {
+    scene.shapes[s as usize].name.starts_with("box")
 }
 
 /// What each ray's path gave the film: Σ|f| and Σ|ḟ| (film x = ray index).
@@ -185,7 +256,6 @@ fn facing(ctx: &RenderContext, t: usize, eye: Vec3, p: Vec3) -> bool {
 /// face turned towards it, `None` off the box (rounding may take a ray past the silhouette).
 pub(crate) fn meets_the_inside(ctx: &RenderContext, dirs: &[Vec3]) -> Vec<Option<bool>> {
     let eye = ctx.scene.camera.position;
-    let boxed = ctx.scene.shapes.iter().position(|s| s.name == "box").unwrap() as u32;
     let mut counts = crate::integrator::trace::RayCounts::default();
     let mut out = Vec::new();
     for chunk in dirs.chunks(8) {
@@ -205,7 +275,7 @@ pub(crate) fn meets_the_inside(ctx: &RenderContext, dirs: &[Vec3]) -> Vec<Option
         for (i, dir) in chunk.iter().enumerate() {
             let prim = hit.prim[i];
             out.push(
-                (prim != u32::MAX && ctx.scene.geometry.tri_shape[prim as usize] == boxed)
+                (prim != u32::MAX && in_the_box(ctx.scene, ctx.scene.geometry.tri_shape[prim as usize]))
                     .then(|| !facing(ctx, prim as usize, eye, eye + *dir)),
             );
         }
@@ -285,6 +355,48 @@ fn camera_rays_that_meet_a_closed_mesh_with_seams_from_inside_start_no_path() {
         .flat_map(|t| scene.geometry.indices[t])
         .collect::<std::collections::BTreeSet<u32>>();
     assert_eq!(corners.len(), 24, "each face its own vertices");
+    no_camera_path_through_the_edges(&scene);
+}
+
+/// [`BOX`] with its box made of six shapes, one per face (each an OBJ file of one face of
+/// [`CUBE_OBJ`], under the box's transform): "box" (the face z = +1, turned to the camera,
+/// which `box_x` moves) and "box_1" … "box_5".
+fn box_of_faces() -> crate::scene::Scene {
+    let head = &CUBE_OBJ[..CUBE_OBJ.find("\nf ").unwrap() + 1];
+    let faces: Vec<String> = CUBE_OBJ
+        .lines()
+        .filter(|l| l.starts_with("f "))
+        .map(|f| format!("{head}{f}\n"))
+        .collect();
+    assert_eq!(faces.len(), 6);
+    // the box's shape entry, from its name to its transform
+    let cube = &BOX[BOX.find("name = \"box\"").unwrap()..BOX.find("\n\n[[shape]]\nname = \"wall\"").unwrap()];
+    let shape = |name: &str, file: &str| {
+        cube.replace("name = \"box\"", &format!("name = \"{name}\""))
+            .replace("type = \"cube\"", &format!("type = \"obj\"\nfile = \"{file}\""))
+            + "\n\n[[shape]]\n"
+    };
+    let shapes = (0..6)
+        .map(|f| match f {
+            0 => shape("box", "face0.obj"),
+            _ => shape(&format!("box_{f}"), &format!("face{f}.obj")),
+        })
+        .collect::<String>()
+        .trim_end_matches("\n\n[[shape]]\n")
+        .to_string();
+    let text = box_with(&[(cube, &shapes)]);
+    let files: Vec<(String, String)> = (0..6).map(|f| (format!("face{f}.obj"), faces[f].clone())).collect();
+    let files: Vec<(&str, &str)> = files.iter().map(|(n, t)| (n.as_str(), t.as_str())).collect();
+    crate::scene::testutil::load_text("box.toml", &text, &files, &[]).unwrap()
+}
+
+/// A closed box made of several shapes is checked as one: camera rays through its
+/// silhouette edges (where two of its shapes meet) that meet a face from inside start no
+/// path, as with a box of one shape.
+#[test]
+fn camera_rays_that_meet_a_box_of_several_shapes_from_inside_start_no_path() {
+    let scene = box_of_faces();
+    assert_eq!(scene.shapes.iter().filter(|s| s.name.starts_with("box")).count(), 6);
     no_camera_path_through_the_edges(&scene);
 }
 

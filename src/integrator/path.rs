@@ -207,7 +207,7 @@ pub fn trace_packet_from<R: Real, const C: usize, S: Sink<C>>(
     // direction it sent them in with its derivatives: their next vertex is in ray form
     // (`super::bsdf::delta`)
     let mut attached: Option<(R::Mask, V3<R>)> = None;
-    // A path from the camera stays on the camera's side of each closed shape but those it
+    // A path from the camera stays on the camera's side of each closed body but those it
     // crossed; its rays in ray form (the camera's, and those a Dirac lobe turned, `turned`)
     // that meet one from the other side came through an edge (`super::entry`). Paths from
     // given surface points or the relay wall start on no known side.
@@ -303,7 +303,7 @@ pub fn trace_packet_from<R: Real, const C: usize, S: Sink<C>>(
                     &mut counts.rays,
                 );
                 let from_camera = depth == 1 && nlos.is_none();
-                // a ray in ray form met a closed shape from the other side of it than the
+                // a ray in ray form met a closed body from the other side of it than the
                 // path is on: it entered through an edge (`super::entry`)
                 let checked = match (from_camera, camera_path) {
                     (true, _) => found,
