@@ -41,8 +41,9 @@ pub(crate) fn resolve(described: Described, path: &Path) -> Result<Scene, SceneE
         Some(m) => m.clone(),
         None => super::shapes::local_meshes(&desc, &ctx)?.into(),
     };
-    let bounds = super::shapes::world_bounds(if written_ok { &as_written } else { &desc }, &meshes, &ctx);
-    let origin = super::origin::choose(bounds);
+    let extent = super::shapes::world_extent(if written_ok { &as_written } else { &desc }, &meshes, &ctx);
+    let origin = super::origin::choose(extent.as_ref());
+    let bounds = extent.map(|e| (e.lo, e.hi));
     let offset_scale = super::origin::offset_scale(bounds);
 
     let integrator = integrator(&desc, &ctx)?;

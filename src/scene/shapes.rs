@@ -366,19 +366,44 @@ pub(crate) fn local_meshes(desc: &SceneDesc, ctx: &Ctx) -> Result<Vec<LocalMesh>
         .collect()
 }
 
-/// The bounding box of every shape's world vertices (f64, before the render origin is
-/// chosen); shapes whose transform is invalid are skipped (they fail later with a message).
-pub(crate) fn world_bounds(desc: &SceneDesc, meshes: &[LocalMesh], ctx: &Ctx) -> Option<(DVec3, DVec3)> {
+/// The bounding box of every shape's world vertices and where their surface lies
+/// (`super::origin::Extent`; f64, before the render origin is chosen); shapes whose transform
+/// is invalid are skipped (they fail later with a message).
+pub(crate) fn world_extent(desc: &SceneDesc, meshes: &[LocalMesh], ctx: &Ctx) -> Option<super::origin::Extent> {
+    let world: Vec<(Vec<DVec3>, &LocalMesh)> = desc
+        .shape
+        .iter()
+        .enumerate()
+        .zip(meshes)
+        .filter_map(|((i, d), mesh)| {
+            let (t, translate) = transform(ctx, i, d).ok()?;
+            Some((world_f64(&t, translate, mesh).collect(), mesh))
+        })
+        .collect();
     let mut b: Option<(DVec3, DVec3)> = None;
-    for ((i, d), mesh) in desc.shape.iter().enumerate().zip(meshes) {
-        let Ok((t, translate)) = transform(ctx, i, d) else {
-            continue;
-        };
-        for p in world_f64(&t, translate, mesh).filter(|p| p.is_finite()) {
-            b = Some(b.map_or((p, p), |(lo, hi)| (lo.min(p), hi.max(p))));
-        }
+    for p in world.iter().flat_map(|(w, _)| w).filter(|p| p.is_finite()) {
+        b = Some(b.map_or((*p, *p), |(lo, hi)| (lo.min(*p), hi.max(*p))));
     }
-    b
+    let (lo, hi) = b?;
+    // each triangle's area and centre, about the box's centre (small numbers, for precision)
+    let mid = (lo + hi) * 0.5;
+    let tris = || {
+        world.iter().flat_map(|(w, mesh)| {
+            mesh.tris.iter().filter_map(move |t| {
+                let [a, b, c] = t.map(|i| w[i as usize] - mid);
+                let area = 0.5 * (b - a).cross(c - a).length();
+                let centre = (a + b + c) / 3.0;
+                (area.is_finite() && centre.is_finite()).then_some((area, centre))
+            })
+        })
+    };
+    let area: f64 = tris().map(|(a, _)| a).sum();
+    let bulk = (area > 0.0).then(|| {
+        let centre = tris().map(|(a, c)| c * a).sum::<DVec3>() / area;
+        let spread = tris().map(|(a, c)| a * (c - centre).length()).sum::<f64>() / area;
+        (mid + centre, spread)
+    });
+    Some(super::origin::Extent { lo, hi, bulk })
 }
 
 fn local_mesh(ctx: &Ctx, i: usize, d: &ShapeDesc) -> Result<LocalMesh, SceneError> {
