@@ -118,8 +118,10 @@ pub struct RenderOptions {
 /// Whether the render's draws on the time edges take a delta pulse's time term
 /// (`integrator::time_edges::TimeEdges::cover_delta`), or why not.
 pub(crate) fn delta_draws(scene: &Scene, motion: &Motion, opts: &RenderOptions) -> Result<(), String> {
-    let path = opts.integrator.unwrap_or(scene.integrator.kind) == IntegratorKind::Path;
-    crate::integrator::time_edges::TimeEdges::cover_delta(scene, motion, path && opts.time_edges == TimeEdgeMode::Auto)
+    if opts.integrator.unwrap_or(scene.integrator.kind) != IntegratorKind::Path {
+        return Err("BDPT draws no light points on the time edges (the path tracer does: --integrator path)".into());
+    }
+    crate::integrator::time_edges::TimeEdges::cover_delta(scene, motion, opts.time_edges == TimeEdgeMode::Auto)
 }
 
 /// How the path tracer estimates the time term f·Ṡ_e·ḋ of a derivative (Algorithm 1).

@@ -118,8 +118,12 @@ fn delta_pulse_derivatives_are_refused_where_the_draws_miss_paths() {
         |param: &str, o: RenderOptions| render_diff(&scene, &[param.to_string()], &o).unwrap_err().to_string();
     let e = refused("tall_box_x", opts(TimeEdgeMode::Off, None));
     assert!(e.contains("delta pulse") && e.contains("--time-edges"), "{e}");
+    // BDPT has no draws: the message says so, not that the user turned them off
     let e = refused("tall_box_x", opts(TimeEdgeMode::Auto, Some(IntegratorKind::Bdpt)));
-    assert!(e.contains("path tracer"), "{e}");
+    assert!(
+        e.contains("path tracer") && e.contains("BDPT") && !e.contains("--time-edges"),
+        "{e}"
+    );
     // the camera sees the light: its pulse offset moves those paths' OPL too
     let e = refused("light_offset", opts(TimeEdgeMode::Auto, None));
     assert!(e.contains("pulse offset"), "{e}");

@@ -499,7 +499,7 @@ impl TimeEdges {
     /// emitter, the medium's index, an emitter's motion). Else why not.
     pub fn cover_delta(scene: &Scene, motion: &Motion, path_draws: bool) -> Result<(), String> {
         if !path_draws {
-            return Err("the draws on the time edges (path tracer, --time-edges auto) are off".into());
+            return Err("the draws on the time edges are off (--time-edges off; auto turns them on)".into());
         }
         if scene.nlos.is_some() {
             return Err("an NLOS capture's laser spots leave no light point to draw".into());
