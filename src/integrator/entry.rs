@@ -229,12 +229,15 @@ impl Bodies {
         let mut parent: Vec<u32> = (0..shape_count as u32).collect();
         let total: usize = (0..shape_count).filter(|&s| joinable[s]).map(|s| size[s]).sum();
         if joinable.iter().filter(|&&j| j).count() > 1 && total <= JOIN_MAX_TOTAL {
+            // each edge of each joinable shape, either way round, with its shape
             let mut undirected: Vec<(u64, u32)> = Vec::new();
             for (t, &s) in geo.indices.iter().zip(&geo.tri_shape) {
                 if joinable[s as usize] {
                     let k = corners(t);
-                    undirected
-                        .extend((0..3).map(|j| (edge_hash(k[j].min(k[(j + 1) % 3]), k[j].max(k[(j + 1) % 3])), s)));
+                    for j in 0..3 {
+                        let (a, b) = (k[j], k[(j + 1) % 3]);
+                        undirected.push((edge_hash(a.min(b), a.max(b)), s));
+                    }
                 }
             }
             undirected.sort_unstable();
