@@ -184,8 +184,9 @@ fn small_shadow_far_from_the_origin_matches_it_at_the_origin() {
 }
 
 /// A far scene with a 1 cm square left at the world origin (as a stray object of an export
-/// can be) renders like the scene at the origin: the render origin follows the surface's
-/// area, not the bounding box, which the square pulled to hold the world origin. Before, the
+/// can be) renders like the scene at the origin: the render origin follows where the surface
+/// lies (its shapes' boxes weighted by their area), not the bounding box of everything, which
+/// the square pulled to hold the world origin. Before, the
 /// render origin stayed at 0 and the scene was rendered in f32 at its full distance (an
 /// independent sweep: shadow_hidden_occluder.toml at 10 km with such a square, energy 2.3 %
 /// high, its occluder's derivative 4 % off finite differences, z = 8; this test's Cornell box

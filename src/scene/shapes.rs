@@ -369,38 +369,44 @@ pub(crate) fn local_meshes(desc: &SceneDesc, ctx: &Ctx) -> Result<Vec<LocalMesh>
 /// The bounding box of every shape's world vertices and where their surface lies
 /// (`super::origin::Extent`; f64, before the render origin is chosen); shapes whose transform
 /// is invalid are skipped (they fail later with a message).
+///
+/// Where the surface lies is taken from each shape's own box, weighted by the box's surface
+/// area (one pass over the vertices, as the bounding box alone took): the weighted mean of the
+/// boxes' centres, and the weighted mean of their distances from it plus their half
+/// diagonals.
 pub(crate) fn world_extent(desc: &SceneDesc, meshes: &[LocalMesh], ctx: &Ctx) -> Option<super::origin::Extent> {
-    let world: Vec<(Vec<DVec3>, &LocalMesh)> = desc
+    let boxes: Vec<(DVec3, DVec3)> = desc
         .shape
         .iter()
         .enumerate()
         .zip(meshes)
         .filter_map(|((i, d), mesh)| {
             let (t, translate) = transform(ctx, i, d).ok()?;
-            Some((world_f64(&t, translate, mesh).collect(), mesh))
+            world_f64(&t, translate, mesh)
+                .filter(|p| p.is_finite())
+                .fold(None, |b: Option<(DVec3, DVec3)>, p| {
+                    Some(b.map_or((p, p), |(lo, hi)| (lo.min(p), hi.max(p))))
+                })
         })
         .collect();
-    let mut b: Option<(DVec3, DVec3)> = None;
-    for p in world.iter().flat_map(|(w, _)| w).filter(|p| p.is_finite()) {
-        b = Some(b.map_or((*p, *p), |(lo, hi)| (lo.min(*p), hi.max(*p))));
-    }
-    let (lo, hi) = b?;
-    // each triangle's area and centre, about the box's centre (small numbers, for precision)
+    let lo = boxes.iter().map(|b| b.0).reduce(DVec3::min)?;
+    let hi = boxes.iter().map(|b| b.1).reduce(DVec3::max)?;
+    // about the whole box's centre (small numbers, for precision)
     let mid = (lo + hi) * 0.5;
-    let tris = || {
-        world.iter().flat_map(|(w, mesh)| {
-            mesh.tris.iter().filter_map(move |t| {
-                let [a, b, c] = t.map(|i| w[i as usize] - mid);
-                let area = 0.5 * (b - a).cross(c - a).length();
-                let centre = (a + b + c) / 3.0;
-                (area.is_finite() && centre.is_finite()).then_some((area, centre))
-            })
-        })
+    let weigh = |(a, b): &(DVec3, DVec3)| {
+        let e = *b - *a;
+        let area = 2.0 * (e.x * e.y + e.y * e.z + e.z * e.x);
+        ((*a + *b) * 0.5 - mid, 0.5 * e.length(), area)
     };
-    let area: f64 = tris().map(|(a, _)| a).sum();
-    let bulk = (area > 0.0).then(|| {
-        let centre = tris().map(|(a, c)| c * a).sum::<DVec3>() / area;
-        let spread = tris().map(|(a, c)| a * (c - centre).length()).sum::<f64>() / area;
+    let weighed: Vec<(DVec3, f64, f64)> = boxes.iter().map(weigh).filter(|w| w.2.is_finite()).collect();
+    let area: f64 = weighed.iter().map(|w| w.2).sum();
+    let bulk = (area > 0.0 && area.is_finite()).then(|| {
+        let centre = weighed.iter().map(|(c, _, a)| *c * *a).sum::<DVec3>() / area;
+        let spread = weighed
+            .iter()
+            .map(|(c, r, a)| a * ((*c - centre).length() + r))
+            .sum::<f64>()
+            / area;
         (mid + centre, spread)
     });
     Some(super::origin::Extent { lo, hi, bulk })
