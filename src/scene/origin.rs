@@ -19,7 +19,7 @@
 //!   bounding box put O at 0 and rendered the room in f32 at 10 km (1 mm steps, a 3.8 cm
 //!   offset off surfaces: its energy came out 2.3 % high and its derivatives disagreed with
 //!   finite differences);
-//! - a scene whose surface's centre lies within 4 s of the world origin keeps O = 0, so the
+//! - a scene whose surface's centre lies within 2 s of the world origin keeps O = 0, so the
 //!   shipped scenes render as before;
 //! - small moves do not shift O: it is computed from the scene as the file describes it, the
 //!   params at their file values, so `--set` and finite differences never move it.
@@ -37,7 +37,7 @@ use glam::DVec3;
 
 /// O stays at the world origin while the surface's centre lies within this many times its
 /// mean distance from it: the surface's coordinates are then within a few of its sizes either way.
-const NEAR: f64 = 4.0;
+const NEAR: f64 = 2.0;
 
 /// Where a scene's geometry lies, in world coordinates (f64).
 #[derive(Clone, Copy, Debug)]
