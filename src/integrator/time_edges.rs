@@ -136,18 +136,33 @@ impl Polygon {
     /// angle intervals in [0, 2π) (at most `MAX_SIDES` of them), and their total angle.
     fn arcs(&self, c: DVec2, rho: f64, out: &mut [(f64, f64); MAX_SIDES]) -> (usize, f64) {
         use std::f64::consts::TAU;
-        // the angles each side forbids: |φ − α| < β where cos(φ − α) > s
+        // the angles each side forbids: |φ − α| < β where cos(φ − α) > s; the sides that
+        // reach the circle (s < 1) take β = acos s, four sides to one vector call
+        let n_sides = self.sides.len();
+        let mut s = [1.0f64; MAX_SIDES];
+        for (s, &(m, k)) in s.iter_mut().zip(&self.sides) {
+            *s = (k - m.dot(c)) / rho;
+            if *s <= -1.0 {
+                return (0, 0.0);
+            }
+        }
+        let mut beta = [0.0f64; MAX_SIDES];
+        for (b, s) in beta
+            .chunks_exact_mut(4)
+            .zip(s.chunks_exact(4))
+            .take(n_sides.div_ceil(4))
+        {
+            if s.iter().any(|&s| s < 1.0) {
+                let v = wide::f64x4::from([s[0], s[1], s[2], s[3]].map(|s| s.min(1.0))).acos();
+                b.copy_from_slice(&v.to_array());
+            }
+        }
         let mut cut = [(0.0f64, 0.0f64); 2 * MAX_SIDES];
         let mut n_cut = 0;
-        for (&(m, k), &alpha) in self.sides.iter().zip(&self.angles) {
-            let s = (k - m.dot(c)) / rho;
+        for ((&alpha, &s), &beta) in self.angles.iter().zip(&s).zip(&beta) {
             if s >= 1.0 {
                 continue;
             }
-            if s <= -1.0 {
-                return (0, 0.0);
-            }
-            let beta = s.acos();
             let (lo, hi) = (alpha - beta, alpha + beta);
             if lo < 0.0 {
                 cut[n_cut] = (lo + TAU, TAU);
@@ -277,7 +292,13 @@ impl Spread {
         };
         let pdf = |e: f64| e / (s * (1.0 + e) * (1.0 + e));
         // the first component at or past t = 0; those before it have t < 0
-        let mid = js.start + js.clone().take_while(|&j| t(j) < 0.0).count();
+        let mut mid = ((d - first) / w).ceil().clamp(js.start as f64, js.end as f64) as usize;
+        while mid > js.start && t(mid - 1) >= 0.0 {
+            mid -= 1;
+        }
+        while mid < js.end && t(mid) < 0.0 {
+            mid += 1;
+        }
         let mut sum = 0.0;
         // outward from t = 0 on one side, while |t| is within the cut
         let mut side = |outward: &mut dyn Iterator<Item = usize>| {

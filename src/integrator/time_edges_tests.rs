@@ -72,10 +72,38 @@ fn a_quad_light_is_one_polygon_and_other_meshes_stay_triangles() {
     assert_eq!(polygons(&folded).len(), 2);
 }
 
+/// A regular hexagon of circumradius 0.6 in the plane y = 1, emitting downwards, as a fan of
+/// six triangles (one polygon of six sides: the sides' angles take two vector calls).
+fn hexagon() -> Vec<[DVec3; 3]> {
+    let corner = |i: usize| {
+        let a = i as f64 * std::f64::consts::TAU / 6.0;
+        DVec3::new(0.6 * a.cos(), 1.0, -0.6 * a.sin())
+    };
+    let centre = DVec3::new(0.0, 1.0, 0.0);
+    (0..6).map(|i| [centre, corner(i), corner(i + 1)]).collect()
+}
+
 #[test]
 fn arcs_are_the_circle_inside_the_polygon() {
-    let poly = &polygons(&square(DVec3::new(0.0, 1.0, 0.0), 1.0))[0];
+    for (name, tris) in [
+        ("square", square(DVec3::new(0.0, 1.0, 0.0), 1.0)),
+        ("hexagon", hexagon()),
+    ] {
+        let polys = polygons(&tris);
+        assert_eq!(polys.len(), 1, "{name}");
+        arcs_of(name, &polys[0]);
+    }
+}
+
+fn arcs_of(name: &str, poly: &Polygon) {
     let inside = |q: DVec2| poly.sides.iter().all(|&(m, k)| m.dot(q) <= k);
+    // distance of q from the nearest side's line
+    let off_sides = |q: DVec2| {
+        poly.sides
+            .iter()
+            .map(|&(m, k)| (m.dot(q) - k).abs())
+            .fold(f64::MAX, f64::min)
+    };
     let n = 20_000;
     for case in 0..40u64 {
         let c = DVec2::new(uniform(case * 3) * 1.6 - 0.8, uniform(case * 3 + 1) * 1.6 - 0.8);
@@ -89,14 +117,20 @@ fn arcs_are_the_circle_inside_the_polygon() {
             })
             .count();
         let dense = hits as f64 / n as f64 * std::f64::consts::TAU;
-        assert!((theta - dense).abs() < 1e-3, "case {case}: Θ {theta} vs {dense}");
-        // each arc's midpoint lies inside
+        assert!((theta - dense).abs() < 1e-3, "{name} case {case}: Θ {theta} vs {dense}");
+        // each arc's midpoint lies inside, and its ends on a side (but where an arc runs
+        // through φ = 0, which the intervals split at)
+        let at = |phi: f64| c + DVec2::new(phi.cos(), phi.sin()) * rho;
         for &(a, b) in &arcs[..k] {
             let m = 0.5 * (a + b);
-            assert!(
-                inside(c + DVec2::new(m.cos(), m.sin()) * rho),
-                "case {case}: arc ({a}, {b})"
-            );
+            assert!(inside(at(m)), "{name} case {case}: arc ({a}, {b})");
+            for end in [a, b].into_iter().filter(|&e| e != 0.0 && e != std::f64::consts::TAU) {
+                let off = off_sides(at(end));
+                assert!(
+                    off < 1e-13,
+                    "{name} case {case}: arc end {end} lies {off:e} off every side"
+                );
+            }
         }
     }
 }
