@@ -26,6 +26,10 @@
 //!   with probability M (Russian roulette on the line of length 1 the mass lies on);
 //! - φ uniform on the arcs of that circle inside the polygon (total angle Θ).
 //!
+//! The K draws of a vertex share their two numbers (one offset for every stratum, one
+//! fraction of every circle's arcs), so draws on neighbouring edges are positively
+//! correlated and a bin's derivative, the difference of its two edges' terms, varies less.
+//!
 //! The area density is q(D)·η/(r·Θ) times the emitter and polygon choice. Each draw hands
 //! the film f/(K·density) as a time-only contribution: the film evaluates Ṡ_e at the draw's
 //! exact OPL, so every bin edge is estimated from draws aimed at it.
@@ -48,7 +52,8 @@ use glam::{DVec2, DVec3};
 /// Most draws per vertex and lane (the strata of the edge mixture).
 pub const MAX_SLOTS: usize = 16;
 
-/// Random dimensions a vertex may take (2 for the emitter and polygon, 2 per draw), with room.
+/// Random dimensions a vertex may take (2 for the emitter and polygon, 2 its draws share),
+/// with room.
 pub const DIMS_PER_VERTEX: u64 = 64;
 
 /// Film edges a plan keeps the cumulative masses of (a vertex reaching more walks them).
