@@ -355,7 +355,12 @@ fn read_bounded(path: &Path) -> Result<(Vec<u8>, Header, u64), Error> {
     use std::io::Read;
     let bad = |what: &str| unusable(path, what);
     let cannot = |e: std::io::Error| Error::Invalid(format!("{}: cannot read the checkpoint: {e}", path.display()));
-    let mut file = std::fs::File::open(path).map_err(cannot)?;
+    // not blocking: a FIFO there waited for a writer before it could be refused
+    let mut open = std::fs::OpenOptions::new();
+    open.read(true);
+    #[cfg(unix)]
+    std::os::unix::fs::OpenOptionsExt::custom_flags(&mut open, libc::O_NONBLOCK);
+    let mut file = open.open(path).map_err(cannot)?;
     let size = file.metadata().map_err(cannot)?;
     if !size.is_file() {
         return Err(bad("not a regular file"));

@@ -174,6 +174,75 @@ fn what_cannot_be_read_as_an_earlier_json_is_refused_at_once() {
     );
 }
 
+/// Runs dtr with `args` in `cwd`, killing it (and failing) if it is still running after 10 s.
+#[cfg(unix)]
+fn run_within_10_s(args: &[&str], cwd: &Path) -> Output {
+    let mut child = spawn(args, cwd);
+    let start = std::time::Instant::now();
+    while child.try_wait().unwrap().is_none() {
+        if start.elapsed() > std::time::Duration::from_secs(10) {
+            child.kill().unwrap();
+            panic!("{args:?}: still running after 10 s");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    child.wait_with_output().unwrap()
+}
+
+/// A FIFO where dtr keeps a prefix's lock (`.NAME.dtr-lock`), where `--resume` reads the
+/// checkpoint, or where `dtr import` would write is refused at once and left as it was.
+/// Before, the first blocked the render in `open` for good (SIGTERM and SIGINT did not end
+/// it), the second until a writer came, and the third until a reader did (found by an
+/// independent audit).
+#[cfg(unix)]
+#[test]
+fn fifos_where_the_lock_the_checkpoint_or_an_import_goes_are_refused_at_once() {
+    let dir = workdir();
+    let fifo = |name: &str| {
+        let made = Command::new("mkfifo").arg(dir.path().join(name)).status().unwrap();
+        assert!(made.success());
+    };
+    fifo(".locked.dtr-lock");
+    let o = run_within_10_s(&["render", "room.toml", "-o", "locked", "--spp", "1", "-q"], dir.path());
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{e}");
+    assert!(e.contains(".locked.dtr-lock is not a regular file"), "{e}");
+    fifo("resumed.checkpoint");
+    let o = run_within_10_s(
+        &["render", "room.toml", "-o", "resumed", "--spp", "1", "-q", "--resume"],
+        dir.path(),
+    );
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{e}");
+    assert!(
+        e.contains("resumed.checkpoint") && e.contains("not a regular file"),
+        "{e}"
+    );
+    let xml = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell_box.xml");
+    fifo("imported.toml");
+    let o = run_within_10_s(&["import", xml.to_str().unwrap(), "-o", "imported.toml"], dir.path());
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{e}");
+    assert!(
+        e.contains("imported.toml: the output exists and is not a description dtr import wrote"),
+        "{e}"
+    );
+    for name in [".locked.dtr-lock", "resumed.checkpoint", "imported.toml"] {
+        let kind = std::fs::symlink_metadata(dir.path().join(name)).unwrap().file_type();
+        assert!(kind.is_fifo(), "{name}");
+    }
+    assert_eq!(
+        listing(dir.path()),
+        [
+            ".locked.dtr-lock",
+            "imported.toml",
+            "resumed.checkpoint",
+            "room.json",
+            "room.toml"
+        ]
+    );
+}
+
 #[test]
 fn output_prefix_rules() {
     let dir = workdir();

@@ -79,6 +79,10 @@ pub fn run(a: ImportArgs) -> anyhow::Result<()> {
 fn is_earlier_import(path: &Path) -> bool {
     use std::io::Read;
     let mut head = vec![0u8; mitsuba::IMPORT_HEADER.len()];
+    // (a FIFO there would block the open: it is no import)
+    if !std::fs::metadata(path).is_ok_and(|m| m.is_file()) {
+        return false;
+    }
     std::fs::File::open(path)
         .and_then(|mut f| f.read_exact(&mut head))
         .is_ok_and(|()| head == mitsuba::IMPORT_HEADER.as_bytes())

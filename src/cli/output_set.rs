@@ -370,10 +370,20 @@ impl OutputSet {
                     prefix.display()
                 );
             }
+            // a FIFO there blocked the open until a reader came, and caught signals with it
+            if std::fs::symlink_metadata(path).is_ok_and(|m| !m.is_file()) {
+                bail!(
+                    "{} is not a regular file (a FIFO, device or folder) where dtr keeps the lock of the \
+                     output prefix {}; remove it",
+                    path.display(),
+                    prefix.display()
+                );
+            }
             let mut open = std::fs::OpenOptions::new();
             open.create(true).truncate(false).write(true);
+            // (O_NONBLOCK: one made there since is refused, not waited on)
             #[cfg(unix)]
-            std::os::unix::fs::OpenOptionsExt::custom_flags(&mut open, libc::O_NOFOLLOW);
+            std::os::unix::fs::OpenOptionsExt::custom_flags(&mut open, libc::O_NOFOLLOW | libc::O_NONBLOCK);
             let f = open
                 .open(path)
                 .map_err(|e| OutputError::io(path, e))
