@@ -149,16 +149,7 @@ fn what_cannot_be_read_as_an_earlier_json_is_refused_at_once() {
         .unwrap();
     std::fs::write(dir.path().join("big.npy"), "not dtr's").unwrap();
     for (prefix, why) in [("pipe", "not a regular file"), ("big", "more than the")] {
-        let mut child = spawn(&["render", "room.toml", "-o", prefix, "--spp", "1", "-q"], dir.path());
-        let start = std::time::Instant::now();
-        while child.try_wait().unwrap().is_none() {
-            if start.elapsed() > std::time::Duration::from_secs(10) {
-                child.kill().unwrap();
-                panic!("-o {prefix}: still running after 10 s");
-            }
-            std::thread::sleep(std::time::Duration::from_millis(20));
-        }
-        let o = child.wait_with_output().unwrap();
+        let o = run_within_10_s(&["render", "room.toml", "-o", prefix, "--spp", "1", "-q"], dir.path());
         let e = stderr(&o);
         assert_eq!(o.status.code(), Some(2), "-o {prefix}: {e}");
         assert!(
