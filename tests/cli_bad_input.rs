@@ -599,3 +599,31 @@ fn a_camera_inside_a_dielectric_is_refused() {
     let matched = write(d.path(), "matched.toml", &scene("[medium]\neta = 1.5\n"));
     renders(&matched, &[]);
 }
+
+/// A scene without a surface (a point light alone) is bad input naming the file and `shape`
+/// (exit 2). Before, it loaded and Embree refused the empty mesh at render time: "error:
+/// Embree: invalid mesh: the mesh has no triangles", exit 1 (an internal failure), naming
+/// neither (found by an independent audit).
+#[test]
+fn a_scene_without_a_surface_is_refused_naming_the_file() {
+    let d = tempfile::tempdir().unwrap();
+    let text = cornell_text();
+    let head = text.split("[[material]]").next().unwrap();
+    let scene =
+        format!("{head}[[emitter]]\nname = \"p\"\ntype = \"point\"\nposition = [0.0, 1.0, 0.0]\nintensity = 1.0\n");
+    let p = write(d.path(), "empty.toml", &scene);
+    let out = dtr()
+        .args([
+            "render",
+            p.to_str().unwrap(),
+            "-o",
+            d.path().join("out").to_str().unwrap(),
+            "-q",
+        ])
+        .output()
+        .unwrap();
+    let e = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{e}");
+    assert!(e.contains("empty.toml: shape:") && e.contains("no surface"), "{e}");
+    render_fails(&p, &[]);
+}

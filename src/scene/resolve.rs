@@ -57,6 +57,15 @@ pub(crate) fn resolve(described: Described, path: &Path) -> Result<Scene, SceneE
     let channels = camera_film::channels(&desc, &params, &ctx)?;
     let mut film = camera_film::film(&desc.film, width, height, channels, filter, &ctx)?;
     let (mut shapes, mut geometry) = super::shapes::build(&desc, &names, &emitters, &ctx, &meshes, origin)?;
+    // (Embree refused it after the load as an internal failure: "the mesh has no triangles")
+    if geometry.tri_shape.is_empty() {
+        return Err(ctx.invalid(
+            "shape".to_string(),
+            "the scene has no surface: no [[shape]] has a triangle; a render needs at least one (a light \
+             needs something to reach, and area lights are shapes)"
+                .to_string(),
+        ));
+    }
     refuse_overflowing_opl(&desc, bounds, &integrator, &materials, &ctx)?;
     let lifted_emitters = super::flush::lift_flush_emitters(&mut shapes, &mut geometry, offset_scale);
     if let Some((d, o, delta)) = super::flush::flush_dielectric(&shapes, &geometry, &materials, offset_scale) {
