@@ -599,3 +599,47 @@ fn an_unwelded_mesh_and_a_t_junction_match_finite_differences() {
         check(&Case::tangent(path, "pyramid_yaw", 30.0, 1.0));
     }
 }
+
+/// A pulse far narrower than the bins has the film carry f64 OPLs (`integrator::opl`), and a
+/// primary edge's side ray that met no surface then asked for the face of triangle u32::MAX:
+/// `dtr render silhouette_slide.toml --diff cube_x` panicked for σ ≤ 3 mm (index out of
+/// bounds in `face_normal64`; found by an independent sweep). All of the scene's light lies
+/// in its window, so the time-summed derivative does not depend on the pulse: at σ = 1 mm it
+/// is σ = 5 mm's (no f64 OPLs there) within f32 rounding, pixel by pixel, for each seed.
+#[test]
+fn a_narrow_pulse_leaves_the_time_summed_silhouette_derivative_as_it_was() {
+    use difftransient::temporal::Pulse;
+    let derivative = |sigma: f32, seed: u64| {
+        let mut scene = common::load("silhouette_slide.toml");
+        for e in &mut scene.emitters {
+            e.pulse = Pulse::Gaussian { sigma_opl: sigma };
+        }
+        let opts = RenderOptions {
+            spp_boundary: Some(16),
+            ..common::options(16, seed)
+        };
+        let (_, d, _) = render_diff(&scene, &["cube_x".to_string()], &opts).unwrap();
+        d.into_iter().next().unwrap()
+    };
+    for seed in 1..=3 {
+        let (narrow, wide) = (derivative(0.001, seed), derivative(0.005, seed));
+        let image = |t: &Transient| -> Vec<f32> {
+            (0..t.height)
+                .flat_map(|y| (0..t.width).map(move |x| (x, y)))
+                .map(|(x, y)| t.time_sum(x, y, 0))
+                .collect()
+        };
+        let (a, b) = (image(&narrow), image(&wide));
+        let scale = b.iter().fold(0.0f32, |m, v| m.max(v.abs()));
+        assert!(
+            scale > 0.1,
+            "seed {seed}: the silhouette's derivative is missing ({scale})"
+        );
+        for (i, (p, q)) in a.iter().zip(&b).enumerate() {
+            assert!(
+                p.is_finite() && (p - q).abs() <= 1e-5 * scale,
+                "seed {seed} pixel {i}: {p} at σ = 1 mm against {q} at 5 mm"
+            );
+        }
+    }
+}

@@ -344,8 +344,9 @@ pub fn trace_packet_from<R: Real, const C: usize, S: Sink<C>>(
                     ray_d = V3::select(own, w.value(), ray_d);
                     x.p = V3::select(own, near_limit(&lim, &x.p, scene.offset_scale), x.p);
                     let m = own | steady;
+                    // (a lane whose side ray missed has no face to take the limit on)
                     for (i, a) in at_limit.iter_mut().enumerate().take(R::LANES) {
-                        *a = m.bit(i);
+                        *a = m.bit(i) && active.bit(i);
                     }
                     opl_at = Some(V3::select(m, lim, x.p));
                 }
