@@ -252,3 +252,35 @@ fn a_64_bit_seed_set_as_a_field_is_exact() {
         "the seed's last digit is kept"
     );
 }
+
+/// A `--set` of a field that a `[[param]]` sets (the whole field, or a component the param
+/// sets) is refused, naming both: the param's value replaced it without a word (`dtr info
+/// diff_room.toml --set material.wall.albedo=0.4` showed albedo 0.6, `--set medium.eta=1.3`
+/// showed 1; found by an independent audit). A component no param sets is still taken.
+#[test]
+fn a_field_a_param_sets_is_refused_on_the_command_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = common::scene_path("diff_room.toml");
+    let s = scene.to_str().unwrap();
+    for (set, param) in [
+        ("material.wall.albedo=0.4", "param[3] \"albedo\""),
+        ("medium.eta=1.3", "param[5] \"eta\""),
+        ("emitter.lamp.intensity=2", "param[4] \"intensity\""),
+        ("shape.room.scale.2=2", "param[2] \"room_scale_z\""),
+        ("emitter.lamp.offset_opl=0.1", "param[6] \"lamp_offset\""),
+    ] {
+        let o = common::dtr(&["info", s, "--set", set], dir.path());
+        let e = String::from_utf8_lossy(&o.stderr);
+        let field = set.split('=').next().unwrap();
+        assert_eq!(o.status.code(), Some(2), "--set {set}: {e}");
+        assert!(
+            e.contains(&format!("diff_room.toml: --set {field}: {param} sets this field")),
+            "--set {set}: {e}"
+        );
+    }
+    // the scale's x is no param's: taken
+    let o = common::dtr(&["info", s, "--set", "shape.room.scale.0=2.75"], dir.path());
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(out.contains("2.75"), "{out}");
+}

@@ -80,6 +80,7 @@ pub(crate) fn apply_params(
     names: &Names,
     ctx: &mut Ctx,
     overridden: &[bool],
+    fields: &[(String, f64)],
 ) -> Result<Vec<Param>, SceneError> {
     let mut out: Vec<Param> = Vec::new();
     // (quantity, component) pairs already claimed, with the index of the param claiming it.
@@ -164,7 +165,9 @@ pub(crate) fn apply_params(
         };
         let v = p.value;
         // (kind, location of the controlled field, quantity name for conflicts, components)
-        let (kind, loc, quantity, components): (ParamKind, String, String, Vec<usize>) = match p.kind {
+        // (kind, location of the controlled field, quantity name for conflicts, components,
+        // the field's dotted path as `--set` names it)
+        let (kind, loc, quantity, components, path): (ParamKind, String, String, Vec<usize>, String) = match p.kind {
             ParamKindDesc::Translate | ParamKindDesc::Rotate | ParamKindDesc::Scale => {
                 let s = target(&names.shapes, "shape", "shapes", &p.shape)?;
                 let a = needs_axis()?;
@@ -205,7 +208,13 @@ pub(crate) fn apply_params(
                     }
                 };
                 let loc = item_field("shape", s, &shape.name, field);
-                (kind, loc, format!("shape {:?} {field}", shape.name), vec![a as usize])
+                (
+                    kind,
+                    loc,
+                    format!("shape {:?} {field}", shape.name),
+                    vec![a as usize],
+                    format!("shape.{}.{field}", shape.name),
+                )
             }
             ParamKindDesc::Albedo => {
                 let m = target(&names.materials, "material", "materials", &p.material)?;
@@ -243,6 +252,7 @@ pub(crate) fn apply_params(
                     loc,
                     format!("material {:?} {field}", mat.name),
                     c.map_or(vec![0, 1, 2], |c| vec![c]),
+                    format!("material.{}.{field}", mat.name),
                 )
             }
             ParamKindDesc::Radiance => {
@@ -263,6 +273,7 @@ pub(crate) fn apply_params(
                     loc,
                     format!("emitter {:?} {field}", em.name),
                     c.map_or(vec![0, 1, 2], |c| vec![c]),
+                    format!("emitter.{}.{field}", em.name),
                 )
             }
             ParamKindDesc::Eta => {
@@ -272,6 +283,7 @@ pub(crate) fn apply_params(
                     table_field("medium", "eta"),
                     "medium eta".to_string(),
                     vec![0],
+                    "medium.eta".to_string(),
                 )
             }
             ParamKindDesc::Roughness | ParamKindDesc::Ior => {
@@ -313,7 +325,13 @@ pub(crate) fn apply_params(
                     }
                 };
                 let loc = item_field("material", m, &mat.name, field);
-                (kind, loc, format!("material {:?} {field}", mat.name), vec![0])
+                (
+                    kind,
+                    loc,
+                    format!("material {:?} {field}", mat.name),
+                    vec![0],
+                    format!("material.{}.{field}", mat.name),
+                )
             }
             ParamKindDesc::PulseOffset => {
                 let e = target(&names.emitters, "emitter", "emitters", &p.emitter)?;
@@ -325,6 +343,7 @@ pub(crate) fn apply_params(
                     loc,
                     format!("emitter {:?} offset_opl", em.name),
                     vec![0],
+                    format!("emitter.{}.offset_opl", em.name),
                 )
             }
         };
@@ -345,6 +364,26 @@ pub(crate) fn apply_params(
             }
         }
         claimed.extend(components.iter().map(|&c| (quantity.clone(), c, i)));
+        // a `--set` of the field (or of a component) this param sets: the param's value would
+        // replace it without a word (`--set material.wall.albedo=0.4` rendered the param's 0.6)
+        let same_field = |f: &str| {
+            f == path
+                || f.strip_prefix(path.as_str())
+                    .and_then(|r| r.strip_prefix('.'))
+                    .and_then(|i| i.parse::<usize>().ok())
+                    .is_some_and(|i| components.contains(&i))
+        };
+        if let Some((f, _)) = fields.iter().find(|(f, _)| same_field(f)) {
+            return Err(SceneError::Override {
+                path: ctx.path.to_path_buf(),
+                name: f.clone(),
+                message: format!(
+                    "param[{i}] {:?} sets this field ({quantity}) and its value would replace yours; set the \
+                     param instead (--set {}=VALUE)",
+                    p.name, p.name
+                ),
+            });
+        }
         // a field whose components several params set (rotate.x and rotate.y) names them all
         match ctx.set_by.get_mut(&loc) {
             Some(note) => {

@@ -33,9 +33,10 @@ pub(crate) fn resolve(described: Described, path: &Path) -> Result<Scene, SceneE
     };
     // The scene as the file describes it (params at their file values), for the origin.
     let mut as_written = desc.clone();
-    let written_ok = crate::params::resolve::apply_params(&mut as_written, &names, &mut Ctx::new(path), &[]).is_ok();
+    let written_ok =
+        crate::params::resolve::apply_params(&mut as_written, &names, &mut Ctx::new(path), &[], &[]).is_ok();
     let overridden = crate::params::resolve::apply_overrides(&mut desc, overrides, &names, path)?;
-    let params = crate::params::resolve::apply_params(&mut desc, &names, &mut ctx, &overridden)?;
+    let params = crate::params::resolve::apply_params(&mut desc, &names, &mut ctx, &overridden, &described.fields)?;
     // The meshes depend on no parameter (types, files and sphere subdivisions only).
     let meshes: Arc<[LocalMesh]> = match &described.meshes {
         Some(m) => m.clone(),
