@@ -294,6 +294,11 @@ const ROOM: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/diff_room.toml")
 /// `dtr optimize` of the room's albedo towards `target` at 1 spp on one thread, quiet
 /// (warnings still show), into `out`, with `extra` options.
 fn optimize_albedo(dir: &std::path::Path, target: &str, out: &str, extra: &[&str]) -> std::process::Output {
+    dtr(&albedo_args(target, out, extra), dir)
+}
+
+/// The arguments of [`optimize_albedo`].
+fn albedo_args<'a>(target: &'a str, out: &'a str, extra: &[&'a str]) -> Vec<&'a str> {
     let mut v = vec![
         "optimize",
         ROOM,
@@ -310,7 +315,7 @@ fn optimize_albedo(dir: &std::path::Path, target: &str, out: &str, extra: &[&str
         out,
     ];
     v.extend(extra);
-    dtr(&v, dir)
+    v
 }
 
 /// The albedo of each iteration in `out/log.csv` (iteration,loss,albedo,...).
@@ -546,29 +551,11 @@ fn optimize_names_what_a_fortran_order_target_should_be() {
 #[cfg(unix)]
 #[test]
 fn optimize_that_cannot_write_its_log_names_it_and_leaves_nothing() {
-    use std::os::unix::process::CommandExt;
     let tmp = tempfile::tempdir().unwrap();
     let dir = tmp.path();
     rough_target(SCENE, dir, "target");
     let args = one_iteration(SCENE, "target.npy", "plate_x", "opt");
-    let mut limited = std::process::Command::new(env!("CARGO_BIN_EXE_dtr"));
-    limited.current_dir(dir).args(&args);
-    // SAFETY: only async-signal-safe calls between fork and exec
-    unsafe {
-        limited.pre_exec(|| {
-            // a write past the limit fails with EFBIG instead of raising SIGXFSZ
-            libc::signal(libc::SIGXFSZ, libc::SIG_IGN);
-            let limit = libc::rlimit {
-                rlim_cur: 0,
-                rlim_max: libc::RLIM_INFINITY,
-            };
-            if libc::setrlimit(libc::RLIMIT_FSIZE, &limit) != 0 {
-                return Err(std::io::Error::last_os_error());
-            }
-            Ok(())
-        });
-    }
-    let o = limited.output().unwrap();
+    let o = common::dtr_with_file_size_limit(&args, dir, 0);
     let e = stderr(&o);
     assert_eq!(o.status.code(), Some(3), "{e}");
     assert!(e.contains("log.csv"), "{e}");
@@ -579,6 +566,138 @@ fn optimize_that_cannot_write_its_log_names_it_and_leaves_nothing() {
     );
     let o = dtr(&args, dir);
     assert!(o.status.success(), "the rerun: {}", stderr(&o));
+}
+
+/// The room's albedo run of `iters` iterations towards `t.npy` into `out`, as
+/// [`optimize_albedo`] runs it, with every file limited to `bytes`
+/// ([`common::dtr_with_file_size_limit`]: a full disk without a mount).
+#[cfg(unix)]
+fn optimize_albedo_limited(dir: &std::path::Path, out: &str, iters: &str, bytes: u64) -> std::process::Output {
+    common::dtr_with_file_size_limit(&albedo_args("t.npy", out, &["--iters", iters]), dir, bytes)
+}
+
+/// Renders the room's target `t.npy` into `dir` and runs one unlimited iteration into
+/// `dir/free`; returns the size of a file of that run by its name.
+#[cfg(unix)]
+fn free_run(dir: &std::path::Path) -> impl Fn(&str) -> u64 + '_ {
+    rough_target(ROOM, dir, "t");
+    let o = optimize_albedo(dir, "t.npy", "free", &["--iters", "1"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    move |name| std::fs::metadata(dir.join("free").join(name)).unwrap().len()
+}
+
+/// What a run stopped by a refused write says it keeps, checked against its folder: each of
+/// its files is named there exactly when it is there, the log always; and no temporary file
+/// is left. Returns the number of iterations it says it logged.
+fn says_what_is_there(e: &str, out: &std::path::Path) -> usize {
+    let kept = e
+        .split_once("the run stopped after ")
+        .and_then(|(_, k)| k.split_once("Give another -o"))
+        .map(|(k, _)| k)
+        .unwrap_or_else(|| panic!("no list of what was kept: {e}"));
+    assert!(kept.contains("log.csv"), "{e}");
+    for name in ["best.json", "recovered.toml", "loss.png", "param_albedo.png"] {
+        assert_eq!(
+            kept.contains(name),
+            out.join(name).is_file(),
+            "{name} named in the message as it is there or not: {e}"
+        );
+    }
+    for entry in std::fs::read_dir(out).unwrap() {
+        let name = entry.unwrap().file_name().to_string_lossy().into_owned();
+        assert!(!name.starts_with('.'), "a temporary file was left: {name}");
+    }
+    kept.split(' ').next().unwrap().parse().unwrap()
+}
+
+/// A file system that refuses the recovered scene once best.json is written (each file
+/// limited to a size that the log's first row and best.json fit in and the recovered scene
+/// does not) leaves neither: they appear together or not at all. It is exit 3 naming the
+/// scene, and the message names only what is there (the log). Before, best.json stayed
+/// without the recovered scene (found with 8 KB free on a tmpfs), and the message said "the
+/// log.csv, its plots and the best values so far (best.json and the recovered scene) are
+/// kept" when neither the plots nor the scene were there.
+#[cfg(unix)]
+#[test]
+fn a_refused_recovered_scene_leaves_no_best_json_and_says_so() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path();
+    let size = free_run(dir);
+    let limit = size("best.json").max(size("log.csv")) + 64;
+    assert!(
+        size("recovered.toml") > limit,
+        "the scene must not fit in {limit} bytes"
+    );
+    let o = optimize_albedo_limited(dir, "opt", "1", limit);
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(3), "{e}");
+    assert!(e.contains("recovered.toml") && e.contains("File too large"), "{e}");
+    let out = dir.join("opt");
+    assert!(
+        !out.join("best.json").exists() && !out.join("recovered.toml").exists(),
+        "best.json and the recovered scene appear together or not at all: {:?}",
+        std::fs::read_dir(&out)
+            .unwrap()
+            .map(|e| e.unwrap().file_name())
+            .collect::<Vec<_>>()
+    );
+    assert_eq!(says_what_is_there(&e, &out), 1, "{e}");
+    let log = std::fs::read_to_string(out.join("log.csv")).unwrap();
+    assert_eq!(log.lines().count(), 2, "the header and the one iteration: {log}");
+}
+
+/// A log that the file system refuses part-way through a run (each file limited to a size
+/// that the best values fit in and the log outgrows after some rows) keeps only complete
+/// rows, one per iteration the message says it logged, beside the best values of the lowest
+/// loss logged; exit 3, and the message names only what is there. Before, the last row was
+/// cut mid-number with no newline (found with 16 KB free on a tmpfs), and the message named
+/// plots that were not there.
+#[cfg(unix)]
+#[test]
+fn a_log_refused_part_way_keeps_complete_rows() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path();
+    let size = free_run(dir);
+    // rows of about 70 bytes: the log fills after some 20 iterations
+    let limit = size("recovered.toml").max(size("best.json")) + 1000;
+    let o = optimize_albedo_limited(dir, "opt", "200", limit);
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(3), "{e}");
+    assert!(e.contains("log.csv") && e.contains("File too large"), "{e}");
+    let out = dir.join("opt");
+    let log = std::fs::read_to_string(out.join("log.csv")).unwrap();
+    assert!(
+        log.ends_with('\n'),
+        "the log ends in a complete row: {:?}",
+        &log[log.len().saturating_sub(80)..]
+    );
+    let mut lines = log.lines();
+    let fields = lines.next().unwrap().split(',').count();
+    let rows: Vec<Vec<f64>> = lines
+        .map(|l| {
+            let row: Vec<f64> = l
+                .split(',')
+                .map(|v| v.parse().unwrap_or_else(|_| panic!("row {l:?}")))
+                .collect();
+            assert_eq!(row.len(), fields, "row {l:?}");
+            row
+        })
+        .collect();
+    let logged = says_what_is_there(&e, &out);
+    assert!(
+        logged > 5 && rows.len() == logged,
+        "{} rows, {logged} said: {e}",
+        rows.len()
+    );
+    // the pair holds the lowest loss logged, its albedo in both
+    let lowest = rows.iter().min_by(|a, b| a[1].total_cmp(&b[1])).unwrap();
+    let best: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("best.json")).unwrap()).unwrap();
+    assert_eq!(best["loss"].as_f64(), Some(lowest[1]), "{best}");
+    let albedo = best["params"]["albedo"].as_f64().unwrap();
+    assert_eq!(albedo, lowest[2], "{best}");
+    let scene = std::fs::read_to_string(out.join("recovered.toml")).unwrap();
+    assert!(scene.contains(&format!("value = {albedo}")), "{albedo} in {scene}");
 }
 
 /// An existing, empty output folder that the file system refuses (read-only, root included)

@@ -636,3 +636,74 @@ fn a_captures_laser_direction_plays_no_part() {
         );
     }
 }
+
+/// An HDF5 capture the file system refuses (each file limited to a size that the transient and
+/// the JSON fit in and the capture does not: a full disk without a mount) is exit 3 naming
+/// the output asked for, PREFIX.h5, and leaves nothing, for a render and for the merge of its
+/// shards. Before, it was exit 1 ("internal failure") with HDF5's message naming the staging
+/// folder's `h5.h5.partial` (found with 36 KB free on a tmpfs).
+#[cfg(all(unix, feature = "hdf5"))]
+#[test]
+fn a_refused_hdf5_capture_is_an_output_error_naming_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let scene = common::scene_path("nlos_occluder.toml");
+    let s = scene.to_str().unwrap();
+    let render = |prefix: &'static str, shard: Option<&'static str>| {
+        let mut v = vec![
+            "render",
+            s,
+            "-q",
+            "--threads",
+            "1",
+            "--spp",
+            "1",
+            "--set",
+            "film.bins=20",
+            "--set",
+            "nlos.grid=[16, 16]",
+            "-o",
+            prefix,
+        ];
+        if let Some(shard) = shard {
+            v.extend(["--shard", shard]);
+        }
+        v
+    };
+    for (prefix, shard) in [("free", None), ("s0", Some("0/2")), ("s1", Some("1/2"))] {
+        let o = common::dtr(&render(prefix, shard), d);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    }
+    let (mut h5, mut others) = (0, 0);
+    for entry in std::fs::read_dir(d).unwrap() {
+        let entry = entry.unwrap();
+        let name = entry.file_name().to_string_lossy().into_owned();
+        let len = entry.metadata().unwrap().len();
+        if name == "free.h5" {
+            h5 = len;
+        } else if name.starts_with("free.") && !name.ends_with(".h5") {
+            others = others.max(len);
+        }
+    }
+    let limit = others + 1024;
+    assert!(h5 > limit, "the capture ({h5} bytes) must not fit in {limit}");
+    for (args, prefix) in [
+        (render("n", None), "n"),
+        (vec!["merge", "s0", "s1", "-q", "-o", "m"], "m"),
+    ] {
+        let o = common::dtr_with_file_size_limit(&args, d, limit);
+        let e = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(3), "{args:?}: {e}");
+        assert!(
+            e.contains(&format!("{prefix}.h5")) && e.contains("File too large"),
+            "{args:?}: {e}"
+        );
+        assert!(!e.contains("partial") && !e.contains("dtr-staging"), "{args:?}: {e}");
+        let left: Vec<String> = std::fs::read_dir(d)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .filter(|n| n.starts_with(&format!("{prefix}.")) || n.starts_with(&format!(".{prefix}.")))
+            .collect();
+        assert!(left.is_empty(), "{args:?} left {left:?}");
+    }
+}

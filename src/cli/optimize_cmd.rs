@@ -13,7 +13,7 @@
 //! fails later keeps its log as Ctrl-C does and says so (`optimize_files`, which writes the
 //! run's files and keeps them on a signal).
 
-use super::optimize_files::{RunFiles, RunState, Shared, write_text};
+use super::optimize_files::{RunFiles, RunState, Shared, stage_text};
 use crate::film::Transient;
 use crate::optimize::{Problem, Step, loss::Loss};
 use crate::render::{BoundaryMode, RenderOptions};
@@ -365,10 +365,17 @@ pub fn run(a: OptimizeArgs) -> anyhow::Result<()> {
     }
     let result = crate::optimize::tail_average(&steps, a.average).context("no iteration ran")?;
     let spread = crate::optimize::tail_spread(&steps);
-    let finished = scene_with(&a, &scene_text, &run.values(&result), &dir)
-        .and_then(|text| write_text(run.recovered(), &text))
-        .and_then(|()| write_result(&dir, &a, &result, spread.as_ref(), steps.len()))
-        .and_then(|()| run.write_plots());
+    // the plots first, then the recovered scene of the result and result.json staged both
+    // before either moves into place: a file system that refuses any of them leaves the best
+    // values so far as the failure says (before, the recovered scene was replaced by the
+    // result's and then result.json or a plot refused, and the message called it the best)
+    let finished = run.write_plots().and_then(|()| {
+        let text = scene_with(&a, &scene_text, &run.values(&result), &dir)?;
+        let scene = stage_text(run.recovered(), &text)?;
+        let result = stage_result(&dir, &a, &result, spread.as_ref(), steps.len())?;
+        scene.persist()?;
+        Ok(result.persist()?)
+    });
     if let Err(e) = finished {
         return Err(run.abandon(e));
     }
@@ -396,16 +403,16 @@ pub fn run(a: OptimizeArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// `result.json`: the recovered values (what the recovered scene holds) and, per parameter,
+/// `result.json`, written beside its place ([`crate::output::Staged`]): the recovered values (what the recovered scene holds) and, per parameter,
 /// how far its iterates wandered over the end of the run (`optimize::tail_spread`): the noise
 /// left in the answer, which a single number hides.
-fn write_result(
+fn stage_result(
     dir: &Path,
     a: &OptimizeArgs,
     result: &[f64],
     spread: Option<&(Vec<f64>, usize)>,
     iterations: usize,
-) -> anyhow::Result<()> {
+) -> anyhow::Result<crate::output::Staged> {
     let params: serde_json::Map<String, serde_json::Value> = a
         .params
         .iter()
@@ -427,8 +434,7 @@ fn write_result(
         "tail_iterations": spread.map(|(_, n)| *n),
         "params": params,
     });
-    crate::output::write_json(&dir.join("result.json"), &json)?;
-    Ok(())
+    Ok(crate::output::stage_json(&dir.join("result.json"), &json)?)
 }
 
 /// What a target's values say before a run fits them: a film holding no light (every loss

@@ -12,7 +12,7 @@
 
 use crate::optimize::Step;
 use anyhow::Context;
-use std::io::Write;
+use std::io::{Seek, Write};
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
 
@@ -23,7 +23,10 @@ pub(super) struct RunFiles {
     created: bool,
     recovered: PathBuf,
     names: Vec<String>,
-    log: std::io::BufWriter<std::fs::File>,
+    log: std::fs::File,
+    /// the length of the log's complete rows: a row the file system cuts short is cut back
+    /// to it
+    log_len: u64,
     best: f64,
     steps: Vec<Step>,
 }
@@ -49,13 +52,10 @@ impl RunFiles {
         let log_path = dir.join("log.csv");
         let grads: Vec<String> = names.iter().map(|p| format!("d_{p}")).collect();
         let header = format!("iteration,loss,{},{},seconds\n", names.join(","), grads.join(","));
-        let log = std::fs::File::create(&log_path)
-            .map(std::io::BufWriter::new)
-            .and_then(|mut log| {
-                log.write_all(header.as_bytes())?;
-                log.flush()?;
-                Ok(log)
-            });
+        let log = std::fs::File::create(&log_path).and_then(|mut log| {
+            log.write_all(header.as_bytes())?;
+            Ok(log)
+        });
         match log {
             Ok(log) => Ok(Self {
                 dir: dir.to_path_buf(),
@@ -63,6 +63,7 @@ impl RunFiles {
                 recovered,
                 names: names.to_vec(),
                 log,
+                log_len: header.len() as u64,
                 best: f64::INFINITY,
                 steps: Vec::new(),
             }),
@@ -73,25 +74,32 @@ impl RunFiles {
         }
     }
 
-    /// Logs `s`, and where its loss is the lowest so far writes `best.json` and the recovered
-    /// scene (`scene_text` makes its text from the values).
+    /// Logs `s` (its row whole: a row the file system cuts short is cut back off, so the log
+    /// holds complete rows only), and where its loss is the lowest so far writes `best.json`
+    /// and the recovered scene together ([`write_best`]; `scene_text` makes the scene's text
+    /// from the values).
     pub(super) fn log_step(
         &mut self,
         s: &Step,
         scene_text: impl Fn(&[(String, f64)]) -> anyhow::Result<String>,
     ) -> anyhow::Result<()> {
         let row = |v: &[f64]| v.iter().map(|x| format!("{x:e}")).collect::<Vec<_>>().join(",");
-        writeln!(
-            self.log,
-            "{},{:e},{},{},{}",
+        let line = format!(
+            "{},{:e},{},{},{}\n",
             s.iteration,
             s.loss,
             row(&s.values),
             row(&s.grad),
             s.seconds
-        )
-        .and_then(|_| self.log.flush())
-        .map_err(|e| crate::output::OutputError::io(&self.dir.join("log.csv"), e))?;
+        );
+        if let Err(e) = self.log.write_all(line.as_bytes()) {
+            // a full disk takes part of the row: cut the log back to its last complete row
+            // (shortening a file needs no space), where the next write would go too
+            let _ = self.log.set_len(self.log_len);
+            let _ = self.log.seek(std::io::SeekFrom::Start(self.log_len));
+            return Err(crate::output::OutputError::io(&self.dir.join("log.csv"), e).into());
+        }
+        self.log_len += line.len() as u64;
         self.steps.push(s.clone());
         if s.loss < self.best {
             self.best = s.loss;
@@ -102,8 +110,12 @@ impl RunFiles {
                 "loss": s.loss,
                 "params": values.iter().map(|(n, v)| (n.clone(), serde_json::json!(v))).collect::<serde_json::Map<_, _>>(),
             });
-            crate::output::write_json(&self.dir.join("best.json"), &json)?;
-            write_text(&self.recovered, &scene_text(&values)?)?;
+            write_best(
+                &self.dir.join("best.json"),
+                &json,
+                &self.recovered,
+                &scene_text(&values)?,
+            )?;
         }
         Ok(())
     }
@@ -144,10 +156,35 @@ impl RunFiles {
         Ok(())
     }
 
+    /// What the run's folder holds of the files a stopped run keeps, as a list to print:
+    /// `log.csv` and its rows, `best.json` and the recovered scene (the best values so far),
+    /// the plots; only the files that are there (a full disk may have refused the pair or
+    /// the plots).
+    fn kept(&self) -> Vec<String> {
+        let there = |name: &str| self.dir.join(name).is_file();
+        let rows = self.steps.len();
+        let mut kept = vec![format!(
+            "the log.csv of {rows} {}",
+            if rows == 1 { "iteration" } else { "iterations" }
+        )];
+        let recovered = self.recovered.file_name().unwrap_or_default().to_string_lossy();
+        if there("best.json") && self.recovered.is_file() {
+            kept.push(format!("the best values so far (best.json and {recovered})"));
+        }
+        let plots: Vec<String> = std::iter::once("loss.png".to_string())
+            .chain(self.names.iter().map(|n| format!("param_{n}.png")))
+            .filter(|p| there(p))
+            .collect();
+        if !plots.is_empty() {
+            kept.push(format!("the plots {}", plots.join(", ")));
+        }
+        kept
+    }
+
     /// The error of a run that failed after its folder was made. With no iteration logged,
     /// its `log.csv` is removed, and the folder too when this run made it, so that the folder
     /// does not refuse a rerun. With some, the log, the best values so far and their plots
-    /// are kept, as Ctrl-C keeps them, and the error says so.
+    /// are kept, as Ctrl-C keeps them, and the error lists those of them that are there.
     pub(super) fn abandon(self, e: anyhow::Error) -> anyhow::Error {
         let logged = self.steps.len();
         if logged == 0 {
@@ -156,12 +193,47 @@ impl RunFiles {
         }
         let _ = self.write_plots();
         let iterations = if logged == 1 { "iteration" } else { "iterations" };
+        let kept = self.kept();
         e.context(format!(
-            "{}: the run stopped after {logged} {iterations}; the log.csv, its plots and the best \
-             values so far (best.json and the recovered scene) are kept, as an interrupted run keeps \
-             them. Give another -o (or remove the folder) to run again",
-            self.dir.display()
+            "{}: the run stopped after {logged} {iterations}; {} {} kept, as an interrupted run \
+             keeps {}. Give another -o (or remove the folder) to run again",
+            self.dir.display(),
+            listed(&kept),
+            if kept.len() == 1 { "is" } else { "are" },
+            if kept.len() == 1 { "it" } else { "them" }
         ))
+    }
+}
+
+/// Writes `best.json` (`json`) and the recovered scene (`recovered`, `text`) as a pair: both
+/// are written whole beside their places first, so that a file system that refuses either
+/// leaves the earlier pair (or none) as it was. Then the earlier `best.json` is removed, the
+/// scene moved into place and the new `best.json` last, so that a `best.json` is always
+/// beside the scene of its values; a move that fails removes both. Before, each was written
+/// in turn, and a full disk left `best.json` without the recovered scene.
+fn write_best(json_path: &Path, json: &serde_json::Value, recovered: &Path, text: &str) -> anyhow::Result<()> {
+    let json_staged = crate::output::stage_json(json_path, json)?;
+    let scene_staged = stage_text(recovered, text)?;
+    match std::fs::remove_file(json_path) {
+        Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
+            return Err(crate::output::OutputError::io(json_path, e).into());
+        }
+        _ => {}
+    }
+    let moved = scene_staged.persist().and_then(|()| json_staged.persist());
+    if moved.is_err() {
+        let _ = std::fs::remove_file(json_path);
+        let _ = std::fs::remove_file(recovered);
+    }
+    Ok(moved?)
+}
+
+/// `items` as a list in a sentence: "a", "a and b", "a, b and c".
+fn listed(items: &[String]) -> String {
+    match items.split_last() {
+        Some((last, [])) => last.clone(),
+        Some((last, rest)) => format!("{} and {last}", rest.join(", ")),
+        None => String::new(),
     }
 }
 
@@ -173,13 +245,12 @@ fn remove_run(dir: &Path, created: bool) {
     }
 }
 
-/// Writes `text` to `path` whole or not at all.
-pub(super) fn write_text(path: &Path, text: &str) -> anyhow::Result<()> {
-    crate::output::write_atomic(path, |w| {
+/// `text` written whole beside `path`, not yet in place ([`crate::output::Staged`]).
+pub(super) fn stage_text(path: &Path, text: &str) -> Result<crate::output::Staged, crate::output::OutputError> {
+    crate::output::stage_atomic(path, |w| {
         w.write_all(text.as_bytes())
             .map_err(|e| crate::output::OutputError::io(path, e))
-    })?;
-    Ok(())
+    })
 }
 
 /// Starts the thread that ends the run on SIGINT, SIGTERM or SIGHUP: it takes the lock on
@@ -202,15 +273,10 @@ pub(super) fn end_on_signal(state: Shared) -> anyhow::Result<()> {
                 }
                 RunState::Running(run) => {
                     let plots = match run.write_plots() {
-                        Ok(()) => "the plots of those iterations".to_string(),
-                        Err(e) => format!("no plots ({e:#})"),
+                        Ok(()) => String::new(),
+                        Err(e) => format!(" (no plots: {e:#})"),
                     };
-                    format!(
-                        "{} keeps the log.csv of {} iterations, the best values so far (best.json and {}) and {plots}",
-                        run.dir.display(),
-                        run.steps.len(),
-                        run.recovered.file_name().unwrap_or_default().to_string_lossy()
-                    )
+                    format!("{} keeps {}{plots}", run.dir.display(), listed(&run.kept()))
                 }
             };
             eprintln!("dtr: interrupted (signal {sig}); {said}");

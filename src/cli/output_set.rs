@@ -461,7 +461,8 @@ impl OutputSet {
 
     /// Writes the output `PREFIX.suffix` with `write`, given the path to write it to (in the
     /// staging folder): it reaches its place in [`commit`], which checks every destination.
-    /// A signal during the write waits for it to end (module docs).
+    /// A signal during the write waits for it to end (module docs). An [`OutputError`] about
+    /// the staged file is returned naming `PREFIX.suffix`.
     ///
     /// [`commit`]: Self::commit
     pub fn write<T, E: Into<anyhow::Error>>(
@@ -471,7 +472,12 @@ impl OutputSet {
     ) -> anyhow::Result<T> {
         let _writing = writing();
         let staged = self.stage(suffix)?;
-        write(&staged).map_err(Into::into)
+        let dest = with_suffix(&self.prefix, suffix);
+        // a failure names the output asked for, not its name in the staging folder
+        write(&staged).map_err(|e| match e.into().downcast::<OutputError>() {
+            Ok(e) => e.renamed(&staged, &dest).into(),
+            Err(e) => e,
+        })
     }
 
     /// Where to write `PREFIX.suffix` in the staging folder (made on first use); called with

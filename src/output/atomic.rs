@@ -5,7 +5,7 @@
 use super::OutputError;
 use std::fs::File;
 use std::io::{BufWriter, Write};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// The writer handed to [`write_atomic`]'s closure: buffered, seekable (EXR needs `Seek`).
 pub(crate) type AtomicWriter<'a> = BufWriter<&'a mut File>;
@@ -15,6 +15,36 @@ pub(crate) type AtomicWriter<'a> = BufWriter<&'a mut File>;
 /// The temporary file is `.<file name>.<random>.tmp` beside `path`. New files get the usual
 /// permissions (0666 less the umask), not the 0600 of a temporary file.
 pub(crate) fn write_atomic<F>(path: &Path, write: F) -> Result<(), OutputError>
+where
+    F: FnOnce(&mut AtomicWriter<'_>) -> Result<(), OutputError>,
+{
+    stage_atomic(path, write)?.persist()
+}
+
+/// A file written whole and synced beside its destination, not yet in place: [`persist`]
+/// renames it there; dropped before that, it is removed. Files that must appear together
+/// are all staged before the first is persisted, so that a full disk leaves none of them.
+///
+/// [`persist`]: Self::persist
+pub(crate) struct Staged {
+    tmp: tempfile::NamedTempFile,
+    path: PathBuf,
+}
+
+impl Staged {
+    /// Renames the staged file to its destination.
+    pub(crate) fn persist(self) -> Result<(), OutputError> {
+        // On failure the PersistError owns the temporary file and deletes it when dropped.
+        self.tmp
+            .persist(&self.path)
+            .map_err(|e| OutputError::io(&self.path, e.error))?;
+        Ok(())
+    }
+}
+
+/// [`write_atomic`]'s temporary file, written with `write`, flushed and synced, but not
+/// renamed into place ([`Staged`]).
+pub(crate) fn stage_atomic<F>(path: &Path, write: F) -> Result<Staged, OutputError>
 where
     F: FnOnce(&mut AtomicWriter<'_>) -> Result<(), OutputError>,
 {
@@ -41,9 +71,10 @@ where
         w.flush().map_err(|e| OutputError::io(path, e))?;
     }
     tmp.as_file().sync_all().map_err(|e| OutputError::io(path, e))?;
-    // On failure the PersistError owns the temporary file and deletes it when dropped.
-    tmp.persist(path).map_err(|e| OutputError::io(path, e.error))?;
-    Ok(())
+    Ok(Staged {
+        tmp,
+        path: path.to_path_buf(),
+    })
 }
 
 #[cfg(test)]

@@ -115,6 +115,26 @@ impl OutputError {
         }
     }
 
+    /// The same error naming `to` where it named `from`: a file written under a temporary
+    /// name (a staging folder's) is reported by the name it was written for.
+    pub(crate) fn renamed(mut self, from: &std::path::Path, to: &std::path::Path) -> Self {
+        let path = match &mut self {
+            OutputError::ShapeMismatch { path, .. }
+            | OutputError::ShapeOverflow { path, .. }
+            | OutputError::Empty { path, .. }
+            | OutputError::NonFinite { path, .. }
+            | OutputError::Channels { path, .. }
+            | OutputError::Invalid { path, .. }
+            | OutputError::Io { path, .. }
+            | OutputError::Encode { path, .. }
+            | OutputError::Font { path, .. } => path,
+        };
+        if path == from {
+            *path = to.to_path_buf();
+        }
+        self
+    }
+
     pub(crate) fn invalid(path: &std::path::Path, detail: impl Into<String>) -> Self {
         OutputError::Invalid {
             path: path.to_path_buf(),

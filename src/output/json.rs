@@ -1,15 +1,20 @@
 //! Pretty-printed JSON (metadata next to the film).
 
 use super::OutputError;
-use super::atomic::write_atomic;
+use super::atomic::{Staged, stage_atomic};
 use std::io::Write;
 use std::path::Path;
 
 /// Writes `value` as pretty-printed JSON with a trailing newline, atomically.
 pub fn write_json(path: &Path, value: &serde_json::Value) -> Result<(), OutputError> {
+    stage_json(path, value)?.persist()
+}
+
+/// [`write_json`]'s file, written and synced beside `path` but not yet in place ([`Staged`]).
+pub(crate) fn stage_json(path: &Path, value: &serde_json::Value) -> Result<Staged, OutputError> {
     let mut bytes = serde_json::to_vec_pretty(value).map_err(|e| OutputError::encode(path, "JSON", e))?;
     bytes.push(b'\n');
-    write_atomic(path, |w| w.write_all(&bytes).map_err(|e| OutputError::io(path, e)))
+    stage_atomic(path, |w| w.write_all(&bytes).map_err(|e| OutputError::io(path, e)))
 }
 
 #[cfg(test)]

@@ -10,7 +10,7 @@
 //! Film layout everywhere: `[H, W, T, C]` row-major, index `((y*W + x)*T + t)*C + c`.
 
 mod atomic;
-pub(crate) use atomic::write_atomic;
+pub(crate) use atomic::{Staged, stage_atomic, write_atomic};
 mod error;
 mod exr_layers;
 mod flight;
@@ -34,6 +34,7 @@ pub use flight::{
     write_streak_png,
 };
 pub use font::FONT_ENV;
+pub(crate) use json::stage_json;
 pub use json::write_json;
 #[cfg(feature = "hdf5")]
 pub use nlos_h5::{h_array, write_nlos_h5, write_nlos_h5_mapped};

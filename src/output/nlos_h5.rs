@@ -230,13 +230,32 @@ pub fn write_nlos_h5_mapped(
     }
     // written beside the destination and renamed into place, like every writer here
     let tmp = path.with_extension("h5.partial");
-    let result = write(&tmp, scene, spec, film, &map, what).map_err(|e| OutputError::encode(path, "HDF5", e));
+    let result = write(&tmp, scene, spec, film, &map, what).map_err(|e| hdf5_error(path, e));
     match result.and_then(|()| std::fs::rename(&tmp, path).map_err(|e| OutputError::io(path, e))) {
         Ok(()) => Ok(()),
         Err(e) => {
             let _ = std::fs::remove_file(&tmp);
             Err(e)
         }
+    }
+}
+
+/// An HDF5 failure in writing `path` as the error it is. Where the file system refused a
+/// call, HDF5's file driver puts the system's error number in its message (`errno = 28`); that
+/// is [`OutputError::Io`] naming `path` (exit status 3, as a refused npy), not the temporary
+/// file. Before, every failure was an encoding failure (exit 1, "internal") whose message
+/// named `h5.h5.partial`. Anything else stays an encoding failure.
+fn hdf5_error(path: &Path, e: hdf5::Error) -> OutputError {
+    let text = e.to_string();
+    let errno = text
+        .split("errno = ")
+        .nth(1)
+        .and_then(|t| t.split(|c: char| !c.is_ascii_digit()).next())
+        .and_then(|n| n.parse::<i32>().ok())
+        .filter(|&n| n > 0);
+    match errno {
+        Some(n) => OutputError::io(path, std::io::Error::from_raw_os_error(n)),
+        None => OutputError::encode(path, "HDF5", e),
     }
 }
 

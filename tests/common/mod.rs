@@ -174,6 +174,32 @@ pub fn dtr(args: &[&str], cwd: &std::path::Path) -> std::process::Output {
         .unwrap()
 }
 
+/// [`dtr`] with every file it writes limited to `bytes` (RLIMIT_FSIZE, SIGXFSZ ignored): a
+/// write past the limit fails with EFBIG ("File too large"), partly written where it crosses
+/// it, as a write to a full disk fails with ENOSPC; no mount, no root.
+#[cfg(unix)]
+pub fn dtr_with_file_size_limit(args: &[&str], cwd: &std::path::Path, bytes: u64) -> std::process::Output {
+    use std::os::unix::process::CommandExt;
+    let mut limited = std::process::Command::new(env!("CARGO_BIN_EXE_dtr"));
+    limited.current_dir(cwd).args(args);
+    // SAFETY: only async-signal-safe calls between fork and exec
+    unsafe {
+        limited.pre_exec(move || {
+            // a write past the limit fails with EFBIG instead of raising SIGXFSZ
+            libc::signal(libc::SIGXFSZ, libc::SIG_IGN);
+            let limit = libc::rlimit {
+                rlim_cur: bytes as libc::rlim_t,
+                rlim_max: libc::RLIM_INFINITY,
+            };
+            if libc::setrlimit(libc::RLIMIT_FSIZE, &limit) != 0 {
+                return Err(std::io::Error::last_os_error());
+            }
+            Ok(())
+        });
+    }
+    limited.output().unwrap()
+}
+
 /// The scene file's transient at its own parameter values, rendered at 1024 spp: a target
 /// for inverse rendering whose noise barely moves the loss's minimum.
 pub fn converged_target(scene: &std::path::Path) -> Transient {
