@@ -627,3 +627,21 @@ fn a_scene_without_a_surface_is_refused_naming_the_file() {
     assert!(e.contains("empty.toml: shape:") && e.contains("no surface"), "{e}");
     render_fails(&p, &[]);
 }
+
+/// `--exr` of a film that needs more EXR channels than OpenEXR opens (one per bin and colour
+/// channel, and the steady image's: at most 32 767) is refused before the render, naming the
+/// option and the largest bin count that fits. Before, 10 922 RGB bins rendered and wrote an
+/// EXR file OpenEXR would not open, with exit 0 (independent audit).
+#[test]
+fn an_exr_of_more_channels_than_openexr_opens_is_refused_before_the_render() {
+    let scene = scenes().join("cornell_box.toml");
+    let (e, _d) = render_fails(
+        &scene,
+        &["--exr", "--set", "film.bins=10922", "--set", "camera.resolution=[4, 4]"],
+    );
+    assert!(
+        e.contains("cornell_box.toml: --exr: 10922 time bins of 3 channel(s) make 32769 EXR channels"),
+        "{e}"
+    );
+    assert!(e.contains("at most 10921 bins"), "{e}");
+}

@@ -278,6 +278,9 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
     let mut planned: Vec<String> = vec!["npy".into(), "json".into()];
     planned.extend(a.diff.iter().map(|n| format!("d_{n}.npy")));
     if a.exr {
+        if let Some(why) = crate::output::too_many_channels(scene.film.axis.bins, scene.film.channels) {
+            bail!("{}: --exr: {why}", a.scene.display());
+        }
         planned.push("exr".into());
     }
     if a.preview {

@@ -404,6 +404,11 @@ pub fn run(a: MergeArgs) -> anyhow::Result<()> {
         planned.extend(super::nlos_out::planned(scene, false));
     }
     if a.exr {
+        let json = with_suffix(&shards[0].prefix, "json");
+        let [_, _, bins, channels] = shape_of(&shards[0].meta, &json)?;
+        if let Some(why) = crate::output::too_many_channels(bins, channels) {
+            bail!("{}: --exr: {why}", json.display());
+        }
         planned.push("exr".into());
     }
     if a.preview {

@@ -53,6 +53,24 @@ pub fn write_exr_layers_with_axis(
     write(path, film, steady, Some(axis))
 }
 
+/// The most channels OpenEXR opens in one file (its reader refuses a header with more; the
+/// writer wrote them, and `dtr render --exr` with 10 922 RGB bins made a file no viewer opens).
+pub const MAX_CHANNELS: usize = 32767;
+
+/// Why a film of `bins` time bins and `channels` colour channels cannot be written as an EXR
+/// file: one EXR channel per bin and colour channel, and the steady image's. `None` if it can.
+pub fn too_many_channels(bins: usize, channels: usize) -> Option<String> {
+    let total = bins.saturating_add(1).saturating_mul(channels);
+    (total > MAX_CHANNELS).then(|| {
+        format!(
+            "{bins} time bins of {channels} channel(s) make {total} EXR channels (one per bin and colour \
+             channel, and the steady image's), more than the {MAX_CHANNELS} OpenEXR opens; leave out --exr \
+             (the .npy holds every bin) or use at most {} bins",
+            MAX_CHANNELS / channels.max(1) - 1
+        )
+    })
+}
+
 fn write(path: &Path, film: FilmView, steady: &[f32], axis: Option<(f64, f64)>) -> Result<(), OutputError> {
     let (h, w, bins, ch) = (film.height, film.width, film.bins, film.channels);
     if i32::try_from(h).is_err() || i32::try_from(w).is_err() || i32::try_from(bins).is_err() {
@@ -60,6 +78,9 @@ fn write(path: &Path, film: FilmView, steady: &[f32], axis: Option<(f64, f64)>) 
             path,
             format!("{h}x{w} with {bins} bins is too large for OpenEXR"),
         ));
+    }
+    if let Some(why) = too_many_channels(bins, ch) {
+        return Err(OutputError::invalid(path, why));
     }
     let names: &[&str] = if ch == 1 { &["Y"] } else { &["R", "G", "B"] };
     let digits = (bins - 1).max(1).to_string().len().max(4);
@@ -262,6 +283,34 @@ mod tests {
                 );
             }
         }
+    }
+
+    /// OpenEXR opens at most 32 767 channels: a film needing more (one per bin and colour
+    /// channel, and the steady image's) is refused, and no file is left. Before, 10 922 RGB
+    /// bins wrote a file OpenEXR 3.5 would not open (exit 0; found by an independent audit).
+    #[test]
+    fn films_of_more_channels_than_openexr_opens_are_refused() {
+        assert!(too_many_channels(32_766, 1).is_none());
+        assert!(too_many_channels(32_767, 1).is_some());
+        assert!(too_many_channels(10_921, 3).is_none());
+        let why = too_many_channels(10_922, 3).unwrap();
+        assert!(
+            why.contains("32769 EXR channels") && why.contains("at most 10921 bins"),
+            "{why}"
+        );
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("wide.exr");
+        let data = vec![0.5f32; 10_922 * 3];
+        let film = FilmView {
+            data: &data,
+            height: 1,
+            width: 1,
+            bins: 10_922,
+            channels: 3,
+        };
+        let e = write_exr_layers(&p, film).unwrap_err().to_string();
+        assert!(e.contains("more than the 32767 OpenEXR opens"), "{e}");
+        assert!(!p.exists());
     }
 
     #[test]

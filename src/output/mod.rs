@@ -28,7 +28,7 @@ mod tonemap;
 mod xy_plot;
 
 pub use error::OutputError;
-pub use exr_layers::{write_exr_layers, write_exr_layers_with_axis};
+pub use exr_layers::{too_many_channels, write_exr_layers, write_exr_layers_with_axis};
 pub use flight::{
     DECADES, MAX_GIF_FRAMES, Normalise, diverging, log_display, write_derivative_png, write_flight_gif,
     write_streak_png,
