@@ -717,9 +717,9 @@ fn check_nlos(scene: &Scene, spec: &NlosSpec, motion: &Motion) -> Result<(), Err
     let file = scene.source.display();
     if let Some(k) = (0..motion.len()).find(|&k| motion.fields[k].iter().any(|(s, _)| *s == spec.wall as usize)) {
         return Err(Error::Invalid(format!(
-            "{file}: parameter {} moves the relay wall {:?}: an NLOS capture's sensor and laser points are fixed \
-             points of the wall, so the wall cannot be differentiated; differentiate the hidden scene instead",
-            k + 1,
+            "{file}: --diff {}: the parameter moves the relay wall {:?}: an NLOS capture's sensor and laser points \
+             are fixed points of the wall, so the wall cannot be differentiated; differentiate the hidden scene instead",
+            motion.names.get(k).map_or("?", |n| n.as_str()),
             scene.shapes[spec.wall as usize].name
         )));
     }

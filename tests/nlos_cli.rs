@@ -319,7 +319,11 @@ fn unsupported_renders_are_refused() {
         "{base}\n[[param]]\nname = \"wall_z\"\nkind = \"translate\"\nshape = \"wall\"\naxis = \"z\"\nvalue = 0.0\n"
     );
     let err = refused(&wall, &["--diff", "hidden_albedo,wall_z"]);
-    assert!(err.contains("parameter 2 moves the relay wall \"wall\""), "{err}");
+    // named, not numbered (it said "parameter 2")
+    assert!(
+        err.contains("--diff wall_z: the parameter moves the relay wall \"wall\""),
+        "{err}"
+    );
     let dir = tempfile::tempdir().unwrap();
     let scene = scene_file(dir.path(), "occ.toml", &base);
     let out = common::dtr(

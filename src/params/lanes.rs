@@ -29,6 +29,8 @@ pub struct Motion {
     pub roughness: Vec<Option<u32>>,
     /// `ior[k]`: parameter k is this dielectric's interior index.
     pub ior: Vec<Option<u32>>,
+    /// `names[k]`: the `[[param]]` name of parameter k (for messages).
+    pub names: Vec<String>,
     /// `table[k * shapes + s]`: summed velocity field of shape s under parameter k (zero where
     /// it does not move), for O(1) lookups in the vertex gather.
     table: Vec<Velocity>,
@@ -93,6 +95,7 @@ impl Motion {
                     available: scene.params.iter().map(|p| p.name.clone()).collect(),
                 });
             };
+            m.names.push(name.clone());
             let mut fields = Vec::new();
             let mut albedo = Vec::new();
             let mut radiance = Vec::new();
