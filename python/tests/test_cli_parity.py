@@ -135,3 +135,20 @@ def test_exr_opens_in_openexr_with_every_bin_the_steady_image_and_the_time_axis(
         if c == 3:
             assert np.array_equal(grouped["RGB"].pixels, steady)
             assert np.array_equal(grouped["t0001.RGB"].pixels, film[:, :, 1, :])
+
+
+def test_the_largest_exr_dtr_writes_opens_in_openexr_and_one_bin_more_is_refused(tmp_path):
+    """OpenEXR opens at most 32767 channels: 10921 RGB bins (32766 channels with the steady
+    image's) open, and 10922 are refused before the render, where dtr wrote a file OpenEXR
+    would not open (exit 0; an independent audit)."""
+    OpenEXR = pytest.importorskip("OpenEXR", reason="the OpenEXR package (tools/test installs it)")
+    common = ["--spp", 1, "--exr", "--set", "camera.resolution=[1, 1]", "--set", "film.bin_width_opl=0.001"]
+    out = tmp_path / "wide"
+    cli = run("render", SCENES / "cornell_box.toml", *common, "--set", "film.bins=10921", "-o", out)
+    assert cli.returncode == 0, cli.stderr
+    with OpenEXR.File(str(out) + ".exr", separate_channels=True) as f:
+        assert len(f.channels()) == 32766
+    over = tmp_path / "over"
+    cli = run("render", SCENES / "cornell_box.toml", *common, "--set", "film.bins=10922", "-o", over)
+    assert cli.returncode == 2 and "more than the 32767 OpenEXR opens" in cli.stderr, cli.stderr
+    assert not list(tmp_path.glob("over*"))
