@@ -828,3 +828,23 @@ fn import_makes_the_output_folder_and_says_a_failure_once() {
     assert_eq!(err.matches(reason).count(), 1, "said twice: {err}");
     assert_eq!(std::fs::read_to_string(d.join("plain")).unwrap(), "not a folder");
 }
+
+/// A film of width or height 0 is refused naming the film element and the size. With
+/// fov_axis x (Mitsuba's default) a height of 0 made the vertical field of view 0, and the
+/// error named `fov` (independent audit).
+#[test]
+fn a_film_of_no_rows_or_columns_is_refused_naming_the_film() {
+    let dir = tempfile::tempdir().unwrap();
+    for (w, h) in [(8, 0), (0, 8)] {
+        let text = scene_text("").replace(
+            r#"<integer name="width" value="8"/><integer name="height" value="8"/>"#,
+            &format!(r#"<integer name="width" value="{w}"/><integer name="height" value="{h}"/>"#),
+        );
+        let e = load_in(dir.path(), "flat.xml", &text).unwrap_err();
+        assert!(
+            e.contains("flat.xml") && e.contains("<film") && e.contains(&format!("got width {w}, height {h}")),
+            "{w}x{h}: {e}"
+        );
+        assert!(!e.contains("'fov'"), "{w}x{h}: {e}");
+    }
+}

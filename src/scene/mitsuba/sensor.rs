@@ -70,6 +70,13 @@ pub(crate) fn sensor(doc: &Doc, node: Node) -> Result<Sensor, ImportError> {
         return Err(doc.err(node, "the sensor needs one <film type=\"transient_hdr_film\">"));
     };
     let (film_table, width, height, filter) = film_of(doc, *film)?;
+    // (with fov_axis x, a height of 0 made the vertical fov 0 and the error named `fov`)
+    if width < 1 || height < 1 {
+        return Err(doc.err(
+            *film,
+            format!("the film's width and height must be at least 1 (got width {width}, height {height})"),
+        ));
+    }
     let mut camera = Table::new();
     let fov = p.float(doc, "fov")?;
     if fov.is_none() {
