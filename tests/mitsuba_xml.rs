@@ -703,20 +703,26 @@ fn import_never_replaces_a_mesh_it_reads() {
 }
 
 /// An error found when the converted description is resolved names the XML file, not the
-/// output that was never written (before: "out.toml: <sensor ...> (line 5) ...").
+/// output that was never written (before: "out.toml: <sensor ...> (line 5) ..."). (A width
+/// of −64 was that error until the import itself refused widths below 1, naming the film:
+/// `a_film_of_no_rows_or_columns_is_refused_naming_the_film`; a width above the resolution
+/// cap is still found only when the description is resolved.)
 #[test]
 fn import_errors_name_the_xml_file() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let text = scene_text("").replace(
         r#"<integer name="width" value="8"/>"#,
-        r#"<integer name="width" value="-64"/>"#,
+        r#"<integer name="width" value="100000000"/>"#,
     );
     std::fs::write(d.join("in.xml"), text).unwrap();
     let o = common::dtr(&["import", "in.xml", "-o", "out.toml"], d);
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(2), "{err}");
-    assert!(err.contains("in.xml: <sensor"), "{err}");
+    assert!(
+        err.contains("in.xml: <sensor") && err.contains("resolution[0]"),
+        "{err}"
+    );
     assert!(!err.contains("out.toml"), "{err}");
     assert!(!d.join("out.toml").exists());
 }
@@ -835,7 +841,7 @@ fn import_makes_the_output_folder_and_says_a_failure_once() {
 #[test]
 fn a_film_of_no_rows_or_columns_is_refused_naming_the_film() {
     let dir = tempfile::tempdir().unwrap();
-    for (w, h) in [(8, 0), (0, 8)] {
+    for (w, h) in [(8, 0), (0, 8), (-64, 8)] {
         let text = scene_text("").replace(
             r#"<integer name="width" value="8"/><integer name="height" value="8"/>"#,
             &format!(r#"<integer name="width" value="{w}"/><integer name="height" value="{h}"/>"#),
