@@ -362,19 +362,17 @@ impl OutputSet {
     fn lock(path: &Path, prefix: &Path) -> anyhow::Result<File> {
         loop {
             let _writing = writing();
-            // a link there would have dtr create, lock and write through it wherever it leads
-            if std::fs::symlink_metadata(path).is_ok_and(|m| m.file_type().is_symlink()) {
+            // Only a regular file (or none) may stand there: a link would have dtr create, lock
+            // and write through it wherever it leads, and a FIFO blocked the open until a
+            // reader came, and caught signals with it.
+            let what = match std::fs::symlink_metadata(path) {
+                Ok(m) if m.file_type().is_symlink() => Some("a symbolic link"),
+                Ok(m) if !m.is_file() => Some("not a regular file (a FIFO, device or folder)"),
+                _ => None,
+            };
+            if let Some(what) = what {
                 bail!(
-                    "{} is a symbolic link where dtr keeps the lock of the output prefix {}; remove it",
-                    path.display(),
-                    prefix.display()
-                );
-            }
-            // a FIFO there blocked the open until a reader came, and caught signals with it
-            if std::fs::symlink_metadata(path).is_ok_and(|m| !m.is_file()) {
-                bail!(
-                    "{} is not a regular file (a FIFO, device or folder) where dtr keeps the lock of the \
-                     output prefix {}; remove it",
+                    "{} is {what} where dtr keeps the lock of the output prefix {}; remove it",
                     path.display(),
                     prefix.display()
                 );

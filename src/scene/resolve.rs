@@ -61,10 +61,9 @@ pub(crate) fn resolve(described: Described, path: &Path) -> Result<Scene, SceneE
     // (Embree refused it after the load as an internal failure: "the mesh has no triangles")
     if geometry.tri_shape.is_empty() {
         return Err(ctx.invalid(
-            "shape".to_string(),
+            "shape",
             "the scene has no surface: no [[shape]] has a triangle; a render needs at least one (a light \
-             needs something to reach, and area lights are shapes)"
-                .to_string(),
+             needs something to reach, and area lights are shapes)",
         ));
     }
     refuse_overflowing_opl(&desc, bounds, &integrator, &materials, &ctx)?;
