@@ -120,6 +120,26 @@ impl Transient {
         }
         out
     }
+    /// [`Self::bin_totals`] added up in f64: finite for any film of finite values (a sum of
+    /// 32-bit values near their largest, 3.4·10³⁸, overflows in f32; the preview's time plot
+    /// then failed on its own sums).
+    pub fn bin_totals_f64(&self) -> Vec<f64> {
+        let mut out = vec![0.0f64; self.axis.bins];
+        for px in self.data.chunks_exact(self.axis.bins * self.channels) {
+            for (t, o) in out.iter_mut().enumerate() {
+                for c in 0..self.channels {
+                    *o += px[t * self.channels + c] as f64;
+                }
+            }
+        }
+        out
+    }
+    /// [`Self::pixel_series`] added up in f64.
+    pub fn pixel_series_f64(&self, x: usize, y: usize) -> Vec<f64> {
+        (0..self.axis.bins)
+            .map(|t| (0..self.channels).map(|c| self.at(x, y, t, c) as f64).sum())
+            .collect()
+    }
     /// Per-bin series of one pixel, channels summed.
     pub fn pixel_series(&self, x: usize, y: usize) -> Vec<f32> {
         (0..self.axis.bins)

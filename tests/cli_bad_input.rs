@@ -491,7 +491,8 @@ fn an_overflowing_pose_or_a_far_camera_names_its_own_field() {
 
 /// Emission so strong that the film overflows 32-bit floats is bad input, named by emitter and
 /// field (exit 2, nothing written). Before, it was "internal error: 2 non-finite values in the
-/// transient; nothing written" (exit 1), naming no input.
+/// transient; nothing written" (exit 1), naming no input. It is now refused when the scene
+/// loads (an_emission_too_strong_for_32_bit_films_is_refused_at_load).
 #[test]
 fn an_emission_that_overflows_the_film_is_named() {
     let d = tempfile::tempdir().unwrap();
@@ -508,7 +509,7 @@ fn an_emission_that_overflows_the_film_is_named() {
     let e = String::from_utf8_lossy(&o.stderr).to_string();
     assert_eq!(o.status.code(), Some(2), "{e}");
     assert!(
-        e.contains("cornell_box.toml") && e.contains("emitter \"light\"") && e.contains("field 'radiance'"),
+        e.contains("cornell_box.toml: emitter[0] \"light\": field 'radiance'"),
         "{e}"
     );
     assert!(!e.contains("internal error") && !e.contains("panicked"), "{e}");
@@ -644,4 +645,136 @@ fn an_exr_of_more_channels_than_openexr_opens_is_refused_before_the_render() {
         "{e}"
     );
     assert!(e.contains("at most 10921 bins"), "{e}");
+}
+
+/// An emitted amount too strong for the film's 32-bit floats is refused when the scene loads,
+/// naming the file, the emitter and the field (exit 2, before any render): an area light's
+/// radiance, a point light's intensity, a laser's power, and a [[param]] that sets one.
+/// Before, `radiance = [3e38, 3e38, 3e38]` with --preview rendered the whole scene and only
+/// then failed with exit 1 (`plot.png: 6 of 200 values are not finite`); without --preview
+/// it wrote a film whose values overflow when added up.
+#[test]
+fn an_emission_too_strong_for_32_bit_films_is_refused_at_load() {
+    let huge = "[3e38, 3e38, 3e38]";
+    let e = info_refuses(
+        &scenes().join("cornell_box.toml"),
+        &["--set", &format!("emitter.light.radiance={huge}")],
+    );
+    assert!(
+        e.contains("cornell_box.toml: emitter[0] \"light\": field 'radiance'") && e.contains("at most 1e18"),
+        "{e}"
+    );
+    let (e, _o) = render_fails(
+        &scenes().join("cornell_box.toml"),
+        &[
+            "--threads",
+            "1",
+            "--set",
+            &format!("emitter.light.radiance={huge}"),
+            "--set",
+            "film.start_opl=3.7",
+            "--set",
+            "film.bin_width_opl=0.01",
+            "--set",
+            "film.bins=100",
+            "--set",
+            "camera.resolution.0=32",
+            "--set",
+            "camera.resolution.1=32",
+            "--preview",
+        ],
+    );
+    assert!(e.contains("field 'radiance'") && !e.contains("plot.png"), "{e}");
+    let e = info_refuses(&scenes().join("diff_room.toml"), &["--set", "intensity=2e18"]);
+    assert!(
+        e.contains("diff_room.toml: param[") && e.contains("\"intensity\": field 'value'") && e.contains("1e18"),
+        "{e}"
+    );
+    let d = tempfile::tempdir().unwrap();
+    let room = std::fs::read_to_string(scenes().join("diff_room.toml")).unwrap();
+    // (without its parameter intensity, whose value would be the lamp's)
+    let param = "[[param]]\nname = \"intensity\"\nkind = \"radiance\"\nemitter = \"lamp\"\nvalue = 5.0\n";
+    assert!(room.contains(param));
+    let p = write(
+        d.path(),
+        "strong.toml",
+        &room.replace(param, "").replace("intensity = 5.0", "intensity = 1e30"),
+    );
+    let e = info_refuses(&p, &[]);
+    assert!(
+        e.contains(
+            "strong.toml: emitter[0] \"lamp\": field 'intensity': every channel must be at most 1e18 (got 1e30)"
+        ),
+        "{e}"
+    );
+    let laser = std::fs::read_to_string(scenes().join("gated_laser_room.toml")).unwrap();
+    // (without its parameter laser_power, whose value would be the power)
+    let param = "[[param]]\nname = \"laser_power\"\nkind = \"radiance\"\nemitter = \"laser\"\nvalue = 10.0\n";
+    assert!(laser.contains(param));
+    let p = write(
+        d.path(),
+        "laser.toml",
+        &laser.replace(param, "").replace("power = 10.0", "power = [1, 2e18, 1]"),
+    );
+    let e = info_refuses(&p, &[]);
+    assert!(
+        e.contains(
+            "laser.toml: emitter[0] \"laser\": field 'power': every channel must be at most 1e18 (got [1, 2e18, 1])"
+        ),
+        "{e}"
+    );
+    // the bound itself renders, and its preview is finite
+    let o = dtr()
+        .arg("render")
+        .arg(scenes().join("cornell_box.toml"))
+        .args(["--spp", "1", "--threads", "1", "--quiet", "--preview"])
+        .args(["--set", "emitter.light.radiance.0=1e18"])
+        .args(["--set", "camera.resolution.0=8", "--set", "camera.resolution.1=8", "-o"])
+        .arg(d.path().join("bound"))
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+}
+
+/// A pulse's width or an emitter's offset beyond what 32-bit OPLs resolve is refused at load,
+/// naming the field. Before, `sigma_opl = 1e30` rendered with exit 0, and with --auto-window
+/// it chose a window of [-3.4e30, 2.6e30] m of OPL.
+#[test]
+fn a_pulse_or_offset_beyond_32_bit_opls_is_refused() {
+    let d = tempfile::tempdir().unwrap();
+    let room = std::fs::read_to_string(scenes().join("diff_room.toml")).unwrap();
+    let pulse = r#"pulse = { type = "gaussian", sigma_opl = 0.1 }"#;
+    assert!(room.contains(pulse));
+    // (diff_room's offset is its parameter lamp_offset's: the file's offset_opl is the laser's)
+    let laser = std::fs::read_to_string(scenes().join("gated_laser_room.toml")).unwrap();
+    assert!(laser.contains(pulse) && !laser.contains("pulse_offset"));
+    let cases = [
+        (
+            room.replace(pulse, r#"pulse = { type = "gaussian", sigma_opl = 1e30 }"#),
+            r#"emitter[0] "lamp": field 'pulse.sigma_opl'"#,
+            "must be at most 16777216 m (got 1e30)",
+        ),
+        (
+            room.replace(pulse, r#"pulse = { type = "box", width_opl = 1e9 }"#),
+            r#"emitter[0] "lamp": field 'pulse.width_opl'"#,
+            "must be at most 16777216 m (got 1e9)",
+        ),
+        (
+            laser.replace(pulse, &format!("{pulse}\noffset_opl = -1e30")),
+            r#"emitter[0] "laser": field 'offset_opl'"#,
+            "must be within ±16777216 m (got -1e30)",
+        ),
+    ];
+    for (text, field, says) in cases {
+        let p = write(d.path(), "far.toml", &text);
+        let e = info_refuses(&p, &[]);
+        assert!(
+            e.contains(&format!("far.toml: {field}: {says}")) && e.contains("32-bit"),
+            "{e}"
+        );
+        let (e, _o) = render_fails(&p, &["--threads", "1", "--auto-window"]);
+        assert!(e.contains(&format!("far.toml: {field}")), "{e}");
+    }
+    let e = info_refuses(&scenes().join("diff_room.toml"), &["--set", "lamp_offset=1e30"]);
+    assert!(e.contains("\"lamp_offset\": field 'value'"), "{e}");
 }

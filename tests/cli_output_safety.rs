@@ -690,3 +690,52 @@ fn a_read_only_output_folder_is_an_output_error() {
     }
     assert!(listing(&ro.path).is_empty());
 }
+
+/// A file name the file system cannot take (more than 255 bytes) is refused before anything
+/// is made, naming -o, the name and its length (exit 2): a parameter's name of 246 characters
+/// in `PREFIX.d_NAME.npy`, or a long -o prefix in the lock file the render keeps beside it.
+/// Before, the render failed taking its locks, with exit 3 and three nested causes ("an output
+/// of out/x is also named as one of x.d_aaa…'s: cannot lock the output prefix …: cannot write
+/// out/.x.d_aaa….dtr-lock: File name too long"). The longest prefix whose files all fit still
+/// renders.
+#[test]
+fn a_file_name_longer_than_the_file_system_takes_is_refused_before_anything_is_made() {
+    let dir = workdir();
+    let long = "a".repeat(246);
+    let text = std::fs::read_to_string(dir.path().join("room.toml"))
+        .unwrap()
+        .replace("name = \"albedo\"", &format!("name = \"{long}\""));
+    std::fs::write(dir.path().join("long.toml"), text).unwrap();
+    let before = listing(dir.path());
+    let o = dtr(
+        &["render", "long.toml", "--diff", &long, "-o", "out", "--spp", "1", "-q"],
+        dir.path(),
+    );
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{e}");
+    assert!(
+        e.starts_with("error: -o out: the render would make a file named \"out.d_aaa")
+            && e.contains(".npy\" (256 bytes)")
+            && e.contains("at most 255 bytes")
+            && e.contains("shorter parameter names"),
+        "{e}"
+    );
+    assert!(!e.contains("cannot lock") && !e.contains("os error"), "{e}");
+    assert_eq!(listing(dir.path()), before);
+    let o = dtr(
+        &["render", "room.toml", "-o", &"p".repeat(233), "--spp", "1", "-q"],
+        dir.path(),
+    );
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{e}");
+    assert!(
+        e.contains(".checkpoint.XXXXXX.tmp\" (256 bytes)") && e.contains("use a shorter -o prefix"),
+        "{e}"
+    );
+    assert_eq!(listing(dir.path()), before);
+    let o = dtr(
+        &["render", "room.toml", "-o", &"p".repeat(232), "--spp", "1", "-q"],
+        dir.path(),
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+}

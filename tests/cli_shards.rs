@@ -272,3 +272,99 @@ fn a_shard_with_a_missing_tally_is_refused() {
             .collect()
     });
 }
+
+/// Rewrites values of the shard film `dir/file` (`(index, value)`) and records the file's new
+/// SHA-256 in the shard's JSON `dir/json`, as someone who edits a shard on purpose would.
+fn tamper(dir: &Path, json_name: &str, file: &str, values: &[(usize, f32)]) {
+    use sha2::Digest;
+    let mut bytes = std::fs::read(dir.join(file)).unwrap();
+    assert_eq!(&bytes[..6], b"\x93NUMPY");
+    let data = 10 + u16::from_le_bytes([bytes[8], bytes[9]]) as usize;
+    for &(i, v) in values {
+        bytes[data + 4 * i..data + 4 * i + 4].copy_from_slice(&v.to_le_bytes());
+    }
+    std::fs::write(dir.join(file), &bytes).unwrap();
+    let mut meta = json(&dir.join(json_name));
+    meta["files_sha256"][file] = format!("{:x}", sha2::Sha256::digest(&bytes)).into();
+    std::fs::write(dir.join(json_name), serde_json::to_vec(&meta).unwrap()).unwrap();
+}
+
+/// A shard whose transient or steady image holds negative values is refused even when its
+/// JSON records the edited file's SHA-256, naming the file, how many values are negative and
+/// the lowest, before anything is written (exit 2); a derivative film may be negative, but
+/// not NaN. Before, a shard's .npy rewritten with -1 everywhere (its hash recomputed) merged
+/// with exit 0 (independent audit, `mt_neg_npy`).
+#[test]
+fn a_shard_with_a_negative_transient_is_refused() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path();
+    for i in 0..2 {
+        render(dir, &format!("s{i}"), &["--shard", &format!("{i}/2")]);
+    }
+    let keep: Vec<Vec<u8>> = ["s1.json", "s1.npy", "s1.steady.npy", "s1.d_cube_x.npy"]
+        .iter()
+        .map(|f| std::fs::read(dir.join(f)).unwrap())
+        .collect();
+    let restore = || {
+        for (f, b) in ["s1.json", "s1.npy", "s1.steady.npy", "s1.d_cube_x.npy"]
+            .iter()
+            .zip(&keep)
+        {
+            std::fs::write(dir.join(f), b).unwrap();
+        }
+    };
+    for (file, said) in [("s1.npy", "s1.npy: 3 of "), ("s1.steady.npy", "s1.steady.npy: 3 of ")] {
+        tamper(dir, "s1.json", file, &[(0, -1.0), (5, -2.5), (9, -0.25)]);
+        let o = dtr(&["merge", "s0", "s1", "-o", "out"], dir);
+        let e = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "{file}: {e}");
+        assert!(
+            e.contains(said) && e.contains("are negative") && e.contains("the lowest is -2.5"),
+            "{file}: {e}"
+        );
+        assert!(!e.contains("dtr-staging"), "{e}");
+        let left: Vec<_> = std::fs::read_dir(dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .filter(|n| n.starts_with("out"))
+            .collect();
+        assert!(left.is_empty(), "{file}: {left:?}");
+        restore();
+    }
+    // a derivative: negative is fine, NaN is not
+    tamper(dir, "s1.json", "s1.d_cube_x.npy", &[(0, -1.0)]);
+    ok(dtr(&["merge", "s0", "s1", "-o", "out", "-q"], dir));
+    tamper(dir, "s1.json", "s1.d_cube_x.npy", &[(3, f32::NAN)]);
+    let o = dtr(&["merge", "s0", "s1", "-o", "out2"], dir);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("s1.d_cube_x.npy: value 3 of") && stderr(&o).contains("(NaN; 1 of "),
+        "{}",
+        stderr(&o)
+    );
+    restore();
+}
+
+/// Shards whose films, each finite, add up past the largest 32-bit float are refused naming
+/// them, before anything is written (exit 2). Before, two shards of 3·10³⁸ everywhere (their
+/// hashes recomputed) failed writing the merged .npy with exit 1, an internal failure
+/// (independent audit, `mt_huge_npy`).
+#[test]
+fn shards_whose_films_add_up_past_32_bit_floats_are_refused() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path();
+    for i in 0..2 {
+        render(dir, &format!("s{i}"), &["--shard", &format!("{i}/2")]);
+    }
+    for s in ["s0", "s1"] {
+        tamper(dir, &format!("{s}.json"), &format!("{s}.npy"), &[(4, 3e38)]);
+    }
+    let o = dtr(&["merge", "s0", "s1", "-o", "out"], dir);
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{e}");
+    assert!(
+        e.contains("s0.npy, ") && e.contains("s1.npy: the shards' films add up past the largest 32-bit float"),
+        "{e}"
+    );
+    assert!(!e.contains("dtr-staging") && !dir.join("out.npy").exists(), "{e}");
+}

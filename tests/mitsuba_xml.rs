@@ -854,3 +854,65 @@ fn a_film_of_no_rows_or_columns_is_refused_naming_the_film() {
         assert!(!e.contains("'fov'"), "{w}x{h}: {e}");
     }
 }
+
+/// Two elements of one id are refused, as Mitsuba 3 refuses them, whatever their kinds: the
+/// error names the second element, its line and the id, and the first element and its line.
+/// Before, only two `<bsdf>` of one id were refused: a second `<shape>` or `<emitter>` (or an
+/// area emitter named like a shape) was renamed "floor_2" without a word (independent audit).
+#[test]
+fn two_elements_of_one_id_are_refused_naming_both() {
+    let dir = tempfile::tempdir().unwrap();
+    let white = r#"<bsdf type="diffuse" id="white"/>"#;
+    let cases = [
+        (
+            r#"<shape type="rectangle" id="floor"/>
+<shape type="cube" id="floor"/>"#,
+            r#"<shape type="rectangle" id="floor"> (line "#,
+            r#"<shape type="cube" id="floor"> (line "#,
+        ),
+        (
+            r#"<shape type="rectangle" id="floor"/>
+<shape type="cube"><emitter type="area" id="floor"><rgb name="radiance" value="1"/></emitter></shape>"#,
+            r#"<shape type="rectangle" id="floor"> (line "#,
+            r#"<emitter type="area" id="floor"> (line "#,
+        ),
+        (
+            r#"<emitter type="point" id="lamp"><point name="position" value="0, 1, 2"/><rgb name="intensity" value="1"/></emitter>
+<emitter type="point" id="lamp"><point name="position" value="0, 1, 3"/><rgb name="intensity" value="1"/></emitter>
+<shape type="rectangle"/>"#,
+            r#"<emitter type="point" id="lamp"> (line "#,
+            r#"<emitter type="point" id="lamp"> (line "#,
+        ),
+        (
+            r#"<bsdf type="diffuse" id="white"/>
+<shape type="rectangle"><ref id="white"/></shape>"#,
+            r#"<bsdf type="diffuse" id="white"> (line "#,
+            r#"<bsdf type="diffuse" id="white"> (line "#,
+        ),
+    ];
+    for (k, (body, first, second)) in cases.into_iter().enumerate() {
+        let text = scene_text(&format!("{white}\n{body}"));
+        let id = if k == 2 {
+            "lamp"
+        } else if k == 3 {
+            "white"
+        } else {
+            "floor"
+        };
+        let lines: Vec<usize> = text
+            .lines()
+            .enumerate()
+            .filter(|(_, l)| l.contains(&format!("id=\"{id}\"")) && !l.contains("<ref"))
+            .map(|(i, _)| i + 1)
+            .collect();
+        assert_eq!(lines.len(), 2, "case {k}: {text}");
+        let e = load_in(dir.path(), "dup.xml", &text).expect_err(&text);
+        assert!(
+            e.contains("dup.xml")
+                && e.contains(&format!("{second}{})", lines[1]))
+                && e.contains(&format!("a second element with id \"{id}\""))
+                && e.contains(&format!("{first}{})", lines[0])),
+            "case {k}: {e}"
+        );
+    }
+}

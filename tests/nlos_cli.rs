@@ -300,8 +300,12 @@ fn bad_nlos_input_names_the_field() {
             assert!(err.contains(w), "expected {w:?} in: {err}");
         }
     }
-    // photon counts beyond float32: exit 1 naming a staging file before 2026-11-30
-    let err = refused(&base, &["--set", "laser_power=1e38"]);
+    // photon counts beyond float32: exit 1 naming a staging file before 2026-11-30 (the
+    // laser's power at its largest, 1e18: a power of 1e38 is refused when the scene loads)
+    let err = refused(
+        &base,
+        &["--set", "laser_power=1e18", "--set", "nlos.noise.photons_per_unit=1e30"],
+    );
     assert!(
         err.contains("nlos.noise.photons_per_unit") && err.contains("beyond what a float32 count holds"),
         "{err}"

@@ -111,7 +111,13 @@ fn parse_f32(reader: impl Read, path: &Path, shape: &[usize], what: &str) -> any
         bail!("{}: {what} holds more than its {} values", path.display(), data.len());
     }
     if let Some(i) = data.iter().position(|v| !v.is_finite()) {
-        bail!("{}: value {i} of {what} is not finite", path.display());
+        let n = data.iter().filter(|v| !v.is_finite()).count();
+        bail!(
+            "{}: value {i} of {what} is not finite ({}; {n} of {} values are NaN or ±Inf)",
+            path.display(),
+            data[i],
+            data.len()
+        );
     }
     Ok(data)
 }

@@ -312,6 +312,7 @@ impl OutputSet {
     pub fn prepare(output: &Path, scene_inputs: &[PathBuf], scene: &Path, suffixes: &[String]) -> anyhow::Result<Self> {
         install_signal_cleanup()?;
         let prefix = resolve_prefix(output, scene)?;
+        refuse_long_file_names(&prefix, suffixes)?;
         let dir = make_output_folder(output, &prefix)?;
         let inputs = input_metadata(scene_inputs);
         let name = file_name(&prefix);
@@ -685,6 +686,55 @@ fn prefixes_sharing_names(stem: &str, names: &[String]) -> Vec<String> {
     out.sort();
     out.dedup();
     out
+}
+
+/// The longest file name (in bytes) that Linux's file systems and macOS's take (NAME_MAX).
+const NAME_MAX: usize = 255;
+
+/// Refuses a prefix whose outputs (`suffixes`), or the files a render keeps beside them (its
+/// lock, staging folder and checkpoint's temporary file, and the locks of the prefixes that
+/// share an output's name), would have a file name longer than [`NAME_MAX`] bytes, before
+/// anything is made. Before, a parameter's name of 246 characters failed when the render
+/// took its locks, with exit 3 and a message of three nested causes ("an output of out/x is
+/// also named as one of x.d_aaa…'s: cannot lock the output prefix …: cannot write
+/// out/.x.d_aaa….dtr-lock: File name too long").
+fn refuse_long_file_names(prefix: &Path, suffixes: &[String]) -> anyhow::Result<()> {
+    let name = file_name(prefix);
+    let outputs: Vec<String> = suffixes.iter().map(|s| format!("{name}.{s}")).collect();
+    let kept = |n: &str| {
+        let r = Reserved::of(n);
+        // tempfile's six random characters; a checkpoint's temporary file ends in ".tmp"
+        [
+            r.lock,
+            format!("{}XXXXXX", r.staging),
+            format!("{}XXXXXX.tmp", r.checkpoint),
+        ]
+    };
+    let longest = |names: Vec<String>| names.into_iter().filter(|n| n.len() > NAME_MAX).max_by_key(|n| n.len());
+    // an output first: the name the user asked for says more than a hidden file's
+    let too_long = longest(outputs.clone()).or_else(|| {
+        let others = prefixes_sharing_names(&name, &outputs);
+        longest(
+            kept(&name)
+                .into_iter()
+                .chain(others.iter().map(|o| Reserved::of(o).lock))
+                .collect(),
+        )
+    });
+    if let Some(longest) = too_long {
+        let what = if suffixes.iter().any(|s| s.starts_with("d_")) {
+            "a shorter -o prefix or shorter parameter names"
+        } else {
+            "a shorter -o prefix"
+        };
+        bail!(
+            "-o {}: the render would make a file named {longest:?} ({} bytes), and a file name may have at \
+             most {NAME_MAX} bytes; use {what}",
+            prefix.display(),
+            longest.len()
+        );
+    }
+    Ok(())
 }
 
 /// The names a render to the prefix named NAME keeps beside its outputs: its lock file, its

@@ -519,8 +519,9 @@ pub(super) fn write_previews(
     let (px, py) = pixel.unwrap_or((film.width / 2, film.height / 2));
     set.write("streak.png", |p| output::write_streak_png(p, view(film), py))?;
     let series = vec![
-        ("whole image".to_string(), film.bin_totals()),
-        (format!("pixel ({px}, {py})"), film.pixel_series(px, py)),
+        // in f64: finite film values near the top of f32 add up past it
+        ("whole image".to_string(), film.bin_totals_f64()),
+        (format!("pixel ({px}, {py})"), film.pixel_series_f64(px, py)),
     ];
     set.write("plot.png", |p| {
         output::write_time_plot(

@@ -348,7 +348,9 @@ fn read_films(s: &ShardFiles, diff: &[String]) -> anyhow::Result<(Transient, Vec
         read_f32_hashed(&path, shape, FILM, |got| check_digest(s, &json, &path, got))
     };
     let data = read("npy", &[h, w, t, c])?;
+    refuse_negative(&with_suffix(&s.prefix, "npy"), &data)?;
     let steady = read("steady.npy", &[h, w, c])?;
+    refuse_negative(&with_suffix(&s.prefix, "steady.npy"), &steady)?;
     let transient = film(data, steady);
     let mut derivs = Vec::new();
     for name in diff {
@@ -356,6 +358,45 @@ fn read_films(s: &ShardFiles, diff: &[String]) -> anyhow::Result<(Transient, Vec
         derivs.push(film(data, vec![0.0; transient.steady.len()]));
     }
     Ok((transient, derivs))
+}
+
+/// Refuses shards whose films (`suffix`: `npy`, `d_NAME.npy`), each finite, add up to `sum`
+/// with values past the largest 32-bit float, before anything is written: no render's films
+/// come near it (an emitter's strength is at most 10¹⁸, `scene::context::MAX_EMISSION`), so
+/// the shards were changed. Before, two shards of 3·10³⁸ everywhere (their hashes recomputed)
+/// failed writing the merged .npy with exit 1, an internal failure.
+fn refuse_overflowing_sum(shards: &[ShardFiles], suffix: &str, sum: &Transient) -> anyhow::Result<()> {
+    let bad = sum.non_finite_count();
+    if bad > 0 {
+        let files: Vec<String> = shards
+            .iter()
+            .map(|s| with_suffix(&s.prefix, suffix).display().to_string())
+            .collect();
+        bail!(
+            "{}: the shards' films add up past the largest 32-bit float (3.4e38) at {bad} of {} values; \
+             expected films a render writes, which stay far below it: the shards were changed or damaged",
+            files.join(", "),
+            sum.data.len() + sum.steady.len()
+        );
+    }
+    Ok(())
+}
+
+/// Refuses a shard's transient or steady image (`path`, read into `data`) that holds a
+/// negative value: light arrives or it does not, so no render writes one (its derivatives may
+/// be negative, and are only checked finite). Before, a shard whose .npy was rewritten with
+/// -1 everywhere and its SHA-256 recorded again merged with exit 0 (independent audit).
+fn refuse_negative(path: &Path, data: &[f32]) -> anyhow::Result<()> {
+    let bad = data.iter().filter(|&&v| v < 0.0).count();
+    if bad > 0 {
+        let lowest = data.iter().copied().fold(0.0f32, f32::min);
+        bail!(
+            "{}: {bad} of {} values of {FILM} are negative (the lowest is {lowest:e}); expected values >= 0,              as a render writes them (light never subtracts): the shard was changed or damaged",
+            path.display(),
+            data.len()
+        );
+    }
+    Ok(())
 }
 
 /// Refuses a shard's file whose bytes are not those its render wrote (damaged on disk, or
@@ -429,6 +470,10 @@ pub fn run(a: MergeArgs) -> anyhow::Result<()> {
     let (film_sum, deriv_sums) = sums.context("no shards to merge")?;
     let film = film_sum.finish();
     let derivs: Vec<Transient> = deriv_sums.into_iter().map(FilmSum::finish).collect();
+    refuse_overflowing_sum(&shards, "npy", &film)?;
+    for (name, d) in diff.iter().zip(&derivs) {
+        refuse_overflowing_sum(&shards, &format!("d_{name}.npy"), d)?;
+    }
     set.write("npy", |p| crate::output::write_npy(p, &film.shape(), &film.data))?;
     for (name, d) in diff.iter().zip(&derivs) {
         set.write(&format!("d_{name}.npy"), |p| {

@@ -314,3 +314,20 @@ fn a_clone_is_the_film_to_the_bit() {
         (t.width, t.height, t.axis, t.channels)
     );
 }
+
+/// The preview's sums over pixels and channels are taken in f64: finite values near the top of
+/// f32 add up to a finite total (in f32 it was +∞, and the time plot refused to write).
+#[test]
+fn totals_for_the_preview_stay_finite_where_f32_sums_overflow() {
+    let axis = TimeAxis {
+        start_opl: 0.0,
+        bin_width_opl: 0.1,
+        bins: 2,
+    };
+    let mut t = Transient::zeros(2, 2, axis, 3);
+    t.data.iter_mut().for_each(|v| *v = 3e38);
+    assert!(t.bin_totals().iter().all(|v| v.is_infinite()), "the f32 sums overflow");
+    let want = 3e38f32 as f64 * 12.0;
+    assert_eq!(t.bin_totals_f64(), vec![want; 2]);
+    assert_eq!(t.pixel_series_f64(1, 1), vec![3e38f32 as f64 * 3.0; 2]);
+}

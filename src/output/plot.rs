@@ -3,7 +3,7 @@
 
 use super::font::{FAMILY, ensure_font};
 use super::png::write_png;
-use super::{OutputError, SPEED_OF_LIGHT_M_PER_S, check_finite};
+use super::{OutputError, SPEED_OF_LIGHT_M_PER_S};
 use plotters::prelude::*;
 use std::path::Path;
 
@@ -38,7 +38,7 @@ pub(crate) const COLORS: [RGBColor; 10] = [
 ///
 /// Needs a TrueType font: see `OutputError::Font` for what to install (Debian:
 /// `fonts-dejavu-core`), or set `DIFFTRANSIENT_FONT`.
-pub fn write_time_plot(path: &Path, axis: (f32, f32, usize), series: &[(String, Vec<f32>)]) -> Result<(), OutputError> {
+pub fn write_time_plot(path: &Path, axis: (f32, f32, usize), series: &[(String, Vec<f64>)]) -> Result<(), OutputError> {
     let (start, width, bins) = axis;
     if bins == 0 {
         return Err(OutputError::empty(path, "the time axis has 0 bins"));
@@ -60,8 +60,15 @@ pub fn write_time_plot(path: &Path, axis: (f32, f32, usize), series: &[(String, 
             ));
         }
     }
-    let all: Vec<f32> = series.iter().flat_map(|(_, v)| v.iter().copied()).collect();
-    check_finite(path, &all)?;
+    let total: usize = series.iter().map(|(_, v)| v.len()).sum();
+    let count = series.iter().flat_map(|(_, v)| v).filter(|v| !v.is_finite()).count();
+    if count > 0 {
+        return Err(OutputError::NonFinite {
+            path: path.to_path_buf(),
+            count,
+            total,
+        });
+    }
     ensure_font().map_err(|detail| OutputError::Font {
         path: path.to_path_buf(),
         detail,
@@ -75,12 +82,12 @@ pub fn write_time_plot(path: &Path, axis: (f32, f32, usize), series: &[(String, 
 
 type DrawResult = Result<(), Box<dyn std::error::Error>>;
 
-fn draw(pixels: &mut [u8], (start, width, bins): (f64, f64, usize), series: &[(String, Vec<f32>)]) -> DrawResult {
+fn draw(pixels: &mut [u8], (start, width, bins): (f64, f64, usize), series: &[(String, Vec<f64>)]) -> DrawResult {
     let factors = rescale_factors(series);
     let scaled: Vec<Vec<f64>> = series
         .iter()
         .zip(&factors)
-        .map(|((_, v), &f)| v.iter().map(|&x| x as f64 * f).collect())
+        .map(|((_, v), &f)| v.iter().map(|&x| x * f).collect())
         .collect();
     let lo = scaled.iter().flatten().copied().fold(0.0f64, f64::min);
     let hi = scaled.iter().flatten().copied().fold(0.0f64, f64::max);
@@ -157,10 +164,10 @@ fn draw(pixels: &mut [u8], (start, width, bins): (f64, f64, usize), series: &[(S
 }
 
 /// 1, or a power of ten bringing a small series' peak within 10× of the largest peak.
-fn rescale_factors(series: &[(String, Vec<f32>)]) -> Vec<f64> {
+fn rescale_factors(series: &[(String, Vec<f64>)]) -> Vec<f64> {
     let peaks: Vec<f64> = series
         .iter()
-        .map(|(_, v)| v.iter().fold(0.0f64, |m, &x| m.max((x as f64).abs())))
+        .map(|(_, v)| v.iter().fold(0.0f64, |m, &x| m.max(x.abs())))
         .collect();
     let top = peaks.iter().copied().fold(0.0, f64::max);
     peaks
@@ -207,9 +214,9 @@ mod tests {
     use super::super::test_util::entries;
     use super::*;
 
-    fn pulse(bins: usize, centre: f32, spread: f32, peak: f32) -> Vec<f32> {
+    fn pulse(bins: usize, centre: f64, spread: f64, peak: f64) -> Vec<f64> {
         (0..bins)
-            .map(|t| peak * (-((t as f32 - centre) / spread).powi(2)).exp())
+            .map(|t| peak * (-((t as f64 - centre) / spread).powi(2)).exp())
             .collect()
     }
 
@@ -261,7 +268,7 @@ mod tests {
         assert!(e.to_string().contains("finite"), "{e}");
         let e = write_time_plot(&p, (0.0, 0.1, 3), &ok).unwrap_err();
         assert!(e.to_string().contains("has 2 values for 3 time bins"), "{e}");
-        let e = write_time_plot(&p, (0.0, 0.1, 2), &[("a".to_string(), vec![f32::NAN, 1.0])]).unwrap_err();
+        let e = write_time_plot(&p, (0.0, 0.1, 2), &[("a".to_string(), vec![f64::NAN, 1.0])]).unwrap_err();
         assert!(e.to_string().contains("1 of 2 values are not finite"), "{e}");
         let e = write_time_plot(&dir.path().join("gone/p.png"), (0.0, 0.1, 2), &ok).unwrap_err();
         assert!(e.to_string().contains("gone/p.png"), "{e}");

@@ -76,7 +76,7 @@ pub struct Domain {
 }
 
 impl Domain {
-    /// Every number: a position, an angle, a pulse offset.
+    /// Every number: a position, an angle.
     pub const ANY: Domain = Domain::closed(f64::NEG_INFINITY, f64::INFINITY);
 
     pub const fn closed(lo: f64, hi: f64) -> Domain {
@@ -127,16 +127,17 @@ impl std::fmt::Display for Domain {
     /// As the loader's messages say it: "in [0, 1]", "> 0", ">= 0", "any number".
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         let (lo_inf, hi_inf) = (self.lo == f64::NEG_INFINITY, self.hi == f64::INFINITY);
+        let n = crate::scene::context::number;
         match (lo_inf, hi_inf) {
             (true, true) => write!(f, "any number"),
-            (false, true) => write!(f, "{} {}", if self.open_lo { ">" } else { ">=" }, self.lo),
-            (true, false) => write!(f, "{} {}", if self.open_hi { "<" } else { "<=" }, self.hi),
+            (false, true) => write!(f, "{} {}", if self.open_lo { ">" } else { ">=" }, n(self.lo)),
+            (true, false) => write!(f, "{} {}", if self.open_hi { "<" } else { "<=" }, n(self.hi)),
             (false, false) => write!(
                 f,
                 "in {}{}, {}{}",
                 if self.open_lo { "(" } else { "[" },
-                self.lo,
-                self.hi,
+                n(self.lo),
+                n(self.hi),
                 if self.open_hi { ")" } else { "]" }
             ),
         }
@@ -145,18 +146,25 @@ impl std::fmt::Display for Domain {
 
 impl ParamKind {
     /// The values a parameter of this kind may take, and what the loader calls the quantity
-    /// ("an albedo"): albedo in [0, 1], an emitted amount ≥ 0, refractive indices > 0, a
-    /// roughness in (0, 1]; a scale factor is nonzero, so its domain is the side of 0 that
-    /// `value` is on (> 0 for 0 itself); poses and pulse offsets take any number.
+    /// ("an albedo"): albedo in [0, 1], an emitted amount in [0, 10¹⁸]
+    /// ([`crate::scene::context::MAX_EMISSION`]), refractive indices > 0, a roughness in
+    /// (0, 1], a pulse offset within ±2²⁴ m ([`crate::scene::context::MAX_TIME_OPL`]); a scale
+    /// factor is nonzero, so its domain is the side of 0 that `value` is on (> 0 for 0
+    /// itself); poses take any number.
     pub fn domain(&self, value: f64) -> (Domain, &'static str) {
         let positive = Domain {
             open_lo: true,
             ..Domain::closed(0.0, f64::INFINITY)
         };
         match self {
-            ParamKind::Translate { .. } | ParamKind::Rotate { .. } | ParamKind::PulseOffset { .. } => {
-                (Domain::ANY, "a value")
-            }
+            ParamKind::Translate { .. } | ParamKind::Rotate { .. } => (Domain::ANY, "a value"),
+            ParamKind::PulseOffset { .. } => (
+                Domain::closed(
+                    -crate::scene::context::MAX_TIME_OPL,
+                    crate::scene::context::MAX_TIME_OPL,
+                ),
+                "a pulse offset",
+            ),
             ParamKind::Scale { .. } if value < 0.0 => (
                 Domain {
                     open_hi: true,
@@ -166,7 +174,10 @@ impl ParamKind {
             ),
             ParamKind::Scale { .. } => (positive, "a scale factor"),
             ParamKind::Albedo { .. } => (Domain::closed(0.0, 1.0), "an albedo"),
-            ParamKind::Radiance { .. } => (Domain::closed(0.0, f64::INFINITY), "an emitted amount"),
+            ParamKind::Radiance { .. } => (
+                Domain::closed(0.0, crate::scene::context::MAX_EMISSION),
+                "an emitted amount",
+            ),
             ParamKind::Eta => (positive, "a refractive index"),
             ParamKind::Ior { .. } => (positive, "an index of refraction"),
             ParamKind::Roughness { .. } => (

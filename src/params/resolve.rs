@@ -350,7 +350,10 @@ pub(crate) fn apply_params(
         // the kind's range (`ParamKind::domain`; a scale factor's 0 is refused above)
         let (domain, what) = kind.domain(v);
         if !domain.contains(v) {
-            return Err(bad_value(format!("{what} must be {domain} (got {v})")));
+            return Err(bad_value(format!(
+                "{what} must be {domain} (got {})",
+                crate::scene::context::number(v)
+            )));
         }
         for c in &components {
             if let Some((_, _, j)) = claimed.iter().find(|(q, k, _)| *q == quantity && k == c) {

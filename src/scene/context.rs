@@ -134,9 +134,43 @@ pub(super) fn positive(ctx: &Ctx, at: String, v: f32) -> Result<f32, SceneError>
     }
 }
 
-/// A pulse's or gate's width: > 0, and a normal 32-bit float. The renderer's threads flush
-/// subnormal numbers to zero (`accel::set_flush_denormals`), so a width such as 1e-45 would
-/// reach the temporal model there as 0.
+/// Largest emitted amount, per channel: an area light's radiance, a point light's intensity,
+/// a laser's power (and a `radiance` parameter's value, [`crate::ParamKind::domain`]).
+///
+/// A film value is an average over samples of each path's contribution, the emitted amount
+/// times the path's own factor (BSDFs, whose albedo is at most 1, and the geometry of its
+/// connections), stored as a 32-bit float, whose largest value is 3.4·10³⁸. The largest film
+/// holds 16384² pixels × 2²⁴ bins × 3 channels < 2⁵⁴ ≈ 1.8·10¹⁶ values, so at 10¹⁸ even the
+/// sum of all of them, as a preview or a reader adds them up in 32-bit floats, stays below
+/// 1.8·10³⁴: 2¹⁴ to spare for a path's own factor. A physical source is far below it (the
+/// Sun's radiance is about 2·10⁷ W/(m²·sr)); a stronger light is the same render scaled, so
+/// scale the result instead. Before, radiance 3·10³⁸ rendered the whole scene and only then
+/// failed adding up the preview's time plot (exit 1).
+pub const MAX_EMISSION: f64 = 1e18;
+
+/// Largest pulse width (a Gaussian's σ, a box's width), gate σ, and emitter offset (either
+/// sign), metres of OPL: 2²⁴ m, about 16 800 km or 56 ms of light travel. The renderer holds
+/// optical path lengths in 32-bit floats (the kernel's path lengths and its window bound, the
+/// film's axis in the time plot), which from 2²⁴ m on are 2 m or more apart: light delayed or
+/// spread that far lands where those floats no longer resolve a metre, so no window can show
+/// it sharper than the floats themselves. Before, `sigma_opl = 1e30` rendered with exit 0
+/// and `--auto-window` chose a window of [-3.4·10³⁰, 2.6·10³⁰] m.
+pub const MAX_TIME_OPL: f64 = (1u64 << 24) as f64;
+
+/// `{v}` for numbers of ordinary size, `{v:e}` for the very large or small (1e18, not
+/// 1000000000000000000).
+pub(crate) fn number<T: Copy + Into<f64> + std::fmt::Display + std::fmt::LowerExp>(v: T) -> String {
+    let x: f64 = v.into();
+    if x != 0.0 && !(1e-4..1e6).contains(&x.abs()) {
+        format!("{v:e}")
+    } else {
+        format!("{v}")
+    }
+}
+
+/// A pulse's or gate's width: > 0, a normal 32-bit float, and at most [`MAX_TIME_OPL`]. The
+/// renderer's threads flush subnormal numbers to zero (`accel::set_flush_denormals`), so a
+/// width such as 1e-45 would reach the temporal model there as 0.
 pub(super) fn time_width(ctx: &Ctx, at: String, v: f32) -> Result<f32, SceneError> {
     let v = positive(ctx, at.clone(), v)?;
     if v < f32::MIN_POSITIVE {
@@ -148,7 +182,39 @@ pub(super) fn time_width(ctx: &Ctx, at: String, v: f32) -> Result<f32, SceneErro
             ),
         ));
     }
+    if v as f64 > MAX_TIME_OPL {
+        return Err(ctx.invalid(at, beyond_time_opl(number(v), false)));
+    }
     Ok(v)
+}
+
+/// Why a width or (`signed`) an offset `v`, metres of OPL, is refused: beyond [`MAX_TIME_OPL`].
+/// `got` is the value as [`number`] writes it.
+pub(super) fn beyond_time_opl(got: String, signed: bool) -> String {
+    let bound = if signed { "within ±" } else { "at most " };
+    format!(
+        "must be {bound}{MAX_TIME_OPL} m (got {got}): from 2^24 m on, the 32-bit floats the renderer holds OPLs in are 2 m or more apart"
+    )
+}
+
+/// Refuses an emitted amount `v` (checked >= 0 already) with a channel above [`MAX_EMISSION`].
+pub(super) fn emission(ctx: &Ctx, at: String, v: [f32; 3]) -> Result<[f32; 3], SceneError> {
+    if v.iter().all(|&x| x as f64 <= MAX_EMISSION) {
+        return Ok(v);
+    }
+    let got = if v[0] == v[1] && v[1] == v[2] {
+        number(v[0])
+    } else {
+        format!("[{}]", v.map(number).join(", "))
+    };
+    Err(ctx.invalid(
+        at,
+        format!(
+            "every channel must be at most {} (got {got}): a film adds up the emission times each path's factor in \
+             32-bit floats, which end at 3.4e38; scale the emission down and the result up",
+            number(MAX_EMISSION)
+        ),
+    ))
 }
 
 /// Checks each channel of a colour is in `[lo, hi]`.
@@ -156,7 +222,7 @@ pub(crate) fn check_colour(ctx: &Ctx, at: String, c: Triple, lo: f32, hi: f32) -
     let v = c.to_array();
     if v.iter().any(|&x| !(x >= lo && x <= hi)) {
         let range = if hi.is_finite() {
-            format!("in [{lo}, {hi}]")
+            format!("in [{lo}, {}]", number(hi))
         } else {
             format!(">= {lo}")
         };

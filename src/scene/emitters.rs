@@ -2,7 +2,7 @@
 //! material), point lights and lasers (positions relative to the render origin, the beam's
 //! direction normalised), each with its pulse. A field that only another type takes is refused.
 
-use super::context::{Ctx, Names, check_colour, no_such, time_width};
+use super::context::{Ctx, MAX_TIME_OPL, Names, beyond_time_opl, check_colour, emission, no_such, number, time_width};
 use super::desc::{EmitterDesc, EmitterType, NameOr, PulseType, SceneDesc};
 use super::error::item_field;
 use super::{Emitter, EmitterKind, SceneError};
@@ -114,7 +114,11 @@ pub(super) fn emitters(desc: &SceneDesc, names: &Names, origin: DVec3, ctx: &Ctx
         let amount_field = e.ty.amount_field();
         let amount = {
             match e.amount() {
-                Some(a) => check_colour(ctx, at(amount_field), a, 0.0, f32::INFINITY)?,
+                Some(a) => emission(
+                    ctx,
+                    at(amount_field),
+                    check_colour(ctx, at(amount_field), a, 0.0, f32::INFINITY)?,
+                )?,
                 None => {
                     return Err(ctx.invalid(
                         at(amount_field),
@@ -200,10 +204,14 @@ pub(super) fn emitters(desc: &SceneDesc, names: &Names, origin: DVec3, ctx: &Ctx
                 }
             }
         };
+        let pulse = pulse(ctx, i, e)?;
+        if e.offset_opl.abs() > MAX_TIME_OPL {
+            return Err(ctx.invalid(at("offset_opl"), beyond_time_opl(number(e.offset_opl), true)));
+        }
         out.push(Emitter {
             name: e.name.clone(),
             kind,
-            pulse: pulse(ctx, i, e)?,
+            pulse,
             offset_opl: e.offset_opl,
         });
     }

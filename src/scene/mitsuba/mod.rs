@@ -248,7 +248,24 @@ impl<'d, 'a, 'input> Converter<'d, 'a, 'input> {
         items: &[(&'d Doc<'a, 'input>, Node<'a, 'input>)],
     ) -> Result<(), ImportError> {
         let main = self.doc;
+        // Mitsuba 3 refuses two objects of one id, whatever their kinds: so do we, for the
+        // top-level elements and the emitters and BSDFs inside shapes (before, a second
+        // <shape> or <emitter> of an id was renamed "_2" without a word)
+        let mut ids: HashMap<String, String> = HashMap::new();
         for &(doc, c) in items {
+            let nested = c
+                .children()
+                .filter(|n| c.tag_name().name() == "shape" && matches!(n.tag_name().name(), "emitter" | "bsdf"));
+            for node in std::iter::once(c).chain(nested) {
+                if let Some(id) = doc.attr(node, "id")?
+                    && let Some(first) = ids.insert(id.clone(), doc.describe(node))
+                {
+                    return Err(doc.err(
+                        node,
+                        format!("a second element with id {id:?} (the first is {first}); ids must be unique"),
+                    ));
+                }
+            }
             if c.tag_name().name() == "bsdf" {
                 let id = doc.attr(c, "id")?.ok_or_else(|| {
                     doc.err(
@@ -256,9 +273,7 @@ impl<'d, 'a, 'input> Converter<'d, 'a, 'input> {
                         "a top-level <bsdf> needs an id (shapes refer to it with <ref id=...>)",
                     )
                 })?;
-                if self.bsdf_ids.insert(id.clone(), (doc, c)).is_some() {
-                    return Err(doc.err(c, format!("a second element with id {id:?}")));
-                }
+                self.bsdf_ids.insert(id, (doc, c));
             }
         }
         for &(doc, c) in items {
