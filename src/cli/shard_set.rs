@@ -362,7 +362,7 @@ fn read_films(s: &ShardFiles, diff: &[String]) -> anyhow::Result<(Transient, Vec
 
 /// Refuses shards whose films (`suffix`: `npy`, `d_NAME.npy`), each finite, add up to `sum`
 /// with values past the largest 32-bit float, before anything is written: no render's films
-/// come near it (an emitter's strength is at most 10¹⁸, `scene::context::MAX_EMISSION`), so
+/// come near it (an emitter's strength is at most 10¹⁸, `scene::limits::MAX_EMISSION`), so
 /// the shards were changed. Before, two shards of 3·10³⁸ everywhere (their hashes recomputed)
 /// failed writing the merged .npy with exit 1, an internal failure.
 fn refuse_overflowing_sum(shards: &[ShardFiles], suffix: &str, sum: &Transient) -> anyhow::Result<()> {

@@ -127,7 +127,7 @@ impl std::fmt::Display for Domain {
     /// As the loader's messages say it: "in [0, 1]", "> 0", ">= 0", "any number".
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         let (lo_inf, hi_inf) = (self.lo == f64::NEG_INFINITY, self.hi == f64::INFINITY);
-        let n = crate::scene::context::number;
+        let n = crate::scene::limits::number;
         match (lo_inf, hi_inf) {
             (true, true) => write!(f, "any number"),
             (false, true) => write!(f, "{} {}", if self.open_lo { ">" } else { ">=" }, n(self.lo)),
@@ -147,8 +147,8 @@ impl std::fmt::Display for Domain {
 impl ParamKind {
     /// The values a parameter of this kind may take, and what the loader calls the quantity
     /// ("an albedo"): albedo in [0, 1], an emitted amount in [0, 10¹⁸]
-    /// ([`crate::scene::context::MAX_EMISSION`]), refractive indices > 0, a roughness in
-    /// (0, 1], a pulse offset within ±2²⁴ m ([`crate::scene::context::MAX_TIME_OPL`]); a scale
+    /// ([`crate::scene::limits::MAX_EMISSION`]), refractive indices > 0, a roughness in
+    /// (0, 1], a pulse offset within ±2²⁴ m ([`crate::scene::limits::MAX_TIME_OPL`]); a scale
     /// factor is nonzero, so its domain is the side of 0 that `value` is on (> 0 for 0
     /// itself); poses take any number.
     pub fn domain(&self, value: f64) -> (Domain, &'static str) {
@@ -159,10 +159,7 @@ impl ParamKind {
         match self {
             ParamKind::Translate { .. } | ParamKind::Rotate { .. } => (Domain::ANY, "a value"),
             ParamKind::PulseOffset { .. } => (
-                Domain::closed(
-                    -crate::scene::context::MAX_TIME_OPL,
-                    crate::scene::context::MAX_TIME_OPL,
-                ),
+                Domain::closed(-crate::scene::limits::MAX_TIME_OPL, crate::scene::limits::MAX_TIME_OPL),
                 "a pulse offset",
             ),
             ParamKind::Scale { .. } if value < 0.0 => (
@@ -175,7 +172,7 @@ impl ParamKind {
             ParamKind::Scale { .. } => (positive, "a scale factor"),
             ParamKind::Albedo { .. } => (Domain::closed(0.0, 1.0), "an albedo"),
             ParamKind::Radiance { .. } => (
-                Domain::closed(0.0, crate::scene::context::MAX_EMISSION),
+                Domain::closed(0.0, crate::scene::limits::MAX_EMISSION),
                 "an emitted amount",
             ),
             ParamKind::Eta => (positive, "a refractive index"),

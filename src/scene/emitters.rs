@@ -2,9 +2,10 @@
 //! material), point lights and lasers (positions relative to the render origin, the beam's
 //! direction normalised), each with its pulse. A field that only another type takes is refused.
 
-use super::context::{Ctx, MAX_TIME_OPL, Names, beyond_time_opl, check_colour, emission, no_such, number, time_width};
+use super::context::{Ctx, Names, beyond_time_opl, check_colour, emission, no_such, number, time_width};
 use super::desc::{EmitterDesc, EmitterType, NameOr, PulseType, SceneDesc};
 use super::error::item_field;
+use super::limits::MAX_TIME_OPL;
 use super::{Emitter, EmitterKind, SceneError};
 use crate::temporal::Pulse;
 use glam::{DVec3, Vec3};

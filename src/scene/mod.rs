@@ -21,6 +21,7 @@ mod flush;
 #[doc(hidden)]
 pub mod fuzzing;
 mod info;
+pub mod limits;
 pub(crate) mod load;
 mod materials;
 pub mod mitsuba;

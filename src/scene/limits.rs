@@ -1,0 +1,37 @@
+//! Bounds on scene values that the renderer's 32-bit floats set (emitted amounts, pulse and
+//! gate widths, offsets): the scene's load refuses values beyond them, naming the field
+//! (`context`), and the optimiser's parameter domains stay within them (`crate::params`).
+
+/// Largest emitted amount, per channel: an area light's radiance, a point light's intensity,
+/// a laser's power (and a `radiance` parameter's value, [`crate::params::ParamKind::domain`]).
+///
+/// A film value is an average over samples of each path's contribution, the emitted amount
+/// times the path's own factor (BSDFs, whose albedo is at most 1, and the geometry of its
+/// connections), stored as a 32-bit float, whose largest value is 3.4·10³⁸. The largest film
+/// holds 16384² pixels × 2²⁴ bins × 3 channels < 2⁵⁴ ≈ 1.8·10¹⁶ values, so at 10¹⁸ even the
+/// sum of all of them, as a preview or a reader adds them up in 32-bit floats, stays below
+/// 1.8·10³⁴: 2¹⁴ to spare for a path's own factor. A physical source is far below it (the
+/// Sun's radiance is about 2·10⁷ W/(m²·sr)); a stronger light is the same render scaled, so
+/// scale the result instead. Before, radiance 3·10³⁸ rendered the whole scene and only then
+/// failed adding up the preview's time plot (exit 1).
+pub const MAX_EMISSION: f64 = 1e18;
+
+/// Largest pulse width (a Gaussian's σ, a box's width), gate σ, and emitter offset (either
+/// sign), metres of OPL: 2²⁴ m, about 16 800 km or 56 ms of light travel. The renderer holds
+/// optical path lengths in 32-bit floats (the kernel's path lengths and its window bound, the
+/// film's axis in the time plot), which from 2²⁴ m on are 2 m or more apart: light delayed or
+/// spread that far lands where those floats no longer resolve a metre, so no window can show
+/// it sharper than the floats themselves. Before, `sigma_opl = 1e30` rendered with exit 0
+/// and `--auto-window` chose a window of [-3.4·10³⁰, 2.6·10³⁰] m.
+pub const MAX_TIME_OPL: f64 = (1u64 << 24) as f64;
+
+/// `{v}` for numbers of ordinary size, `{v:e}` for the very large or small (1e18, not
+/// 1000000000000000000).
+pub fn number<T: Copy + Into<f64> + std::fmt::Display + std::fmt::LowerExp>(v: T) -> String {
+    let x: f64 = v.into();
+    if x != 0.0 && !(1e-4..1e6).contains(&x.abs()) {
+        format!("{v:e}")
+    } else {
+        format!("{v}")
+    }
+}
