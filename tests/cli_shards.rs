@@ -319,7 +319,8 @@ fn a_shard_with_a_negative_transient_is_refused() {
         let e = stderr(&o);
         assert_eq!(o.status.code(), Some(2), "{file}: {e}");
         assert!(
-            e.contains(said) && e.contains("are negative") && e.contains("the lowest is -2.5"),
+            e.contains(said)
+                && e.contains("are negative (the lowest is -2.5e0); expected values >= 0, as a render writes them"),
             "{file}: {e}"
         );
         assert!(!e.contains("dtr-staging"), "{e}");

@@ -391,7 +391,8 @@ fn refuse_negative(path: &Path, data: &[f32]) -> anyhow::Result<()> {
     if bad > 0 {
         let lowest = data.iter().copied().fold(0.0f32, f32::min);
         bail!(
-            "{}: {bad} of {} values of {FILM} are negative (the lowest is {lowest:e}); expected values >= 0,              as a render writes them (light never subtracts): the shard was changed or damaged",
+            "{}: {bad} of {} values of {FILM} are negative (the lowest is {lowest:e}); expected values >= 0, \
+             as a render writes them (light never subtracts): the shard was changed or damaged",
             path.display(),
             data.len()
         );
