@@ -352,7 +352,7 @@ pub(crate) fn apply_params(
         if !domain.contains(v) {
             return Err(bad_value(format!(
                 "{what} must be {domain} (got {})",
-                crate::scene::context::number(v)
+                crate::scene::limits::number(v)
             )));
         }
         for c in &components {
