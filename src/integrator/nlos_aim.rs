@@ -21,6 +21,16 @@
 //! Algorithm 1 (`super::path`), the derivative is that of f and of G·J along the path the
 //! strategies sampled, whichever strategy it was. The kernel's side (the directions and the
 //! weight at the first hit) is in `super::nlos_start`.
+//!
+//! Checking a derivative by finite differences through this sampling: the triangle weights
+//! depend on the hidden shapes' pose, so with common random numbers an aimed sample slides
+//! as θ changes and now and then jumps to another triangle. Its value is a sawtooth in θ
+//! whose mean is flat (the estimate is unbiased at every θ), and a central difference with
+//! small h sees the slide but almost never a jump. At a sensor point lit only by a static
+//! shape among the targets, the derivative is 0 while such differences read −6·10⁻³ of the
+//! value per degree in every seed (over 0–40°, 32 seeds, the slides summed to −3.4·10⁻⁶
+//! and 18 jumps to +2.8·10⁻⁶). Compare with aiming off (`hidden_sampling = 0`), or aim
+//! only at shapes the parameter does not move.
 
 use super::emitter_table::{pick_and_rescale, uniform_in_triangle};
 use crate::scene::Scene;
