@@ -110,25 +110,21 @@ impl Transient {
     }
     /// Σ over pixels and channels, one value per bin (radiance over time of the whole image).
     pub fn bin_totals(&self) -> Vec<f32> {
-        let mut out = vec![0.0f32; self.axis.bins];
-        for px in self.data.chunks_exact(self.axis.bins * self.channels) {
-            for (t, o) in out.iter_mut().enumerate() {
-                for c in 0..self.channels {
-                    *o += px[t * self.channels + c];
-                }
-            }
-        }
-        out
+        self.bin_totals_in()
     }
     /// [`Self::bin_totals`] added up in f64: finite for any film of finite values (a sum of
     /// 32-bit values near their largest, 3.4·10³⁸, overflows in f32; the preview's time plot
     /// then failed on its own sums).
     pub fn bin_totals_f64(&self) -> Vec<f64> {
-        let mut out = vec![0.0f64; self.axis.bins];
+        self.bin_totals_in()
+    }
+    /// [`Self::bin_totals`] accumulated in `T` (pixel by pixel, channels in order).
+    fn bin_totals_in<T: Copy + Default + From<f32> + std::ops::AddAssign>(&self) -> Vec<T> {
+        let mut out = vec![T::default(); self.axis.bins];
         for px in self.data.chunks_exact(self.axis.bins * self.channels) {
             for (t, o) in out.iter_mut().enumerate() {
                 for c in 0..self.channels {
-                    *o += px[t * self.channels + c] as f64;
+                    *o += T::from(px[t * self.channels + c]);
                 }
             }
         }
