@@ -130,17 +130,21 @@ pub(crate) fn check_data(path: &Path, shape: &[usize], data: &[f32]) -> Result<(
             actual: data.len(),
         });
     }
-    check_finite(path, data)
+    check_finite(path, data.iter().copied())
 }
 
-/// An error counting the NaN/±Inf values, if there are any.
-pub(crate) fn check_finite(path: &Path, data: &[f32]) -> Result<(), OutputError> {
-    let count = data.iter().filter(|v| !v.is_finite()).count();
+/// An error counting the NaN/±Inf values (32- or 64-bit), if there are any.
+pub(crate) fn check_finite<T: Into<f64>>(path: &Path, values: impl IntoIterator<Item = T>) -> Result<(), OutputError> {
+    let (mut count, mut total) = (0, 0);
+    for v in values {
+        count += usize::from(!v.into().is_finite());
+        total += 1;
+    }
     if count > 0 {
         Err(OutputError::NonFinite {
             path: path.to_path_buf(),
             count,
-            total: data.len(),
+            total,
         })
     } else {
         Ok(())

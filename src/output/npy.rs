@@ -76,7 +76,7 @@ fn write_mapped_in_blocks(
         for (b, values) in data.chunks(block_len).enumerate() {
             let made = &mut block[..values.len()];
             (made.par_iter_mut().zip(values).enumerate()).for_each(|(j, (out, &v))| *out = map(b * block_len + j, v));
-            super::check_finite(path, made)?;
+            super::check_finite(path, made.iter().copied())?;
             super::write_le_sparse(w, made).map_err(|e| OutputError::io(path, e))?;
         }
         Ok(())

@@ -3,7 +3,7 @@
 
 use super::font::{FAMILY, ensure_font};
 use super::png::write_png;
-use super::{OutputError, SPEED_OF_LIGHT_M_PER_S};
+use super::{OutputError, SPEED_OF_LIGHT_M_PER_S, check_finite};
 use plotters::prelude::*;
 use std::path::Path;
 
@@ -60,15 +60,7 @@ pub fn write_time_plot(path: &Path, axis: (f32, f32, usize), series: &[(String, 
             ));
         }
     }
-    let total: usize = series.iter().map(|(_, v)| v.len()).sum();
-    let count = series.iter().flat_map(|(_, v)| v).filter(|v| !v.is_finite()).count();
-    if count > 0 {
-        return Err(OutputError::NonFinite {
-            path: path.to_path_buf(),
-            count,
-            total,
-        });
-    }
+    check_finite(path, series.iter().flat_map(|(_, v)| v.iter().copied()))?;
     ensure_font().map_err(|detail| OutputError::Font {
         path: path.to_path_buf(),
         detail,
