@@ -691,38 +691,32 @@ fn an_emission_too_strong_for_32_bit_films_is_refused_at_load() {
         "{e}"
     );
     let d = tempfile::tempdir().unwrap();
-    let room = std::fs::read_to_string(scenes().join("diff_room.toml")).unwrap();
-    // (without its parameter intensity, whose value would be the lamp's)
-    let param = "[[param]]\nname = \"intensity\"\nkind = \"radiance\"\nemitter = \"lamp\"\nvalue = 5.0\n";
-    assert!(room.contains(param));
-    let p = write(
-        d.path(),
-        "strong.toml",
-        &room.replace(param, "").replace("intensity = 5.0", "intensity = 1e30"),
-    );
-    let e = info_refuses(&p, &[]);
-    assert!(
-        e.contains(
-            "strong.toml: emitter[0] \"lamp\": field 'intensity': every channel must be at most 1e18 (got 1e30)"
+    // each scene without the parameter that sets the emitter's amount (its value would be the
+    // amount), and the file's amount made too strong
+    for (scene, file, param, field, value, said) in [
+        (
+            "diff_room.toml",
+            "strong.toml",
+            "[[param]]\nname = \"intensity\"\nkind = \"radiance\"\nemitter = \"lamp\"\nvalue = 5.0\n",
+            "intensity = 5.0",
+            "intensity = 1e30",
+            "strong.toml: emitter[0] \"lamp\": field 'intensity': every channel must be at most 1e18 (got 1e30)",
         ),
-        "{e}"
-    );
-    let laser = std::fs::read_to_string(scenes().join("gated_laser_room.toml")).unwrap();
-    // (without its parameter laser_power, whose value would be the power)
-    let param = "[[param]]\nname = \"laser_power\"\nkind = \"radiance\"\nemitter = \"laser\"\nvalue = 10.0\n";
-    assert!(laser.contains(param));
-    let p = write(
-        d.path(),
-        "laser.toml",
-        &laser.replace(param, "").replace("power = 10.0", "power = [1, 2e18, 1]"),
-    );
-    let e = info_refuses(&p, &[]);
-    assert!(
-        e.contains(
-            "laser.toml: emitter[0] \"laser\": field 'power': every channel must be at most 1e18 (got [1, 2e18, 1])"
+        (
+            "gated_laser_room.toml",
+            "laser.toml",
+            "[[param]]\nname = \"laser_power\"\nkind = \"radiance\"\nemitter = \"laser\"\nvalue = 10.0\n",
+            "power = 10.0",
+            "power = [1, 2e18, 1]",
+            "laser.toml: emitter[0] \"laser\": field 'power': every channel must be at most 1e18 (got [1, 2e18, 1])",
         ),
-        "{e}"
-    );
+    ] {
+        let text = std::fs::read_to_string(scenes().join(scene)).unwrap();
+        assert!(text.contains(param) && text.contains(field), "{scene}");
+        let p = write(d.path(), file, &text.replace(param, "").replace(field, value));
+        let e = info_refuses(&p, &[]);
+        assert!(e.contains(said), "{e}");
+    }
     // the bound itself renders, and its preview is finite
     let o = dtr()
         .arg("render")
