@@ -129,11 +129,51 @@ fn face_normal(geo: &Geometry, f: u32) -> glam::Vec3 {
     crate::scene::triangle_normal(geo.indices[f as usize].map(|i| geo.positions[i as usize]))
 }
 
+/// Two faces in one plane, facing the same way.
+fn coplanar_faces(geo: &Geometry, f0: u32, f1: u32) -> bool {
+    face_normal(geo, f0).dot(face_normal(geo, f1)) >= COPLANAR_COS
+}
+
 /// Two faces in one plane, facing the same way: the edge is invisible to visibility.
 fn is_coplanar(geo: &Geometry, e: &Edge) -> bool {
-    match e.face1 {
-        None => false,
-        Some(f1) => face_normal(geo, e.face0).dot(face_normal(geo, f1)) >= COPLANAR_COS,
+    e.face1.is_some_and(|f1| coplanar_faces(geo, e.face0, f1))
+}
+
+/// Per face and edge slot k (the edge from vertex k to vertex k + 1 of the face), the face
+/// across that edge and its slot of the same edge, where the two faces are coplanar: the
+/// edges [`build_edges`] drops, across which the surface goes on without a discontinuity.
+/// A sliver triangle along a mesh's border (an exporter's split of that border) is one such
+/// face: the primary term's side rays walk through it into the rest of the surface
+/// (`primary.rs`, `Estimator::side_offsets`).
+pub struct CoplanarNeighbours(Vec<[Option<(u32, u8)>; 3]>);
+
+impl CoplanarNeighbours {
+    pub fn build(geo: &Geometry) -> Self {
+        let canon = weld(geo);
+        let mut sides: HashMap<(u32, u32), Vec<(u32, u8)>> = HashMap::new();
+        for (f, tri) in geo.indices.iter().enumerate() {
+            for k in 0..3 {
+                let (a, b) = (canon[tri[k] as usize], canon[tri[(k + 1) % 3] as usize]);
+                if a != b {
+                    sides.entry((a.min(b), a.max(b))).or_default().push((f as u32, k as u8));
+                }
+            }
+        }
+        let mut across = vec![[None; 3]; geo.indices.len()];
+        for pair in sides.values() {
+            if let [(f0, k0), (f1, k1)] = pair[..]
+                && coplanar_faces(geo, f0, f1)
+            {
+                across[f0 as usize][k0 as usize] = Some((f1, k1));
+                across[f1 as usize][k1 as usize] = Some((f0, k0));
+            }
+        }
+        CoplanarNeighbours(across)
+    }
+
+    /// The face across edge slot `slot` of `face` and its slot of that edge, if coplanar.
+    pub fn across(&self, face: u32, slot: usize) -> Option<(u32, usize)> {
+        self.0[face as usize][slot].map(|(f, k)| (f, k as usize))
     }
 }
 

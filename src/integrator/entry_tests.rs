@@ -526,7 +526,7 @@ fn trace_camera_rays(ctx: &RenderContext, dirs: &[Vec3]) -> PerRay {
         let mut rays = PrimaryRays {
             dirs: [Vec3::Z; 8],
             limit: None,
-            own: [[u32::MAX; 2]; 8],
+            own: [[u32::MAX; 4]; 8],
         };
         rays.dirs[..chunk.len()].copy_from_slice(chunk);
         trace_packet_from::<Dual8<1>, 3, _>(ctx, 5, &lanes, PathStart::Rays(&rays), &mut sink, &mut counts);

@@ -83,11 +83,13 @@ pub struct PrimaryRays {
     /// its sliver (its light was binned late), on a floor seen at 89° behind a silhouette 7 mm
     /// a thousandth of a pixel away (binned early).
     pub limit: Option<[glam::Vec3; 8]>,
-    /// Each lane's edge's faces (`u32::MAX` for none). On any other surface the side ray finds,
+    /// Each lane's edge's faces, and the faces coplanar with them that its side's offset point
+    /// lands on (a sliver along the edge's own face passes the side ray on to them;
+    /// `u32::MAX` for none). On any other surface the side ray finds,
     /// the vertex stays at its hit (the OPL only is the limit's): the edge ray may meet such a
     /// surface where its light is ambiguous (a shadow line that continues the silhouette under
     /// a light at the camera, the floor under a resting or hovering edge).
-    pub own: [[u32; 2]; 8],
+    pub own: [[u32; 4]; 8],
 }
 
 /// First vertices chosen by the caller instead of a camera ray: the source subpaths of the
