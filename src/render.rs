@@ -526,7 +526,7 @@ fn check_materials(scene: &Scene, motion: &Motion, kind: IntegratorKind, boundar
         if boundary != BoundaryMode::InteriorOnly {
             if motion.moves_geometry() {
                 return smooth(
-                    "a parameter that moves geometry needs the boundary stage, which assumes no Dirac lobes (supplemental assumption A.4); differentiate another parameter or pass --estimators interior for the interior term alone",
+                    "a parameter that moves geometry needs the boundary stage, which assumes no Dirac lobes (supplemental assumption A.4); differentiate another parameter or pass --estimators interior for the interior term alone (not the derivative: it leaves out the silhouettes and shadows that move, also those seen through the glass)",
                 );
             }
             if let Some(g) = bends_smooth_dielectric(scene, motion) {

@@ -263,6 +263,9 @@ pub fn run(a: OptimizeArgs) -> anyhow::Result<()> {
         .with_context(|| format!("cannot read {}", a.scene.display()))?;
     let scene = Scene::load_with_text(&a.scene, &fixed, &sets.texts)?;
     let target = read_target(&a.target, &scene)?;
+    if matches!(a.estimators, super::render_cmd::Estimators::Interior) {
+        super::render_cmd::warn_interior_alone(&scene, &a.params, &a.scene);
+    }
     for w in target_warnings(&target.data) {
         log::warn!("{}: {w}", a.target.display());
     }
