@@ -23,6 +23,7 @@ fn bdpt(edit: fn(&mut difftransient::Scene)) -> FdCheck {
         integrator: Some(IntegratorKind::Bdpt),
         edit,
         require_signal: true,
+        power_exemption: None,
         boundary: difftransient::render::BoundaryMode::Full,
     }
 }
@@ -93,6 +94,7 @@ fn splat_plane_with(require_signal: bool, edit: fn(&mut difftransient::Scene)) -
         integrator: Some(IntegratorKind::Bdpt),
         edit,
         require_signal,
+        power_exemption: None,
         boundary: difftransient::render::BoundaryMode::Full,
     }
 }
@@ -130,6 +132,7 @@ fn laser(integrator: IntegratorKind, edit: fn(&mut difftransient::Scene)) -> FdC
         integrator: Some(integrator),
         edit,
         require_signal: true,
+        power_exemption: None,
         boundary: difftransient::render::BoundaryMode::Full,
     }
 }

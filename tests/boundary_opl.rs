@@ -189,6 +189,14 @@ fn a_nanometre_pulse_over_a_shadow_edge_is_smooth_and_matches_the_closed_form() 
     // the time integral (blind to f32 OPLs, see the module doc) checks the closed form's scale
     let (m, se) = common::mean_se(&totals);
     eprintln!("time-summed ∂I/∂x = {m} ± {se} (closed form {exact_total})");
+    // (the total's check: the group check below has its own power, against an OPL shift)
+    common::power::Test::default()
+        .one(common::power::Entry {
+            scale: 4.0,
+            ..common::power::Entry::new(totals.iter().map(|t| t - exact_total).collect(), totals.clone(), 0.0)
+        })
+        .power()
+        .assert_enough("boundary_opl time-summed (8 seeds)");
     assert!(
         (m - exact_total).abs() <= 4.0 * se,
         "time-summed {m} ± {se} vs {exact_total}"

@@ -16,6 +16,7 @@ fn check_param(name: &str, value: f32, h: f32) {
         integrator: None,
         edit: |_| {},
         require_signal: true,
+        power_exemption: None,
         boundary: difftransient::render::BoundaryMode::Full,
     }
     .check(name, value, h);

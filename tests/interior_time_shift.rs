@@ -93,6 +93,14 @@ fn eta_shift(integrator: IntegratorKind) {
     );
     // the derivative of the mean arrival with respect to η is mean / η
     let expected = m0 / eta0 as f64;
+    common::power::Test::default()
+        .one(common::power::Entry {
+            scale: 3.0,
+            add: 1e-3 * expected,
+            ..common::power::Entry::new(dmeans.iter().map(|d| d - expected).collect(), dmeans.clone(), 0.0)
+        })
+        .power()
+        .assert_enough(&format!("eta_shift d(mean OPL)/dη ({integrator:?}, {k} seeds)"));
     assert!(
         (dm - expected).abs() <= 3.0 * sed + 1e-3 * expected,
         "d(mean OPL)/dη = {dm} ± {sed}, expected {expected}"

@@ -23,6 +23,7 @@ fn check_with(integrator: Option<IntegratorKind>, spp: u32, scene: &'static str,
         integrator,
         edit: |_| {},
         require_signal: true,
+        power_exemption: None,
         boundary: difftransient::render::BoundaryMode::Full,
     };
     check_resolved(&fd, name, value, h);
@@ -105,6 +106,9 @@ fn nested_media_iors_match_finite_differences() {
             integrator: None,
             edit: |_| {},
             require_signal: true,
+            // power audit: the per-entry check rejects a 0.6 % bias of glass_ior's derivative
+            // but only an 8.8 % one of liquid_ior's (94 s for both; see above)
+            power_exemption: (name == "liquid_ior").then_some("liquid_ior resolves 8.8 % (12 seeds × 256 spp)"),
             boundary: difftransient::render::BoundaryMode::Full,
         }
         // a wider step: a change of index flips some lanes between reflection and refraction
@@ -162,12 +166,27 @@ fn nearly_matched_liquid_in_thin_glass_matches_finite_differences() {
         common::npy(&dir.path().join(file)).1.iter().map(|&x| x as f64).sum()
     };
     let (value, h) = (1.52f32, 0.004f32);
-    let diffs: Vec<f64> = (0..8)
+    let (ads, diffs): (Vec<f64>, Vec<f64>) = (0..8)
         .map(|s| {
-            render(s, value, true) - (render(s, value + h, false) - render(s, value - h, false)) / (2.0 * h as f64)
+            let ad = render(s, value, true);
+            (
+                ad,
+                ad - (render(s, value + h, false) - render(s, value - h, false)) / (2.0 * h as f64),
+            )
         })
-        .collect();
+        .unzip();
     let (mean, se) = common::mean_se(&diffs);
+    common::power::Test::default()
+        .one(common::power::Entry {
+            scale: 4.0,
+            ..common::power::Entry::new(diffs.clone(), ads, 0.0)
+        })
+        .power()
+        .exempt(
+            "thin liquid_glass liquid_ior whole image (8 seeds)",
+            "a regression guard (−76.5 against +2.2): the whole image's derivative is not resolved from 0 \
+             at 8 seeds, so no relative bias fails it",
+        );
     assert!(
         mean.abs() < 4.0 * se,
         "derivative − central difference: {mean:.2} ± {se:.2}"
@@ -195,6 +214,7 @@ fn glossy_room(integrator: Option<IntegratorKind>) -> common::fd::FdCheck {
             };
         },
         require_signal: true,
+        power_exemption: None,
         boundary: difftransient::render::BoundaryMode::InteriorOnly,
     }
 }
@@ -232,6 +252,7 @@ fn smooth_check_with(
         integrator: Some(integrator),
         edit: common::make_smooth,
         require_signal: true,
+        power_exemption: None,
         boundary,
     }
 }

@@ -51,6 +51,7 @@ fn check_with(
         integrator,
         edit,
         require_signal: true,
+        power_exemption: power_exemption(scene),
         boundary: BoundaryMode::Full,
     }
     .check_aggregates(name, value, h);
@@ -62,6 +63,20 @@ fn check_with(
 }
 
 /// The plate as a white one (ρ = 0.5): an interior derivative besides the boundary term.
+/// The checks that resolve a little less than a 5 % bias of the derivative (measured in the
+/// power audit of 2026-12: detectable bias with the scaled derivative's own spread): their
+/// renders cost 15–150 s each at 12 seeds, and the finite difference's Richardson error
+/// (1.1–1.4 % of the fitted bias) is part of what they allow, so more seeds alone would not
+/// bring them under 5 % within the CI budget. Every other scene here must reach it.
+fn power_exemption(scene: &str) -> Option<&'static str> {
+    match scene {
+        "nlos_moving_plate_exhaustive.toml" => Some("resolves 5.1 % (12 seeds × 4096 spp, 146 s)"),
+        "nlos_plate_between_panels.toml" => Some("resolves 5.2 % (12 seeds × 24576 spp, 69 s)"),
+        "nlos_occluder.toml" => Some("resolves 6.0 % (path tracer) and 6.1 % (BDPT) (12 seeds × 4096 spp, 17–29 s)"),
+        _ => None,
+    }
+}
+
 fn white_plate(s: &mut difftransient::Scene) {
     let m = s.materials.iter_mut().find(|m| m.name == "black").unwrap();
     m.material = Material::Diffuse { albedo: [0.5; 3] };

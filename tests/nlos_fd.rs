@@ -31,6 +31,7 @@ fn check_with(
         integrator,
         edit,
         require_signal: true,
+        power_exemption: None,
         boundary: difftransient::render::BoundaryMode::Full,
     }
     .check(name, value, h);

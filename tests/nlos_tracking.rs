@@ -13,6 +13,7 @@
 //! interior alone never moves.
 
 use crate::common;
+use common::power::{Entry, Test};
 use difftransient::optimize::{Problem, loss::Loss};
 use difftransient::{BoundaryMode, RenderOptions, Scene, render, render_diff};
 
@@ -80,6 +81,7 @@ fn check_derivatives(file: &str, spp: u32) {
         }
         let col = |m: &[Vec<f64>], i: usize| -> Vec<f64> { m.iter().map(|r| r[i]).collect() };
         let mut best = 0.0f64;
+        let mut entries = Vec::new();
         for i in 0..diffs[0].len() {
             let (m, se) = common::mean_se(&col(&diffs, i));
             let (ma, _) = common::mean_se(&col(&ads, i));
@@ -96,10 +98,18 @@ fn check_derivatives(file: &str, spp: u32) {
             if ma.abs() > 0.0 {
                 best = best.max(ma.abs() / (4.0 * sd));
             }
+            entries.push(Entry {
+                floor: 1e-9 * ma.abs(),
+                ..Entry::new(col(&diffs, i), col(&ads, i), mr.abs() + 2.0 * ser)
+            });
         }
         // the strongest aggregate's derivative is at least 20 of its 4-sd bands: a 5% bias fails
         eprintln!("{file} {name}: best {best:.1} (at least 20)");
         assert!(best > 20.0, "{name}: the check cannot see a 5% bias (best {best:.1})");
+        Test::default()
+            .every(entries, 4.0)
+            .power()
+            .assert_enough(&format!("{file} {name} (16 seeds × {spp} spp)"));
     }
 }
 

@@ -20,6 +20,7 @@
 //! interior alone must miss: it fails the same test (Σz² above its bound, or an |z| above 8).
 
 use crate::common;
+use common::power::{Entry, Test};
 use difftransient::{BoundaryMode, RenderOptions, Scene, Transient, render, render_diff};
 
 const K: u64 = 16;
@@ -110,6 +111,7 @@ fn check_seeds(
         p.iter().zip(m).map(|(a, b)| (a - b) / (2.0 * step as f64)).collect()
     };
     let (mut d_full, mut d_int, mut rich, mut full_ad) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    let (mut fds, mut fds2) = (Vec::new(), Vec::new());
     let mut samples = 0u64;
     for seed in 0..seeds {
         // the checked parameter comes last, after any co-rendered ones
@@ -131,6 +133,8 @@ fn check_seeds(
         d_int.push(a_int.iter().zip(&f1).map(|(a, f)| a - f).collect::<Vec<_>>());
         rich.push(f2.iter().zip(&f1).map(|(a, b)| (a - b) / 3.0).collect::<Vec<_>>());
         full_ad.push(a_full);
+        fds.push(f1);
+        fds2.push(f2);
     }
     assert!(samples > 0, "{name}: the boundary stage did not run");
     let n = d_full[0].len();
@@ -142,15 +146,22 @@ fn check_seeds(
         })
         .collect();
     let peak = full_ad.iter().flatten().fold(0.0f64, |m, v| m.max(v.abs()));
-    // Σz², max |z| and entries used, for differences `d` (seed × entry)
+    // Σz², max |z|, entries used and the judged entries (for the power), for differences `d`
+    // (seed × entry)
     let z_stats = |d: &[Vec<f64>], label: &str| {
         let (mut chi2, mut zmax, mut used) = (0.0, 0.0f64, 0usize);
+        let mut entries = Vec::new();
         for i in 0..n {
             let (m, se) = common::mean_se(&col(d, i));
             if m == 0.0 && se == 0.0 {
                 continue;
             }
-            let z = m / ((se * se + fd_err[i] * fd_err[i]).sqrt() + 1e-9 * peak);
+            let sd = (se * se + fd_err[i] * fd_err[i]).sqrt() + 1e-9 * peak;
+            let z = m / sd;
+            entries.push(Entry {
+                add: 1e-9 * peak,
+                ..Entry::new(col(d, i), col(&full_ad, i), fd_err[i])
+            });
             eprintln!(
                 "{name} {label} entry {i}: AD−FD {m:.3e} ± {se:.2e}, fd err {:.2e}, z {z:.2}",
                 fd_err[i]
@@ -159,7 +170,7 @@ fn check_seeds(
             zmax = zmax.max(z.abs());
             used += 1;
         }
-        (chi2, zmax, used)
+        (chi2, zmax, used, entries)
     };
     let dof = (seeds - 1) as f64;
     // Student t with ν dof: E[t²] = ν/(ν−2), Var[t²] = 2ν²(ν−1)/((ν−2)²(ν−4))
@@ -174,7 +185,7 @@ fn check_seeds(
             m.abs() / (se + 1e-12)
         })
         .fold(0.0f64, f64::max);
-    let (chi2, zmax, used) = z_stats(&d_full, "full");
+    let (chi2, zmax, used, entries) = z_stats(&d_full, "full");
     eprintln!(
         "{name}: Σz² = {chi2:.1} (bound {:.1}) over {used}, max|z| {zmax:.2}, signal {signal:.1} se",
         bound(used)
@@ -194,9 +205,27 @@ fn check_seeds(
         m.abs() <= 3.0 * se + err_total,
         "{name}: totals disagree: {m} (se {se})"
     );
+    // the relative bias fitted over every aggregate at once, against Richardson's extrapolation
+    let reference = common::power::richardson_reference(&fds, &fds2);
+    common::power::RelativeBias::fit(&full_ad, &reference, &fd_err).assert_unbiased(name);
+    let power = Test::default()
+        .fit(full_ad.clone(), reference, fd_err.clone(), 4.0)
+        .sum_of_squares(entries.clone(), bound(used))
+        .every(entries, 8.0)
+        .one(Entry {
+            scale: 3.0,
+            add: err_total,
+            ..Entry::new(total(&d_full), total(&full_ad), 0.0)
+        })
+        .power();
+    let label = format!("{scene} {name} ({seeds} seeds)");
+    match power_exemption(scene, name) {
+        Some(reason) => power.exempt(&label, reason),
+        None => power.assert_enough(&label),
+    }
 
     // the interior alone fails the same test by a wide margin
-    let (chi2_i, zmax_i, used_i) = z_stats(&d_int, "interior");
+    let (chi2_i, zmax_i, used_i, _) = z_stats(&d_int, "interior");
     eprintln!(
         "{name}: interior alone: Σz² = {chi2_i:.1} (bound {:.1}), max|z| {zmax_i:.1}",
         bound(used_i)
@@ -205,6 +234,37 @@ fn check_seeds(
         chi2_i > bound(used_i) || zmax_i > 8.0,
         "{name}: the interior alone should miss the shadow's motion (Σz² = {chi2_i:.1}, max|z| {zmax_i:.1})"
     );
+}
+
+/// The checks that reject less than a 5 % relative bias of the derivative (power audit,
+/// 2026-12: the detectable bias with the scaled derivative's own spread), each with its
+/// measured figure and why it stays so. Every other check here asserts that it rejects 5 %.
+fn power_exemption(scene: &str, name: &str) -> Option<&'static str> {
+    let file = scene.rsplit('/').next().unwrap_or(scene);
+    match (file, name) {
+        ("hovering_mat.toml", "mat_x") => Some(
+            "resolves 5.7 %; checks that the shadow counts once, its size to 1.5 % is \
+             a_hovering_mats_derivative_loses_no_shadow_between_the_terms",
+        ),
+        ("pose_plate.toml", "plate_roll") => Some(
+            "resolves 32 %; checks that the silhouette counts once, its size to 4.8 % is \
+             boundary_primary::the_pose_plate_matches_finite_differences",
+        ),
+        ("sphere_light.toml", "occluder_x") => Some("resolves 8.2 % at 64 seeds (7.6 s)"),
+        ("contact_wall.toml", "pyramid_z") => {
+            Some("resolves 13 % at 48 seeds (3 s); a contact term's regression guard")
+        }
+        ("contact_pyramid.toml", "pyramid_yaw") => {
+            Some("resolves 53 % at 48 seeds (2.6 s): heavy-tailed contact edges")
+        }
+        ("shadow_in_wall_light.toml", "occluder_x") => {
+            Some("resolves 26 % at 48 seeds: the shadow seen only through a wall")
+        }
+        ("obj_mesh.toml", "pyramid_yaw") => {
+            Some("resolves 15 % at 16 seeds; pyramid_height on the same scene resolves 3.7 %")
+        }
+        _ => None,
+    }
 }
 
 #[test]
@@ -331,7 +391,13 @@ fn moving_receiver_shadow_matches_finite_differences() {
 
 #[test]
 fn obj_rotation_shadow_matches_finite_differences() {
-    check("shadow_hidden_pyramid.toml", "pyramid", "pyramid_yaw", 30.0, 1.0);
+    check_pyramid_yaw("shadow_hidden_pyramid.toml");
+}
+
+/// The hidden pyramid's yaw on `scene` over 128 seeds: at 16 the check rejected only an 11.7 %
+/// bias of the derivative, at 96 5.4 % (power audit).
+fn check_pyramid_yaw(scene: &str) {
+    check_seeds(128, scene, Some("pyramid"), "pyramid_yaw", 30.0, 1.0, |_| {}, &[]);
 }
 
 #[test]
@@ -475,7 +541,7 @@ fn a_hovering_mats_derivative_loses_no_shadow_between_the_terms() {
     let (value, h) = (-0.77f32, 0.01f32);
     let at = |v: f32| load("hovering_mat.toml", "mat_x", Some(v));
     let total = |t: &Transient| t.data.iter().map(|&v| v as f64).sum::<f64>();
-    let (mut diff, mut rich) = (Vec::new(), Vec::new());
+    let (mut diff, mut rich, mut ads) = (Vec::new(), Vec::new(), Vec::new());
     let mut ad_mean = 0.0;
     for seed in 0..32u64 {
         let o = |spp: u32| RenderOptions {
@@ -494,6 +560,7 @@ fn a_hovering_mats_derivative_loses_no_shadow_between_the_terms() {
         let (f1, f2) = (fd(h), fd(2.0 * h));
         let ad = total(&d[0]);
         ad_mean += ad / 32.0;
+        ads.push(ad);
         diff.push(ad - f1);
         rich.push((f2 - f1) / 3.0);
     }
@@ -501,6 +568,14 @@ fn a_hovering_mats_derivative_loses_no_shadow_between_the_terms() {
     let (r, r_se) = common::mean_se(&rich);
     let truncation = r.abs() + 2.0 * r_se;
     eprintln!("hovering mat: AD {ad_mean:.4}, AD − FD {m:.4e} ± {se:.2e}, truncation {truncation:.2e}");
+    Test::default()
+        .one(Entry {
+            scale: 3.0,
+            add: truncation,
+            ..Entry::new(diff.clone(), ads, 0.0)
+        })
+        .power()
+        .assert_enough("hovering_mat.toml mat_x total (32 seeds)");
     assert!(
         m.abs() <= 3.0 * se + truncation,
         "AD {ad_mean:.4} and FD differ by {m:.4e} ± {se:.2e} (truncation {truncation:.2e})"
@@ -610,7 +685,7 @@ fn a_pyramid_read_as_a_triangle_soup_matches_finite_differences() {
     assert_ne!(changed, text);
     let path = dir.path().join("shadow_hidden_soup.toml");
     std::fs::write(&path, changed).unwrap();
-    check(&path.to_string_lossy(), "pyramid", "pyramid_yaw", 30.0, 1.0);
+    check_pyramid_yaw(&path.to_string_lossy());
 }
 
 /// The light of scenes/shadow_hidden_occluder.toml turned 60° about z, so that it shines on
@@ -631,7 +706,8 @@ fn a_tilted_light_casts_its_whole_shadow() {
         ],
         "tilted_light.toml",
     );
-    check(&path, "occluder", "occluder_x", 0.1, 0.01);
+    // 40 seeds: at 16 the check rejected only a 7.2 % bias of the derivative (power audit)
+    check_seeds(40, &path, Some("occluder"), "occluder_x", 0.1, 0.01, |_| {}, &[]);
 }
 
 /// The light of scenes/shadow_hidden_occluder.toml as a sphere (a closed emitter of 80

@@ -21,14 +21,22 @@ fn fd_check(name: &str, value: f32, h: f32) {
     fd_check_with(name, value, h, |_| {});
 }
 
+/// 24 seeds of 32 spp for the pulse offset: at 12 × 4 its check rejected no relative bias at
+/// all (its derivative not resolved per entry; power audit). The box's translation stays at
+/// 12 × 4 with a documented exemption: its checks reject a 30 % bias there and a 71 % one at
+/// 24 × 32, since what they allow is the finite difference's own error (Richardson's estimate
+/// summed over bins, from a 1 cm pulse against a 2 mm step), which more samples do not shrink.
 fn fd_check_with(name: &str, value: f32, h: f32, edit: fn(&mut Scene)) {
+    let translation = name == "tall_box_x";
     common::fd::FdCheck {
         scene: "narrow_pulse_box.toml",
-        k: 12,
-        spp: 4,
+        k: if translation { 12 } else { 24 },
+        spp: if translation { 4 } else { 32 },
         integrator: None,
         edit,
         require_signal: true,
+        power_exemption: translation
+            .then_some("resolves 30 % (12 seeds × 4 spp), limited by the finite difference's truncation error"),
         boundary: BoundaryMode::Full,
     }
     .check(name, value, h);

@@ -9,6 +9,7 @@
 //! own error: its truncation error, estimated by Richardson from steps h and 2h
 //! ((FD_2h − FD_h) / 3), and f32 rounding of the film (2⁻²³ · |I| / h).
 
+use super::power::{Entry, Power, RelativeBias, Test, richardson_reference};
 use difftransient::render::BoundaryMode;
 use difftransient::scene::IntegratorKind;
 use difftransient::{RenderOptions, Scene, Transient, render, render_diff};
@@ -24,6 +25,10 @@ pub struct FdCheck {
     /// Require the derivative to stand out from its noise (off for parameters whose true
     /// derivative is 0, where the test is that every term cancels).
     pub require_signal: bool,
+    /// Why this check may resolve less than [`super::power::MAX_DETECTABLE_BIAS`] (its
+    /// measured detectable bias, and why more seeds or samples do not fit the CI budget): its
+    /// power is then printed, not asserted. `None` for every check that can be strong enough.
+    pub power_exemption: Option<&'static str>,
     /// Which estimators the derivative renders run (`Full` unless a scene's derivative is the
     /// interior alone and the boundary stage cannot run on it).
     pub boundary: BoundaryMode,
@@ -64,11 +69,12 @@ fn bins(t: &Transient) -> Vec<f64> {
 }
 
 /// Σ z², max |z| and entries for `diffs[k][i]` (seed k, entry i), plus the mean AD magnitude
-/// in standard errors (to show the derivative is not trivially zero). `fd_err[i]` is the
-/// finite difference's own error bound for entry i.
-fn z_stats(diffs: &[Vec<f64>], ads: &[Vec<f64>], fd_err: &[f64]) -> (f64, f64, usize, f64) {
+/// in standard errors (to show the derivative is not trivially zero) and the judged entries
+/// (for the test's power). `fd_err[i]` is the finite difference's own error bound for entry i.
+fn z_stats(diffs: &[Vec<f64>], ads: &[Vec<f64>], fd_err: &[f64]) -> (f64, f64, usize, f64, Vec<Entry>) {
     let n = diffs[0].len();
     let (mut chi2, mut zmax, mut used, mut signal) = (0.0, 0.0f64, 0, 0.0f64);
+    let mut entries = Vec::new();
     for i in 0..n {
         let col: Vec<f64> = diffs.iter().map(|d| d[i]).collect();
         let (m, se) = super::mean_se(&col);
@@ -78,10 +84,14 @@ fn z_stats(diffs: &[Vec<f64>], ads: &[Vec<f64>], fd_err: &[f64]) -> (f64, f64, u
         if se == 0.0 && m == 0.0 {
             continue;
         }
-        let z = m
-            / (se * se + fd_err[i] * fd_err[i])
-                .sqrt()
-                .max(1e-12 * ma.abs().max(1e-30));
+        let sd = (se * se + fd_err[i] * fd_err[i])
+            .sqrt()
+            .max(1e-12 * ma.abs().max(1e-30));
+        let z = m / sd;
+        entries.push(Entry {
+            floor: 1e-12 * ma.abs().max(1e-30),
+            ..Entry::new(col, ad, fd_err[i])
+        });
         chi2 += z * z;
         if z.abs() > zmax {
             eprintln!(
@@ -92,7 +102,7 @@ fn z_stats(diffs: &[Vec<f64>], ads: &[Vec<f64>], fd_err: &[f64]) -> (f64, f64, u
         zmax = zmax.max(z.abs());
         used += 1;
     }
-    (chi2, zmax, used, signal)
+    (chi2, zmax, used, signal, entries)
 }
 
 /// The three views the checks judge of one transient: the time-summed image, the bin totals
@@ -205,19 +215,40 @@ impl FdCheck {
     }
 
     /// Checks ∂I/∂`name` at `value` against central differences with step `h`, per entry
-    /// (every pixel's time-summed derivative and every bin's total).
+    /// (every pixel's time-summed derivative and every bin's total), and that the check
+    /// rejects a relative bias of the derivative of [`super::power::MAX_DETECTABLE_BIAS`].
     pub fn check(&self, name: &str, value: f32, h: f32) {
-        self.judge_entries(name, &self.runs(name, value, h));
+        let test = self.judge_entries(name, &self.runs(name, value, h));
+        self.judge_power(name, test.power());
     }
 
-    /// [`FdCheck::check`] and [`FdCheck::check_aggregates`] on one set of renders.
+    /// [`FdCheck::check`] and [`FdCheck::check_aggregates`] on one set of renders; the power
+    /// asked for is the two checks' together (either failing fails the test).
     pub fn check_entries_and_aggregates(&self, name: &str, value: f32, h: f32) -> (f64, f64) {
         let runs = self.runs(name, value, h);
-        self.judge_entries(name, &runs);
-        self.judge_aggregates(name, &runs)
+        let mut test = self.judge_entries(name, &runs);
+        let (zmax, resolution, aggregates) = self.judge_aggregates(name, &runs);
+        self.judge_power(name, test.and(aggregates).power());
+        (zmax, resolution)
     }
 
-    fn judge_entries(&self, name: &str, runs: &Runs) {
+    /// Asserts the power of the check of `name`, unless its derivative is truly 0 (no signal
+    /// required: there is nothing to scale, and the test is that every term cancels) or the
+    /// check carries a documented `power_exemption`.
+    fn judge_power(&self, name: &str, power: Power) {
+        let label = format!(
+            "{} {name} ({:?}, {} seeds × {} spp)",
+            self.scene, self.integrator, self.k, self.spp
+        );
+        match (self.require_signal, self.power_exemption) {
+            (false, _) => power.exempt(&label, "the true derivative is 0"),
+            (true, Some(reason)) => power.exempt(&label, reason),
+            (true, None) => power.assert_enough(&label),
+        }
+    }
+
+    /// The per-entry check; returns its assertions, for their power.
+    fn judge_entries(&self, name: &str, runs: &Runs) -> Test {
         let k_seeds = self.k;
         let img: fn(&Views) -> &Vec<f64> = |v| &v.image;
         let bin: fn(&Views) -> &Vec<f64> = |v| &v.bins;
@@ -246,8 +277,9 @@ impl FdCheck {
         let err_img = floor(fd_err(img), &a_img);
         let err_bin = floor(fd_err(bin), &a_bin);
         let mut best_signal = 0.0f64;
+        let mut test = Test::default();
         for (what, d, a, e) in [("image", &d_img, &a_img, &err_img), ("bins", &d_bin, &a_bin, &err_bin)] {
-            let (chi2, zmax, n, signal) = z_stats(d, a, e);
+            let (chi2, zmax, n, signal, entries) = z_stats(d, a, e);
             best_signal = best_signal.max(signal);
             let n_f = n as f64;
             // Student t with ν dof: E[t²] = ν/(ν−2), Var[t²] = 2ν²(ν−1)/((ν−2)²(ν−4))
@@ -261,6 +293,8 @@ impl FdCheck {
             );
             // family-wise: P(|t_11| > 8) ≈ 4e-6 per entry
             assert!(zmax <= 8.0, "{name} {what}: an entry is {zmax:.1} standard errors off");
+            test.sum_of_squares(entries.clone(), mean + 5.0 * sd)
+                .every(entries, 8.0);
         }
         assert!(
             !self.require_signal || best_signal > 5.0,
@@ -273,6 +307,13 @@ impl FdCheck {
             m.abs() <= 3.0 * se + total_fd_err,
             "{name}: total AD − FD = {m} (se {se}, fd error {total_fd_err})"
         );
+        let ad_totals: Vec<f64> = a_bin.iter().map(|a| a.iter().sum::<f64>()).collect();
+        test.one(Entry {
+            scale: 3.0,
+            add: total_fd_err,
+            ..Entry::new(totals, ad_totals, 0.0)
+        });
+        test
     }
 }
 
@@ -316,11 +357,17 @@ impl FdCheck {
     /// truncation estimate and f32 rounding) for every aggregate. Returns the largest |z| and
     /// the resolution: the smallest relative bias of an aggregate's derivative that this run
     /// would see at 4 standard errors (min over aggregates of 4·sd(AD − FD) / |AD|).
+    /// Also asserts that the check rejects a relative bias of the derivative of
+    /// [`super::power::MAX_DETECTABLE_BIAS`].
     pub fn check_aggregates(&self, name: &str, value: f32, h: f32) -> (f64, f64) {
-        self.judge_aggregates(name, &self.runs(name, value, h))
+        let (zmax, resolution, test) = self.judge_aggregates(name, &self.runs(name, value, h));
+        self.judge_power(name, test.power());
+        (zmax, resolution)
     }
 
-    fn judge_aggregates(&self, name: &str, runs: &Runs) -> (f64, f64) {
+    /// The check on coarse aggregates: the largest |z|, the resolution and the assertions (for
+    /// their power).
+    fn judge_aggregates(&self, name: &str, runs: &Runs) -> (f64, f64, Test) {
         let coarse: fn(&Views) -> &Vec<f64> = |v| &v.coarse;
         let (diffs, ads, rich, round) = (
             runs.diffs(coarse),
@@ -332,6 +379,7 @@ impl FdCheck {
         let col = |m: &[Vec<f64>], i: usize| -> Vec<f64> { m.iter().map(|r| r[i]).collect() };
         let mut zmax = 0.0f64;
         let mut resolution = f64::INFINITY;
+        let (mut entries, mut errs) = (Vec::new(), Vec::new());
         let mut failures = Vec::new();
         for (i, label) in labels.iter().enumerate() {
             let (m, se) = super::mean_se(&col(&diffs, i));
@@ -339,6 +387,7 @@ impl FdCheck {
             let (mr, ser) = super::mean_se(&col(&rich, i));
             let fd_err = mr.abs() + 2.0 * ser + col(&round, i).iter().sum::<f64>() / self.k as f64;
             let sd = (se * se + fd_err * fd_err).sqrt();
+            errs.push(fd_err);
             if sd == 0.0 && m == 0.0 {
                 continue;
             }
@@ -348,11 +397,25 @@ impl FdCheck {
             );
             zmax = zmax.max(z.abs());
             resolution = resolution.min(4.0 * sd / ma.abs());
+            entries.push(Entry {
+                floor: 1e-12 * ma.abs().max(1e-30),
+                ..Entry::new(col(&diffs, i), col(&ads, i), fd_err)
+            });
             if z.abs() > 4.0 {
                 failures.push(format!("{label}: z = {z:.1}"));
             }
         }
         assert!(failures.is_empty(), "{name}: AD and FD disagree on {failures:?}");
-        (zmax, resolution)
+        let mut test = Test::default();
+        test.every(entries, 4.0);
+        // the relative bias fitted over every aggregate at once (against Richardson's
+        // extrapolation): the statistic aimed at a uniform bias of a few percent (not where
+        // the derivative is 0: there is nothing to scale)
+        if self.require_signal {
+            let reference = richardson_reference(&runs.fd(coarse, false), &runs.fd(coarse, true));
+            RelativeBias::fit(&ads, &reference, &errs).assert_unbiased(name);
+            test.fit(ads, reference, errs, 4.0);
+        }
+        (zmax, resolution, test)
     }
 }

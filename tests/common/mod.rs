@@ -2,6 +2,7 @@
 #![allow(dead_code)]
 
 pub mod fd;
+pub mod power;
 
 use difftransient::{RenderOptions, Scene, Transient, render};
 use std::path::PathBuf;
