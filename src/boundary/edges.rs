@@ -148,10 +148,15 @@ fn is_coplanar(geo: &Geometry, e: &Edge) -> bool {
 pub struct CoplanarNeighbours(Vec<[Option<(u32, u8)>; 3]>);
 
 impl CoplanarNeighbours {
-    pub fn build(geo: &Geometry) -> Self {
+    /// The table for the faces of the shapes `wanted` says (welded vertices are per shape, so
+    /// neighbours never cross shapes); other faces have none.
+    pub fn build(geo: &Geometry, wanted: impl Fn(u32) -> bool) -> Self {
         let canon = weld(geo);
         let mut sides: HashMap<(u32, u32), Vec<(u32, u8)>> = HashMap::new();
         for (f, tri) in geo.indices.iter().enumerate() {
+            if !wanted(geo.tri_shape[f]) {
+                continue;
+            }
             for k in 0..3 {
                 let (a, b) = (canon[tri[k] as usize], canon[tri[(k + 1) % 3] as usize]);
                 if a != b {

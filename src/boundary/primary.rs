@@ -240,7 +240,7 @@ fn for_each_wave<T: Send>(
     let est = Estimator {
         ctx,
         edges,
-        coplanar: CoplanarNeighbours::build(&scene.geometry),
+        coplanar: CoplanarNeighbours::build(&scene.geometry, |s| moving[s as usize]),
         set: &set,
         pin: &pin,
         seed,
