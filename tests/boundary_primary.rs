@@ -709,70 +709,94 @@ fn a_narrow_pulse_leaves_the_time_summed_silhouette_derivative_as_it_was() {
 /// The pose plate (scenes/pose_plate.toml) as an OBJ whose bottom border an exporter split
 /// with a vertex a hair inside the line (`width` of the plate's half-size): a sliver triangle
 /// along the silhouette, its two inner edges coplanar with their neighbours. The surface is
-/// the rectangle's, so the primary term must be the rectangle's. The side ray on the sliver
+/// the rectangle's, so the boundary term must be the rectangle's. The side ray on the sliver
 /// was shortened to half its width, below what f32 film points and directions resolve near
 /// its corners, and saw the background: the sweep that found it measured the full derivative
 /// 2.5 % short at a width of 10⁻⁵ and 14 % at 10⁻⁶ (`plate_roll`); here, before the fix,
-/// `plate_x` at 10⁻⁵ gave Σz² = 3204 against a bound of 176 (max |z| 13). Walking the side offset on into the coplanar
-/// neighbour, the side path also has to take that neighbour for the edge's own face (start
-/// at the edge's limit): from the side ray's hit it was 10⁻⁴ short (`plate_x`, z = −306).
-/// Per 4 × 4 block of the time-summed image and per bin, 8 seeds each, the sliver plate's
-/// mean against the rectangle's (independent samples; a floor of 10⁻⁵ of the value for the
-/// f32 films' rounding): Σz² within its bound, and the standard errors small enough that a
-/// bias of 2.5 % on every entry would exceed four times that bound.
+/// `plate_x` at 10⁻⁵ gave Σz² = 3204 against a bound of 176 (max |z| 13). Walking the side
+/// offset on into the coplanar neighbour, the side path also has to take that neighbour for
+/// the edge's own face (start at the edge's limit): from the side ray's hit it was 10⁻⁴ short
+/// (`plate_x`, z = −306). The plate is then turned about all three axes: rounding tilts the
+/// sliver's f32 normal past the coplanar angle, its inner edges stood as creases, and the
+/// shadow's term (secondary edges) went off in the blocks along them (a second sweep: one
+/// block 7 standard errors off); here the whole boundary term, before the fix of
+/// `edges::within_rounding`, gave Σz² = 7880 for `plate_roll` at 10⁻⁵ (max |z| 36) against
+/// a bound of 176; 19.7 after. Per 4 × 4 block of the time-summed
+/// image and per bin, the sliver plate's mean against the rectangle's (independent samples; a
+/// floor of 10⁻⁵ of the value for the f32 films' rounding): Σz² within its bound, and the
+/// standard errors small enough that a bias of 2.5 % on every entry would exceed four times
+/// that bound.
 #[test]
 fn a_sliver_triangle_along_a_silhouette_leaves_its_term_whole() {
     let dir = tempfile::tempdir().unwrap();
     let text = std::fs::read_to_string(common::scene_path("pose_plate.toml")).unwrap();
     let rectangle = "name = \"plate\"\ntype = \"rectangle\"";
-    assert!(text.contains(rectangle));
-    let plate = |width: Option<f64>| -> Scene {
-        let Some(w) = width else {
-            return common::load("pose_plate.toml");
-        };
-        let obj = dir.path().join(format!("sliver_{w:e}.obj"));
-        let inner = -1.0 + w;
-        let mesh =
-            format!("v -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\nv 0 {inner} 0\nf 1 2 5\nf 1 5 4\nf 5 3 4\nf 5 2 3\n");
-        std::fs::write(&obj, mesh).unwrap();
-        let path = dir.path().join(format!("sliver_{w:e}.toml"));
-        let shape = format!("name = \"plate\"\ntype = \"obj\"\nfile = {:?}", obj.to_string_lossy());
-        std::fs::write(&path, text.replace(rectangle, &shape)).unwrap();
+    let (flat, tilted) = ("rotate = [0.0, 0.0, 20.0]", "rotate = [35.0, 25.0, 20.0]");
+    assert!(text.contains(rectangle) && text.contains(flat));
+    // the plate as the rectangle or as the sliver OBJ of `width`, flat or turned
+    let plate = |width: Option<f64>, turned: bool| -> Scene {
+        let mut scene = text.clone();
+        if turned {
+            scene = scene.replace(flat, tilted);
+        }
+        if let Some(w) = width {
+            let obj = dir.path().join(format!("sliver_{w:e}.obj"));
+            let inner = -1.0 + w;
+            let mesh =
+                format!("v -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\nv 0 {inner} 0\nf 1 2 5\nf 1 5 4\nf 5 3 4\nf 5 2 3\n");
+            std::fs::write(&obj, mesh).unwrap();
+            let shape = format!("name = \"plate\"\ntype = \"obj\"\nfile = {:?}", obj.to_string_lossy());
+            scene = scene.replace(rectangle, &shape);
+        }
+        let path = dir.path().join(format!("plate_{width:?}_{turned}.toml"));
+        std::fs::write(&path, scene).unwrap();
         let scene = Scene::load(&path, &[]).unwrap();
-        assert_eq!(scene.shapes[1].tri_count, 4, "the sliver is kept");
+        let triangles = if width.is_some() { 4 } else { 2 };
+        assert_eq!(scene.shapes[1].tri_count, triangles, "the sliver is kept");
         scene
     };
     let seeds = 8u64;
-    let runs = |scene: &Scene, param: &str| -> Vec<Vec<f64>> {
-        (1..=seeds).map(|s| aggregate(&primary(scene, param, 64, s))).collect()
+    // flat: the primary term alone; turned: the whole boundary term (the shadow's too)
+    let runs = |scene: &Scene, param: &str, turned: bool| -> Vec<Vec<f64>> {
+        (1..=seeds)
+            .map(|s| match turned {
+                false => aggregate(&primary(scene, param, 64, s)),
+                true => {
+                    let opts = RenderOptions {
+                        boundary: BoundaryMode::BoundaryOnly,
+                        spp_boundary: Some(64),
+                        ..common::options(4, s)
+                    };
+                    aggregate(&render_diff(scene, &[param.to_string()], &opts).unwrap().1[0])
+                }
+            })
+            .collect()
     };
     let stats = |runs: &[Vec<f64>], i: usize| common::mean_se(&runs.iter().map(|r| r[i]).collect::<Vec<_>>());
-    let reference = plate(None);
-    for param in ["plate_x", "plate_roll"] {
-        let rect = runs(&reference, param);
-        for width in [1e-5, 1e-6] {
-            let sliver = runs(&plate(Some(width)), param);
-            let (mut chi2, mut power, mut zmax, mut n) = (0.0, 0.0, 0.0f64, 0);
-            for i in 0..rect[0].len() {
-                let ((m0, se0), (m, se)) = (stats(&rect, i), stats(&sliver, i));
-                let sd = (se * se + se0 * se0).sqrt() + 1e-5 * m0.abs();
-                if sd == 0.0 {
-                    assert_eq!(m, m0, "{param}, entry {i}: exact disagreement");
-                    continue;
+    for turned in [false, true] {
+        let reference = plate(None, turned);
+        for param in ["plate_x", "plate_roll"] {
+            let rect = runs(&reference, param, turned);
+            for width in [1e-5, 1e-6] {
+                let sliver = runs(&plate(Some(width), turned), param, turned);
+                let (mut chi2, mut power, mut zmax, mut n) = (0.0, 0.0, 0.0f64, 0);
+                for i in 0..rect[0].len() {
+                    let ((m0, se0), (m, se)) = (stats(&rect, i), stats(&sliver, i));
+                    let sd = (se * se + se0 * se0).sqrt() + 1e-5 * m0.abs();
+                    if sd == 0.0 {
+                        assert_eq!(m, m0, "{param}, entry {i}: exact disagreement");
+                        continue;
+                    }
+                    let z = (m - m0) / sd;
+                    (chi2, zmax, n) = (chi2 + z * z, zmax.max(z.abs()), n + 1);
+                    power += (0.025 * m0 / sd).powi(2);
                 }
-                let z = (m - m0) / sd;
-                (chi2, zmax, n) = (chi2 + z * z, zmax.max(z.abs()), n + 1);
-                power += (0.025 * m0 / sd).powi(2);
+                let bound = chi2_bound(n, seeds);
+                let case = format!("{param}, sliver {width:e}{}", if turned { ", turned" } else { "" });
+                eprintln!("{case}: Σz² = {chi2:.1} (bound {bound:.1}), max |z| = {zmax:.2}, a 2.5 % bias {power:.0}");
+                assert!(power > 4.0 * bound, "{case}: too noisy to see a bias of a few percent");
+                assert!(chi2 <= bound, "{case}: the boundary term differs from the rectangle's");
             }
-            let bound = chi2_bound(n, seeds);
-            eprintln!(
-                "{param}, sliver {width:e}: Σz² = {chi2:.1} (bound {bound:.1}), max |z| = {zmax:.2}, a 2.5 % bias {power:.0}"
-            );
-            assert!(power > 4.0 * bound, "{param}: too noisy to see a bias of a few percent");
-            assert!(
-                chi2 <= bound,
-                "{param}, sliver {width:e}: the primary term differs from the rectangle's"
-            );
         }
     }
 }

@@ -129,14 +129,57 @@ fn face_normal(geo: &Geometry, f: u32) -> glam::Vec3 {
     crate::scene::triangle_normal(geo.indices[f as usize].map(|i| geo.positions[i as usize]))
 }
 
-/// Two faces in one plane, facing the same way.
-fn coplanar_faces(geo: &Geometry, f0: u32, f1: u32) -> bool {
-    face_normal(geo, f0).dot(face_normal(geo, f1)) >= COPLANAR_COS
+/// Two faces sharing an edge lie in one plane, facing the same way: their normals agree
+/// within [`COPLANAR_COS`], or the thinner one lies in the other's plane to within the
+/// rounding of the coordinates ([`within_rounding`]). `c0`, `c1`: each face's vertex off the
+/// edge.
+fn coplanar_faces(geo: &Geometry, (f0, c0): (u32, u32), (f1, c1): (u32, u32)) -> bool {
+    let dot = face_normal(geo, f0).dot(face_normal(geo, f1));
+    dot >= COPLANAR_COS || (dot > 0.0 && within_rounding(geo, (f0, c0), (f1, c1)))
+}
+
+/// Coordinate roundings (units of 2⁻²³ of the largest coordinate) within which a vertex
+/// counts as in a plane: f32 world positions carry half of one each.
+const PLANE_ROUNDINGS: f64 = 4.0;
+
+/// Whether the thinner of two faces sharing an edge has its vertex off the edge within
+/// [`PLANE_ROUNDINGS`] of the wider one's plane. A sliver (a mesh whose border an exporter
+/// split with a vertex a hair off the line) has a normal that rounding alone tilts: 3·10⁻²
+/// rad for a sliver 10⁻⁶ of its length wide on a plate turned about all three axes, twenty
+/// times [`COPLANAR_COS`]'s angle, so its edges stood as creases and the boundary terms took
+/// them for discontinuities (a shadow's derivative 7 standard errors off in one block, an
+/// independent sweep). The wider face's normal is sound, and the sliver lies in its plane. A
+/// finely tessellated curved mesh keeps its edges: 1 mm faces on a 1 m sphere stand 10⁻⁶ m
+/// off each other's planes, twice this tolerance at 1 m from the origin.
+fn within_rounding(geo: &Geometry, (f0, c0): (u32, u32), (f1, c1): (u32, u32)) -> bool {
+    let tri = |f: u32| geo.indices[f as usize].map(|i| geo.positions[i as usize].as_dvec3());
+    let (t0, t1) = (tri(f0), tri(f1));
+    let normal = |t: &[glam::DVec3; 3]| (t[1] - t[0]).cross(t[2] - t[0]);
+    let (n0, n1) = (normal(&t0), normal(&t1));
+    // the thinner face (the smaller area over the shared edge) against the wider one's plane
+    let (c, wide, n) = match n0.length() <= n1.length() {
+        true => (c0, &t1, n1),
+        false => (c1, &t0, n0),
+    };
+    let len = n.length();
+    if len == 0.0 {
+        return false;
+    }
+    let c = geo.positions[c as usize].as_dvec3();
+    let d = (c - wide[0]).dot(n).abs() / len;
+    let scale = t0.iter().chain(&t1).fold(0.0f64, |m, p| m.max(p.abs().max_element()));
+    // the wide plane's own rounding tilts it by about a rounding over its size (√|n|), which
+    // a vertex farther off than that size sees magnified
+    let reach = wide.iter().map(|p| (c - *p).length()).fold(0.0f64, f64::max) / len.sqrt();
+    d <= PLANE_ROUNDINGS * scale * f64::from(f32::EPSILON) * reach.max(1.0)
 }
 
 /// Two faces in one plane, facing the same way: the edge is invisible to visibility.
 fn is_coplanar(geo: &Geometry, e: &Edge) -> bool {
-    e.face1.is_some_and(|f1| coplanar_faces(geo, e.face0, f1))
+    match (e.face1, e.opposite1) {
+        (Some(f1), Some(c1)) => coplanar_faces(geo, (e.face0, e.opposite0), (f1, c1)),
+        _ => false,
+    }
 }
 
 /// Per face and edge slot k (the edge from vertex k to vertex k + 1 of the face), the face
@@ -166,8 +209,9 @@ impl CoplanarNeighbours {
         }
         let mut across = vec![[None; 3]; geo.indices.len()];
         for pair in sides.values() {
+            let far = |f: u32, k: u8| geo.indices[f as usize][(k as usize + 2) % 3];
             if let [(f0, k0), (f1, k1)] = pair[..]
-                && coplanar_faces(geo, f0, f1)
+                && coplanar_faces(geo, (f0, far(f0, k0)), (f1, far(f1, k1)))
             {
                 across[f0 as usize][k0 as usize] = Some((f1, k1));
                 across[f1 as usize][k1 as usize] = Some((f0, k0));
