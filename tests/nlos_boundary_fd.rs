@@ -62,7 +62,6 @@ fn check_with(
     assert!(resolution < 0.06, "{scene} {name}: resolves only {resolution}");
 }
 
-/// The plate as a white one (ρ = 0.5): an interior derivative besides the boundary term.
 /// The checks that resolve a little less than a 5 % bias of the derivative (measured in the
 /// power audit of 2026-12: detectable bias with the scaled derivative's own spread): their
 /// renders cost 15–150 s each at 12 seeds, and the finite difference's Richardson error
@@ -77,6 +76,7 @@ fn power_exemption(scene: &str) -> Option<&'static str> {
     }
 }
 
+/// The plate as a white one (ρ = 0.5): an interior derivative besides the boundary term.
 fn white_plate(s: &mut difftransient::Scene) {
     let m = s.materials.iter_mut().find(|m| m.name == "black").unwrap();
     m.material = Material::Diffuse { albedo: [0.5; 3] };
