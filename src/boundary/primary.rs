@@ -69,7 +69,7 @@ use rayon::prelude::*;
 pub const SIDE_OFFSET_PX: f64 = 1e-3;
 
 /// Most faces a side offset walks through to find where the own face's surface ends
-/// (`Estimator::surface_exit`): a fan of coplanar slivers around a vertex the line passes
+/// (`Estimator::surface_walk`): a fan of coplanar slivers around a vertex the line passes
 /// through ends the walk there.
 const MAX_COPLANAR_WALK: usize = 16;
 
@@ -532,10 +532,11 @@ impl Estimator<'_> {
         let faces = [Some((edge.face0, edge.opposite0)), edge.face1.zip(edge.opposite1)];
         let mut walks = [None, None];
         for (j, (face, c)) in faces.into_iter().enumerate().filter_map(|(j, f)| Some((j, f?))) {
-            if self.pin.depth(world(c)) < Z_NEAR {
+            let far = world(c);
+            if self.pin.depth(far) < Z_NEAR {
                 continue;
             }
-            let side = if (self.pin.film(world(c)) - film).dot(normal) < 0.0 {
+            let side = if (self.pin.film(far) - film).dot(normal) < 0.0 {
                 0
             } else {
                 1
