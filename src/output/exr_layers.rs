@@ -10,6 +10,7 @@ use super::atomic::write_atomic;
 use super::{FilmView, OutputError, SPEED_OF_LIGHT_M_PER_S, check_data};
 use exr::meta::attribute::{AttributeValue, Text};
 use exr::prelude::*;
+use std::io::{Read, Seek, Write};
 use std::path::Path;
 use std::result::Result;
 
@@ -138,8 +139,47 @@ fn write(path: &Path, film: FilmView, steady: &[f32], axis: Option<(f64, f64)>) 
     );
     let image = Image::from_layer(layer);
     write_atomic(path, |out| {
-        image.write().to_unbuffered(&mut *out).map_err(|e| exr_error(path, e))
+        image.write().to_unbuffered(&mut *out).map_err(|e| exr_error(path, e))?;
+        out.flush().map_err(|e| OutputError::io(path, e))?;
+        sort_header_attributes(out.get_mut()).map_err(|e| OutputError::io(path, e))
     })
+}
+
+/// Puts the attributes of a single-part OpenEXR header (the file `file`, written whole) in
+/// the order of their names, in place. The exr crate writes the attributes of its own
+/// (`LayerAttributes::other`, a `HashMap`) in an order that changes from process to
+/// process, so two renders of the same film differed in their header's bytes. The header
+/// keeps its length (the same attributes, reordered), so the offset table and the pixels
+/// after it stay where they are; OpenEXR reads attributes in any order.
+fn sort_header_attributes(file: &mut (impl Read + Write + Seek)) -> std::io::Result<()> {
+    use std::io::{Error, ErrorKind, SeekFrom};
+    // magic number and version field; a header of this writer is under a few megabytes
+    // (its channel list names every bin)
+    file.seek(SeekFrom::Start(8))?;
+    let mut head = Vec::new();
+    Read::by_ref(file).take(64 << 20).read_to_end(&mut head)?;
+    let bad = || Error::new(ErrorKind::InvalidData, "OpenEXR header not as written");
+    let mut attributes: Vec<&[u8]> = Vec::new();
+    let mut at = 0;
+    loop {
+        let name_len = head[at..].iter().position(|&b| b == 0).ok_or_else(bad)?;
+        if name_len == 0 {
+            break;
+        }
+        let type_len = head[at + name_len + 1..].iter().position(|&b| b == 0).ok_or_else(bad)?;
+        let size_at = at + name_len + 1 + type_len + 1;
+        let size = head.get(size_at..size_at + 4).ok_or_else(bad)?;
+        let size = i32::from_le_bytes(size.try_into().map_err(|_| bad())?);
+        let end = size_at + 4 + usize::try_from(size).map_err(|_| bad())?;
+        attributes.push(head.get(at..end).ok_or_else(bad)?);
+        at = end;
+    }
+    // names end at their first 0 byte, so ordering by the whole attribute orders by name
+    attributes.sort_unstable();
+    let sorted = attributes.concat();
+    file.seek(SeekFrom::Start(8))?;
+    file.write_all(&sorted)?;
+    file.flush()
 }
 
 fn exr_error(path: &Path, e: exr::error::Error) -> OutputError {
@@ -175,6 +215,40 @@ mod tests {
 
     fn names(layer: &Layer<AnyChannels<FlatSamples>>) -> Vec<String> {
         layer.channel_data.list.iter().map(|c| c.name.to_string()).collect()
+    }
+
+    /// Two writes of one film give the same bytes. Before, the header's own attributes came
+    /// in the order of the exr crate's `HashMap`, another at every write (found by an
+    /// independent sweep: two identical renders, the same `.npy`, different `.exr`).
+    #[test]
+    fn the_same_film_writes_the_same_bytes() {
+        let dir = tempfile::tempdir().unwrap();
+        let (h, w, t, c) = (2, 3, 5, 3);
+        let data = coded_film(h, w, t, c);
+        let steady = vec![1.0f32; h * w * c];
+        let film = FilmView {
+            data: &data,
+            height: h,
+            width: w,
+            bins: t,
+            channels: c,
+        };
+        let bytes: Vec<Vec<u8>> = (0..4)
+            .map(|k| {
+                let p = dir.path().join(format!("f{k}.exr"));
+                write_exr_layers_with_axis(&p, film, &steady, (1.5, 0.25)).unwrap();
+                std::fs::read(&p).unwrap()
+            })
+            .collect();
+        assert!(bytes.iter().all(|b| *b == bytes[0]), "the four writes differ");
+        let layer = &read_all(&dir.path().join("f0.exr")).layer_data[0];
+        let other = &layer.attributes.other;
+        assert_eq!(other.len(), 8, "{other:?}");
+        assert!(matches!(
+            other.get(&Text::from("time_bins")),
+            Some(AttributeValue::I32(5))
+        ));
+        assert!(matches!(other.get(&Text::from("start_opl")), Some(AttributeValue::F64(v)) if *v == 1.5));
     }
 
     #[test]
