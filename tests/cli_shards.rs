@@ -179,6 +179,52 @@ fn a_shard_claiming_a_huge_film_is_refused() {
 /// A shard's film whose bytes are not those its render wrote is refused with exit 2, naming
 /// the file: one float flipped to 3.4·10³⁸ on disk, or the .npy of a render at another seed
 /// copied over it. Before, both merged with exit 0 (the JSON was checked, the films not).
+/// The suffixes of the files in `dir` named `STEM.…`, sorted.
+fn suffixes(dir: &Path, stem: &str) -> Vec<String> {
+    let mut v: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .filter_map(|e| {
+            let name = e.unwrap().file_name().to_string_lossy().into_owned();
+            name.strip_prefix(&format!("{stem}.")).map(str::to_string)
+        })
+        .collect();
+    v.sort();
+    v
+}
+
+/// Shards renamed after their render (collected from nodes under new names, the same bytes)
+/// merge to the same films as under their own names; before, they were refused as "not
+/// written by `dtr render --shard I/N` of this version". And `dtr merge --preview` writes
+/// the files `dtr render --preview` writes: before, it left out PREFIX.steady.npy and
+/// PREFIX.d_NAME.png. Both found by an independent sweep.
+#[test]
+fn renamed_shards_merge_and_a_merges_previews_are_a_renders() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path();
+    for i in 0..2 {
+        render(dir, &format!("s{i}"), &["--shard", &format!("{i}/2")]);
+    }
+    ok(dtr(&["merge", "s0", "s1", "-o", "kept", "-q"], dir));
+    for suffix in suffixes(dir, "s1") {
+        std::fs::rename(dir.join(format!("s1.{suffix}")), dir.join(format!("node1.{suffix}"))).unwrap();
+    }
+    ok(dtr(&["merge", "s0", "node1", "-o", "merged", "-q", "--preview"], dir));
+    for file in ["npy", "d_cube_x.npy"] {
+        assert_eq!(
+            npy(&dir.join(format!("kept.{file}"))),
+            npy(&dir.join(format!("merged.{file}"))),
+            "{file}"
+        );
+    }
+    render(dir, "whole", &["--preview"]);
+    let merged = suffixes(dir, "merged");
+    assert_eq!(merged, suffixes(dir, "whole"));
+    assert!(
+        merged.contains(&"steady.npy".to_string()) && merged.contains(&"d_cube_x.png".to_string()),
+        "{merged:?}"
+    );
+}
+
 #[test]
 fn a_shard_whose_film_was_damaged_or_replaced_is_refused() {
     let tmp = tempfile::tempdir().unwrap();

@@ -165,6 +165,11 @@ pub fn parse_sets(sets: &[String]) -> anyhow::Result<Sets> {
             .split_once('=')
             .ok_or_else(|| anyhow::anyhow!("--set {s:?}: expected NAME=VALUE, e.g. --set eta=1.33"))?;
         let name = name.trim().to_string();
+        // every command that takes --set (render, optimize, info) refuses a repeat alike:
+        // optimize ran from the last of two values without a word
+        if out.numbers.iter().any(|(n, _)| *n == name) || out.texts.iter().any(|(n, _)| *n == name) {
+            anyhow::bail!("--set {name}=… is given more than once; give each parameter once");
+        }
         // a whole number beyond 2⁵³ (a 64-bit seed) goes as the TOML integer it is: as a
         // float it lost its last digits and the field refused it ("expected a whole number")
         let exact_integer = value.trim().parse::<i64>().is_ok_and(|i| i.unsigned_abs() > 1 << 53);

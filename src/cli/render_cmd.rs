@@ -153,9 +153,6 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
         Some(n) => Some(u32::try_from(n).context("--spp-boundary is too large")?),
         None => None,
     };
-    if let Some(name) = first_repeat(a.set.iter().filter_map(|s| s.split_once('=')).map(|(n, _)| n.trim())) {
-        bail!("--set {name}=… is given more than once; give each parameter once");
-    }
     if let Some(name) = first_repeat(a.diff.iter().map(|s| s.trim())) {
         bail!("--diff names {name} more than once");
     }
@@ -287,10 +284,8 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
         planned.push("exr".into());
     }
     if a.preview {
-        planned.extend(super::output_set::PREVIEWS.map(String::from));
-        planned.extend(a.diff.iter().map(|n| format!("d_{n}.png")));
-    }
-    if a.shard.is_some() || a.preview {
+        planned.extend(preview_files(&a.diff));
+    } else if a.shard.is_some() {
         planned.push("steady.npy".into());
     }
     planned.extend(super::nlos_out::planned(&scene, a.shard.is_some()));
@@ -347,14 +342,9 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
             "frame" => output::Normalise::Frame,
             _ => output::Normalise::Global,
         };
-        write_previews(&film, &mut set, pixel, normalise)?;
-        for (name, d) in a.diff.iter().zip(&derivs) {
-            set.write(&format!("d_{name}.png"), |p| output::write_derivative_png(p, view(d)))?;
-        }
-    }
-    if a.shard.is_some() || a.preview {
-        let shape = [film.height, film.width, film.channels];
-        set.write("steady.npy", |p| output::write_npy(p, &shape, &film.steady))?;
+        write_previews(&film, &a.diff, &derivs, &mut set, pixel, normalise)?;
+    } else if a.shard.is_some() {
+        write_steady_npy(&film, &mut set)?;
     }
     super::nlos_out::write(&scene, &film, &mut set, a.shard.is_some())?;
     let mut meta = metadata(&scene, &film, &stats, &a, set.prefix());
@@ -501,12 +491,35 @@ fn parse_pixel(s: &str, scene: &Scene) -> anyhow::Result<(usize, usize)> {
     Ok((x, y))
 }
 
+/// The files `--preview` adds to an output set, `dtr render`'s and `dtr merge`'s alike
+/// ([`write_previews`]): the pictures, the steady image as numbers and one picture per
+/// derivative in `diff`. (`dtr merge --preview` wrote the pictures only.)
+pub(super) fn preview_files(diff: &[String]) -> Vec<String> {
+    let mut files: Vec<String> = super::output_set::PREVIEWS.map(String::from).into();
+    files.extend(diff.iter().map(|n| format!("d_{n}.png")));
+    files.push("steady.npy".into());
+    files
+}
+
+/// The steady (time-integrated) image as `PREFIX.steady.npy`, [H, W, C].
+pub(super) fn write_steady_npy(film: &Transient, set: &mut OutputSet) -> anyhow::Result<()> {
+    let shape = [film.height, film.width, film.channels];
+    set.write("steady.npy", |p| output::write_npy(p, &shape, &film.steady))
+}
+
+/// Writes the files of [`preview_files`]: `derivs` are the derivatives named in `diff`.
 pub(super) fn write_previews(
     film: &Transient,
+    diff: &[String],
+    derivs: &[Transient],
     set: &mut OutputSet,
     pixel: Option<(usize, usize)>,
     normalise: output::Normalise,
 ) -> anyhow::Result<()> {
+    for (name, d) in diff.iter().zip(derivs) {
+        set.write(&format!("d_{name}.png"), |p| output::write_derivative_png(p, view(d)))?;
+    }
+    write_steady_npy(film, set)?;
     let style = output::SheetStyle {
         axis: Some(film.axis),
         normalise,

@@ -74,7 +74,7 @@ pub fn identity(
 
 /// The SHA-256 of the contents of a scene's input files (the description and the meshes it
 /// reads), each preceded by its length: the identity's `inputs_sha256`.
-fn inputs_sha256(scene: &Scene) -> anyhow::Result<String> {
+pub(super) fn inputs_sha256(scene: &Scene) -> anyhow::Result<String> {
     let mut hash = Sha256::new();
     for input in &scene.inputs {
         let bytes =
@@ -404,8 +404,22 @@ fn refuse_negative(path: &Path, data: &[f32]) -> anyhow::Result<()> {
 /// another render's file copied over it): its SHA-256 `got`, hashed as the file was read
 /// (`npy_in::read_f32_hashed`), against the one the shard's JSON records (`files_sha256`). Before, a float flipped to 3.4·10³⁸ or another seed's .npy
 /// merged with exit 0.
+/// The record is keyed by the file names the render wrote; shards renamed since (collected
+/// from nodes under new names, same bytes) are looked up by their suffix under the name the
+/// JSON's `files` gives the render's own JSON (before, they were refused as "not written by
+/// this version").
 fn check_digest(s: &ShardFiles, json: &Path, path: &Path, got: &str) -> anyhow::Result<()> {
     let name = path.file_name().unwrap_or_default().to_string_lossy().into_owned();
+    let stem = s.prefix.file_name().unwrap_or_default().to_string_lossy().into_owned();
+    let written = s.meta["files"].as_array().and_then(|f| {
+        f.iter()
+            .filter_map(|v| v.as_str())
+            .find_map(|f| f.strip_suffix(".json"))
+    });
+    let name = match (name.strip_prefix(&format!("{stem}.")), written) {
+        (Some(suffix), Some(written)) => format!("{written}.{suffix}"),
+        _ => name,
+    };
     let Some(want) = s.meta["files_sha256"][name.as_str()].as_str() else {
         bail!(
             "{}: no field \"files_sha256.{name}\": not written by `dtr render --shard I/N` of this version",
@@ -454,7 +468,7 @@ pub fn run(a: MergeArgs) -> anyhow::Result<()> {
         planned.push("exr".into());
     }
     if a.preview {
-        planned.extend(super::output_set::PREVIEWS.map(String::from));
+        planned.extend(super::render_cmd::preview_files(&diff));
     }
     let mut set = OutputSet::prepare(&a.output, &inputs, &scene_path, &planned)?;
     // one shard's films in memory at a time, added in shard order (`shard::FilmSum`)
@@ -491,7 +505,7 @@ pub fn run(a: MergeArgs) -> anyhow::Result<()> {
         })?;
     }
     if a.preview {
-        super::render_cmd::write_previews(&film, &mut set, None, crate::output::Normalise::Global)?;
+        super::render_cmd::write_previews(&film, &diff, &derivs, &mut set, None, crate::output::Normalise::Global)?;
     }
     let mut meta = merged_metadata(&shards, set.prefix(), &diff);
     if let Some(n) = capture
