@@ -209,6 +209,10 @@ fn group_motion(
         )));
     }
     motion.check_time_derivatives(scene, params, crate::render::delta_draws(scene, &motion, opts))?;
+    // what the render would refuse of the materials, before any render (`dtr optimize` checks
+    // its parameters' ranges with it)
+    let kind = opts.integrator.unwrap_or(scene.integrator.kind);
+    crate::render::check_materials(scene, &motion, kind, opts.boundary)?;
     Ok(motion)
 }
 

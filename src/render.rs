@@ -503,7 +503,12 @@ fn available_memory() -> Option<u128> {
 /// interior alone. The boundary stage runs with rough conductors and rough dielectrics: a
 /// path through glass has vertices on its surfaces, so a segment grazing an edge still jumps
 /// from V = 1 to 0, and the subpaths start in the segment's medium (`boundary/secondary.rs`).
-fn check_materials(scene: &Scene, motion: &Motion, kind: IntegratorKind, boundary: BoundaryMode) -> Result<(), Error> {
+pub(crate) fn check_materials(
+    scene: &Scene,
+    motion: &Motion,
+    kind: IntegratorKind,
+    boundary: BoundaryMode,
+) -> Result<(), Error> {
     if scene.materials.iter().all(|m| m.material.is_diffuse()) {
         return Ok(());
     }

@@ -129,15 +129,31 @@ fn read_target(path: &Path, scene: &Scene) -> anyhow::Result<Transient> {
     Ok(t)
 }
 
-/// Refuses a target whose render's JSON (TARGET.json beside TARGET.npy, as `dtr render`
-/// writes it) records another time window or unwarping than the scene's: a film of the
-/// scene's shape rendered from another `film.start_opl` fits the parameters that shift the
-/// light by the difference (0.2 m of OPL moved the recovered depth by 0.1 m, exit 0). A
-/// target without such a JSON (a measurement, an array saved from numpy) cannot be checked,
-/// and the run says so.
+/// The render JSON that describes a target: TARGET.json beside TARGET.npy, as `dtr render`
+/// writes it, or for an NLOS capture's photon counts (PREFIX.noisy.npy) the capture's
+/// PREFIX.json.
+fn target_json(path: &Path) -> PathBuf {
+    let stem = path.with_extension("");
+    match stem.to_str().and_then(|s| s.strip_suffix(".noisy")) {
+        Some(capture) => super::output_set::with_suffix(Path::new(capture), "json"),
+        None => super::output_set::with_suffix(&stem, "json"),
+    }
+}
+
+/// Refuses a target whose render's JSON ([`target_json`]) says it is not a render of what
+/// the scene renders: another time window or unwarping (a film of the scene's shape rendered
+/// from another `film.start_opl` fits the parameters that shift the light by the difference:
+/// 0.2 m of OPL moved the recovered depth by 0.1 m, exit 0), one shard of a render (about
+/// 1/N of its light: an albedo came out 0.19 for 0.8), or another relay-wall capture (other
+/// relay legs shift every return by the legs' length: a depth of 0.6 came out 0.889; a
+/// confocal 8 × 8 scan has the film of an exhaustive 2 × 4 one). Warns of a target rendered
+/// from other input files (an edited copy of the scene is one; another scene with the same
+/// film is another), and of photon counts (PREFIX.noisy.npy), which are not radiance. A
+/// target without such a JSON (a measurement, an array saved from numpy) cannot be
+/// checked, and the run says so.
 fn check_target_axis(path: &Path, scene: &Scene) -> anyhow::Result<()> {
     let axis = scene.film.axis;
-    let json = super::output_set::with_suffix(&path.with_extension(""), "json");
+    let json = target_json(path);
     let window = format!(
         "{} bins of {} m from {} m",
         axis.bins, axis.bin_width_opl, axis.start_opl
@@ -177,7 +193,71 @@ fn check_target_axis(path: &Path, scene: &Scene) -> anyhow::Result<()> {
             scene.film.unwarp
         );
     }
+    if let Some(count) = meta["shard"]["count"].as_u64().filter(|&n| n > 1) {
+        bail!(
+            "{}: the target is shard {}/{count} of a render (field shard), about 1/{count} of its light; merge the shards (dtr merge) and give the merged render as --target",
+            json.display(),
+            meta["shard"]["index"]
+        );
+    }
+    check_target_capture(&json, &meta, scene)?;
+    let digest = super::shard_set::inputs_sha256(scene)?;
+    if let Some(other) = meta["identity"]["inputs_sha256"].as_str().filter(|&h| h != digest) {
+        log::warn!(
+            "{}: the target was rendered from other input files ({}, inputs_sha256 {}) than the scene {} and its meshes: right for an edited copy of the scene, wrong for another scene whose film has the same shape",
+            json.display(),
+            meta["scene"].as_str().unwrap_or("a scene it does not name"),
+            &other[..other.len().min(12)],
+            scene.source.display()
+        );
+    }
+    if json.file_stem() != path.with_extension("").file_name()
+        && let Some(noise) = meta["nlos"]["noise"].as_object()
+    {
+        log::warn!(
+            "{}: photon counts of the capture {} (nlos.noise: photons_per_unit {}, dark_counts {} per bin), not radiance, so every bin is about photons_per_unit times what the scene renders; to fit them, subtract dark_counts and divide by photons_per_unit first",
+            path.display(),
+            json.display(),
+            noise.get("photons_per_unit").unwrap_or(&serde_json::Value::Null),
+            noise.get("dark_counts").unwrap_or(&serde_json::Value::Null)
+        );
+    }
     Ok(())
+}
+
+/// Refuses a target captured on a relay wall otherwise than the scene captures (its JSON's
+/// `nlos` block against [`crate::scene::nlos::describe`] of the scene's): another scan,
+/// grid of points or relay legs, or a capture for a camera render or the other way round.
+fn check_target_capture(json: &Path, meta: &serde_json::Value, scene: &Scene) -> anyhow::Result<()> {
+    let ours = scene.nlos.as_ref().map(crate::scene::nlos::describe);
+    let theirs = meta.get("nlos").filter(|v| !v.is_null());
+    match (ours, theirs) {
+        (None, None) => Ok(()),
+        (Some(_), None) => bail!(
+            "{}: the target is a camera render (no field nlos), the scene {} a relay-wall capture",
+            json.display(),
+            scene.source.display()
+        ),
+        (None, Some(_)) => bail!(
+            "{}: the target is a relay-wall capture (field nlos), the scene {} a camera render",
+            json.display(),
+            scene.source.display()
+        ),
+        (Some(ours), Some(theirs)) => {
+            for field in ["scan", "relay_legs", "sensor_grid", "laser_grid"] {
+                if theirs[field] != ours[field] {
+                    bail!(
+                        "{}: the target was captured with nlos.{field} = {}, the scene {} captures with {}; set the scene's to the target's",
+                        json.display(),
+                        theirs[field],
+                        scene.source.display(),
+                        ours[field]
+                    );
+                }
+            }
+            Ok(())
+        }
+    }
 }
 
 /// The scene the run fitted, as a file in the folder `out_dir`: the scene file's text with
@@ -239,6 +319,7 @@ pub fn run(a: OptimizeArgs) -> anyhow::Result<()> {
     {
         bail!("--params names {name} more than once");
     }
+    super::optimize_files::check_log_columns(&a.params)?;
     if a.iters == 0 || a.spp == 0 || a.spp_boundary == Some(0) {
         bail!("--iters, --spp and --spp-boundary must be at least 1");
     }
@@ -364,6 +445,13 @@ pub fn run(a: OptimizeArgs) -> anyhow::Result<()> {
     };
     let last = steps.last().context("no iteration ran")?;
     for w in crate::optimize::unsettled(&a.params, &steps, &domains) {
+        log::warn!("{}: {w}", dir.display());
+    }
+    let t = &problem.target;
+    let (dark_loss, _) = problem
+        .loss
+        .value_and_adjoint(&Transient::zeros(t.width, t.height, t.axis, t.channels), t);
+    for w in crate::optimize::no_progress(&steps, dark_loss) {
         log::warn!("{}: {w}", dir.display());
     }
     let result = crate::optimize::tail_average(&steps, a.average).context("no iteration ran")?;

@@ -44,14 +44,43 @@ pub(super) enum RunState {
 /// The run's state behind the lock the signal thread takes before it acts.
 pub(super) type Shared = Arc<Mutex<RunState>>;
 
+/// The columns of `log.csv`: the iteration, the loss, each parameter's value and each one's
+/// gradient (`d_NAME`), and the seconds the iteration took.
+fn log_columns(names: &[String]) -> Vec<String> {
+    let values = names.iter().cloned();
+    let grads = names.iter().map(|p| format!("d_{p}"));
+    ["iteration".to_string(), "loss".to_string()]
+        .into_iter()
+        .chain(values)
+        .chain(grads)
+        .chain(["seconds".to_string()])
+        .collect()
+}
+
+/// Refuses parameters whose names would make a column of `log.csv` twice (a parameter named
+/// `loss`, or `a` beside `d_a`): a reader that takes columns by name read the parameter's
+/// value as the loss.
+pub(super) fn check_log_columns(names: &[String]) -> anyhow::Result<()> {
+    let columns = log_columns(names);
+    if let Some((i, c)) = columns.iter().enumerate().find(|(i, c)| columns[..*i].contains(c)) {
+        let first = columns.iter().position(|d| d == c).unwrap_or(i);
+        anyhow::bail!(
+            "--params {}: log.csv would have the column {c} twice (columns {} and {}: iteration, loss, the values, their gradients d_NAME, seconds); rename the parameter in the scene",
+            names.join(","),
+            first + 1,
+            i + 1
+        );
+    }
+    Ok(())
+}
+
 impl RunFiles {
     /// Starts the log in `dir` (made by this run when `created`) with its header. A log the
     /// file system refuses is an output error naming it, and the folder is left as it was
     /// found.
     pub(super) fn start(dir: &Path, created: bool, recovered: PathBuf, names: &[String]) -> anyhow::Result<Self> {
         let log_path = dir.join("log.csv");
-        let grads: Vec<String> = names.iter().map(|p| format!("d_{p}")).collect();
-        let header = format!("iteration,loss,{},{},seconds\n", names.join(","), grads.join(","));
+        let header = format!("{}\n", log_columns(names).join(","));
         let log = std::fs::File::create(&log_path).and_then(|mut log| {
             log.write_all(header.as_bytes())?;
             Ok(log)

@@ -148,6 +148,34 @@ pub fn unsettled(names: &[String], steps: &[Step], domains: &[Domain]) -> Vec<St
     out
 }
 
+/// What a run's losses say about where it went, as warnings: over its last quarter (at
+/// least 10 iterations in all) the loss stayed at or above its first value, so the start may
+/// lie outside the answer's basin; or it stayed at or above `dark`, the loss of a render that
+/// holds no light at all, so the iterates render little light where the target has it (the
+/// object left the view or the time window). Either run still ends as any other: these are
+/// local minima of the loss, not failures, but a run from 0.3 m off in an NLOS capture, or a
+/// plate sent out of the window, ended with exit 0 and no word.
+pub fn no_progress(steps: &[Step], dark: f64) -> Vec<String> {
+    let mut out = Vec::new();
+    if steps.len() < 10 {
+        return out;
+    }
+    let n = (steps.len() / 4).max(1);
+    let tail = steps[steps.len() - n..].iter().map(|s| s.loss).sum::<f64>() / n as f64;
+    let first = steps[0].loss;
+    if tail >= first {
+        out.push(format!(
+            "the loss did not fall over the run (first {first:.4e}, mean of the last {n} iterations {tail:.4e}): the start may lie outside the answer's basin; start nearer, or try --loss smooth or multiscale, whose basins are wider"
+        ));
+    }
+    if dark > 0.0 && tail >= 0.99 * dark {
+        out.push(format!(
+            "the last {n} iterations fit the target no better than a render with no light would (mean loss {tail:.4e}, a dark render's {dark:.4e}): what they render misses the target's light; the parameters may have taken the object out of view or out of the time window"
+        ));
+    }
+    out
+}
+
 impl Problem {
     /// The scene with the parameters at `values`.
     pub fn scene_at(&self, values: &[f64]) -> Result<Scene, Error> {
@@ -216,7 +244,35 @@ impl Problem {
         let scene = self.scene_at(start)?;
         let domains = self.domains(&scene, start)?;
         crate::adjoint::check_params(&scene, &self.params, &self.opts)?;
+        self.check_closed_ends(start, &domains)?;
         Ok(domains)
+    }
+
+    /// Refuses a closed end of a parameter's range (its kind's domain within `--bound`) where
+    /// the scene, the other parameters at their start, would not render as the run asks: a
+    /// step past that end stops exactly there (`Domain::project`). A liquid bounded at the
+    /// index of the glass around it became a smooth dielectric at that end, and the run
+    /// stopped part-way (iteration 7) with advice that did not apply.
+    fn check_closed_ends(&self, start: &[f64], domains: &[Domain]) -> Result<(), Error> {
+        for (k, d) in domains.iter().enumerate() {
+            for (end, open) in [(d.lo, d.open_lo), (d.hi, d.open_hi)] {
+                if open || !end.is_finite() || end == start[k] {
+                    continue;
+                }
+                let mut at = start.to_vec();
+                at[k] = end;
+                let refused = self
+                    .scene_at(&at)
+                    .and_then(|s| crate::adjoint::check_params(&s, &self.params, &self.opts));
+                if let Err(e) = refused {
+                    return Err(Error::Invalid(format!(
+                        "{}: a step past the end {end} of where it may go ({d}) stops there, and the scene does not render there as this run asks: {e}; set its --bound a little inside that end",
+                        self.params[k]
+                    )));
+                }
+            }
+        }
+        Ok(())
     }
 
     /// The parameter `name` of `scene` (a scene of this problem).
@@ -286,7 +342,9 @@ impl Problem {
         let mut x = start.to_vec();
         let mut adam = adam::Adam::new(lr.to_vec());
         let base = self.opts.seed.unwrap_or(0);
-        let mut steps = Vec::with_capacity(iters);
+        // grown as the run goes: `iters` may be any number a run is stopped short of (it
+        // reserved 72 bytes per iteration up front: `--iters 18446744073709551615` panicked)
+        let mut steps = Vec::new();
         let mut scene = Scene::load_with_text(&self.scene, &self.fixed, &self.fixed_text)?;
         self.set_values(&mut scene, &x)?;
         let domains = self.domains(&scene, &x)?;
@@ -392,6 +450,61 @@ mod tests {
             w[0].starts_with("b never moved from its start (-1.5)") && w[0].contains("--estimators interior"),
             "{w:?}"
         );
+    }
+
+    /// A run is asked for any number of iterations and stopped by its caller: nothing is
+    /// reserved for them up front. Before, `Vec::with_capacity(iters)` panicked ("capacity
+    /// overflow") for `--iters 18446744073709551615` and aborted the process for 4294967296
+    /// (found by an independent sweep).
+    #[test]
+    fn a_run_of_any_length_reserves_nothing_up_front() {
+        let scene = PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/pose_plate.toml"));
+        let fixed = vec![
+            ("camera.resolution.0".to_string(), 4.0),
+            ("camera.resolution.1".to_string(), 4.0),
+        ];
+        let loaded = Scene::load_with_text(&scene, &fixed, &[]).unwrap();
+        let f = &loaded.film;
+        let problem = Problem {
+            scene,
+            fixed,
+            fixed_text: Vec::new(),
+            params: vec!["plate_x".into()],
+            target: Transient::zeros(f.width as usize, f.height as usize, f.axis, f.channels),
+            loss: loss::Loss::L2,
+            opts: RenderOptions {
+                spp: Some(1),
+                seed: Some(1),
+                threads: Some(1),
+                ..Default::default()
+            },
+            bounds: vec![(f64::NEG_INFINITY, f64::INFINITY)],
+        };
+        for iters in [usize::MAX, 1 << 32] {
+            let steps = problem.optimize(&[0.1], iters, &[0.01], 1.0, |_| false).unwrap();
+            assert_eq!(steps.len(), 1, "stopped by its caller after the first");
+        }
+    }
+
+    #[test]
+    fn a_run_that_never_gained_or_went_dark_is_named() {
+        let run = |losses: &[f64]| -> Vec<Step> {
+            let mut s = steps(&vec![1.0; losses.len()]);
+            s.iter_mut().zip(losses).for_each(|(s, &l)| s.loss = l);
+            s
+        };
+        let falling: Vec<f64> = (0..40).map(|i| 1.0 / (1.0 + i as f64)).collect();
+        assert!(no_progress(&run(&falling), 2.0).is_empty());
+        let flat: Vec<f64> = (0..40).map(|i| 1.0 + 0.01 * (i % 3) as f64).collect();
+        let w = no_progress(&run(&flat), 5.0);
+        assert_eq!(w.len(), 1, "{w:?}");
+        assert!(w[0].starts_with("the loss did not fall over the run"), "{w:?}");
+        // fell, but to where a dark render stands
+        let dark: Vec<f64> = (0..40).map(|i| if i < 5 { 3.0 } else { 1.0 }).collect();
+        let w = no_progress(&run(&dark), 1.0);
+        assert_eq!(w.len(), 1, "{w:?}");
+        assert!(w[0].contains("no better than a render with no light"), "{w:?}");
+        assert!(no_progress(&run(&flat[..9]), 5.0).is_empty(), "too few steps to tell");
     }
 
     #[test]

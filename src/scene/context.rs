@@ -99,21 +99,24 @@ pub(super) fn index_names<'a>(
 
 /// Why `name` cannot name a parameter, if it cannot. A parameter's name becomes part of file
 /// names (`PREFIX.d_NAME.npy`, `.png`, the optimiser's columns) and is written on the command
-/// line as `--diff NAME,…` and `--set NAME=VALUE`, so it is limited to letters, digits, `_`,
-/// `-` and `.`, and may not start with `-` or `.`.
+/// line as `--diff NAME,…` and `--set NAME=VALUE`, so it is limited to letters, digits, `_`
+/// and `-`, and may not start with `-`. No `.`: `--set` reads a dotted name as a field of the
+/// description (`film.bins`), so a parameter `plate.x` loaded, rendered with `--diff plate.x`
+/// and could then be neither set nor optimised ("the scene has no "plate"").
 fn param_name_problem(name: &str) -> Option<String> {
-    let allowed = |c: char| c.is_alphanumeric() || matches!(c, '_' | '-' | '.');
+    let allowed = |c: char| c.is_alphanumeric() || matches!(c, '_' | '-');
     if let Some(c) = name.chars().find(|&c| !allowed(c)) {
+        let why = match c {
+            '.' => "--set NAME=VALUE reads a dotted name as a field of the description (film.bins)",
+            _ => "it becomes part of output file names (PREFIX.d_NAME.npy) and of --diff NAME,… and --set NAME=VALUE",
+        };
         return Some(format!(
-            "{c:?} cannot appear in a parameter's name: it becomes part of output file names \
-             (PREFIX.d_NAME.npy) and of --diff NAME,… and --set NAME=VALUE; use letters, digits, \
-             '_', '-' and '.'"
+            "{c:?} cannot appear in a parameter's name: {why}; use letters, digits, '_' and '-' (e.g. {:?})",
+            name.replace(|c: char| !allowed(c), "_")
         ));
     }
-    if name.starts_with(['-', '.']) {
-        return Some(
-            "a parameter's name may not start with '-' or '.' (it would read as an option or a hidden file)".into(),
-        );
+    if name.starts_with('-') {
+        return Some("a parameter's name may not start with '-' (it would read as an option)".into());
     }
     None
 }
