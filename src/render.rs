@@ -531,7 +531,7 @@ pub(crate) fn check_materials(
         if boundary != BoundaryMode::InteriorOnly {
             if motion.moves_geometry() {
                 return smooth(
-                    "a parameter that moves geometry needs the boundary stage, which assumes no Dirac lobes (supplemental assumption A.4); differentiate another parameter or pass --estimators interior for the interior term alone (not the derivative: it leaves out the silhouettes and shadows that move, also those seen through the glass)",
+                    "a parameter that moves geometry needs the boundary stage, which assumes no Dirac lobes (supplemental assumption A.4); differentiate another parameter or pass --estimators interior for the interior term alone (not the derivative: it leaves out the silhouettes and shadows that move, also those seen in or through the smooth surface)",
                 );
             }
             if let Some(g) = bends_smooth_dielectric(scene, motion) {

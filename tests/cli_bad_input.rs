@@ -299,7 +299,8 @@ fn vectors_of_the_wrong_length_name_the_field() {
 }
 
 /// Repeated or meaningless arguments were accepted silently; absurd thread counts spawned
-/// over 1000 threads before failing.
+/// over 1000 threads before failing. Boundary samples with the interior alone, and a preview
+/// pixel without previews, are refused as boundary samples without --diff are.
 #[test]
 fn repeated_and_meaningless_arguments_are_refused() {
     let diff_room = scenes().join("diff_room.toml");
@@ -307,6 +308,12 @@ fn repeated_and_meaningless_arguments_are_refused() {
         (vec!["--set", "eta=1", "--set", "eta=2"], "more than once"),
         (vec!["--diff", "eta,eta"], "more than once"),
         (vec!["--spp-boundary", "4"], "needs --diff"),
+        // taken without a word until an independent sweep (helper 35, D14)
+        (
+            vec!["--diff", "albedo", "--spp-boundary", "4", "--estimators", "interior"],
+            "which --estimators interior leaves out",
+        ),
+        (vec!["--pixel", "1,1"], "it needs --preview"),
         (vec!["--threads", "100000"], "--threads"),
         (vec!["--threads", "0"], "--threads"),
     ] {
@@ -771,4 +778,19 @@ fn a_pulse_or_offset_beyond_32_bit_opls_is_refused() {
     }
     let e = info_refuses(&scenes().join("diff_room.toml"), &["--set", "lamp_offset=1e30"]);
     assert!(e.contains("\"lamp_offset\": field 'value'"), "{e}");
+}
+
+/// A shape sent so far that f32 cannot tell its corners apart is refused naming its
+/// translation, not its scale: `--set plate_x=1e30` read "field 'scale': empty mesh" (found
+/// by an independent sweep). A scale that flattens it is still the scale's fault.
+#[test]
+fn a_shape_sent_beyond_f32_resolution_names_its_translation() {
+    let plate = scenes().join("pose_plate.toml");
+    let (e, _o) = render_fails(&plate, &["--set", "plate_x=1e30"]);
+    assert!(
+        e.contains("\"plate\": field 'translate'") && e.contains("[1e30, 0.05, 0]") && e.contains("cannot resolve"),
+        "{e}"
+    );
+    let (e, _o) = render_fails(&plate, &["--set", "shape.plate.scale=[1e-30, 1e-30, 1]"]);
+    assert!(e.contains("field 'scale'") && e.contains("empty mesh"), "{e}");
 }

@@ -320,6 +320,7 @@ pub fn run(a: OptimizeArgs) -> anyhow::Result<()> {
         bail!("--params names {name} more than once");
     }
     super::optimize_files::check_log_columns(&a.params)?;
+    super::render_cmd::refuse_unused_boundary_samples(a.spp_boundary, a.estimators)?;
     if a.iters == 0 || a.spp == 0 || a.spp_boundary == Some(0) {
         bail!("--iters, --spp and --spp-boundary must be at least 1");
     }

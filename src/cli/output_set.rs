@@ -423,7 +423,7 @@ impl OutputSet {
         }
         if let Some(input) = target.and_then(|m| replaced_input(&m, &self.inputs)) {
             bail!(
-                "output {} would replace the input {}; nothing was rendered. Choose another -o",
+                "output {} would replace the input {}; nothing was written. Choose another -o",
                 dest.display(),
                 input.display()
             );
@@ -441,7 +441,7 @@ impl OutputSet {
             };
             bail!(
                 "output {} already exists and is not a file of an earlier dtr render ({why}); \
-                 dtr replaces only the files it wrote, so nothing was rendered. Move it away or choose another -o",
+                 dtr replaces only the files it wrote, so nothing was written. Move it away or choose another -o",
                 dest.display()
             );
         }

@@ -162,6 +162,10 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
     if a.spp_boundary.is_some() && a.diff.is_empty() {
         bail!("--spp-boundary sets the boundary samples of a derivative render; it needs --diff");
     }
+    refuse_unused_boundary_samples(a.spp_boundary, a.estimators)?;
+    if a.pixel.is_some() && !a.preview {
+        bail!("--pixel chooses the preview plot's pixel and the streak image's row; it needs --preview");
+    }
     let auto_window = if a.auto_window {
         if let Some((n, _)) = overrides
             .iter()
@@ -630,6 +634,20 @@ fn metadata(scene: &Scene, film: &Transient, stats: &RenderStats, a: &RenderArgs
         "opl_cut": stats.opl_cut,
     });
     meta
+}
+
+/// Refuses boundary samples (`--spp-boundary`) with `--estimators interior`, which leaves
+/// the boundary term out: they were taken without a word and never drawn.
+pub(super) fn refuse_unused_boundary_samples(
+    spp_boundary: Option<impl std::fmt::Display>,
+    estimators: Estimators,
+) -> anyhow::Result<()> {
+    if let (Some(n), Estimators::Interior) = (spp_boundary, estimators) {
+        bail!(
+            "--spp-boundary {n} sets the boundary term's samples, which --estimators interior leaves out; drop one of them"
+        );
+    }
+    Ok(())
 }
 
 /// `--estimators interior` on parameters that move geometry: the derivative written is the

@@ -249,7 +249,15 @@ mod tests {
                 &["badname.toml", "param[0]", "field 'name'", "parameter's name"],
             );
         }
-        for good in ["occluder_x", "box.yaw", "θ-1"] {
+        // a dotted name: --set reads it as a field path, so it could not be set or optimised
+        let text = format!("{MINI}\n[[param]]\nname = \"box.yaw\"\nkind = \"eta\"\nvalue = 1\n");
+        expect_err(
+            "dotted.toml",
+            &text,
+            &[],
+            &["param[0]", "'.' cannot appear in a parameter's name", "\"box_yaw\""],
+        );
+        for good in ["occluder_x", "box_yaw", "θ-1"] {
             let text = format!("{MINI}\n[[param]]\nname = \"{good}\"\nkind = \"eta\"\nvalue = 1\n");
             assert!(load_text("good.toml", &text, &[], &[]).is_ok(), "{good}");
         }

@@ -620,6 +620,36 @@ pub(crate) fn build(
             geo.tri_shape.push(i as u32);
         }
         let tri_count = geo.indices.len() - first_tri;
+        // triangles with area in the mesh's own coordinates, which the transform flattened: a
+        // shape sent so far from the render origin that f32 no longer tells its corners apart
+        // (`--set plate_x=1e30` was reported as a problem of its field 'scale')
+        let flattened = tri_count == 0 && {
+            let at_origin: Vec<Vec3> = world_f64(&transform, DVec3::ZERO, mesh).map(|p| p.as_vec3()).collect();
+            mesh.tris.iter().any(|t| {
+                !degenerate(
+                    at_origin[t[0] as usize],
+                    at_origin[t[1] as usize],
+                    at_origin[t[2] as usize],
+                )
+            })
+        };
+        if flattened {
+            let g = |v: f64| match v.abs() {
+                a if a != 0.0 && !(1e-4..1e6).contains(&a) => format!("{v:e}"),
+                _ => format!("{v}"),
+            };
+            return Err(ctx.invalid(
+                at("translate"),
+                format!(
+                    "all {} triangles have zero area where the transform puts them (translated to [{}, {}, {}], {} m from the scene's render origin): f32 positions there cannot resolve a shape of its size; bring it nearer the rest of the scene",
+                    mesh.tris.len(),
+                    g(translate.x),
+                    g(translate.y),
+                    g(translate.z),
+                    g((translate - origin).length())
+                ),
+            ));
+        }
         if tri_count == 0 {
             let (what, of) = match &d.file {
                 Some(f) if matches!(d.ty, ShapeType::Obj | ShapeType::Ply) => ("file", format!(" of {f}")),
