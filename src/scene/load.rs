@@ -555,6 +555,18 @@ mod tests {
             &[],
             &["film: field 'bin_width_opl'", "outside the range of 32-bit floats"],
         );
+        // rounded to 0 in f32: refused as "got 0" where 0 is refused, taken as 0 elsewhere
+        // (found by an independent sweep)
+        let text = mini_with("bin_width_opl = 0.1", "bin_width_opl = 1e-310");
+        expect_err(
+            "tiny.toml",
+            &text,
+            &[],
+            &[
+                "film: field 'bin_width_opl'",
+                "1e-310, which rounds to 0 as a 32-bit float",
+            ],
+        );
         let json =
             r#"{"camera": {"position": [0,0,3], "look_at": [0,0,1e39]}, "film": {"bin_width_opl": 0.1, "bins": 2}}"#;
         expect_err("big.json", json, &[], &["camera: field 'look_at[2]'", "32-bit"]);
