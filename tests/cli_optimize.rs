@@ -1057,6 +1057,21 @@ fn optimize_refuses_a_target_that_is_not_a_render_of_the_scene() {
         assert!(stderr(&o).contains(message), "{v:?}: {}", stderr(&o));
         assert!(!dir.join("out").exists(), "{v:?}: the output folder was made");
     }
+    // photon counts of a capture with noise: fitted, with a warning naming the scale
+    let noisy = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/nlos_occluder.toml");
+    rough_target(noisy, dir, "capture");
+    let o = dtr(
+        &one_iteration(noisy, "capture.noisy.npy", "hidden_albedo", "counts"),
+        dir,
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("photon counts of the capture")
+            && stderr(&o).contains("capture.json")
+            && stderr(&o).contains("divide by photons_per_unit"),
+        "{}",
+        stderr(&o)
+    );
     // an edited copy of the scene: fine, and said
     let text = std::fs::read_to_string(SCENE).unwrap();
     std::fs::write(dir.join("copy.toml"), format!("# an edited copy\n{text}")).unwrap();
