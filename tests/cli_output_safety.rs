@@ -739,3 +739,63 @@ fn a_file_name_longer_than_the_file_system_takes_is_refused_before_anything_is_m
     );
     assert!(o.status.success(), "{}", stderr(&o));
 }
+
+/// A boundary render of any sample count reserves nothing per sample up front, and stops on
+/// SIGINT. At `--spp-boundary 4294967295` the primary stage's list of every chunk (16 bytes
+/// per 2048 samples) and the pilot's tallies (two 512-cell tallies per 4096 samples, kept to
+/// the end) aborted the process ("memory allocation of 8589934592 bytes failed", exit 134),
+/// and at 2^28 grew past 6 GB while Ctrl-C did nothing (found by an independent sweep of the
+/// Python API, which defaults spp_boundary to spp).
+#[cfg(unix)]
+#[test]
+fn a_boundary_render_of_any_length_runs_in_bounded_memory_and_stops_on_sigint() {
+    let tmp = tempfile::tempdir().unwrap();
+    let scene = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes/pose_plate.toml");
+    let mut child = spawn(
+        &[
+            "render",
+            scene.to_str().unwrap(),
+            "--diff",
+            "plate_x",
+            "--spp",
+            "1",
+            "--spp-boundary",
+            "4294967295",
+            "--threads",
+            "1",
+            "-q",
+            "-o",
+            "out",
+        ],
+        tmp.path(),
+    );
+    let rss_kib = |pid: u32| -> u64 {
+        let status = std::fs::read_to_string(format!("/proc/{pid}/status")).unwrap_or_default();
+        status
+            .lines()
+            .find_map(|l| l.strip_prefix("VmRSS:"))
+            .and_then(|v| v.split_whitespace().next().and_then(|n| n.parse().ok()))
+            .unwrap_or(0)
+    };
+    let mut most = 0;
+    for _ in 0..30 {
+        std::thread::sleep(std::time::Duration::from_millis(100));
+        assert!(
+            child.try_wait().unwrap().is_none(),
+            "the render ended: {:?}",
+            child.wait_with_output()
+        );
+        most = most.max(rss_kib(child.id()));
+    }
+    assert!(most < 512 * 1024, "{most} KiB resident after 3 s");
+    unsafe { libc::kill(child.id() as i32, libc::SIGINT) };
+    let t0 = std::time::Instant::now();
+    let status = loop {
+        if let Some(s) = child.try_wait().unwrap() {
+            break s;
+        }
+        assert!(t0.elapsed().as_secs() < 20, "still running 20 s after SIGINT");
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    };
+    assert_eq!(status.code(), Some(130), "{status:?}");
+}

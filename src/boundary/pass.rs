@@ -298,71 +298,83 @@ impl Secondary<'_> {
         let cells = uniform.cells();
         let shapes = self.edges.edges.iter().map(|r| r.shape as usize + 1).max().unwrap_or(0);
         let table = &self.edges;
-        let chunks: Vec<u64> = (0..samples.div_ceil(CHUNK)).collect();
-        let parts: Vec<([PilotTally; 2], [u64; 2], ShareTally)> = pool.install(|| {
-            chunks
-                .par_iter()
-                .map(|&c| {
-                    let mut tally = [PilotTally::new(cells, shapes), PilotTally::new(cells, shapes)];
-                    let mut scratch = [Scratch::default(), Scratch::default()];
-                    let mut queue = [Queue::new(seed), Queue::new(seed ^ LIGHT_STREAM)];
-                    let mut shares = ShareTally::new(table.edges.len());
-                    let params = self.params;
-                    // a cancelled render's pilot draws no more chunks (`crate::cancel`); the
-                    // pass then traces nothing
-                    let end = match self.ctx.cancel.is_cancelled() {
-                        true => c * CHUNK,
-                        false => ((c + 1) * CHUNK).min(samples),
-                    };
-                    for id in c * CHUNK..end {
-                        for s in 0..2 {
-                            let before = scratch[s].rays();
-                            let p = match s {
-                                0 => self.prepare(seed, id, &uniform, table, 1.0, &mut scratch[0]),
-                                _ => self.prepare_light(
-                                    seed ^ LIGHT_STREAM,
-                                    id,
-                                    &uniform,
-                                    table,
-                                    &[],
-                                    1.0,
-                                    &mut scratch[1],
-                                ),
-                            };
-                            if s == 1
-                                && let Some(p) = p.as_ref().filter(|p| p.segment.sensed.is_none())
-                            {
-                                shares.add(p);
-                            }
-                            let t = &mut tally[s];
-                            t.drawn(table, scratch[s].edge, scratch[s].rays() - before, p.is_some());
-                            let mut emit =
-                                |p: &Prepared, bp: &BoundaryPath| t.add(&uniform, table, p, magnitude(bp, params));
-                            queue[s].push(self, p, &mut scratch[s], &mut emit);
-                        }
-                    }
-                    for s in 0..2 {
-                        let t = &mut tally[s];
-                        queue[s].flush(self, &mut scratch[s], &mut |p, bp| {
-                            t.add(&uniform, table, p, magnitude(bp, params))
-                        });
-                        t.close();
-                    }
-                    (tally, [scratch[0].rays(), scratch[1].rays()], shares)
-                })
-                .collect()
-        });
+        // Waves of a few chunks per thread, each merged into the sums in chunk order as it
+        // ends: the same additions in the same order as one list of every chunk's tallies,
+        // which grew by two 512-cell tallies per 4096 samples until the end (2.2 GB before any
+        // work at spp_boundary 2^24 on 32 × 32 pixels; an abort at 2^32).
         let mut shares = ShareTally::new(table.edges.len());
         let mut sums = [vec![0.0f64; cells], vec![0.0f64; cells]];
         let mut by_shape = [vec![ShapeTally::default(); shapes], vec![ShapeTally::default(); shapes]];
         let (mut m2, mut rays) = ([0.0f64; 2], [0u64; 2]);
-        for (t, r, q) in &parts {
-            shares.merge(q);
-            for s in 0..2 {
-                sums[s].iter_mut().zip(&t[s].cells).for_each(|(a, b)| *a += b);
-                by_shape[s].iter_mut().zip(&t[s].shapes).for_each(|(a, b)| a.merge(b));
-                m2[s] += t[s].m2;
-                rays[s] += r[s];
+        let chunks = samples.div_ceil(CHUNK);
+        let wave = (BATCH_PER_THREAD * pool.current_num_threads() as u64).max(8);
+        let mut first = 0;
+        // a cancelled render's pilot draws no more chunks (`crate::cancel`); the pass then
+        // traces nothing
+        while first < chunks && !self.ctx.cancel.is_cancelled() {
+            let batch: Vec<u64> = (first..(first + wave).min(chunks)).collect();
+            first += wave;
+            let parts: Vec<([PilotTally; 2], [u64; 2], ShareTally)> = pool.install(|| {
+                batch
+                    .par_iter()
+                    .map(|&c| {
+                        let mut tally = [PilotTally::new(cells, shapes), PilotTally::new(cells, shapes)];
+                        let mut scratch = [Scratch::default(), Scratch::default()];
+                        let mut queue = [Queue::new(seed), Queue::new(seed ^ LIGHT_STREAM)];
+                        let mut shares = ShareTally::new(table.edges.len());
+                        let params = self.params;
+                        // a cancelled render's pilot draws no more chunks (`crate::cancel`); the
+                        // pass then traces nothing
+                        let end = match self.ctx.cancel.is_cancelled() {
+                            true => c * CHUNK,
+                            false => ((c + 1) * CHUNK).min(samples),
+                        };
+                        for id in c * CHUNK..end {
+                            for s in 0..2 {
+                                let before = scratch[s].rays();
+                                let p = match s {
+                                    0 => self.prepare(seed, id, &uniform, table, 1.0, &mut scratch[0]),
+                                    _ => self.prepare_light(
+                                        seed ^ LIGHT_STREAM,
+                                        id,
+                                        &uniform,
+                                        table,
+                                        &[],
+                                        1.0,
+                                        &mut scratch[1],
+                                    ),
+                                };
+                                if s == 1
+                                    && let Some(p) = p.as_ref().filter(|p| p.segment.sensed.is_none())
+                                {
+                                    shares.add(p);
+                                }
+                                let t = &mut tally[s];
+                                t.drawn(table, scratch[s].edge, scratch[s].rays() - before, p.is_some());
+                                let mut emit =
+                                    |p: &Prepared, bp: &BoundaryPath| t.add(&uniform, table, p, magnitude(bp, params));
+                                queue[s].push(self, p, &mut scratch[s], &mut emit);
+                            }
+                        }
+                        for s in 0..2 {
+                            let t = &mut tally[s];
+                            queue[s].flush(self, &mut scratch[s], &mut |p, bp| {
+                                t.add(&uniform, table, p, magnitude(bp, params))
+                            });
+                            t.close();
+                        }
+                        (tally, [scratch[0].rays(), scratch[1].rays()], shares)
+                    })
+                    .collect()
+            });
+            for (t, r, q) in &parts {
+                shares.merge(q);
+                for s in 0..2 {
+                    sums[s].iter_mut().zip(&t[s].cells).for_each(|(a, b)| *a += b);
+                    by_shape[s].iter_mut().zip(&t[s].shapes).for_each(|(a, b)| a.merge(b));
+                    m2[s] += t[s].m2;
+                    rays[s] += r[s];
+                }
             }
         }
         let n = samples.max(1) as f64;
