@@ -351,7 +351,10 @@ fn options(
 /// KeyboardInterrupt): on one, it sets the render's cancel flag (`difftransient::cancel`),
 /// waits for the render to stop (within a second or so) and raises the signal's exception.
 /// Before, a long render could be stopped only by ending the process: in a notebook, the
-/// kernel.
+/// kernel. Python runs signal handlers on its main thread only, so a render called from
+/// another thread does not poll: it waits for its end without taking the GIL. Polling from
+/// such a thread took the GIL every 50 ms, and a daemon thread rendering while the interpreter
+/// shut down panicked ("The Python interpreter is not initialized").
 fn cancellable<T: Send>(
     py: Python<'_>,
     mut opts: RenderOptions,
@@ -360,6 +363,10 @@ fn cancellable<T: Send>(
     let cancel = difftransient::cancel::Cancel::new();
     opts.cancel = cancel.clone();
     let opts = &opts;
+    let threading = py.import("threading")?;
+    let polls = threading
+        .call_method0("current_thread")?
+        .is(&threading.call_method0("main_thread")?);
     let (result, interrupted) = py.detach(|| {
         std::thread::scope(|scope| {
             // the render's end wakes this thread at once (a render of a few milliseconds,
@@ -371,14 +378,21 @@ fn cancellable<T: Send>(
                 result
             });
             let mut interrupted = None;
-            while let Err(std::sync::mpsc::RecvTimeoutError::Timeout) =
-                finished.recv_timeout(std::time::Duration::from_millis(50))
-            {
-                if interrupted.is_none()
-                    && let Err(e) = Python::attach(|py| py.check_signals())
-                {
-                    cancel.cancel();
-                    interrupted = Some(e);
+            match polls {
+                false => {
+                    let _ = finished.recv();
+                }
+                true => {
+                    while let Err(std::sync::mpsc::RecvTimeoutError::Timeout) =
+                        finished.recv_timeout(std::time::Duration::from_millis(50))
+                    {
+                        if interrupted.is_none()
+                            && let Err(e) = Python::attach(|py| py.check_signals())
+                        {
+                            cancel.cancel();
+                            interrupted = Some(e);
+                        }
+                    }
                 }
             }
             let result = worker.join().unwrap_or_else(|panic| std::panic::resume_unwind(panic));

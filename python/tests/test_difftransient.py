@@ -5,6 +5,7 @@ renderer's messages, and renders release the GIL."""
 
 import os
 import subprocess
+import sys
 import threading
 import tempfile
 import time
@@ -549,3 +550,20 @@ def test_a_64_bit_seed_set_as_a_field_is_exact():
     b = dt.render(s, spp=1, seed=seed, threads=1)
     assert a.stats["seed"] == seed
     assert np.array_equal(a.transient, b.transient)
+
+
+def test_a_render_in_a_daemon_thread_leaves_a_clean_exit():
+    """A render called from a thread other than the main one does not poll for signals
+    (Python handles them on the main thread only). Before, it took the GIL every 50 ms to
+    poll, and a daemon thread rendering while the interpreter shut down printed a pyo3 panic
+    ("The Python interpreter is not initialized"), 12 times in 12 (found by an independent
+    sweep)."""
+    code = (
+        "import threading, time, difftransient as dt\n"
+        f"s = dt.Scene.load({str(SCENES / 'diff_room.toml')!r})\n"
+        "threading.Thread(target=lambda: dt.render(s, spp=2**14, threads=1), daemon=True).start()\n"
+        "time.sleep(0.5)\n"
+    )
+    for _ in range(3):
+        r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+        assert "panic" not in r.stderr and "not initialized" not in r.stderr, r.stderr
