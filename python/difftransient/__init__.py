@@ -6,13 +6,14 @@ OPL / c). Arrays are numpy, shaped [H, W, T, C] (height, width, time bins, chann
 handed over from the renderer without copying.
 
     import difftransient as dt
-    scene = dt.Scene.load("scenes/cornell_box.toml")
+    scene = dt.Scene.load("scenes/narrow_pulse_box.toml")
     r = dt.render(scene, spp=16)
     r = dt.render(scene, spp=16, auto_window=True)   # window over the light's arrival and decay
     r.transient.shape            # (H, W, T, C)
     d = dt.render_diff(scene, ["tall_box_x"], spp=16)
     d.derivatives["tall_box_x"]  # dI/dθ, same shape
-    g = dt.gradient(scene, ["tall_box_x"], dloss_dimage, spp=16)   # dL/dθ, one number each
+    dloss_dimage = 2 * d.transient                   # ∂L/∂I of L = Σ I²
+    g, stats = dt.gradient(scene, ["tall_box_x"], dloss_dimage, spp=16)   # dL/dθ, one each
 
 Renders release the GIL. Errors raise `SceneError` (the description or a parameter) or
 `RenderError` (what a render refuses), with the renderer's messages. `difftransient.torch`
@@ -256,11 +257,12 @@ def _toml_value(v: Any) -> str:
     if isinstance(v, bool):
         return "true" if v else "false"
     if isinstance(v, str):
-        return json.dumps(v)
+        # TOML's \u escapes take no surrogates: characters beyond the BMP go as themselves
+        return json.dumps(v, ensure_ascii=False)
     if isinstance(v, (int, float)):
         return repr(float(v)) if isinstance(v, float) else str(v)
     if isinstance(v, Mapping):
-        return "{ " + ", ".join(f"{json.dumps(str(k))} = {_toml_value(x)}" for k, x in v.items()) + " }"
+        return "{ " + ", ".join(f"{_toml_value(str(k))} = {_toml_value(x)}" for k, x in v.items()) + " }"
     if isinstance(v, (list, tuple)):
         return "[" + ", ".join(_toml_value(x) for x in v) + "]"
     raise TypeError(f"cannot set a value of type {type(v).__name__}: use a number, str, bool, list or dict")
