@@ -203,7 +203,9 @@ def render_diff(scene: Scene, params: Sequence[str], *, spp: Optional[int] = Non
     spp, seed, threads = _count("spp", spp), _count("seed", seed), _count("threads", threads)
     spp_boundary = _count("spp_boundary", spp_boundary)
     t, d, stats = _render_diff(scene._native, params, spp, seed, threads, spp_boundary, estimators, time_edges)
-    return DiffRender(t, dict(zip(params, d)), scene.bin_centres, _warn_of_window(json.loads(stats)))
+    # estimators="boundary" leaves the transient 0 on purpose: nothing to warn of (as the CLI)
+    stats = _warn_of_window(json.loads(stats), primal=estimators != "boundary")
+    return DiffRender(t, dict(zip(params, d)), scene.bin_centres, stats)
 
 
 def _draw_seed(seed: Optional[int]) -> int:
@@ -214,12 +216,13 @@ def _draw_seed(seed: Optional[int]) -> int:
     return seed if seed is not None else secrets.randbits(62)
 
 
-def _warn_of_window(stats: dict) -> dict:
+def _warn_of_window(stats: dict, primal: bool = True) -> dict:
     """Raises the energy report's warning (the time window holds no light, or too little of
     it) as a RuntimeWarning, as `dtr render` warns on stderr: an empty answer is never silent.
-    Returns `stats`, whose `stats["energy"]["warning"]` holds it too (None when it looks right)."""
+    Not where no primal was rendered (`primal` False). Returns `stats`, whose
+    `stats["energy"]["warning"]` holds it too (None when it looks right)."""
     warning = stats.get("energy", {}).get("warning")
-    if warning:
+    if warning and primal:
         warnings.warn(warning, RuntimeWarning, stacklevel=3)
     return stats
 

@@ -595,3 +595,16 @@ def test_strings_set_through_params_read_back_as_themselves():
     for s in ["p😀.obj", 'a"b', "back\\slash", "tab\tnew\nline", "é", ""]:
         assert tomllib.loads("v = " + dt._toml_value(s))["v"] == s, s
         assert tomllib.loads("v = " + dt._toml_value({s: [s]}))["v"] == {s: [s]}, s
+
+
+def test_a_boundary_only_render_does_not_warn_of_its_empty_transient():
+    """`estimators="boundary"` leaves the transient 0 on purpose; `dtr render` says nothing
+    of it, and neither does Python now (it warned "no light reached the camera"; found by an
+    independent sweep)."""
+    import warnings
+    s = dt.Scene.load(str(SCENES / "shadow_hidden_occluder.toml"))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        d = dt.render_diff(s, ["occluder_x"], spp=2, seed=1, threads=1, estimators="boundary")
+    assert not d.transient.any() and d.derivatives["occluder_x"].any()
+    assert d.stats["energy"]["warning"]
