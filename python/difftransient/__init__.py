@@ -152,7 +152,7 @@ class Scene:
         return repr(self._native)
 
 
-@dataclass
+@dataclass(eq=False)  # == on arrays is elementwise: a generated __eq__ raised ValueError
 class Render:
     """A forward render: `transient` [H, W, T, C], `steady` [H, W, C] (the time-summed image),
     `bin_centres` (OPL, metres) and the run statistics."""
@@ -163,7 +163,7 @@ class Render:
     stats: dict = field(repr=False)
 
 
-@dataclass
+@dataclass(eq=False)
 class DiffRender:
     """A derivative render: the transient, and dI/dθ per parameter name (each [H, W, T, C])."""
 

@@ -608,3 +608,12 @@ def test_a_boundary_only_render_does_not_warn_of_its_empty_transient():
         d = dt.render_diff(s, ["occluder_x"], spp=2, seed=1, threads=1, estimators="boundary")
     assert not d.transient.any() and d.derivatives["occluder_x"].any()
     assert d.stats["energy"]["warning"]
+
+
+def test_renders_compare_by_identity():
+    """`==` between two renders is identity (their arrays compare with np.array_equal). The
+    dataclass's generated `__eq__` compared the arrays with ==, and raised ValueError
+    ("truth value of an array is ambiguous"; found by an independent sweep)."""
+    s = dt.Scene.load(str(SCENES / "diff_room.toml"))
+    a, b = (dt.render(s, spp=1, seed=1, threads=1) for _ in range(2))
+    assert a == a and a != b and np.array_equal(a.transient, b.transient)
