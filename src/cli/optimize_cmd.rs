@@ -125,7 +125,7 @@ fn read_target(path: &Path, scene: &Scene) -> anyhow::Result<Transient> {
     );
     let mut t = Transient::zeros(shape[1], shape[0], f.axis, f.channels);
     t.data = super::npy_in::read_f32(path, &shape, &what)?;
-    check_target_axis(path, scene)?;
+    check_target_render(path, scene)?;
     Ok(t)
 }
 
@@ -151,7 +151,7 @@ fn target_json(path: &Path) -> PathBuf {
 /// film is another), and of photon counts (PREFIX.noisy.npy), which are not radiance. A
 /// target without such a JSON (a measurement, an array saved from numpy) cannot be
 /// checked, and the run says so.
-fn check_target_axis(path: &Path, scene: &Scene) -> anyhow::Result<()> {
+fn check_target_render(path: &Path, scene: &Scene) -> anyhow::Result<()> {
     let axis = scene.film.axis;
     let json = target_json(path);
     let window = format!(
