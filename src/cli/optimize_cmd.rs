@@ -131,12 +131,12 @@ fn read_target(path: &Path, scene: &Scene) -> anyhow::Result<Transient> {
 
 /// The render JSON that describes a target: TARGET.json beside TARGET.npy, as `dtr render`
 /// writes it, or for an NLOS capture's photon counts (PREFIX.noisy.npy) the capture's
-/// PREFIX.json.
-fn target_json(path: &Path) -> PathBuf {
+/// PREFIX.json; and whether the target is such photon counts.
+fn target_json(path: &Path) -> (PathBuf, bool) {
     let stem = path.with_extension("");
     match stem.to_str().and_then(|s| s.strip_suffix(".noisy")) {
-        Some(capture) => super::output_set::with_suffix(Path::new(capture), "json"),
-        None => super::output_set::with_suffix(&stem, "json"),
+        Some(capture) => (super::output_set::with_suffix(Path::new(capture), "json"), true),
+        None => (super::output_set::with_suffix(&stem, "json"), false),
     }
 }
 
@@ -153,7 +153,7 @@ fn target_json(path: &Path) -> PathBuf {
 /// checked, and the run says so.
 fn check_target_render(path: &Path, scene: &Scene) -> anyhow::Result<()> {
     let axis = scene.film.axis;
-    let json = target_json(path);
+    let (json, counts) = target_json(path);
     let window = format!(
         "{} bins of {} m from {} m",
         axis.bins, axis.bin_width_opl, axis.start_opl
@@ -211,9 +211,7 @@ fn check_target_render(path: &Path, scene: &Scene) -> anyhow::Result<()> {
             scene.source.display()
         );
     }
-    if json.file_stem() != path.with_extension("").file_name()
-        && let Some(noise) = meta["nlos"]["noise"].as_object()
-    {
+    if counts && let Some(noise) = meta["nlos"]["noise"].as_object() {
         log::warn!(
             "{}: photon counts of the capture {} (nlos.noise: photons_per_unit {}, dark_counts {} per bin), not radiance, so every bin is about photons_per_unit times what the scene renders; to fit them, subtract dark_counts and divide by photons_per_unit first",
             path.display(),

@@ -62,14 +62,15 @@ fn log_columns(names: &[String]) -> Vec<String> {
 /// value as the loss.
 pub(super) fn check_log_columns(names: &[String]) -> anyhow::Result<()> {
     let columns = log_columns(names);
-    if let Some((i, c)) = columns.iter().enumerate().find(|(i, c)| columns[..*i].contains(c)) {
-        let first = columns.iter().position(|d| d == c).unwrap_or(i);
-        anyhow::bail!(
-            "--params {}: log.csv would have the column {c} twice (columns {} and {}: iteration, loss, the values, their gradients d_NAME, seconds); rename the parameter in the scene",
-            names.join(","),
-            first + 1,
-            i + 1
-        );
+    for (i, c) in columns.iter().enumerate() {
+        if let Some(first) = columns[..i].iter().position(|d| d == c) {
+            anyhow::bail!(
+                "--params {}: log.csv would have the column {c} twice (columns {} and {}: iteration, loss, the values, their gradients d_NAME, seconds); rename the parameter in the scene",
+                names.join(","),
+                first + 1,
+                i + 1
+            );
+        }
     }
     Ok(())
 }
