@@ -314,6 +314,23 @@ fn repeated_and_meaningless_arguments_are_refused() {
             "which --estimators interior leaves out",
         ),
         (vec!["--pixel", "1,1"], "it needs --preview"),
+        // taken without a word until the forty-third session (clap defaults hid them)
+        (
+            vec!["--normalise", "frame"],
+            "--normalise sets how the previews are drawn",
+        ),
+        (
+            vec!["--estimators", "interior"],
+            "--estimators sets how derivatives are estimated; it needs --diff",
+        ),
+        (
+            vec!["--time-edges", "off"],
+            "--time-edges sets how derivatives are estimated; it needs --diff",
+        ),
+        (
+            vec!["--guiding"],
+            "--guiding sets how derivatives are estimated; it needs --diff",
+        ),
         (vec!["--threads", "100000"], "--threads"),
         (vec!["--threads", "0"], "--threads"),
     ] {

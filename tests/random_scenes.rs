@@ -250,7 +250,8 @@ fn scene(seed: u64, meshes: &Path) -> (String, Vec<&'static str>, Vec<String>) {
         params.push("eta");
     }
     let mut args = Vec::new();
-    if d.chance(0.3) {
+    // `--estimators` without `--diff` is refused (it would change nothing)
+    if d.chance(0.3) && !params.is_empty() {
         args.push("--estimators".to_string());
         args.push(d.pick(&["interior", "boundary", "full"]).to_string());
     }

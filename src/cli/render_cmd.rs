@@ -51,8 +51,8 @@ pub struct RenderArgs {
     pub pixel: Option<String>,
     /// Display white of the light-in-flight animation and the contact sheet: one for the whole
     /// film (`global`, frames compare) or one per frame (`frame`, every frame shows its structure).
-    #[arg(long, value_name = "global|frame", default_value = "global", value_parser = ["global", "frame"])]
-    pub normalise: String,
+    #[arg(long, value_name = "global|frame", value_parser = ["global", "frame"])]
+    pub normalise: Option<String>,
     /// Choose the time window (film.start_opl, film.bin_width_opl; the scene's bins kept) from a
     /// short pilot render that finds where the light arrives and decays (src/auto_window.rs).
     #[arg(long)]
@@ -74,9 +74,9 @@ pub struct RenderArgs {
     #[arg(long = "spp-boundary", allow_negative_numbers = true, value_name = "N")]
     pub spp_boundary: Option<i64>,
     /// Which parts of the gradient --diff estimates: full (interior + boundary), interior
-    /// (Algorithm 1 alone: misses moving visibility), boundary (primal left zero).
-    #[arg(long, value_enum, default_value = "full")]
-    pub estimators: Estimators,
+    /// (Algorithm 1 alone: misses moving visibility), boundary (primal left zero). Default: full.
+    #[arg(long, value_enum)]
+    pub estimators: Option<Estimators>,
     /// Guide the boundary rays with grids fitted by a pilot pass (1/8 of the boundary
     /// samples): lower mean error from ~16k samples on, heavier tails (see README).
     #[arg(long)]
@@ -99,8 +99,8 @@ pub struct RenderArgs {
     /// points drawn where a connection's OPL crosses a bin edge, for box gates and area
     /// emitters with Gaussian or box pulses; much lower variance under narrow pulses) or
     /// `off` (from the ordinary next-event and emission contributions).
-    #[arg(long = "time-edges", value_enum, default_value = "auto")]
-    pub time_edges: TimeEdges,
+    #[arg(long = "time-edges", value_enum)]
+    pub time_edges: Option<TimeEdges>,
     /// Render shard I of N (0-based): this shard's part of every estimator's samples,
     /// normalised so that the N shards add up to the whole render; `dtr merge` adds them.
     /// Also writes PREFIX.steady.npy (the steady image, for the merge).
@@ -162,10 +162,9 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
     if a.spp_boundary.is_some() && a.diff.is_empty() {
         bail!("--spp-boundary sets the boundary samples of a derivative render; it needs --diff");
     }
-    refuse_unused_boundary_samples(a.spp_boundary, a.estimators)?;
-    if a.pixel.is_some() && !a.preview {
-        bail!("--pixel chooses the preview plot's pixel and the streak image's row; it needs --preview");
-    }
+    refuse_settings_without_their_output(&a)?;
+    let estimators = a.estimators.unwrap_or(Estimators::Full);
+    refuse_unused_boundary_samples(a.spp_boundary, estimators)?;
     let auto_window = if a.auto_window {
         if let Some((n, _)) = overrides
             .iter()
@@ -232,7 +231,7 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
             (bounces as u64 + 2) * (bounces as u64 + 3) / 2
         );
     }
-    if matches!(a.estimators, Estimators::Interior) {
+    if matches!(estimators, Estimators::Interior) {
         warn_interior_alone(&scene, &a.diff, &a.scene);
     }
     let pixel = match &a.pixel {
@@ -253,14 +252,14 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
             Steady::Window => SteadyMode::Window,
             Steady::Full => SteadyMode::Full,
         },
-        boundary: match a.estimators {
+        boundary: match estimators {
             Estimators::Full => BoundaryMode::Full,
             Estimators::Interior => BoundaryMode::InteriorOnly,
             Estimators::Boundary => BoundaryMode::BoundaryOnly,
         },
         shard: a.shard.unwrap_or_default(),
         checkpoint: None,
-        time_edges: match a.time_edges {
+        time_edges: match a.time_edges.unwrap_or(TimeEdges::Auto) {
             TimeEdges::Auto => TimeEdgeMode::Auto,
             TimeEdges::Off => TimeEdgeMode::Off,
         },
@@ -342,8 +341,8 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
         })?;
     }
     if a.preview {
-        let normalise = match a.normalise.as_str() {
-            "frame" => output::Normalise::Frame,
+        let normalise = match a.normalise.as_deref() {
+            Some("frame") => output::Normalise::Frame,
             _ => output::Normalise::Global,
         };
         write_previews(&film, &a.diff, &derivs, &mut set, pixel, normalise)?;
@@ -382,7 +381,7 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
     let prefix = |ext: &str| with_suffix(&prefix_path, ext);
     // the primal is left zero on purpose by `--estimators boundary`
     // (a shard holds part of the energy; `dtr merge` checks the whole)
-    let primal_rendered = (a.diff.is_empty() || !matches!(a.estimators, Estimators::Boundary)) && a.shard.is_none();
+    let primal_rendered = (a.diff.is_empty() || !matches!(estimators, Estimators::Boundary)) && a.shard.is_none();
     if let Some(w) = stats.energy.warning(&film.axis).filter(|_| primal_rendered) {
         log::warn!("{}: {w}", a.scene.display());
     }
@@ -634,6 +633,27 @@ fn metadata(scene: &Scene, film: &Transient, stats: &RenderStats, a: &RenderArgs
         "opl_cut": stats.opl_cut,
     });
     meta
+}
+
+/// Refuses settings whose output or stage this render does not make: they would be taken
+/// without a word and change nothing (`--pixel` or `--normalise` without `--preview`;
+/// `--estimators`, `--time-edges` or `--guiding` without `--diff`).
+fn refuse_settings_without_their_output(a: &RenderArgs) -> anyhow::Result<()> {
+    let without_preview = [("--pixel", a.pixel.is_some()), ("--normalise", a.normalise.is_some())];
+    if let Some((flag, _)) = without_preview.iter().find(|(_, set)| *set && !a.preview) {
+        bail!(
+            "{flag} sets how the previews are drawn (the plot's pixel and the streak image's row, or the animation's white); it needs --preview"
+        );
+    }
+    let without_diff = [
+        ("--estimators", a.estimators.is_some()),
+        ("--time-edges", a.time_edges.is_some()),
+        ("--guiding", a.guiding),
+    ];
+    if let Some((flag, _)) = without_diff.iter().find(|(_, set)| *set && a.diff.is_empty()) {
+        bail!("{flag} sets how derivatives are estimated; it needs --diff");
+    }
+    Ok(())
 }
 
 /// Refuses boundary samples (`--spp-boundary`) with `--estimators interior`, which leaves
