@@ -18,6 +18,7 @@
 //! whole value there, and the description's own checks say whether it fits.
 
 use super::SceneError;
+use super::error::Seg;
 use serde_json::{Map, Value};
 use std::path::Path;
 
@@ -96,27 +97,41 @@ pub(crate) fn text_value(text: &str) -> Result<Value, String> {
 
 /// The value at `segs` (a missing last key of a table is created as null).
 fn find<'a>(root: &'a mut Value, segs: &[&str]) -> Result<&'a mut Value, String> {
+    let steps = steps(root, segs)?;
     let mut here = root;
-    let mut at = String::new();
+    for step in steps {
+        here = match (here, step) {
+            (Value::Object(map), Seg::Key(k)) => map.entry(k).or_insert(Value::Null),
+            (Value::Array(items), Seg::Index(k)) => &mut items[k],
+            _ => unreachable!("steps checked each one"),
+        };
+    }
+    Ok(here)
+}
+
+/// The steps from `root` to dotted path `segs`, with entries of a list of tables found by
+/// name and elements of other lists by index; the last key of a table may be missing.
+pub(super) fn steps(root: &Value, segs: &[&str]) -> Result<Vec<Seg>, String> {
+    let mut here = Some(root);
+    let mut out = Vec::with_capacity(segs.len());
     for (i, &seg) in segs.iter().enumerate() {
         let last = i + 1 == segs.len();
-        let shown = if at.is_empty() {
+        let shown = if i == 0 {
             "the scene".to_string()
         } else {
-            at.clone()
+            segs[..i].join(".")
         };
-        // where to step, decided on a shared borrow; then one mutable step
-        let index = match &*here {
-            Value::Object(map) => {
+        let step = match here {
+            Some(Value::Object(map)) => {
                 if !map.contains_key(seg) && !last {
                     return Err(format!("{shown} has no {seg:?} (it has {})", keys(map)));
                 }
-                None
+                Seg::Key(seg.to_string())
             }
-            Value::Array(items) if items.iter().all(Value::is_object) => {
+            Some(Value::Array(items)) if items.iter().all(Value::is_object) => {
                 let names: Vec<&str> = items.iter().filter_map(|e| e.get("name")?.as_str()).collect();
                 match names.iter().position(|n| *n == seg) {
-                    Some(k) => Some(k),
+                    Some(k) => Seg::Index(k),
                     None => {
                         return Err(format!(
                             "{shown} has no entry named {seg:?} (names: {})",
@@ -125,10 +140,10 @@ fn find<'a>(root: &'a mut Value, segs: &[&str]) -> Result<&'a mut Value, String>
                     }
                 }
             }
-            Value::Array(items) => {
+            Some(Value::Array(items)) => {
                 let n = items.len();
                 match seg.parse::<usize>() {
-                    Ok(k) if k < n => Some(k),
+                    Ok(k) if k < n => Seg::Index(k),
                     _ => {
                         return Err(format!(
                             "{shown} is a list of {n}: address an element by index 0 to {}",
@@ -139,18 +154,29 @@ fn find<'a>(root: &'a mut Value, segs: &[&str]) -> Result<&'a mut Value, String>
             }
             _ => return Err(format!("{shown} is a single value: it has no {seg:?}")),
         };
-        here = match (here, index) {
-            (Value::Object(map), None) => map.entry(seg.to_string()).or_insert(Value::Null),
-            (Value::Array(items), Some(k)) => &mut items[k],
-            _ => unreachable!("decided above"),
+        here = match (&step, here) {
+            (Seg::Key(k), Some(Value::Object(map))) => map.get(k),
+            (Seg::Index(k), Some(Value::Array(items))) => items.get(*k),
+            _ => None,
         };
-        at = if at.is_empty() {
-            seg.to_string()
-        } else {
-            format!("{at}.{seg}")
-        };
+        out.push(step);
     }
-    Ok(here)
+    Ok(out)
+}
+
+/// The steps to the field that `--set NAME=TEXT` of `sets` set, if any is named `at`
+/// ([`super::load`]'s place of an error): that field's type error then names the `--set`.
+pub(super) fn set_at<'a>(
+    raw: &Value,
+    sets: &'a [(String, String)],
+    at_of: impl Fn(&[Seg]) -> String,
+    at: &str,
+) -> Option<&'a (String, String)> {
+    sets.iter().find(|(name, _)| {
+        segments(name)
+            .and_then(|segs| steps(raw, &segs))
+            .is_ok_and(|steps| at_of(&steps) == at)
+    })
 }
 
 fn keys(map: &Map<String, Value>) -> String {

@@ -167,7 +167,7 @@ pub(crate) fn parse(
     super::field_set::apply_text(&mut raw, texts, source)?;
     // 2. Types, unknown and missing fields, with the path to the offending field.
     if !fields.is_empty() || !texts.is_empty() {
-        let desc = desc_from_tree(&raw, source, fields)?;
+        let desc = desc_from_tree(&raw, source, fields).map_err(|e| name_the_set(e, &raw, texts))?;
         return Ok((raw, desc));
     }
     let desc = match format {
@@ -225,6 +225,22 @@ pub(crate) fn desc_from_tree(
             None,
         )
     })
+}
+
+/// A type error at a field that `--set NAME=TEXT` set names the `--set` (the file holds
+/// another value there).
+fn name_the_set(e: SceneError, raw: &serde_json::Value, texts: &[(String, String)]) -> SceneError {
+    match e {
+        SceneError::Invalid { path, at, message } => {
+            let at_of = |segs: &[Seg]| location(segs, &|s, i| name_of(raw, s, i));
+            let message = match super::field_set::set_at(raw, texts, at_of, &at) {
+                Some((name, text)) => format!("{message} (set by --set {name}={text})"),
+                None => message,
+            };
+            SceneError::Invalid { path, at, message }
+        }
+        e => e,
+    }
 }
 
 /// The name of entry `i` of an array of entries of `raw` (`material`, `shape`, ...).
@@ -369,6 +385,34 @@ mod tests {
             }
         }
         assert!(n >= 4, "only {n} scenes found");
+    }
+
+    /// A value of the wrong type set by `--set` was reported as the file's ("film: field
+    /// 'bins': invalid type: string \"abc\"") until the forty-third session.
+    #[test]
+    fn a_wrong_type_set_by_text_names_the_set() {
+        let text = scene_text("cornell_box.toml");
+        let source = scenes_dir().join("cornell_box.toml");
+        for (name, value) in [
+            ("film.bins", "abc"),
+            ("camera.fov", "[1, 2]"),
+            ("shape.tall_box.translate", "abc"),
+        ] {
+            let texts = [(name.to_string(), value.to_string())];
+            let e = Scene::from_str_with_text(&text, Format::Toml, &source, &[], &texts)
+                .err()
+                .unwrap()
+                .to_string();
+            assert!(e.contains(&format!("(set by --set {name}={value})")), "{e}");
+        }
+        // an error elsewhere does not name a set that is fine
+        let bad = text.replacen("bins = ", "bins = \"x\"\n#", 1);
+        let texts = [("camera.fov".to_string(), "40".to_string())];
+        let e = Scene::from_str_with_text(&bad, Format::Toml, &source, &[], &texts)
+            .err()
+            .unwrap()
+            .to_string();
+        assert!(e.contains("'bins'") && !e.contains("set by"), "{e}");
     }
 
     #[test]
