@@ -36,6 +36,7 @@ pub mod silhouette;
 mod silhouette_tests;
 pub mod subpaths;
 pub mod velocity;
+mod waves;
 
 use crate::film::{SteadyMode, Transient};
 use crate::integrator::context::RenderContext;

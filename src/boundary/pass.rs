@@ -35,9 +35,6 @@ use std::time::Instant;
 
 /// Strategy evaluations per work unit (fixed, so results do not depend on the thread count).
 const CHUNK: u64 = 4096;
-/// Work units traced at once, per thread of the pool (at least 8 in all); their paths are
-/// binned in chunk order before the next batch, so the batch's size changes no byte.
-const BATCH_PER_THREAD: u64 = 4;
 /// Stream of the pilot pass, relative to the pass's seed.
 const PILOT_STREAM: u64 = 0x7049_1A7B_0000_0001;
 /// Smallest share of the budget either strategy gets.
@@ -298,75 +295,56 @@ impl Secondary<'_> {
         let cells = uniform.cells();
         let shapes = self.edges.edges.iter().map(|r| r.shape as usize + 1).max().unwrap_or(0);
         let table = &self.edges;
-        // Waves of a few chunks per thread, each merged into the sums in chunk order as it
-        // ends: the same additions in the same order as one list of every chunk's tallies,
-        // which grew by two 512-cell tallies per 4096 samples until the end (2.2 GB before any
-        // work at spp_boundary 2^24 on 32 × 32 pixels; an abort at 2^32).
+        // each wave of chunks is merged into the sums in chunk order as it ends (`waves`): a
+        // list of every chunk's tallies grew by two 512-cell tallies per 4096 samples until
+        // the end (2.2 GB before any work at spp_boundary 2^24 on 32 × 32 pixels)
         let mut shares = ShareTally::new(table.edges.len());
         let mut sums = [vec![0.0f64; cells], vec![0.0f64; cells]];
         let mut by_shape = [vec![ShapeTally::default(); shapes], vec![ShapeTally::default(); shapes]];
         let (mut m2, mut rays) = ([0.0f64; 2], [0u64; 2]);
-        let chunks = samples.div_ceil(CHUNK);
-        let wave = (BATCH_PER_THREAD * pool.current_num_threads() as u64).max(8);
-        let mut first = 0;
+        let trace_chunk = |c: u64| {
+            let mut tally = [PilotTally::new(cells, shapes), PilotTally::new(cells, shapes)];
+            let mut scratch = [Scratch::default(), Scratch::default()];
+            let mut queue = [Queue::new(seed), Queue::new(seed ^ LIGHT_STREAM)];
+            let mut shares = ShareTally::new(table.edges.len());
+            let params = self.params;
+            // a cancelled render's pilot draws no more chunks (`crate::cancel`); the
+            // pass then traces nothing
+            let end = match self.ctx.cancel.is_cancelled() {
+                true => c * CHUNK,
+                false => ((c + 1) * CHUNK).min(samples),
+            };
+            for id in c * CHUNK..end {
+                for s in 0..2 {
+                    let before = scratch[s].rays();
+                    let p = match s {
+                        0 => self.prepare(seed, id, &uniform, table, 1.0, &mut scratch[0]),
+                        _ => self.prepare_light(seed ^ LIGHT_STREAM, id, &uniform, table, &[], 1.0, &mut scratch[1]),
+                    };
+                    if s == 1
+                        && let Some(p) = p.as_ref().filter(|p| p.segment.sensed.is_none())
+                    {
+                        shares.add(p);
+                    }
+                    let t = &mut tally[s];
+                    t.drawn(table, scratch[s].edge, scratch[s].rays() - before, p.is_some());
+                    let mut emit = |p: &Prepared, bp: &BoundaryPath| t.add(&uniform, table, p, magnitude(bp, params));
+                    queue[s].push(self, p, &mut scratch[s], &mut emit);
+                }
+            }
+            for s in 0..2 {
+                let t = &mut tally[s];
+                queue[s].flush(self, &mut scratch[s], &mut |p, bp| {
+                    t.add(&uniform, table, p, magnitude(bp, params))
+                });
+                t.close();
+            }
+            (tally, [scratch[0].rays(), scratch[1].rays()], shares)
+        };
         // a cancelled render's pilot draws no more chunks (`crate::cancel`); the pass then
         // traces nothing
-        while first < chunks && !self.ctx.cancel.is_cancelled() {
-            let batch: Vec<u64> = (first..(first + wave).min(chunks)).collect();
-            first += wave;
-            let parts: Vec<([PilotTally; 2], [u64; 2], ShareTally)> = pool.install(|| {
-                batch
-                    .par_iter()
-                    .map(|&c| {
-                        let mut tally = [PilotTally::new(cells, shapes), PilotTally::new(cells, shapes)];
-                        let mut scratch = [Scratch::default(), Scratch::default()];
-                        let mut queue = [Queue::new(seed), Queue::new(seed ^ LIGHT_STREAM)];
-                        let mut shares = ShareTally::new(table.edges.len());
-                        let params = self.params;
-                        // a cancelled render's pilot draws no more chunks (`crate::cancel`); the
-                        // pass then traces nothing
-                        let end = match self.ctx.cancel.is_cancelled() {
-                            true => c * CHUNK,
-                            false => ((c + 1) * CHUNK).min(samples),
-                        };
-                        for id in c * CHUNK..end {
-                            for s in 0..2 {
-                                let before = scratch[s].rays();
-                                let p = match s {
-                                    0 => self.prepare(seed, id, &uniform, table, 1.0, &mut scratch[0]),
-                                    _ => self.prepare_light(
-                                        seed ^ LIGHT_STREAM,
-                                        id,
-                                        &uniform,
-                                        table,
-                                        &[],
-                                        1.0,
-                                        &mut scratch[1],
-                                    ),
-                                };
-                                if s == 1
-                                    && let Some(p) = p.as_ref().filter(|p| p.segment.sensed.is_none())
-                                {
-                                    shares.add(p);
-                                }
-                                let t = &mut tally[s];
-                                t.drawn(table, scratch[s].edge, scratch[s].rays() - before, p.is_some());
-                                let mut emit =
-                                    |p: &Prepared, bp: &BoundaryPath| t.add(&uniform, table, p, magnitude(bp, params));
-                                queue[s].push(self, p, &mut scratch[s], &mut emit);
-                            }
-                        }
-                        for s in 0..2 {
-                            let t = &mut tally[s];
-                            queue[s].flush(self, &mut scratch[s], &mut |p, bp| {
-                                t.add(&uniform, table, p, magnitude(bp, params))
-                            });
-                            t.close();
-                        }
-                        (tally, [scratch[0].rays(), scratch[1].rays()], shares)
-                    })
-                    .collect()
-            });
+        let chunks = 0..samples.div_ceil(CHUNK);
+        super::waves::in_waves(pool, chunks, &self.ctx.cancel, trace_chunk, |parts| {
             for (t, r, q) in &parts {
                 shares.merge(q);
                 for s in 0..2 {
@@ -376,7 +354,7 @@ impl Secondary<'_> {
                     rays[s] += r[s];
                 }
             }
-        }
+        });
         let n = samples.max(1) as f64;
         let rate = |s: usize| (m2[s] / n).sqrt() / (rays[s] as f64 / n).max(0.5).sqrt();
         let (ra, rb) = (rate(0), rate(1));
@@ -547,57 +525,48 @@ impl Secondary<'_> {
         let scale = [samples as f32 / n_a as f32, samples as f32 / n_b as f32];
         let ids = n_a.max(n_b);
         let mine = shard.range(ids);
-        let chunks = ids.div_ceil(CHUNK);
-        let mut batch0 = mine.start / CHUNK;
-        let my_chunks = (mine.end.div_ceil(CHUNK).min(chunks)).saturating_sub(batch0);
-        settings.progress.set_length(my_chunks);
-        let batch_len = (BATCH_PER_THREAD * pool.current_num_threads() as u64).max(8);
-        // a cancelled render stops between batches (`crate::cancel`)
-        while batch0 < chunks && batch0 * CHUNK < mine.end && !self.ctx.cancel.is_cancelled() {
-            let batch: Vec<u64> = (batch0..(batch0 + batch_len).min(chunks)).collect();
-            let parts: Vec<(T, Scratch)> = pool.install(|| {
-                batch
-                    .par_iter()
-                    .map(|&c| {
-                        let mut scratch = Scratch::default();
-                        let mut paths = Vec::new();
-                        let mut queue = [Queue::new(seed), Queue::new(seed ^ LIGHT_STREAM)];
-                        let mut keep = |_: &Prepared, bp: &BoundaryPath| paths.push(*bp);
-                        for id in (c * CHUNK).max(mine.start)..((c + 1) * CHUNK).min(mine.end) {
-                            if id < n_a {
-                                let p = self.prepare(seed, id, &pl.grid, &pl.edges[0], scale[0], &mut scratch);
-                                queue[0].push(self, p, &mut scratch, &mut keep);
-                            }
-                            if id < n_b {
-                                let p = self.prepare_light(
-                                    seed ^ LIGHT_STREAM,
-                                    id,
-                                    &pl.grid_light,
-                                    &pl.edges[1],
-                                    &pl.shadow_shares,
-                                    scale[1],
-                                    &mut scratch,
-                                );
-                                queue[1].push(self, p, &mut scratch, &mut keep);
-                            }
-                        }
-                        for q in &mut queue {
-                            q.flush(self, &mut scratch, &mut keep);
-                        }
-                        (per_chunk(paths), scratch)
-                    })
-                    .collect()
-            });
+        let my_chunks = match mine.is_empty() {
+            true => 0..0,
+            false => mine.start / CHUNK..mine.end.div_ceil(CHUNK),
+        };
+        settings.progress.set_length(my_chunks.end - my_chunks.start);
+        let trace_chunk = |c: u64| {
+            let mut scratch = Scratch::default();
+            let mut paths = Vec::new();
+            let mut queue = [Queue::new(seed), Queue::new(seed ^ LIGHT_STREAM)];
+            let mut keep = |_: &Prepared, bp: &BoundaryPath| paths.push(*bp);
+            for id in (c * CHUNK).max(mine.start)..((c + 1) * CHUNK).min(mine.end) {
+                if id < n_a {
+                    let p = self.prepare(seed, id, &pl.grid, &pl.edges[0], scale[0], &mut scratch);
+                    queue[0].push(self, p, &mut scratch, &mut keep);
+                }
+                if id < n_b {
+                    let p = self.prepare_light(
+                        seed ^ LIGHT_STREAM,
+                        id,
+                        &pl.grid_light,
+                        &pl.edges[1],
+                        &pl.shadow_shares,
+                        scale[1],
+                        &mut scratch,
+                    );
+                    queue[1].push(self, p, &mut scratch, &mut keep);
+                }
+            }
+            for q in &mut queue {
+                q.flush(self, &mut scratch, &mut keep);
+            }
+            (per_chunk(paths), scratch)
+        };
+        // a cancelled render stops between waves (`crate::cancel`)
+        super::waves::in_waves(pool, my_chunks, &self.ctx.cancel, trace_chunk, |parts| {
             for (paths, s) in &parts {
                 stats.non_finite += consume(paths) + s.counts.non_finite;
                 stats.rays += s.rays();
                 stats.valid_segments += s.valid;
             }
-            settings
-                .progress
-                .inc(batch.iter().filter(|&&c| c * CHUNK < mine.end).count() as u64);
-            batch0 += batch_len;
-        }
+            settings.progress.inc(parts.len() as u64);
+        });
         stats.seconds = t0.elapsed().as_secs_f64() + pl.seconds;
         (stats, samples)
     }

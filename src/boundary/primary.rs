@@ -249,33 +249,19 @@ fn for_each_wave<T: Send>(
         derivs,
     };
     let mine = shard.range(total);
-    // Waves of a few chunks per thread bound the memory; jumps are consumed in chunk order.
-    // The chunks of a wave are made as it starts: a list of every chunk, made up front, took
-    // 16 bytes per 2048 samples (an abort at spp_boundary 2^32).
-    let (first, end) = (mine.start / CHUNK, mine.end.div_ceil(CHUNK));
-    let per_wave = 4 * pool.current_num_threads().max(1) as u64;
-    let mut next = first;
-    while next < end {
-        // a cancelled render stops between waves (`crate::cancel`)
-        if ctx.cancel.is_cancelled() {
-            break;
-        }
-        let wave: Vec<(u64, u64)> = (next..(next + per_wave).min(end))
-            .map(|c| ((c * CHUNK).max(mine.start), ((c + 1) * CHUNK).min(mine.end)))
-            .filter(|(a, b)| a < b)
-            .collect();
-        next += per_wave;
-        let done: Vec<(T, PrimaryStats)> = pool.install(|| {
-            wave.par_iter()
-                .map(|&(a, b)| {
-                    let (jumps, tally) = match scene.film.channels {
-                        1 => est.chunk::<1>(a, b),
-                        _ => est.chunk::<3>(a, b),
-                    };
-                    (per_chunk(jumps), tally)
-                })
-                .collect()
-        });
+    let chunks = match mine.is_empty() {
+        true => 0..0,
+        false => mine.start / CHUNK..mine.end.div_ceil(CHUNK),
+    };
+    let trace = |c: u64| {
+        let (a, b) = ((c * CHUNK).max(mine.start), ((c + 1) * CHUNK).min(mine.end));
+        let (jumps, tally) = match scene.film.channels {
+            1 => est.chunk::<1>(a, b),
+            _ => est.chunk::<3>(a, b),
+        };
+        (per_chunk(jumps), tally)
+    };
+    super::waves::in_waves(pool, chunks, &ctx.cancel, trace, |done| {
         let (parts, tallies): (Vec<T>, Vec<PrimaryStats>) = done.into_iter().unzip();
         consume(&parts);
         for s in &tallies {
@@ -283,7 +269,7 @@ fn for_each_wave<T: Send>(
             stats.traced += s.traced;
             stats.non_finite += s.non_finite;
         }
-    }
+    });
     stats
 }
 
