@@ -62,9 +62,7 @@ class Scene:
 
     def __copy__(self) -> "Scene":
         # the native scene is immutable: copies share it (they raised TypeError)
-        s = Scene(self._native)
-        s.window = self.window
-        return s
+        return self._like(self._native)
 
     def __deepcopy__(self, memo: dict) -> "Scene":
         import copy
@@ -92,16 +90,25 @@ class Scene:
         return Scene(_NativeScene.from_json(json.dumps(description), os.fspath(base_dir), numbers, texts))
 
     def with_params(self, params: Mapping[str, Any]) -> "Scene":
-        """The same scene with the values of `params` ({name: value}, as for `load`) replaced."""
+        """The same scene with the values of `params` ({name: value}, as for `load`) replaced.
+        It keeps `window` unless `params` sets the film's time axis."""
         numbers, texts = _settings(params)
-        return Scene(self._native.with_params(numbers, texts))
+        return self._like(self._native.with_params(numbers, texts),
+                          keep_window=not any(name in _WINDOW_FIELDS for name, _ in numbers + texts))
+
+    def _like(self, native: _NativeScene, keep_window: bool = True) -> "Scene":
+        """A scene of `native` that keeps this one's `window` where it still describes it (it
+        was lost by every `with_*` until the forty-third session)."""
+        s = Scene(native)
+        s.window = self.window if keep_window else None
+        return s
 
     def with_sampler(self, name: str) -> "Scene":
         """The same scene drawing `name`'s numbers: "sobol" (the default: Owen-scrambled Sobol
         points, stratified over each pixel's samples, several times less error at about the
         same cost) or "independent" (independent numbers per path and dimension; `dtr render
         --sampler`)."""
-        return Scene(self._native.with_sampler(name))
+        return self._like(self._native.with_sampler(name))
 
     @property
     def sampler(self) -> str:
@@ -112,7 +119,7 @@ class Scene:
         """The same scene rendered by `name`'s estimator: "path" (unidirectional path tracing,
         the default) or "bdpt" (bidirectional, with MIS over every strategy; it renders NLOS
         captures too; `dtr render --integrator`)."""
-        return Scene(self._native.with_integrator(name))
+        return self._like(self._native.with_integrator(name))
 
     @property
     def integrator(self) -> str:
@@ -124,7 +131,7 @@ class Scene:
         kept) chosen by a short pilot render over where the light arrives and decays, as
         `dtr render --auto-window`. The returned scene's `window` is the choice (a dict: the
         window, the pilot's resolution, spp, span and seconds)."""
-        native, info = self._native.auto_window(seed, threads)
+        native, info = self._native.auto_window(_count("seed", seed), _count("threads", threads))
         scene = Scene(native)
         scene.window = json.loads(info)
         return scene
@@ -257,6 +264,8 @@ def gradient(scene: Scene, params: Sequence[str], adjoint: np.ndarray, *, spp: O
 
 def _toml_value(v: Any) -> str:
     """`v` written as a TOML value (what `dtr render --set PATH=VALUE` reads after the `=`)."""
+    if isinstance(v, (np.ndarray, np.generic)):
+        v = v.tolist()  # numpy values, also inside lists and dicts, as Python's (a list for an array)
     if isinstance(v, bool):
         return "true" if v else "false"
     if isinstance(v, str):
@@ -292,6 +301,9 @@ def _settings(params: Optional[Mapping[str, Any]]) -> Tuple[List[tuple], List[tu
             texts.append((str(k), _toml_value(v)))
     return numbers, texts
 
+
+# the fields that `Scene.auto_window` chooses: a scene with them set no longer has that window
+_WINDOW_FIELDS = {"film.start_opl", "film.bin_width_opl", "film.bins"}
 
 # the largest value of each count the renderer takes (u64 seed, usize threads; u32 otherwise)
 _COUNT_LIMITS = {"seed": 2**64 - 1, "threads": 2**63 - 1}

@@ -297,6 +297,29 @@ def test_arguments_are_checked_by_name():
     huge[0, 0, 0, 0] = 1e300
     with pytest.raises(dt.RenderError, match="float32's range"):
         dt.gradient(s, ["albedo"], huge, spp=1)
+    # until the forty-third session: numpy values inside a list were a TypeError ("cannot set
+    # a value of type float32"), and auto_window's seed=-1 an OverflowError naming nothing
+    cb = scene("cornell_box.toml")
+    for v in ([np.int64(32), np.int64(32)], np.array([32, 32]), (np.int32(32), 32)):
+        assert cb.with_params({"camera.resolution": v}).shape[:2] == (32, 32)
+    with pytest.raises(ValueError, match="seed must be >= 0"):
+        cb.auto_window(seed=-1)
+    with pytest.raises(ValueError, match="threads must be >= 0"):
+        cb.auto_window(threads=-1)
+
+
+def test_a_scenes_window_follows_it_until_its_time_axis_is_set():
+    """`window` (the choice of `auto_window`) was lost by every `with_*` until the forty-third
+    session; it is kept where the scene keeps that window, and dropped where the film's time
+    axis is set."""
+    s = scene("diff_room.toml").auto_window(seed=1)
+    assert s.window is not None
+    for kept in (s.with_params({"albedo": 0.4}), s.with_sampler("independent"), s.with_integrator("bdpt"),
+                 s.with_params({"camera.fov": 30})):
+        assert kept.window == s.window
+        assert kept.shape == s.shape and np.array_equal(kept.bin_centres, s.bin_centres)
+    for name, value in (("film.start_opl", 1.0), ("film.bin_width_opl", 0.05), ("film.bins", 8)):
+        assert s.with_params({name: value}).window is None, name
 
 
 def test_renders_release_the_gil():

@@ -79,6 +79,12 @@ pub fn tail_average(steps: &[Step], fraction: f64) -> Option<Vec<f64>> {
     Some(mean)
 }
 
+/// The steps that the end-of-run checks read as a run's end ([`tail_spread`], [`unsettled`],
+/// [`no_progress`]): its last quarter, at least 10.
+fn end_len(steps: usize) -> usize {
+    (steps / 4).max(10)
+}
+
 /// How far each parameter's iterates wander over the end of a run: the standard deviation of
 /// the values of the last quarter of `steps` (at least 10 steps; `None` for a run shorter
 /// than that), with the number of steps it spans. With noisy gradients the iterates wander
@@ -88,7 +94,7 @@ pub fn tail_average(steps: &[Step], fraction: f64) -> Option<Vec<f64>> {
 /// truth: a run that settled on the wrong side of a bound or in a local minimum spreads as
 /// little.
 pub fn tail_spread(steps: &[Step]) -> Option<(Vec<f64>, usize)> {
-    let n = (steps.len() / 4).max(10);
+    let n = end_len(steps.len());
     if steps.len() < n {
         return None;
     }
@@ -111,7 +117,7 @@ pub fn tail_spread(steps: &[Step]) -> Option<(Vec<f64>, usize)> {
 /// stopped there, and its answer may lie beyond.
 pub fn unsettled(names: &[String], steps: &[Step], domains: &[Domain]) -> Vec<String> {
     let mut out = Vec::new();
-    let n = (steps.len() / 4).max(10);
+    let n = end_len(steps.len());
     for (k, name) in names.iter().enumerate() {
         let values: Vec<f64> = steps.iter().map(|s| s.values[k]).collect();
         let Some(&last) = values.last() else { continue };
@@ -149,7 +155,7 @@ pub fn unsettled(names: &[String], steps: &[Step], domains: &[Domain]) -> Vec<St
 }
 
 /// What a run's losses say about where it went, as warnings: over its last quarter (at
-/// least 10 iterations in all) the loss stayed at or above its first value, so the start may
+/// least 10 iterations after the first) the loss stayed at or above its first value, so the start may
 /// lie outside the answer's basin; or it stayed at or above `dark`, the loss of a render that
 /// holds no light at all, so the iterates render little light where the target has it (the
 /// object left the view or the time window). Either run still ends as any other: these are
@@ -157,10 +163,12 @@ pub fn unsettled(names: &[String], steps: &[Step], domains: &[Domain]) -> Vec<St
 /// plate sent out of the window, ended with exit 0 and no word.
 pub fn no_progress(steps: &[Step], dark: f64) -> Vec<String> {
     let mut out = Vec::new();
-    if steps.len() < 10 {
+    // (until the forty-third session the last quarter here could be 2 iterations, where the
+    // other checks read at least 10)
+    let n = end_len(steps.len());
+    if steps.len() <= n {
         return out;
     }
-    let n = (steps.len() / 4).max(1);
     let tail = steps[steps.len() - n..].iter().map(|s| s.loss).sum::<f64>() / n as f64;
     let first = steps[0].loss;
     if tail >= first {
@@ -504,7 +512,13 @@ mod tests {
         let w = no_progress(&run(&dark), 1.0);
         assert_eq!(w.len(), 1, "{w:?}");
         assert!(w[0].contains("no better than a render with no light"), "{w:?}");
-        assert!(no_progress(&run(&flat[..9]), 5.0).is_empty(), "too few steps to tell");
+        assert!(no_progress(&run(&flat[..10]), 5.0).is_empty(), "too few steps to tell");
+        // the end is the last quarter, at least 10 steps, as for the other checks (20 steps
+        // read their last 5 here until the forty-third session)
+        let w = no_progress(&run(&flat[..20]), 5.0);
+        assert!(w[0].contains("mean of the last 10 iterations"), "{w:?}");
+        let w = no_progress(&run(&flat[..11]), 5.0);
+        assert!(w[0].contains("mean of the last 10 iterations"), "{w:?}");
     }
 
     #[test]
