@@ -164,8 +164,9 @@ pub(super) fn steps(root: &Value, segs: &[&str]) -> Result<Vec<Seg>, String> {
     Ok(out)
 }
 
-/// The steps to the field that `--set NAME=TEXT` of `sets` set, if any is named `at`
-/// ([`super::load`]'s place of an error): that field's type error then names the `--set`.
+/// The `--set NAME=TEXT` of `sets` that set the field at `at` ([`super::load`]'s place of an
+/// error, as `at_of` writes a path) or a table or list holding it: that field's type error
+/// then names the `--set`.
 pub(super) fn set_at<'a>(
     raw: &Value,
     sets: &'a [(String, String)],
@@ -175,8 +176,24 @@ pub(super) fn set_at<'a>(
     sets.iter().find(|(name, _)| {
         segments(name)
             .and_then(|segs| steps(raw, &segs))
-            .is_ok_and(|steps| at_of(&steps) == at)
+            .is_ok_and(|steps| within(at, &at_of(&steps)))
     })
+}
+
+/// Whether place `at` is place `outer` or inside it, as `error::location` writes places:
+/// `film: field 'gate.sigma_opl'` and `camera: field 'resolution[1]'` are inside
+/// `film: field 'gate'` and `camera: field 'resolution'`; `shape[7] "box": field 'scale'`
+/// is inside `shape[7] "box"`.
+fn within(at: &str, outer: &str) -> bool {
+    if at == outer {
+        return true;
+    }
+    match outer.strip_suffix('\'') {
+        Some(stem) => at
+            .strip_prefix(stem)
+            .is_some_and(|rest| rest.starts_with('.') || rest.starts_with('[')),
+        None => at.strip_prefix(outer).is_some_and(|rest| rest.starts_with(':')),
+    }
 }
 
 fn keys(map: &Map<String, Value>) -> String {
@@ -209,6 +226,26 @@ fn number(old: &Value, value: f64) -> Result<Value, String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_place_is_within_itself_and_its_tables_and_lists() {
+        for (at, outer) in [
+            ("film: field 'gate'", "film: field 'gate'"),
+            ("film: field 'gate.sigma_opl'", "film: field 'gate'"),
+            ("camera: field 'resolution[1]'", "camera: field 'resolution'"),
+            ("shape[7] \"box\": field 'scale'", "shape[7] \"box\""),
+        ] {
+            assert!(within(at, outer), "{at} in {outer}");
+        }
+        for (at, outer) in [
+            ("film: field 'gates'", "film: field 'gate'"),
+            ("film: field 'bins'", "film: field 'gate'"),
+            ("shape[71] \"x\"", "shape[7] \"box\""),
+            ("camera: field 'fov'", "film: field 'fov'"),
+        ] {
+            assert!(!within(at, outer), "{at} not in {outer}");
+        }
+    }
     use serde_json::json;
 
     fn set(v: &mut Value, name: &str, x: f64) -> Result<(), String> {

@@ -397,6 +397,13 @@ mod tests {
             ("film.bins", "abc"),
             ("camera.fov", "[1, 2]"),
             ("shape.tall_box.translate", "abc"),
+            // the error lies inside the table or list set
+            ("film.gate", "{ type = \"gaussian\", sigma_opl = \"x\" }"),
+            ("camera.resolution", "[1, \"a\"]"),
+            (
+                "shape.tall_box",
+                "{ name = \"tall_box\", type = \"cube\", material = 3 }",
+            ),
         ] {
             let texts = [(name.to_string(), value.to_string())];
             let e = Scene::from_str_with_text(&text, Format::Toml, &source, &[], &texts)
