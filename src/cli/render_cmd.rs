@@ -165,6 +165,9 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
     refuse_settings_without_their_output(&a)?;
     let estimators = a.estimators.unwrap_or(Estimators::Full);
     refuse_unused_boundary_samples(a.spp_boundary, estimators)?;
+    if a.guiding && estimators == Estimators::Interior {
+        bail!("--guiding guides the boundary term's samples, which --estimators interior leaves out; drop one of them");
+    }
     let auto_window = if a.auto_window {
         if let Some((n, _)) = overrides
             .iter()
