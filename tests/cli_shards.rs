@@ -77,6 +77,27 @@ fn merged_shards_are_the_whole_render() {
     }
     let files: Vec<String> = serde_json::from_value(m["files"].clone()).unwrap();
     assert_eq!(files, ["merged.npy", "merged.d_cube_x.npy", "merged.json"]);
+    // the merged JSON holds a render's fields, not a shard's: it carried shard 0's
+    // files_sha256 (its file names and digests) until the forty-third session
+    let keys = |v: &serde_json::Value| {
+        v.as_object()
+            .unwrap()
+            .keys()
+            .cloned()
+            .collect::<std::collections::BTreeSet<_>>()
+    };
+    let mut want = keys(&w);
+    want.remove("shard");
+    want.insert("merged".into());
+    assert_eq!(keys(&m), want);
+    // each shard counts its own boundary evaluations: they add up to the whole render's
+    // (every shard reported the whole render's edge_directed and light_directed before)
+    let shards: Vec<serde_json::Value> = (0..3).map(|i| json(&dir.join(format!("s{i}.json")))).collect();
+    for k in ["samples", "edge_directed", "light_directed", "valid_segments"] {
+        let of = |v: &serde_json::Value| v["boundary"]["secondary"][k].as_u64().unwrap();
+        assert!(of(&w) > 0, "{k}");
+        assert_eq!(shards.iter().map(of).sum::<u64>(), of(&w), "boundary.secondary.{k}");
+    }
 }
 
 #[test]

@@ -518,13 +518,16 @@ impl Secondary<'_> {
         let budget = 2 * samples;
         let n_a = ((budget as f64 * pl.share_a).round() as u64).clamp(1, budget - 1);
         let n_b = budget - n_a;
-        stats.edge_directed = n_a;
-        stats.light_directed = n_b;
+        let ids = n_a.max(n_b);
+        let mine = shard.range(ids);
+        // this shard's evaluations of each (ids below n_s of its range; the whole render's
+        // counts in every shard until the forty-third session, so shards added to N times
+        // the work)
+        stats.edge_directed = mine.end.min(n_a).saturating_sub(mine.start);
+        stats.light_directed = mine.end.min(n_b).saturating_sub(mine.start);
         // each strategy's paths carry samples/n_s, so that the final 1/samples averages each
         // over its own count
         let scale = [samples as f32 / n_a as f32, samples as f32 / n_b as f32];
-        let ids = n_a.max(n_b);
-        let mine = shard.range(ids);
         let my_chunks = match mine.is_empty() {
             true => 0..0,
             false => mine.start / CHUNK..mine.end.div_ceil(CHUNK),

@@ -619,7 +619,12 @@ fn merged_metadata(shards: &[ShardFiles], prefix: &Path, diff: &[String]) -> Val
             .collect::<Vec<_>>()
     );
     meta["energy"] = merged_energy(shards);
-    meta.as_object_mut().map(|o| o.remove("shard"));
+    // a shard's own records: the merged set is a render, which has neither (the digests
+    // were shard 0's files', under their names, until the forty-third session)
+    if let Some(o) = meta.as_object_mut() {
+        o.remove("shard");
+        o.remove("files_sha256");
+    }
     meta["merged"] = json!({
         "about": "dtr merge: the films are the sums of the shards' films (added in f64); paths, rays and seconds are summed over the shards (per-second rates divide by the summed seconds); threads and the boundary record are per shard, under shards",
         "shards": shards.iter().map(|s| json!({
