@@ -76,6 +76,84 @@ fn cdf_of(weights: &[f64]) -> Vec<f32> {
         .collect()
 }
 
+/// An edge in its cross-section: its ends and length, `a` the unit vector ⊥ the edge into
+/// face0, `b` = e × a oriented so that face1 (if any) lies at azimuth ψ ∈ [0, π] from `a`
+/// (π for a boundary edge). `None` for an edge of no length or a degenerate face0.
+struct CrossSection {
+    v0: Vec3,
+    v1: Vec3,
+    len: f32,
+    a: Vec3,
+    b: Vec3,
+    psi: f32,
+}
+
+fn cross_section(geo: &Geometry, e: &Edge) -> Option<CrossSection> {
+    let v0 = geo.positions[e.v0 as usize];
+    let v1 = geo.positions[e.v1 as usize];
+    let dir = v1 - v0;
+    let len = dir.length();
+    if !(len > 0.0) || !len.is_finite() {
+        return None;
+    }
+    let t = dir / len;
+    let perp = |o: u32| {
+        let w = geo.positions[o as usize] - v0;
+        (w - t * t.dot(w)).normalize_or_zero()
+    };
+    let a = perp(e.opposite0);
+    if a == Vec3::ZERO {
+        return None;
+    }
+    let mut b = t.cross(a);
+    let psi = match e.opposite1 {
+        None => PI,
+        Some(o1) => {
+            let a1 = perp(o1);
+            let (c, s) = (a1.dot(a), a1.dot(b));
+            if s < 0.0 {
+                b = -b;
+            }
+            s.abs().atan2(c)
+        }
+    };
+    Some(CrossSection { v0, v1, len, a, b, psi })
+}
+
+/// Whether no line through sharp edge `e` along its silhouette directions can join two
+/// points of `points` (for a boundary edge, false). In the cross-section the faces bound a
+/// wedge of angle ψ and its vertical opposite; the silhouette lines run through the other
+/// two wedges, one end in each. So when every point lies in the closed wedge between the
+/// faces, or every one in its opposite, a boundary ray through the edge finds no surface at
+/// one of its ends, and the edge's term is 0: a crease of a closed convex room seen from
+/// inside. Each of those wedges is convex, so the corners of a box holding the scene stand
+/// for every point in it. `slack` (metres) counts a point that far outside a face's plane as
+/// on it: positions within the renderer's ray offsets of a plane are not told apart.
+pub fn silhouettes_join_nothing(geo: &Geometry, e: &Edge, points: &[Vec3], slack: f32) -> bool {
+    if e.is_boundary() {
+        return false;
+    }
+    let Some(c) = cross_section(geo, e) else {
+        return false;
+    };
+    let (sin, cos) = c.psi.sin_cos();
+    // (x, y) in the (a, b) frame: between the faces means y ≥ 0 and x·sinψ − y·cosψ ≥ 0
+    let sides = |p: &Vec3| {
+        let w = *p - c.v0;
+        let (x, y) = (w.dot(c.a), w.dot(c.b));
+        (y, x * sin - y * cos)
+    };
+    let inside = points.iter().all(|p| {
+        let (u, v) = sides(p);
+        u >= -slack && v >= -slack
+    });
+    let opposite = points.iter().all(|p| {
+        let (u, v) = sides(p);
+        u <= slack && v <= slack
+    });
+    inside || opposite
+}
+
 impl EdgeSampler {
     /// Builds the edge table of the scene's world-space geometry, every edge weighted alike.
     pub fn new(geo: &Geometry, offset_scale: f32) -> Self {
@@ -98,33 +176,8 @@ impl EdgeSampler {
         let mut edges = Vec::new();
         let mut weights = Vec::new();
         for &e in list {
-            let v0 = geo.positions[e.v0 as usize];
-            let v1 = geo.positions[e.v1 as usize];
-            let dir = v1 - v0;
-            let len = dir.length();
-            if !(len > 0.0) || !len.is_finite() {
+            let Some(CrossSection { v0, v1, len, a, b, psi }) = cross_section(geo, &e) else {
                 continue;
-            }
-            let t = dir / len;
-            let perp = |o: u32| {
-                let w = geo.positions[o as usize] - v0;
-                (w - t * t.dot(w)).normalize_or_zero()
-            };
-            let a = perp(e.opposite0);
-            if a == Vec3::ZERO {
-                continue;
-            }
-            let mut b = t.cross(a);
-            let psi = match e.opposite1 {
-                None => PI,
-                Some(o1) => {
-                    let a1 = perp(o1);
-                    let (c, s) = (a1.dot(a), a1.dot(b));
-                    if s < 0.0 {
-                        b = -b;
-                    }
-                    s.abs().atan2(c)
-                }
             };
             let frac = if e.is_boundary() { 1.0 } else { (PI - psi) / PI };
             let w = len * frac;
@@ -249,6 +302,46 @@ mod tests {
     use crate::boundary::edges::tests::geometry;
     use crate::kernel::PathSampler;
     use crate::scene::shapes;
+
+    /// A lone cube's edges join nothing (every line through an edge in a silhouette direction
+    /// leaves the cube's box at both ends); in a box twice its size every edge can bound a
+    /// segment; a boundary edge always can; a point beyond a face's plane by less than the
+    /// slack counts as on it.
+    #[test]
+    fn silhouettes_join_nothing_only_where_every_point_lies_in_the_faces_wedge() {
+        let geo = geometry(shapes::cube());
+        let edges = build_edges(&geo, 0.0);
+        assert_eq!(edges.len(), 12);
+        let (lo, hi) = geo
+            .positions
+            .iter()
+            .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(l, h), &p| (l.min(p), h.max(p)));
+        let box_of = |lo: Vec3, hi: Vec3| -> Vec<Vec3> {
+            (0..8)
+                .map(|i| Vec3::select(glam::BVec3::new(i & 1 != 0, i & 2 != 0, i & 4 != 0), hi, lo))
+                .collect()
+        };
+        let own = box_of(lo, hi);
+        let (c, h) = ((lo + hi) * 0.5, (hi - lo) * 0.5);
+        let twice = box_of(c - 2.0 * h, c + 2.0 * h);
+        for e in &edges {
+            assert!(silhouettes_join_nothing(&geo, e, &own, 0.0), "{e:?}");
+            assert!(!silhouettes_join_nothing(&geo, e, &twice, 0.0), "{e:?}");
+            // a point 10⁻⁴ m into the wedge beside the faces' (azimuth (ψ + π)/2): a
+            // silhouette line can reach it, unless the slack counts it as on the planes
+            let x = cross_section(&geo, e).unwrap();
+            let g = 0.5 * (x.psi + PI);
+            let mut near = own.clone();
+            near.push(x.v0 + 1e-4 * (x.a * g.cos() + x.b * g.sin()));
+            assert!(!silhouettes_join_nothing(&geo, e, &near, 0.0), "{e:?}");
+            assert!(silhouettes_join_nothing(&geo, e, &near, 1e-3), "{e:?}");
+        }
+        let flap = geometry(shapes::rectangle());
+        for e in build_edges(&flap, 0.0) {
+            assert!(e.is_boundary());
+            assert!(!silhouettes_join_nothing(&flap, &e, &own, 0.0));
+        }
+    }
 
     /// A cube's edges have ψ = π/2: silhouette for half the sphere; every sampled direction
     /// passes the geometric test of Eq. 32 (both faces on one side of the plane of edge and ω).
