@@ -32,6 +32,7 @@ pub fn run(a: ImportArgs) -> anyhow::Result<()> {
     // are made absolute when the folders differ), so it is loaded as the XML file's: an
     // error names the file the user wrote, not the output that is not written yet.
     let scene = Scene::from_str(&imported.toml, Format::Toml, &a.scene, &[]).map_err(|e| imported.annotate(e))?;
+    imported.check(&scene, &a.scene)?;
     match &a.output {
         None => super::write_stdout(imported.toml.as_bytes())?,
         Some(out) => {

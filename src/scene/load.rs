@@ -66,6 +66,7 @@ impl Scene {
             let imported = super::mitsuba::import(path)?;
             let mut scene = Scene::from_str_with_text(&imported.toml, Format::Toml, path, overrides, texts)
                 .map_err(|e| imported.annotate(e))?;
+            imported.check(&scene, path)?;
             // the included files are inputs too (output safety, the shard identity's hash)
             scene.inputs.extend(imported.included);
             return Ok(scene);

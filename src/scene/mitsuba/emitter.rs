@@ -29,7 +29,7 @@ pub(crate) fn area(doc: &Doc, node: Node) -> Result<Table, ImportError> {
     }
     let p = doc.props(node);
     let radiance = p
-        .colour(doc, "radiance")?
+        .emission(doc, "radiance")?
         .ok_or_else(|| doc.err(node, "an area emitter needs its radiance (<rgb name=\"radiance\" ...>)"))?;
     p.finish(doc, "radiance")?;
     let mut t = Table::new();
@@ -47,7 +47,7 @@ pub(crate) fn top_level(doc: &Doc, node: Node) -> Result<Table, ImportError> {
         other => return Err(doc.err(node, refusal(other))),
     }
     let p = doc.props(node);
-    let intensity = p.colour(doc, "intensity")?.unwrap_or(Colour::Scalar(1.0));
+    let intensity = p.emission(doc, "intensity")?.unwrap_or(Colour::Scalar(1.0));
     let position = match (p.point(doc, "position")?, p.transform(doc, "to_world")?) {
         (Some(x), None) => x,
         (None, Some(t)) => {

@@ -13,6 +13,8 @@ pub(crate) struct Sensor {
     pub film: Table,
     pub spp: i64,
     pub seed: i64,
+    /// `near_clip`, `far_clip` (Mitsuba's defaults where not given).
+    pub clip: (f64, f64),
 }
 
 /// Our vertical field of view (degrees) from Mitsuba's `fov` along `fov_axis` on a
@@ -116,9 +118,17 @@ pub(crate) fn sensor(doc: &Doc, node: Node) -> Result<Sensor, ImportError> {
         }
     }
     // Our camera rays start at the pinhole, not at the near-clip plane (Mitsuba's rays start
-    // there, which shortens the camera segment's OPL by near_clip / cos θ); the window cut
-    // replaces far_clip.
-    p.ignore(doc, &["near_clip", "far_clip"])?;
+    // there, which shortens the camera segment's OPL by near_clip / cos θ); what the clip
+    // planes hide is checked against the converted scene (`clip.rs`). Mitsuba's defaults.
+    let near = p.float(doc, "near_clip")?.unwrap_or(1e-2);
+    let far = p.float(doc, "far_clip")?.unwrap_or(1e4);
+    if !(near > 0.0 && far > near && far.is_finite()) {
+        let at = p.get(doc, "near_clip")?.or(p.get(doc, "far_clip")?).unwrap_or(node);
+        return Err(doc.err(
+            at,
+            format!("expected 0 < near_clip < far_clip, finite (got {near}, {far})"),
+        ));
+    }
     let (spp, seed) = match p.nested("sampler").as_slice() {
         [] => (4, 0),
         [s] => sampler(doc, *s)?,
@@ -126,13 +136,14 @@ pub(crate) fn sensor(doc: &Doc, node: Node) -> Result<Sensor, ImportError> {
     };
     p.finish(
         doc,
-        "fov, fov_axis, to_world, near_clip and far_clip (ignored), principal_point_offset_x/y (0), <film>, <sampler>",
+        "fov, fov_axis, to_world, near_clip and far_clip (where they hide nothing), principal_point_offset_x/y (0), <film>, <sampler>",
     )?;
     Ok(Sensor {
         camera,
         film: film_table,
         spp,
         seed,
+        clip: (near, far),
     })
 }
 

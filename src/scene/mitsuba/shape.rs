@@ -89,6 +89,19 @@ pub(crate) fn geometry(doc: &Doc, p: &Props) -> Result<Geometry, ImportError> {
     };
     t.insert("type".into(), ty.as_str().into());
     let trs = transform::to_trs(&ops, flip_z).map_err(|m| doc.err(t_node, m))?;
+    let [a, b, c] = trs.scale;
+    let uneven = |x: f64, y: f64| (x - y).abs() > 1e-9 * x.abs().max(y.abs());
+    if ty == "sphere" && (uneven(a, b) || uneven(a, c)) {
+        // until the forty-third session this became an ellipsoid without a word (helper 39)
+        return Err(doc.err(
+            t_node,
+            format!(
+                "this sphere's to_world scales it unevenly ({a}, {b}, {c}): Mitsuba 3 keeps a sphere round \
+                 (its radius from one axis of the transform), this importer would make an ellipsoid; scale it \
+                 evenly, or give the ellipsoid as a mesh (obj, ply)"
+            ),
+        ));
+    }
     write_trs(&mut t, &trs);
     p.finish(
         doc,
@@ -121,7 +134,7 @@ fn write_trs(t: &mut Table, trs: &Trs) {
 }
 
 /// The `<shape>` element's BSDF: an inline `<bsdf>`, a `<ref id>`, or none (Mitsuba's
-/// default, a diffuse reflectance of 0.5).
+/// default, a diffuse reflectance of 0.5, or 0 on a shape that emits).
 pub(crate) enum BsdfSource<'a, 'input> {
     Inline(Node<'a, 'input>),
     Ref(String, Node<'a, 'input>),

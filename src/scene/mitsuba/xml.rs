@@ -215,6 +215,16 @@ impl<'a, 'input> Doc<'a, 'input> {
     }
 }
 
+/// Linear sRGB of the equal-energy illuminant of luminance 1 (CIE XYZ (1, 1, 1)): the row sums
+/// of the usual XYZ → linear sRGB matrix (IEC 61966-2-1, to six digits, as pbrt writes it),
+/// (1.2048, 0.9483, 0.9089). Mitsuba 3.9.1's `scalar_rgb` variant renders a constant
+/// `<spectrum value="1">` emitter as (1.205, 0.948, 0.909) (measured, helper 39).
+pub(crate) const EQUAL_ENERGY_SRGB: [f64; 3] = [
+    3.240479 - 1.537150 - 0.498535,
+    -0.969256 + 1.875991 + 0.041556,
+    0.055648 - 0.204043 + 1.057311,
+];
+
 /// A colour (or a scalar given where a colour is expected).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) enum Colour {
@@ -304,6 +314,25 @@ impl<'a, 'input> Props<'a, 'input> {
     /// A colour: `<rgb value="r, g, b">` (or one value), `<spectrum value="v">` (a constant
     /// spectrum), or `<float>`. Textures and sampled spectra are refused.
     pub fn colour(&self, doc: &Doc, name: &str) -> Result<Option<Colour>, ImportError> {
+        Ok(self.colour_and_tag(doc, name)?.map(|(c, _)| c))
+    }
+
+    /// An emitter's colour (`radiance`, `intensity`) as [`Props::colour`], except that a
+    /// constant `<spectrum value="v">` is the light of that spectrum, as Mitsuba 3 reads it in
+    /// an emitter: an equal-energy illuminant, which is not white in linear sRGB (its CIE 1931
+    /// XYZ is (v, v, v), [`EQUAL_ENERGY_SRGB`] · v in sRGB). Until the forty-third session it
+    /// became (v, v, v): light 20 % too blue-green against Mitsuba (helper 39).
+    pub fn emission(&self, doc: &Doc, name: &str) -> Result<Option<Colour>, ImportError> {
+        Ok(self
+            .colour_and_tag(doc, name)?
+            .map(|(c, spectrum)| match (c, spectrum) {
+                (Colour::Scalar(v), true) => Colour::Rgb(EQUAL_ENERGY_SRGB.map(|k| k * v)),
+                (c, _) => c,
+            }))
+    }
+
+    /// [`Props::colour`], and whether it was given as a `<spectrum>`.
+    fn colour_and_tag(&self, doc: &Doc, name: &str) -> Result<Option<(Colour, bool)>, ImportError> {
         if let Some(t) = self.nested_named(doc, name)? {
             return Err(doc.err(
                 t,
@@ -329,9 +358,10 @@ impl<'a, 'input> Props<'a, 'input> {
                 "sampled spectra (wavelength:value pairs) are not supported: give an <rgb> or one constant value",
             ));
         }
+        let spectrum = n.tag_name().name() == "spectrum";
         match doc.numbers(n, &v)?.as_slice() {
-            [x] => Ok(Some(Colour::Scalar(*x))),
-            [r, g, b] if n.tag_name().name() == "rgb" => Ok(Some(Colour::Rgb([*r, *g, *b]))),
+            [x] => Ok(Some((Colour::Scalar(*x), spectrum))),
+            [r, g, b] if n.tag_name().name() == "rgb" => Ok(Some((Colour::Rgb([*r, *g, *b]), false))),
             other => Err(doc.err(
                 n,
                 format!("expected one value or an rgb triple, got {} values", other.len()),
