@@ -728,6 +728,24 @@ fn cli_renders_xml_and_imports_it_to_toml() {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let o = common::dtr(&["info", "sub/m.toml"], d);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    // a mesh Mitsuba shades smooth (no face_normals) is rendered with face normals here: said
+    // once, naming the file and the element (silent until the forty-third session); not with
+    // face_normals true
+    let o = common::dtr(&["render", "m.xml", "--spp", "1", "-o", "m"], d);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert_eq!(err.matches("face_normals is not true").count(), 1, "{err}");
+    assert!(err.contains("m.xml: <shape type=\"obj\"> (line 9)"), "{err}");
+    std::fs::write(
+        d.join("flat.xml"),
+        scene_text(
+            r#"<shape type="obj"><string name="filename" value="meshes/pyramid.obj"/><boolean name="face_normals" value="true"/></shape>"#,
+        ),
+    )
+    .unwrap();
+    let o = common::dtr(&["render", "flat.xml", "--spp", "1", "-o", "flat"], d);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success() && !err.contains("face_normals"), "{err}");
     // bad input: exit status 2, the file and the line on stderr, nothing written
     std::fs::write(d.join("bad.xml"), scene_text(r#"<shape type="disk"/>"#)).unwrap();
     for args in [

@@ -22,6 +22,9 @@ pub(crate) const SPHERE_SUBDIVISIONS: i64 = 6;
 pub(crate) struct Geometry {
     pub table: Table,
     pub front_flipped: bool,
+    /// A mesh Mitsuba shades with interpolated vertex normals (`face_normals` not true);
+    /// we shade every mesh with its face normals.
+    pub smooth_in_mitsuba: bool,
 }
 
 pub(crate) fn geometry(doc: &Doc, p: &Props) -> Result<Geometry, ImportError> {
@@ -37,6 +40,7 @@ pub(crate) fn geometry(doc: &Doc, p: &Props) -> Result<Geometry, ImportError> {
         let m = transform::compose(ops).map_err(|m| doc.err(t_node, m))?;
         Ok(m.determinant() < 0.0)
     };
+    let mut smooth = false;
     let (ops, flip_z, front_flipped, supported) = match ty.as_str() {
         // an analytic shape in Mitsuba: its normal is transformed as a normal, and
         // flip_normals is a mirror of local z (exact: z = 0 on the rectangle)
@@ -53,7 +57,8 @@ pub(crate) fn geometry(doc: &Doc, p: &Props) -> Result<Geometry, ImportError> {
                 .ok_or_else(|| doc.err(node, format!("a {ty} shape needs <string name=\"filename\" ...>")))?;
             t.insert("file".into(), file.into());
             // we shade with face normals always; texture coordinates are not used
-            p.ignore(doc, &["face_normals", "flip_tex_coords"])?;
+            smooth = p.boolean(doc, "face_normals")? != Some(true);
+            p.ignore(doc, &["flip_tex_coords"])?;
             let flipped = det_negative(&to_world)? != flip_normals;
             (
                 to_world,
@@ -110,6 +115,7 @@ pub(crate) fn geometry(doc: &Doc, p: &Props) -> Result<Geometry, ImportError> {
     Ok(Geometry {
         table: t,
         front_flipped,
+        smooth_in_mitsuba: smooth,
     })
 }
 
