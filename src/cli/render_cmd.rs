@@ -50,7 +50,8 @@ pub struct RenderArgs {
     #[arg(long, value_name = "X,Y")]
     pub pixel: Option<String>,
     /// Display white of the light-in-flight animation and the contact sheet: one for the whole
-    /// film (`global`, frames compare) or one per frame (`frame`, every frame shows its structure).
+    /// film (`global`, the default: frames compare) or one per frame (`frame`, every frame shows
+    /// its structure). Needs --preview.
     #[arg(long, value_name = "global|frame", value_parser = ["global", "frame"])]
     pub normalise: Option<String>,
     /// Choose the time window (film.start_opl, film.bin_width_opl; the scene's bins kept) from a
@@ -98,7 +99,7 @@ pub struct RenderArgs {
     /// How --diff's path tracer estimates the time term f·Ṡ_e·ḋ: `auto` (default: from light
     /// points drawn where a connection's OPL crosses a bin edge, for box gates and area
     /// emitters with Gaussian or box pulses; much lower variance under narrow pulses) or
-    /// `off` (from the ordinary next-event and emission contributions).
+    /// `off` (from the ordinary next-event and emission contributions). Needs --diff.
     #[arg(long = "time-edges", value_enum)]
     pub time_edges: Option<TimeEdges>,
     /// Render shard I of N (0-based): this shard's part of every estimator's samples,
