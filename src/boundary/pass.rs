@@ -302,19 +302,19 @@ impl Secondary<'_> {
         let mut sums = [vec![0.0f64; cells], vec![0.0f64; cells]];
         let mut by_shape = [vec![ShapeTally::default(); shapes], vec![ShapeTally::default(); shapes]];
         let (mut m2, mut rays) = ([0.0f64; 2], [0u64; 2]);
-        let trace_chunk = |c: u64| {
+        let trace_chunk = |ids: std::ops::Range<u64>| {
             let mut tally = [PilotTally::new(cells, shapes), PilotTally::new(cells, shapes)];
             let mut scratch = [Scratch::default(), Scratch::default()];
             let mut queue = [Queue::new(seed), Queue::new(seed ^ LIGHT_STREAM)];
             let mut shares = ShareTally::new(table.edges.len());
             let params = self.params;
-            // a cancelled render's pilot draws no more chunks (`crate::cancel`); the
-            // pass then traces nothing
-            let end = match self.ctx.cancel.is_cancelled() {
-                true => c * CHUNK,
-                false => ((c + 1) * CHUNK).min(samples),
+            // a cancelled render's pilot draws no more samples, not even in this wave's
+            // chunks (`crate::cancel`); the pass then traces nothing
+            let ids = match self.ctx.cancel.is_cancelled() {
+                true => ids.start..ids.start,
+                false => ids,
             };
-            for id in c * CHUNK..end {
+            for id in ids {
                 for s in 0..2 {
                     let before = scratch[s].rays();
                     let p = match s {
@@ -341,10 +341,7 @@ impl Secondary<'_> {
             }
             (tally, [scratch[0].rays(), scratch[1].rays()], shares)
         };
-        // a cancelled render's pilot draws no more chunks (`crate::cancel`); the pass then
-        // traces nothing
-        let chunks = 0..samples.div_ceil(CHUNK);
-        super::waves::in_waves(pool, chunks, &self.ctx.cancel, trace_chunk, |parts| {
+        super::waves::in_waves(pool, 0..samples, CHUNK, &self.ctx.cancel, trace_chunk, |parts| {
             for (t, r, q) in &parts {
                 shares.merge(q);
                 for s in 0..2 {
@@ -528,17 +525,14 @@ impl Secondary<'_> {
         // each strategy's paths carry samples/n_s, so that the final 1/samples averages each
         // over its own count
         let scale = [samples as f32 / n_a as f32, samples as f32 / n_b as f32];
-        let my_chunks = match mine.is_empty() {
-            true => 0..0,
-            false => mine.start / CHUNK..mine.end.div_ceil(CHUNK),
-        };
+        let my_chunks = super::waves::chunks_of(&mine, CHUNK);
         settings.progress.set_length(my_chunks.end - my_chunks.start);
-        let trace_chunk = |c: u64| {
+        let trace_chunk = |ids: std::ops::Range<u64>| {
             let mut scratch = Scratch::default();
             let mut paths = Vec::new();
             let mut queue = [Queue::new(seed), Queue::new(seed ^ LIGHT_STREAM)];
             let mut keep = |_: &Prepared, bp: &BoundaryPath| paths.push(*bp);
-            for id in (c * CHUNK).max(mine.start)..((c + 1) * CHUNK).min(mine.end) {
+            for id in ids {
                 if id < n_a {
                     let p = self.prepare(seed, id, &pl.grid, &pl.edges[0], scale[0], &mut scratch);
                     queue[0].push(self, p, &mut scratch, &mut keep);
@@ -562,7 +556,7 @@ impl Secondary<'_> {
             (per_chunk(paths), scratch)
         };
         // a cancelled render stops between waves (`crate::cancel`)
-        super::waves::in_waves(pool, my_chunks, &self.ctx.cancel, trace_chunk, |parts| {
+        super::waves::in_waves(pool, mine.clone(), CHUNK, &self.ctx.cancel, trace_chunk, |parts| {
             for (paths, s) in &parts {
                 stats.non_finite += consume(paths) + s.counts.non_finite;
                 stats.rays += s.rays();

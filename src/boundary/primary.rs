@@ -249,19 +249,14 @@ fn for_each_wave<T: Send>(
         derivs,
     };
     let mine = shard.range(total);
-    let chunks = match mine.is_empty() {
-        true => 0..0,
-        false => mine.start / CHUNK..mine.end.div_ceil(CHUNK),
-    };
-    let trace = |c: u64| {
-        let (a, b) = ((c * CHUNK).max(mine.start), ((c + 1) * CHUNK).min(mine.end));
+    let trace = |ids: std::ops::Range<u64>| {
         let (jumps, tally) = match scene.film.channels {
-            1 => est.chunk::<1>(a, b),
-            _ => est.chunk::<3>(a, b),
+            1 => est.chunk::<1>(ids.start, ids.end),
+            _ => est.chunk::<3>(ids.start, ids.end),
         };
         (per_chunk(jumps), tally)
     };
-    super::waves::in_waves(pool, chunks, &ctx.cancel, trace, |done| {
+    super::waves::in_waves(pool, mine, CHUNK, &ctx.cancel, trace, |done| {
         let (parts, tallies): (Vec<T>, Vec<PrimaryStats>) = done.into_iter().unzip();
         consume(&parts);
         for s in &tallies {
