@@ -154,6 +154,12 @@ pub fn silhouettes_join_nothing(geo: &Geometry, e: &Edge, points: &[Vec3], slack
     inside || opposite
 }
 
+/// The eight corners of the box from `lo` to `hi`: the points that stand for all of it in
+/// [`silhouettes_join_nothing`].
+pub fn box_corners(lo: Vec3, hi: Vec3) -> [Vec3; 8] {
+    std::array::from_fn(|i| Vec3::select(glam::BVec3::new(i & 1 != 0, i & 2 != 0, i & 4 != 0), hi, lo))
+}
+
 impl EdgeSampler {
     /// Builds the edge table of the scene's world-space geometry, every edge weighted alike.
     pub fn new(geo: &Geometry, offset_scale: f32) -> Self {
@@ -316,11 +322,7 @@ mod tests {
             .positions
             .iter()
             .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(l, h), &p| (l.min(p), h.max(p)));
-        let box_of = |lo: Vec3, hi: Vec3| -> Vec<Vec3> {
-            (0..8)
-                .map(|i| Vec3::select(glam::BVec3::new(i & 1 != 0, i & 2 != 0, i & 4 != 0), hi, lo))
-                .collect()
-        };
+        let box_of = |lo: Vec3, hi: Vec3| box_corners(lo, hi).to_vec();
         let own = box_of(lo, hi);
         let (c, h) = ((lo + hi) * 0.5, (hi - lo) * 0.5);
         let twice = box_of(c - 2.0 * h, c + 2.0 * h);

@@ -181,8 +181,7 @@ fn edges_that_can_bound(ctx: &RenderContext, list: &[Edge]) -> Vec<Edge> {
     if !(lo.is_finite() && hi.is_finite()) {
         return list.to_vec();
     }
-    let corners: [Vec3; 8] =
-        std::array::from_fn(|i| Vec3::select(glam::BVec3::new(i & 1 != 0, i & 2 != 0, i & 4 != 0), hi, lo));
+    let corners = super::edge_sampler::box_corners(lo, hi);
     // the renderer's own ray offsets (`self_intersection_eps`) at the scene's largest coordinate
     let scale = lo.abs().max(hi.abs()).max_element().max(scene.offset_scale);
     let slack = scale / 262_144.0;

@@ -29,7 +29,9 @@ impl Clip {
         let (eye, fwd) = (cam.position.as_dvec3(), fwd.as_dvec3());
         let ty = (0.5 * (cam.fov_y_deg as f64).to_radians()).tan();
         let tx = ty * scene.film.width as f64 / scene.film.height.max(1) as f64;
-        let reach = self.near * (1.0 + tx * tx + ty * ty).sqrt();
+        // the distance from the eye to the view's corner ray at depth 1
+        let corner = (1.0 + tx * tx + ty * ty).sqrt();
+        let reach = self.near * corner;
         let geo = &scene.geometry;
         let shape_of = |tri: usize| {
             let s = geo.tri_shape[tri] as usize;
@@ -54,7 +56,7 @@ impl Clip {
                      importer does not clip); set near_clip below {:.6} or move the camera",
                     self.near,
                     shape_of(t),
-                    d / (1.0 + tx * tx + ty * ty).sqrt()
+                    d / corner
                 )));
             }
             let z = [a, b, c]
@@ -108,12 +110,11 @@ fn distance_to_triangle(p: DVec3, a: DVec3, b: DVec3, c: DVec3) -> f64 {
         return (p - (b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6))))).length();
     }
     let denom = 1.0 / (va + vb + vc);
-    let (v, w) = (vb * denom, vc * denom);
-    if !(denom.is_finite()) {
+    if !denom.is_finite() {
         // a degenerate triangle: its nearest vertex
         return ap.length().min(bp.length()).min(cp.length());
     }
-    (p - (a + ab * v + ac * w)).length()
+    (p - (a + ab * (vb * denom) + ac * (vc * denom))).length()
 }
 
 #[cfg(test)]

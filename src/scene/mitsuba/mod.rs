@@ -50,24 +50,22 @@ pub struct Imported {
     /// The files the scene `<include>`s (each once), as named from the scene file's folder.
     pub included: Vec<PathBuf>,
     /// The sensor's clip depths, checked against the converted scene ([`Imported::check`]).
-    clip: Option<clip::Clip>,
+    clip: clip::Clip,
     /// What renders otherwise than in Mitsuba and is documented rather than refused, said
     /// once per process when the scene loads ([`Imported::check`]).
     warnings: Vec<String>,
 }
 
 impl Imported {
-    /// Refuses the converted `scene` where Mitsuba would render it otherwise in a way the
-    /// conversion could not see before the geometry was built: a shape in the part of the view
-    /// the sensor's clip planes hide (`clip.rs`).
+    /// Says, once per process, what renders otherwise than in Mitsuba and is documented
+    /// (`warnings`), and refuses the converted `scene` where Mitsuba would render it otherwise
+    /// in a way the conversion could not see before the geometry was built: a shape in the
+    /// part of the view the sensor's clip planes hide (`clip.rs`).
     pub fn check(&self, scene: &crate::scene::Scene, path: &Path) -> Result<(), SceneError> {
         for w in &self.warnings {
             crate::scene::warnings::warn_once(format!("{}: {w}", path.display()));
         }
-        match &self.clip {
-            Some(c) => c.check(scene, path),
-            None => Ok(()),
-        }
+        self.clip.check(scene, path)
     }
 
     /// Adds the XML element to an error about one of the converted entries.
@@ -507,11 +505,11 @@ impl<'d, 'a, 'input> Converter<'d, 'a, 'input> {
             .map(|(_, el)| el.clone());
         Imported {
             toml: text,
-            clip: Some(clip::Clip {
+            clip: clip::Clip {
                 near: s.clip.0,
                 far: s.clip.1,
                 element: element.unwrap_or_else(|| "<sensor>".into()),
-            }),
+            },
             origins: self.origins,
             included: Vec::new(),
             warnings: self.warnings,
