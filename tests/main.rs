@@ -50,6 +50,7 @@ mod nlos_cli;
 mod nlos_fd;
 mod nlos_forward;
 mod nlos_tracking;
+mod one_sided;
 mod opl_precision;
 mod optimize_depth;
 mod optimize_ior;

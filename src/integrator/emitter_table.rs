@@ -44,12 +44,13 @@ pub fn laser_spot(
         return Ok(None);
     };
     let distance = h.t * direction.length();
-    spot_at(scene, (h.prim, h.u, h.v), distance, position, direction, power).map(Some)
+    spot_at(scene, (h.prim, h.u, h.v), distance, position, direction, power)
 }
 
 /// The spot of a beam from `position` along `direction` that lands `distance` away at
 /// barycentrics (u, v) of triangle `prim`, given as `(prim, u, v)`: an error unless that
-/// triangle is diffuse.
+/// triangle is diffuse, and `None` (a spot that lights nothing) where the beam meets a
+/// one-sided material from behind.
 pub fn spot_at(
     scene: &Scene,
     (prim, u, v): (u32, f32, f32),
@@ -57,7 +58,7 @@ pub fn spot_at(
     position: Vec3,
     direction: Vec3,
     power: [f32; 3],
-) -> Result<LaserSpot, String> {
+) -> Result<Option<LaserSpot>, String> {
     let geo = &scene.geometry;
     let mat = scene.shapes[geo.tri_shape[prim as usize] as usize].material;
     let material = &scene.materials[mat as usize];
@@ -74,7 +75,10 @@ pub fn spot_at(
     } else {
         -1.0
     };
-    Ok(LaserSpot {
+    if material.one_sided && side < 0.0 {
+        return Ok(None);
+    }
+    Ok(Some(LaserSpot {
         side,
         origin: position,
         direction: direction.normalize(),
@@ -84,7 +88,7 @@ pub fn spot_at(
         distance,
         intensity: std::array::from_fn(|c| power[c] * albedo[c] * std::f32::consts::FRAC_1_PI),
         intensity_per_power: albedo.map(|a| a * std::f32::consts::FRAC_1_PI),
-    })
+    }))
 }
 
 /// One emitter as the sampler sees it (`emitters.rs` reads the variants).

@@ -22,7 +22,7 @@ use super::context::RenderContext;
 use super::deposit::PathCounts;
 use super::opl::points64;
 use super::path::SurfaceStarts;
-use super::surface::{SurfacePoint, surface_at};
+use super::surface::{SurfacePoint, behind_one_sided, surface_at};
 use super::trace::{SegmentEnd, next_hits, spawn_point, visible_between};
 use super::transport::{scatter, scatter_lobes};
 use super::window;
@@ -103,6 +103,8 @@ pub fn trace_importance_packet<R: Real, const C: usize>(
 
     for j in 1..=deepest {
         active = active & V::<R>::splat(j as f32).le(limit);
+        // the back of a one-sided material is black: the walk ends there
+        active = active.and_not(behind_one_sided::<V<R>>(ctx, &x.prim, &x.n.value(), &ray_d, active));
         // Lambertian scenes keep their path; any other material goes through its lobes
         let lobes = (!ctx.diffuse_only).then(|| Lobes::<R, C>::gather(ctx, &x.prim));
         let f = match &lobes {

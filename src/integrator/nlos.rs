@@ -68,7 +68,6 @@ fn scan_spot(
             .map_err(|why| format!("the beam is stopped before the wall: {why}"));
     }
     spot_at(scene, (l.prim, l.u, l.v), len, position, dir, power)
-        .map(Some)
         .map_err(|why| format!("the beam reaches the wall: {why}"))
 }
 
@@ -122,7 +121,11 @@ impl NlosSensor {
                 }
             })
             .collect();
-        let seen = sensors.iter().map(|s| clear_to_wall(accel, spad, s.p)).collect();
+        // (a one-sided wall seen from behind is black there)
+        let seen = sensors
+            .iter()
+            .map(|s| clear_to_wall(accel, spad, s.p) && !scene.behind_one_sided(s.prim, spad - s.p))
+            .collect();
         let spad_leg = sensors
             .iter()
             .map(|s| {

@@ -24,7 +24,7 @@ use super::entry::Crossings;
 use super::opl::points64;
 use super::power_heuristic;
 use super::sink::Sink;
-use super::surface::surface_at;
+use super::surface::{behind_one_sided, surface_at};
 use super::trace::{SegmentEnd, next_hits, spawn_point, visible_between};
 use super::transport::{emitter_hits, scatter, scatter_lobes};
 use super::window;
@@ -467,7 +467,9 @@ pub fn trace_packet_from<R: Real, const C: usize, S: Sink<C>>(
                 (x, w_in)
             }
         };
-        if depth > max_bounces {
+        // the back of a one-sided material is black: paths end there
+        active = active.and_not(behind_one_sided::<V<R>>(ctx, &x.prim, &x.n.value(), &ray_d, active));
+        if depth > max_bounces || active.none() {
             break;
         }
         // the window cut ahead of this vertex: no emitter within the OPL left (`super::window`)

@@ -7,7 +7,7 @@
 //! the moved triangle's area to its area at the current parameters.
 
 use super::context::RenderContext;
-use crate::kernel::{Real, V3};
+use crate::kernel::{Mask, Real, V3};
 use glam::Vec3;
 
 /// A surface point in the kernel's number type.
@@ -75,6 +75,28 @@ pub fn surface_at<R: Real>(ctx: &RenderContext, prim: &[u32; 8], u: R::Value, v:
         jacobian,
         prim: *prim,
     }
+}
+
+/// The lanes of `active` whose vertex (triangle `prim`, unit normal `n`) was reached along
+/// `w_in` from the back of a one-sided material (`NamedMaterial::one_sided`): black there, as
+/// a Mitsuba BSDF without `twosided`, so every path through it ends. Emission is one-sided
+/// already, and the same sides hold whichever end a path is traced from, so the path tracer,
+/// both subpaths of BDPT and the boundary stage's walks drop the same paths.
+pub fn behind_one_sided<V: Real>(
+    ctx: &RenderContext,
+    prim: &[u32; 8],
+    n: &V3<V>,
+    w_in: &V3<V>,
+    active: V::Mask,
+) -> V::Mask {
+    let Some(one_sided) = &ctx.one_sided else {
+        return V::Mask::splat(false);
+    };
+    let mut listed = [false; 8];
+    for i in (0..V::LANES).filter(|&i| active.bit(i) && prim[i] != u32::MAX) {
+        listed[i] = one_sided[ctx.tri_material[prim[i] as usize] as usize];
+    }
+    active & V::Mask::from_bools(&listed[..V::LANES]) & n.dot(*w_in).gt(V::zero())
 }
 
 /// A ray origin offset from `p` off the surface, to the side of `dir`: scaled by the

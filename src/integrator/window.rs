@@ -304,6 +304,7 @@ mod tests {
                 roughness: 0.0,
                 exterior: None,
             },
+            one_sided: false,
         });
         assert_eq!(EndBox::new(&scene, []).unwrap().eta_min, 0.8);
         scene.emitters.clear();

@@ -194,9 +194,9 @@ impl MaterialType {
     /// The fields a material of this type takes besides `name` and `type`.
     pub fn fields(self) -> &'static [&'static str] {
         match self {
-            MaterialType::Diffuse => &["albedo"],
-            MaterialType::Roughconductor => &["roughness", "specular_reflectance", "eta", "k"],
-            MaterialType::Conductor => &["specular_reflectance", "eta", "k"],
+            MaterialType::Diffuse => &["albedo", "one_sided"],
+            MaterialType::Roughconductor => &["roughness", "specular_reflectance", "eta", "k", "one_sided"],
+            MaterialType::Conductor => &["specular_reflectance", "eta", "k", "one_sided"],
             MaterialType::Roughdielectric => &["roughness", "int_ior", "exterior"],
             MaterialType::Dielectric => &["int_ior", "exterior"],
         }
@@ -227,6 +227,8 @@ pub struct MaterialDesc {
     /// dielectrics: the dielectric material whose interior lies outside this one (default:
     /// the scene's medium)
     pub exterior: Option<String>,
+    /// diffuse and conductors: black from behind (default false: both sides reflect)
+    pub one_sided: Option<bool>,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize)]
@@ -268,6 +270,9 @@ pub struct ShapeDesc {
     pub subdivisions: Option<i64>,
     /// obj only
     pub file: Option<String>,
+    /// Reverse every triangle's winding: the front side (where an area emitter shines and a
+    /// one-sided material reflects) becomes the other one. Not on dielectrics.
+    pub flip_normals: Option<bool>,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize)]

@@ -105,14 +105,16 @@ impl Scene {
     fn material_json(&self, m: &super::NamedMaterial) -> Value {
         let ty = m.material.type_name();
         match &m.material {
-            Material::Diffuse { albedo } => json!({ "name": m.name, "type": ty, "albedo": albedo }),
+            Material::Diffuse { albedo } => {
+                json!({ "name": m.name, "type": ty, "albedo": albedo, "one_sided": m.one_sided })
+            }
             Material::Conductor {
                 roughness,
                 specular,
                 ior,
             } => json!({
                 "name": m.name, "type": ty, "roughness": roughness, "specular_reflectance": specular,
-                "eta": ior.map(|i| i.0), "k": ior.map(|i| i.1),
+                "eta": ior.map(|i| i.0), "k": ior.map(|i| i.1), "one_sided": m.one_sided,
             }),
             Material::Dielectric {
                 roughness,

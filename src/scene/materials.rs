@@ -2,9 +2,14 @@
 //!
 //! | type | fields |
 //! |---|---|
-//! | `diffuse` | `albedo` in [0, 1] (required) |
-//! | `roughconductor` | `roughness` (GGX α in (0, 1], required), `specular_reflectance` in [0, 1] (default 1), `eta` and `k` ≥ 0 (complex index per channel, both or neither; without them the Fresnel term is 1) |
+//! | `diffuse` | `albedo` in [0, 1] (required), `one_sided` (default false) |
+//! | `roughconductor` | `roughness` (GGX α in (0, 1], required), `specular_reflectance` in [0, 1] (default 1), `eta` and `k` ≥ 0 (complex index per channel, both or neither; without them the Fresnel term is 1), `one_sided` |
 //! | `conductor` | the same without `roughness` (a smooth mirror) |
+//!
+//! `one_sided = true` (diffuse and conductors) makes a material black from behind, the side
+//! its shapes' normals point away from, as a Mitsuba BSDF without a `twosided` wrapper: a
+//! path that meets it there ends (`crate::integrator::surface::behind_one_sided`). It still
+//! hides what lies behind it. Dielectrics are two-sided.
 //! | `roughdielectric` | `roughness`, `int_ior` > 0 (required), `exterior` (optional) |
 //! | `dielectric` | the same without `roughness` (smooth glass) |
 //!
@@ -30,6 +35,7 @@ pub(super) fn materials(list: &[MaterialDesc], ctx: &Ctx) -> Result<Vec<NamedMat
             Ok(NamedMaterial {
                 name: m.name.clone(),
                 material: material(list, &names, i, m, ctx)?,
+                one_sided: m.one_sided.unwrap_or(false),
             })
         })
         .collect()
@@ -52,12 +58,20 @@ fn material(
         ("k", m.k.is_some()),
         ("int_ior", m.int_ior.is_some()),
         ("exterior", m.exterior.is_some()),
+        ("one_sided", m.one_sided.is_some()),
     ];
     for (field, is_set) in given {
         if is_set && !m.ty.fields().contains(&field) {
+            let why = match field {
+                "one_sided" => " (light crosses a dielectric, so both of its sides are seen: it is two-sided)",
+                _ => "",
+            };
             return Err(ctx.invalid(
                 at(field),
-                format!("does not apply to type {ty} (it takes: {})", m.ty.fields().join(", ")),
+                format!(
+                    "does not apply to type {ty}{why} (it takes: {})",
+                    m.ty.fields().join(", ")
+                ),
             ));
         }
     }
@@ -231,6 +245,43 @@ mod tests {
         assert_eq!(s.exterior_eta(water), 1.5, "the water's outside is the glass's inside");
         assert_eq!(s.exterior_eta(glass), s.eta, "the glass's outside is the medium");
         assert!(!s.diffuse_only());
+        assert!(s.materials.iter().all(|m| !m.one_sided), "two-sided unless told");
+    }
+
+    /// `one_sided` on diffuse and conductors; `flip_normals` turns a shape's front, and is
+    /// refused on a dielectric (its inside would be the rest of the scene).
+    #[test]
+    fn one_sided_materials_and_flipped_shapes() {
+        let text = with(
+            "[[material]]\nname = \"front\"\ntype = \"conductor\"\none_sided = true\n",
+            "front",
+        );
+        let s: Scene = load_text("s.toml", &text, &[], &[]).unwrap();
+        let front = s.materials.iter().find(|m| m.name == "front").unwrap();
+        assert!(front.one_sided);
+        let flipped = load_text(
+            "f.toml",
+            &text.replace("scale = 0.2", "scale = 0.2\nflip_normals = true"),
+            &[],
+            &[],
+        )
+        .unwrap();
+        let b = flipped.shapes.iter().position(|s| s.name == "box").unwrap();
+        let (t0, t1) = (s.shapes[b].first_tri as usize, flipped.shapes[b].first_tri as usize);
+        let tri = |s: &Scene, t: usize| s.geometry.indices[t];
+        assert_eq!(tri(&flipped, t1), [tri(&s, t0)[0], tri(&s, t0)[2], tri(&s, t0)[1]]);
+        // the box's outside is its front: from the outside it is lit, from within black
+        let t = s.shapes[b].first_tri;
+        let towards = s.geometry.positions[s.geometry.indices[t as usize][0] as usize] * 2.0;
+        assert!(!s.behind_one_sided(t, towards) && s.behind_one_sided(t, -towards));
+        assert!(flipped.behind_one_sided(t, towards) && !flipped.behind_one_sided(t, -towards));
+        let glass = with(GLASS, "glass").replace("scale = 0.2", "scale = 0.2\nflip_normals = true");
+        expect_err(
+            "g.toml",
+            &glass,
+            &[],
+            &["shape[", "\"box\": field 'flip_normals'", "dielectric", "inside it"],
+        );
     }
 
     /// Each mistake names the file, the material and the field, and says what was expected.
@@ -266,6 +317,11 @@ mod tests {
                 "[[material]]\nname = \"m\"\ntype = \"dielectric\"\n",
                 "m",
                 &["field 'int_ior'", "missing"],
+            ),
+            (
+                "[[material]]\nname = \"m\"\ntype = \"dielectric\"\nint_ior = 1.5\none_sided = true\n",
+                "m",
+                &["field 'one_sided'", "does not apply to type dielectric", "two-sided"],
             ),
             (
                 "[[material]]\nname = \"m\"\ntype = \"dielectric\"\nint_ior = -1\n",

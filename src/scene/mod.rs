@@ -204,6 +204,9 @@ pub struct NamedMaterial {
     pub name: String,
     /// The reflectance model and its values.
     pub material: Material,
+    /// Black from behind (the side the triangles' normals point away from), as a Mitsuba BSDF
+    /// without `twosided`: a path that meets it there ends. Diffuse and conductors only.
+    pub one_sided: bool,
 }
 
 /// Emission in space; its time profile is in [`Emitter::pulse`].
@@ -386,6 +389,14 @@ impl Scene {
             },
             _ => self.eta,
         }
+    }
+
+    /// Whether triangle `prim`'s material is one-sided ([`NamedMaterial::one_sided`]) and
+    /// `towards` (a direction from its surface) points to its back, where it is black.
+    pub fn behind_one_sided(&self, prim: u32, towards: Vec3) -> bool {
+        let shape = &self.shapes[self.geometry.tri_shape[prim as usize] as usize];
+        let [a, b, c] = self.geometry.indices[prim as usize].map(|i| self.geometry.positions[i as usize]);
+        self.materials[shape.material as usize].one_sided && (b - a).cross(c - a).dot(towards) < 0.0
     }
 
     /// Whether every material is Lambertian (the kernels then keep their diffuse-only path).

@@ -5,7 +5,8 @@
 //! world space) are left out of the geometry; their number is kept in
 //! [`Geometry::dropped_degenerate`]. Tiny but nonzero triangles are kept. A transform with
 //! an odd number of negative scale factors (a mirror) gets its triangles' winding reversed, so
-//! the front side stays the front side.
+//! the front side stays the front side; `flip_normals = true` reverses it (the front becomes
+//! the other side: area emitters shine from it, one-sided materials reflect on it).
 
 use super::context::{Ctx, Names, no_such};
 use super::desc::{SceneDesc, ShapeDesc, ShapeType, Triple};
@@ -582,6 +583,15 @@ pub(crate) fn build(
                 ));
             }
         };
+        if d.flip_normals == Some(true) && desc.material[material].ty.is_dielectric() {
+            return Err(ctx.invalid(
+                at("flip_normals"),
+                format!(
+                    "material {:?} is a dielectric, whose interior is the side its shape's normals point away                      from: flipped, the rest of the scene would lie inside it; give the shape a material that is                      not a dielectric, or leave flip_normals out",
+                    desc.material[material].name
+                ),
+            ));
+        }
         if d.ty == ShapeType::Rectangle && desc.material[material].ty.is_dielectric() {
             return Err(ctx.invalid(
                 at("material"),
@@ -600,7 +610,10 @@ pub(crate) fn build(
         if let Some(k) = world.iter().position(|p| !p.is_finite()) {
             return Err(out_of_range(ctx, &at, &transform, mesh.positions[k], k, world[k]));
         }
+        // a mirror reverses the winding back, so the front stays the front; `flip_normals`
+        // turns it to the other side
         let mirror = transform.scale.x * transform.scale.y * transform.scale.z < 0.0;
+        let reverse = mirror != d.flip_normals.unwrap_or(false);
         let first_vertex = geo.positions.len();
         let first_tri = geo.indices.len();
         let mut dropped = 0usize;
@@ -615,7 +628,7 @@ pub(crate) fn build(
                 dropped += 1;
                 continue;
             }
-            let t = if mirror { [t[0], t[2], t[1]] } else { t };
+            let t = if reverse { [t[0], t[2], t[1]] } else { t };
             geo.indices.push(t.map(|k| k + first_vertex as u32));
             geo.tri_shape.push(i as u32);
         }

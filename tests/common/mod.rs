@@ -128,6 +128,26 @@ pub fn two_sample_z(a: &[Vec<f64>], b: &[Vec<f64>]) -> (f64, f64, usize) {
     (chi2, zmax, n)
 }
 
+/// Asserts that two independent sets of K estimates of the same aggregates (`a[k][i]`,
+/// `reference[k][i]`, entry 0 their total) agree within noise: Σz² within 5 standard deviations
+/// of its χ² expectation, every |z| below 4.5, and the reference's total resolved to 1 %.
+pub fn assert_agree(a: &[Vec<f64>], reference: &[Vec<f64>], what: &str) {
+    let (chi2, zmax, n) = two_sample_z(a, reference);
+    let (m, se) = mean_se(&reference.iter().map(|r| r[0]).collect::<Vec<_>>());
+    eprintln!("{what}: Σz² = {chi2:.1} over {n}, max|z| = {zmax:.2}, total {m:.4} ± {se:.4}");
+    assert!(
+        se / m < 0.01,
+        "{what}: the total is resolved only to {:.2} %",
+        100.0 * se / m
+    );
+    let nf = n as f64;
+    assert!(
+        chi2 <= nf + 5.0 * (2.0 * nf).sqrt(),
+        "{what}: Σz² = {chi2:.1} over {n} aggregates"
+    );
+    assert!(zmax < 4.5, "{what}: an aggregate is {zmax:.2} standard errors off");
+}
+
 fn add_to_position(v: &mut toml::Value, by: [f64; 3]) {
     let a = v.as_array_mut().expect("a position is an array");
     for (x, b) in a.iter_mut().zip(by) {

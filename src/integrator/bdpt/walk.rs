@@ -12,7 +12,7 @@ use crate::integrator::context::RenderContext;
 use crate::integrator::entry::Crossings;
 use crate::integrator::nlos_start::{start, weigh_first_hit};
 use crate::integrator::path::{PacketLanes, ray_plane_point, traced};
-use crate::integrator::surface::{offset_origin, surface_at};
+use crate::integrator::surface::{behind_one_sided, offset_origin, surface_at};
 use crate::integrator::trace::{RayCounts, next_hits, spawn_point};
 use crate::integrator::transport::{scatter, scatter_lobes};
 use crate::kernel::{Mask, PathSampler, Real, Spectrum, V3};
@@ -96,6 +96,11 @@ fn random_walk<R: Real, const C: usize>(
             break;
         }
         let mut x = surface_at::<R>(ctx, &hit.prim, hit.u, hit.v);
+        // the back of a one-sided material is black: the walk ends before it
+        active = active.and_not(behind_one_sided::<V<R>>(ctx, &hit.prim, &x.n.value(), &ray_d, active));
+        if active.none() {
+            break;
+        }
         if R::DERIVS > 0 && ray_form {
             x.p = ray_plane_point(&prev.p, &V3::from_value(ray_d), &x.p, &x.n);
         }

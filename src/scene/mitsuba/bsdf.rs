@@ -1,7 +1,7 @@
 //! `<bsdf>` → a `[[material]]` (without its name): diffuse, (rough) conductor and (rough)
-//! dielectric, through a `twosided` wrapper or not. Our diffuse and conductor lobes are
-//! two-sided already, so `twosided` changes nothing for them; a bare one-sided Mitsuba BSDF
-//! is black from behind, ours is not (the difference shows only where a back face is seen).
+//! dielectric, through a `twosided` wrapper or not. A bare diffuse or conductor is black
+//! from behind in Mitsuba, so it becomes `one_sided = true`; inside `twosided` it reflects on
+//! both sides (our default). Dielectrics are two-sided in both renderers.
 
 use super::ImportError;
 use super::xml::{Colour, Doc, Props};
@@ -96,6 +96,8 @@ pub(crate) fn material(doc: &Doc, node: Node, ids: &BsdfIds, through: &[&str]) -
         if m.dielectric {
             return Err(doc.err(at, "a dielectric cannot be two-sided (Mitsuba refuses it too)"));
         }
+        let mut m = m;
+        m.table.remove("one_sided");
         return Ok(m);
     }
     let mut t = Table::new();
@@ -165,6 +167,9 @@ pub(crate) fn material(doc: &Doc, node: Node, ids: &BsdfIds, through: &[&str]) -
         }
     };
     p.finish(doc, supported)?;
+    if !dielectric {
+        t.insert("one_sided".into(), Value::Boolean(true));
+    }
     Ok(Material { table: t, dielectric })
 }
 

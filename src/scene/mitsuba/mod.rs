@@ -376,8 +376,16 @@ impl<'d, 'a, 'input> Converter<'d, 'a, 'input> {
         Ok((name, m.dielectric))
     }
 
+    /// Whether the converted material named `name` is one-sided.
+    fn is_one_sided(&self, name: &str) -> bool {
+        self.materials.iter().any(|m| {
+            m.get("name").and_then(Value::as_str) == Some(name)
+                && m.get("one_sided").and_then(Value::as_bool) == Some(true)
+        })
+    }
+
     /// The diffuse material of albedo `albedo` that shapes with no `<bsdf>` share, made once
-    /// under `key` with the name `wanted`.
+    /// under `key` with the name `wanted`: one-sided, as Mitsuba's default BSDF.
     fn default_diffuse(&mut self, key: &str, wanted: &str, albedo: f64) -> (String, bool) {
         if let Some(m) = self.converted.get(key) {
             return m.clone();
@@ -387,6 +395,7 @@ impl<'d, 'a, 'input> Converter<'d, 'a, 'input> {
         t.insert("name".into(), name.clone().into());
         t.insert("type".into(), "diffuse".into());
         t.insert("albedo".into(), Value::Float(albedo));
+        t.insert("one_sided".into(), Value::Boolean(true));
         self.materials.push(Value::Table(t));
         self.converted.insert(key.into(), (name.clone(), false));
         (name, false)
@@ -425,20 +434,29 @@ impl<'d, 'a, 'input> Converter<'d, 'a, 'input> {
             // a curved one, silently, until the forty-third session)
             self.warnings.push(format!(
                 "{}: shaded with its face normals here, while Mitsuba 3 interpolates this mesh's vertex normals \
-                 (face_normals is not true): a curved mesh shades differently; add <boolean name=\"face_normals\" \
-                 value=\"true\"/> to render it alike in both",
+                 (face_normals is not true): a curved mesh shades differently, and where the file's normals point \
+                 against its winding, Mitsuba's front side (where it emits, and a one-sided BSDF reflects) is the \
+                 other one; add <boolean name=\"face_normals\" value=\"true\"/> to render it alike in both",
                 doc.describe(node)
             ));
         }
-        if geo.front_flipped && (emitter.is_some() || dielectric) {
-            let what = if emitter.is_some() { "emits" } else { "is a dielectric" };
+        // where a side is told apart, ours must be Mitsuba's (`shape::Geometry`)
+        let sided = emitter.is_some() || dielectric || self.is_one_sided(&material);
+        if sided && geo.front_unknown {
             return Err(doc.err(
                 node,
-                format!(
-                    "this shape {what}, and with its mirroring to_world or flip_normals its front side would be \
-                     the opposite of Mitsuba's (meshes: we keep the mirrored outward side); remove the mirror or \
-                     flip_normals and orient the mesh instead"
-                ),
+                "this mesh is mirrored by its to_world and Mitsuba shades it with vertex normals (face_normals is \
+                 not true), so its front side in Mitsuba is that of the file's normals, or of the mirrored winding \
+                 where the file has none; it emits, is a dielectric or has a one-sided BSDF, where the side matters: \
+                 add <boolean name=\"face_normals\" value=\"true\"/> (the front is then the mirrored winding's), \
+                 or wrap the BSDF in twosided",
+            ));
+        }
+        if geo.front_flipped && dielectric {
+            return Err(doc.err(
+                node,
+                "this dielectric shape is turned inside out (flip_normals or a mirroring to_world), so the rest of \
+                 the scene would lie inside it; remove the mirror or flip_normals",
             ));
         }
         self.origins

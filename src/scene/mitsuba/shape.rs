@@ -16,12 +16,17 @@ use toml::{Table, Value};
 /// 8 cm bin's onset moved to the next bin, z = −7 over 12 seeds); level 6 and 7 agree.
 pub(crate) const SPHERE_SUBDIVISIONS: i64 = 6;
 
-/// A converted shape: its `[[shape]]` fields besides name and material, and whether its
-/// front side is the opposite of Mitsuba's (which only matters where a side is told apart:
-/// area emitters and dielectrics).
+/// A converted shape: its `[[shape]]` fields besides name and material, and how its front
+/// side compares with Mitsuba's (which only matters where a side is told apart: area
+/// emitters, one-sided materials and dielectrics).
 pub(crate) struct Geometry {
     pub table: Table,
+    /// Mitsuba's front is the side our shape's front is not (`flip_normals` makes them one).
     pub front_flipped: bool,
+    /// Mitsuba's front depends on what the mesh file holds: a mirrored mesh that Mitsuba
+    /// shades with vertex normals keeps the side of the file's normals, or, where the file
+    /// has none, the side of the mirrored winding.
+    pub front_unknown: bool,
     /// A mesh Mitsuba shades with interpolated vertex normals (`face_normals` not true);
     /// we shade every mesh with its face normals.
     pub smooth_in_mitsuba: bool,
@@ -41,16 +46,15 @@ pub(crate) fn geometry(doc: &Doc, p: &Props) -> Result<Geometry, ImportError> {
         Ok(m.determinant() < 0.0)
     };
     let mut smooth = false;
+    // Mitsuba's front side against ours (a mirror keeps our front: scene/shapes.rs)
     let (ops, flip_z, front_flipped, supported) = match ty.as_str() {
         // an analytic shape in Mitsuba: its normal is transformed as a normal, and
         // flip_normals is a mirror of local z (exact: z = 0 on the rectangle)
         "rectangle" => (to_world, flip_normals, false, "to_world, flip_normals"),
-        // meshes in Mitsuba: the front side follows the winding of the world-space
-        // triangles, which a mirror reverses; ours keeps the mirrored outward side
-        "cube" => {
-            let flipped = det_negative(&to_world)? != flip_normals;
-            (to_world, false, flipped, "to_world, flip_normals")
-        }
+        // Mitsuba builds its cube with vertex normals, which a mirror keeps outward (helper
+        // 41: a mirrored cube emitter shines outward there; this importer turned it until
+        // the forty-fourth session)
+        "cube" => (to_world, false, flip_normals, "to_world, flip_normals"),
         "obj" | "ply" => {
             let (file, _) = p
                 .string(doc, "filename")?
@@ -59,6 +63,8 @@ pub(crate) fn geometry(doc: &Doc, p: &Props) -> Result<Geometry, ImportError> {
             // we shade with face normals always; texture coordinates are not used
             smooth = p.boolean(doc, "face_normals")? != Some(true);
             p.ignore(doc, &["flip_tex_coords"])?;
+            // with face normals Mitsuba's front follows the world-space winding, which a
+            // mirror reverses
             let flipped = det_negative(&to_world)? != flip_normals;
             (
                 to_world,
@@ -83,7 +89,10 @@ pub(crate) fn geometry(doc: &Doc, p: &Props) -> Result<Geometry, ImportError> {
             }
             ops.extend(to_world);
             t.insert("subdivisions".into(), SPHERE_SUBDIVISIONS.into());
-            (ops, false, flip_normals, "center, radius, to_world, flip_normals")
+            // Mitsuba's sphere faces (p − centre)/radius, turned inward by a negative scale
+            // (helper 41; only an even scale reaches here, so a mirror is a scale of −r)
+            let flipped = det_negative(&ops)? != flip_normals;
+            (ops, false, flipped, "center, radius, to_world, flip_normals")
         }
         other => {
             return Err(doc.err(
@@ -112,9 +121,14 @@ pub(crate) fn geometry(doc: &Doc, p: &Props) -> Result<Geometry, ImportError> {
         doc,
         &format!("{supported}, one <bsdf> or <ref>, one <emitter type=\"area\">"),
     )?;
+    let front_unknown = smooth && det_negative(&ops)?;
+    if front_flipped {
+        t.insert("flip_normals".into(), Value::Boolean(true));
+    }
     Ok(Geometry {
         table: t,
         front_flipped,
+        front_unknown,
         smooth_in_mitsuba: smooth,
     })
 }
