@@ -39,9 +39,20 @@ pub mod window;
 
 pub use context::RenderContext;
 
-/// Power heuristic with exponent 2 (Veach 1997, Eq. 9.13), on solid-angle pdfs.
+/// Power heuristic with exponent 2 (Veach 1997, Eq. 9.13), on solid-angle pdfs: a²/(a² + b²).
+/// A density past √f32::MAX (a light sample at grazing emission: p_l ∝ 1/cos θ_y) squares to
+/// inf, so there the weight is taken as 1/(1 + (b/a)²), which is 1 for an infinite `a` and a
+/// finite `b` (inf/inf made it NaN: a sample that looks at an emitter's back and connects to
+/// a point in the emitter's own plane, helper 41).
 #[inline(always)]
 pub fn power_heuristic<R: crate::kernel::Real>(a: R, b: R) -> R {
+    use crate::kernel::Mask;
     let a2 = a * a;
-    R::safe_div(a2, a2 + b * b)
+    let w = R::safe_div(a2, a2 + b * b);
+    let finite = a2.is_finite();
+    if finite.all() {
+        return w;
+    }
+    let r = R::safe_div(b, a);
+    R::select(finite, w, R::one() / (R::one() + r * r))
 }
