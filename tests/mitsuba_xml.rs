@@ -719,6 +719,52 @@ fn bad_cases() -> Vec<(String, &'static str, &'static str, &'static str)> {
             "expected 0 < near_clip < far_clip",
         ),
     ];
+    // what Mitsuba 3 itself refuses, accepted here until the forty-fourth session (an
+    // independent sweep against Mitsuba 3.9.1, helper 41): a misspelt attribute (dropped, so
+    // the shape stayed put), a point missing a coordinate (taken as 0) or mixing `value` with
+    // x/y/z, a sampler or film format Mitsuba has no plugin or value for, an index of
+    // refraction given as a string of digits
+    rows.extend([
+        (
+            body(r#"<shape type="rectangle"><transform name="to_world"><translate X="0.8"/></transform></shape>"#),
+            r#"<translate X"#,
+            "<translate>",
+            "unexpected attribute 'X' on <translate>",
+        ),
+        (
+            body(r#"<shape type="sphere"><point name="center" x="0.5"/></shape>"#),
+            r#"<point name="center""#,
+            r#"<point name="center">"#,
+            "missing attribute 'y'",
+        ),
+        (
+            body(r#"<shape type="sphere"><point name="center" value="0, 0, 0" x="1"/></shape>"#),
+            r#"<point name="center""#,
+            r#"<point name="center">"#,
+            "not both",
+        ),
+        (
+            body(rect).replace(r#"<sampler type="independent">"#, r#"<sampler type="bogus">"#),
+            r#"<sampler type="bogus""#,
+            r#"<sampler type="bogus">"#,
+            "not one of Mitsuba 3's",
+        ),
+        (
+            body(rect).replace(
+                r#"<rfilter type="box"/>"#,
+                r#"<rfilter type="box"/><string name="pixel_format" value="luminance"/>"#,
+            ),
+            r#"name="pixel_format""#,
+            r#"<string name="pixel_format">"#,
+            "pixel_format \"luminance\" is not supported",
+        ),
+        (
+            body(r#"<shape type="sphere"><bsdf type="dielectric"><string name="int_ior" value="1.6"/></bsdf></shape>"#),
+            r#"name="int_ior""#,
+            r#"<string name="int_ior">"#,
+            "unknown index of refraction \"1.6\"",
+        ),
+    ]);
     // textures are refused whatever their type, naming the element and its line
     for ty in ["bitmap", "checkerboard"] {
         rows.push((texture(ty), "<texture", "<texture type=", "textures are not supported"));

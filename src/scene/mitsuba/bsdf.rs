@@ -264,10 +264,18 @@ fn ior(doc: &Doc, p: &Props, name: &str, default: &str) -> Result<f64, ImportErr
         None => (default.to_string(), None),
         Some(n) => (doc.req_attr(n, "value")?, Some(n)),
     };
-    if let Ok(x) = text.trim().parse::<f64>()
-        && x.is_finite()
-    {
-        return Ok(x);
+    // a number as <float>, a name as <string> (Mitsuba looks a string up by name only: a
+    // <string value="1.6"> is an unknown name there, and was 1.6 here until the
+    // forty-fourth session, helper 41)
+    match node.map(|n| n.tag_name().name()) {
+        Some("float" | "integer") => return doc.number(node.unwrap_or(p.node), &text),
+        Some("string") | None => {}
+        Some(other) => {
+            return Err(doc.err(
+                node.unwrap_or(p.node),
+                format!("'{name}' must be a <float> or a <string> naming a material (got <{other}>)"),
+            ));
+        }
     }
     let key = text.trim().to_ascii_lowercase();
     IOR_PRESETS

@@ -121,6 +121,7 @@ fn import_str_for(text: &str, source: &Path, mesh_base: Option<&Path>) -> Result
         if k > 0 {
             doc.included(s.path.clone(), s.rel_dir.clone());
         }
+        doc.check_attributes().map_err(invalid)?;
         docs.push(doc);
     }
     let root = docs[0].root;

@@ -150,6 +150,18 @@ pub(crate) fn sensor(doc: &Doc, node: Node) -> Result<Sensor, ImportError> {
 /// Any sampler's `sample_count` (default 4) and `seed` (default 0): we draw every sample
 /// from our own counter-based generator, so the sampler's type changes nothing.
 fn sampler(doc: &Doc, node: Node) -> Result<(i64, i64), ImportError> {
+    let ty = doc.req_attr(node, "type")?;
+    const SAMPLERS: [&str; 5] = ["independent", "stratified", "multijitter", "orthogonal", "ldsampler"];
+    if !SAMPLERS.contains(&ty.as_str()) {
+        // (accepted as any other until the forty-fourth session; Mitsuba finds no such plugin)
+        return Err(doc.err(
+            node,
+            format!(
+                "sampler type {ty:?} is not one of Mitsuba 3's ({})",
+                SAMPLERS.join(", ")
+            ),
+        ));
+    }
     let p = doc.props(node);
     let spp = p.integer(doc, "sample_count")?.unwrap_or(4);
     let seed = p.integer(doc, "seed")?.unwrap_or(0);
@@ -197,8 +209,26 @@ fn film_of(doc: &Doc, node: Node) -> Result<(Table, i64, i64, Value), ImportErro
     if let Some(true) = p.boolean(doc, "sample_border")? {
         return Err(doc.err(node, "sample_border is not supported"));
     }
-    // output formats only
-    p.ignore(doc, &["pixel_format", "component_format", "file_format"])?;
+    // output formats: the film's values are ours whatever the file type; an image of other
+    // channels than RGB is refused, and names Mitsuba does not know (accepted until the
+    // forty-fourth session, helper 41)
+    for (k, known) in [
+        ("pixel_format", &["rgb", "rgba"][..]),
+        ("component_format", &["float16", "float32", "uint32"][..]),
+        (
+            "file_format",
+            &["openexr", "exr", "rgbe", "hdr", "pfm", "png", "jpeg", "jpg", "ppm"][..],
+        ),
+    ] {
+        if let Some((v, n)) = p.string(doc, k)?
+            && !known.contains(&v.trim().to_ascii_lowercase().as_str())
+        {
+            return Err(doc.err(
+                n,
+                format!("{k} {v:?} is not supported here (supported: {})", known.join(", ")),
+            ));
+        }
+    }
     let filter = match p.nested("rfilter").as_slice() {
         [] => gaussian(0.5),
         [f] => rfilter(doc, *f)?,

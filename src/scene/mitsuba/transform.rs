@@ -32,10 +32,10 @@ pub(crate) fn parse(doc: &Doc, node: Node) -> Result<Vec<Op>, ImportError> {
     let mut ops = Vec::new();
     for c in doc.children(node) {
         let op = match c.tag_name().name() {
-            "translate" => Op::Translate(doc.vector3(c, 0.0)?),
-            "scale" => Op::Scale(doc.vector3(c, 1.0)?),
+            "translate" => Op::Translate(doc.vector3(c, Some(0.0))?),
+            "scale" => Op::Scale(doc.vector3(c, Some(1.0))?),
             "rotate" => {
-                let axis = doc.vector3(c, 0.0)?;
+                let axis = doc.vector3(c, Some(0.0))?;
                 if axis == [0.0; 3] {
                     return Err(doc.err(
                         c,
