@@ -86,6 +86,25 @@ pub fn parse_ply(bytes: &[u8]) -> Result<PlyMesh, String> {
     Ok(mesh)
 }
 
+/// The type of the first of the `vertex` element's `x`, `y`, `z` stored as an integer (`None`
+/// when all three are floats, or the header cannot be read: [`load_ply`] says why then).
+/// Mitsuba 3 reads integer coordinates otherwise than as metres (its mesh shrinks to nothing:
+/// helper 41), so the XML importer refuses them.
+pub fn integer_coordinates(path: &Path) -> Option<String> {
+    use ply_rs_bw::ply::{PropertyType, ScalarType};
+    let file = std::fs::File::open(path).ok()?;
+    let mut reader = ply_rs_bw::parser::Reader::new(std::io::BufReader::new(file));
+    let header = Parser::<DefaultElement>::new().read_header(&mut reader).ok()?;
+    let vertex = header.elements.get("vertex")?;
+    ["x", "y", "z"]
+        .iter()
+        .find_map(|k| match &vertex.properties.get(*k)?.data_type {
+            PropertyType::Scalar(ScalarType::Float | ScalarType::Double) => None,
+            PropertyType::Scalar(t) => Some(format!("{k} is {}", format!("{t:?}").to_lowercase())),
+            PropertyType::List(..) => Some(format!("{k} is a list")),
+        })
+}
+
 fn scalar(p: &Property) -> Option<f64> {
     Some(match p {
         Property::Char(v) => *v as f64,

@@ -24,6 +24,13 @@ fn refusal(ty: &str) -> String {
 /// An `area` emitter inside a shape: `[[emitter]]` fields besides `name` and `shape`.
 pub(crate) fn area(doc: &Doc, node: Node) -> Result<Table, ImportError> {
     let ty = doc.req_attr(node, "type")?;
+    if ty == "point" {
+        return Err(doc.err(
+            node,
+            "a point emitter inside a shape: only an area emitter goes inside a <shape>; give the point \
+             emitter at the scene's top level",
+        ));
+    }
     if ty != "area" {
         return Err(doc.err(node, refusal(&ty)));
     }

@@ -62,8 +62,18 @@ pub(crate) fn integrator(doc: &Doc, node: Node) -> Result<(Table, bool), ImportE
     // Mitsuba's defaults for its differentiable integrators, which mitransient's extend
     let max_depth = p.integer(doc, "max_depth")?.unwrap_or(6);
     let rr_depth = p.integer(doc, "rr_depth")?.unwrap_or(5);
-    let at = p.get(doc, "max_depth")?.unwrap_or(node);
-    let (max_bounces, rr) = depths(max_depth, rr_depth).map_err(|m| doc.err(at, m))?;
+    // the error names the property it is about (an rr_depth of 0 was reported at max_depth)
+    let (max_bounces, rr) = depths(max_depth, rr_depth).map_err(|m| {
+        let key = if m.starts_with("rr_depth") {
+            "rr_depth"
+        } else {
+            "max_depth"
+        };
+        match p.get(doc, key) {
+            Ok(Some(n)) => doc.err(n, m),
+            _ => doc.err(node, m),
+        }
+    })?;
     let unwarp = p.boolean(doc, "camera_unwarp")?.unwrap_or(false);
     for k in ["discard_direct_light", "hide_emitters"] {
         if let Some(true) = p.boolean(doc, k)? {

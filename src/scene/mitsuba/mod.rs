@@ -68,21 +68,40 @@ impl Imported {
         self.clip.check(scene, path)
     }
 
-    /// Adds the XML element to an error about one of the converted entries.
+    /// Adds the XML element to an error about one of the converted entries (its value, or
+    /// the mesh file it names: a PLY error named only `shape[3] "ply": field 'file'` until
+    /// the forty-fourth session).
     pub fn annotate(&self, e: SceneError) -> SceneError {
-        match e {
-            SceneError::Invalid { path, at, message } => {
-                let origin = self
-                    .origins
-                    .iter()
-                    .filter(|(prefix, _)| at.starts_with(prefix.as_str()))
-                    .max_by_key(|(prefix, _)| prefix.len());
-                let at = match origin {
-                    Some((_, el)) => format!("{el}, converted to {at}"),
-                    None => at,
-                };
-                SceneError::Invalid { path, at, message }
+        let with_origin = |at: String| {
+            let origin = self
+                .origins
+                .iter()
+                .filter(|(prefix, _)| at.starts_with(prefix.as_str()))
+                .max_by_key(|(prefix, _)| prefix.len());
+            match origin {
+                Some((_, el)) => format!("{el}, converted to {at}"),
+                None => at,
             }
+        };
+        match e {
+            SceneError::Invalid { path, at, message } => SceneError::Invalid {
+                path,
+                at: with_origin(at),
+                message,
+            },
+            SceneError::Mesh {
+                path,
+                at,
+                format,
+                mesh,
+                message,
+            } => SceneError::Mesh {
+                path,
+                at: with_origin(at),
+                format,
+                mesh,
+                message,
+            },
             other => other,
         }
     }
@@ -166,7 +185,8 @@ fn import_str_for(text: &str, source: &Path, mesh_base: Option<&Path>) -> Result
     }
     let mut items = Vec::new();
     include::flatten(&docs, &files.links, 0, &mut items).map_err(invalid)?;
-    let mut conv = Converter::new(&docs[0], mesh_base);
+    let scene_dir = source.parent().map(Path::to_path_buf).unwrap_or_default();
+    let mut conv = Converter::new(&docs[0], mesh_base, scene_dir);
     conv.scene(root, &items).map_err(invalid)?;
     let mut imported = conv.finish(source);
     for s in &files.sources[1..] {
@@ -215,6 +235,8 @@ pub fn import_for(path: &Path, out_dir: Option<&Path>) -> Result<Imported, Scene
 struct Converter<'d, 'a, 'input> {
     doc: &'d Doc<'a, 'input>,
     mesh_base: Option<&'d Path>,
+    /// The scene file's folder (mesh files are read from it to check what Mitsuba reads).
+    scene_dir: PathBuf,
     /// top-level `<bsdf id>` elements (of this file and the files it includes)
     bsdf_ids: bsdf::BsdfIds<'d, 'a, 'input>,
     /// id → material name, for BSDFs already converted
@@ -230,10 +252,11 @@ struct Converter<'d, 'a, 'input> {
 }
 
 impl<'d, 'a, 'input> Converter<'d, 'a, 'input> {
-    fn new(doc: &'d Doc<'a, 'input>, mesh_base: Option<&'d Path>) -> Self {
+    fn new(doc: &'d Doc<'a, 'input>, mesh_base: Option<&'d Path>, scene_dir: PathBuf) -> Self {
         Converter {
             doc,
             mesh_base,
+            scene_dir,
             bsdf_ids: HashMap::new(),
             converted: HashMap::new(),
             names: HashMap::new(),
@@ -465,6 +488,18 @@ impl<'d, 'a, 'input> Converter<'d, 'a, 'input> {
         let mut t = geo.table;
         // mesh file names are relative to the file that names them: to the scene file's
         // folder through an included file's folder, then to where the description will live
+        if let Some(Value::String(f)) = t.get("file")
+            && t.get("type").and_then(Value::as_str) == Some("ply")
+            && let Some(what) = crate::scene::ply::integer_coordinates(&self.scene_dir.join(doc.rel_dir()).join(f))
+        {
+            return Err(doc.err(
+                node,
+                format!(
+                    "{f}: its vertex coordinates are stored as integers ({what}), which Mitsuba 3 does not read \
+                     as metres (its mesh shrinks to almost nothing there); store them as float"
+                ),
+            ));
+        }
         if let Some(Value::String(f)) = t.get("file")
             && Path::new(f).is_relative()
         {

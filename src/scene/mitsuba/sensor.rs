@@ -165,8 +165,12 @@ fn sampler(doc: &Doc, node: Node) -> Result<(i64, i64), ImportError> {
     let p = doc.props(node);
     let spp = p.integer(doc, "sample_count")?.unwrap_or(4);
     let seed = p.integer(doc, "seed")?.unwrap_or(0);
-    if seed < 0 {
-        return Err(doc.err(node, format!("seed must be >= 0 (got {seed})")));
+    // named at the property (a sample_count of 0 was reported at the integrator's spp)
+    for (key, value, least) in [("sample_count", spp, 1), ("seed", seed, 0)] {
+        if value < least {
+            let at = p.get(doc, key)?.unwrap_or(node);
+            return Err(doc.err(at, format!("{key} must be >= {least} (got {value})")));
+        }
     }
     p.ignore(doc, &["jitter", "scramble_seed", "samples_per_wavefront"])?;
     p.finish(doc, "sample_count, seed")?;

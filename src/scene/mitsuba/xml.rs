@@ -473,6 +473,23 @@ impl<'a, 'input> Props<'a, 'input> {
     /// plugin supports.
     pub fn finish(&self, doc: &Doc, supported: &str) -> Result<(), ImportError> {
         for (n, used) in self.props.iter().chain(&self.nested) {
+            let name = n.attribute("name");
+            let twice = name.is_some()
+                && self
+                    .props
+                    .iter()
+                    .chain(&self.nested)
+                    .any(|(m, u)| u.get() && m != n && m.attribute("name") == name);
+            if !used.get() && twice {
+                return Err(doc.err(
+                    *n,
+                    format!(
+                        "property '{}' is given twice inside {} (Mitsuba 3 refuses that too)",
+                        name.unwrap_or_default(),
+                        doc.describe(self.node)
+                    ),
+                ));
+            }
             if !used.get() {
                 return Err(doc.err(
                     *n,
