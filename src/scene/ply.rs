@@ -9,7 +9,7 @@ use ply_rs_bw::ply::{DefaultElement, Property};
 use std::path::Path;
 
 /// The largest PLY file read (as for OBJ).
-const MAX_PLY_BYTES: u64 = 2 << 30;
+pub(crate) const MAX_PLY_BYTES: u64 = 2 << 30;
 
 /// A mesh as read: vertex positions and triangles (indices into them).
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -92,9 +92,12 @@ pub fn parse_ply(bytes: &[u8]) -> Result<PlyMesh, String> {
 /// helper 41), so the XML importer refuses them.
 pub fn integer_coordinates(path: &Path) -> Option<String> {
     use ply_rs_bw::ply::{PropertyType, ScalarType};
-    let file = std::fs::File::open(path).ok()?;
-    let mut reader = ply_rs_bw::parser::Reader::new(std::io::BufReader::new(file));
-    let header = Parser::<DefaultElement>::new().read_header(&mut reader).ok()?;
+    let file = super::read::open_regular(path).ok()?;
+    let header = std::panic::catch_unwind(move || {
+        let mut reader = ply_rs_bw::parser::Reader::new(std::io::BufReader::new(file));
+        Parser::<DefaultElement>::new().read_header(&mut reader).ok()
+    })
+    .ok()??;
     let vertex = header.elements.get("vertex")?;
     ["x", "y", "z"]
         .iter()

@@ -14,6 +14,15 @@ pub(crate) fn read_regular_file(path: &Path, cap: u64) -> std::io::Result<String
         .map_err(|e| std::io::Error::new(std::io::ErrorKind::InvalidData, format!("not UTF-8 text: {e}")))
 }
 
+/// Opens `path` if it is a regular file (FIFOs, devices and folders refused before they are
+/// opened, as by [`read_regular_file`]), to read a part of it (a PLY header).
+pub(crate) fn open_regular(path: &Path) -> std::io::Result<std::fs::File> {
+    if !std::fs::metadata(path)?.is_file() {
+        return Err(std::io::Error::other("not a regular file (a folder, FIFO or device)"));
+    }
+    std::fs::File::open(path)
+}
+
 /// [`read_regular_file`] for bytes (binary meshes).
 pub(crate) fn read_regular_bytes(path: &Path, cap: u64) -> std::io::Result<Vec<u8>> {
     use std::io::Read;

@@ -165,7 +165,7 @@ impl From<Mesh> for LocalMesh {
 }
 
 /// The largest OBJ file read (about 25M triangles).
-const MAX_OBJ_BYTES: u64 = 2 << 30;
+pub(crate) const MAX_OBJ_BYTES: u64 = 2 << 30;
 
 /// Why an OBJ could not be used (the caller adds the scene file, field and OBJ path).
 type ObjResult<T> = Result<T, String>;
@@ -180,16 +180,7 @@ pub fn load_obj(path: &Path) -> ObjResult<LocalMesh> {
 /// [`load_obj`] for OBJ text already read.
 pub fn parse_obj(text: &str) -> ObjResult<LocalMesh> {
     check_obj_text(text)?;
-    // `..Default::default()` covers fields that tobj's optional features add.
-    #[allow(clippy::needless_update)]
-    let opts = tobj::LoadOptions {
-        single_index: true,
-        // polygons are split here (`polygon::triangulate`): tobj's fan is wrong for concave ones
-        triangulate: false,
-        ignore_points: true,
-        ignore_lines: true,
-        ..Default::default()
-    };
+    let opts = obj_options();
     let parsed = std::panic::catch_unwind(|| {
         tobj::load_obj_buf(&mut std::io::BufReader::new(text.as_bytes()), &opts, |_| {
             Err(tobj::LoadError::OpenFileFailed)
@@ -237,6 +228,21 @@ pub fn parse_obj(text: &str) -> ObjResult<LocalMesh> {
         return Err("empty mesh: it has no faces (f lines with 3 or more vertices)".to_string());
     }
     Ok(mesh)
+}
+
+/// How tobj reads an OBJ here: one index per corner (positions and normals alike), faces as
+/// written (polygons are split by `polygon::triangulate`: tobj's fan is wrong for concave
+/// ones), no points or lines.
+pub(crate) fn obj_options() -> tobj::LoadOptions {
+    // `..Default::default()` covers fields that tobj's optional features add.
+    #[allow(clippy::needless_update)]
+    tobj::LoadOptions {
+        single_index: true,
+        triangulate: false,
+        ignore_points: true,
+        ignore_lines: true,
+        ..Default::default()
+    }
 }
 
 /// Checks the `v` and `f` lines before handing the text to tobj, so that a bad vertex is

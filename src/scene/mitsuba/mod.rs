@@ -15,6 +15,7 @@ mod conductors;
 mod emitter;
 mod include;
 mod integrator;
+mod mesh_front;
 mod sensor;
 mod shape;
 mod transform;
@@ -458,25 +459,41 @@ impl<'d, 'a, 'input> Converter<'d, 'a, 'input> {
             // a curved one, silently, until the forty-third session)
             self.warnings.push(format!(
                 "{}: shaded with its face normals here, while Mitsuba 3 interpolates this mesh's vertex normals \
-                 (face_normals is not true): a curved mesh shades differently, and where the file's normals point \
-                 against its winding, Mitsuba's front side (where it emits, and a one-sided BSDF reflects) is the \
-                 other one; add <boolean name=\"face_normals\" value=\"true\"/> to render it alike in both",
+                 (face_normals is not true): a curved mesh shades differently; add <boolean name=\"face_normals\" \
+                 value=\"true\"/> to render it alike in both",
                 doc.describe(node)
             ));
         }
-        // where a side is told apart, ours must be Mitsuba's (`shape::Geometry`)
+        // where a side is told apart, ours must be Mitsuba's (`shape::Geometry`); a mesh
+        // Mitsuba shades with its vertex normals faces where they point (`mesh_front.rs`)
         let sided = emitter.is_some() || dielectric || self.is_one_sided(&material);
-        if sided && geo.front_unknown {
-            return Err(doc.err(
-                node,
-                "this mesh is mirrored by its to_world and Mitsuba shades it with vertex normals (face_normals is \
-                 not true), so its front side in Mitsuba is that of the file's normals, or of the mirrored winding \
-                 where the file has none; it emits, is a dielectric or has a one-sided BSDF, where the side matters: \
-                 add <boolean name=\"face_normals\" value=\"true\"/> (the front is then the mirrored winding's), \
-                 or wrap the BSDF in twosided",
-            ));
+        let mut front_flipped = geo.front_flipped;
+        if let (true, true, Some(Value::String(f)), Some(ty)) = (
+            sided,
+            geo.smooth_in_mitsuba,
+            geo.table.get("file"),
+            geo.table.get("type").and_then(Value::as_str),
+        ) {
+            use mesh_front::StoredNormals;
+            // (a file that cannot be read is the scene loader's to report)
+            match mesh_front::stored_normals(&self.scene_dir.join(doc.rel_dir()).join(f), ty == "ply") {
+                Ok(StoredNormals::None) | Err(_) => {}
+                Ok(StoredNormals::WithWinding) => front_flipped = geo.flip_normals,
+                Ok(StoredNormals::AgainstWinding) => front_flipped = !geo.flip_normals,
+                Ok(StoredNormals::Mixed { against, faces }) => {
+                    return Err(doc.err(
+                        node,
+                        format!(
+                            "{f}: Mitsuba shades this mesh with its vertex normals (face_normals is not true) and takes \
+                             each face's front from them, but they point against the winding on {against} of its \
+                             {faces} faces; it emits, is a dielectric or has a one-sided BSDF, where the side matters: \
+                             orient the mesh's faces, or add <boolean name=\"face_normals\" value=\"true\"/>"
+                        ),
+                    ));
+                }
+            }
         }
-        if geo.front_flipped && dielectric {
+        if front_flipped && dielectric {
             return Err(doc.err(
                 node,
                 "this dielectric shape is turned inside out (flip_normals or a mirroring to_world), so the rest of \
@@ -486,6 +503,9 @@ impl<'d, 'a, 'input> Converter<'d, 'a, 'input> {
         self.origins
             .push((format!("shape[{}]", self.shapes.len()), doc.describe(node)));
         let mut t = geo.table;
+        if front_flipped {
+            t.insert("flip_normals".into(), Value::Boolean(true));
+        }
         // mesh file names are relative to the file that names them: to the scene file's
         // folder through an included file's folder, then to where the description will live
         if let Some(Value::String(f)) = t.get("file")

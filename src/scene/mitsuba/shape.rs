@@ -23,10 +23,9 @@ pub(crate) struct Geometry {
     pub table: Table,
     /// Mitsuba's front is the side our shape's front is not (`flip_normals` makes them one).
     pub front_flipped: bool,
-    /// Mitsuba's front depends on what the mesh file holds: a mirrored mesh that Mitsuba
-    /// shades with vertex normals keeps the side of the file's normals, or, where the file
-    /// has none, the side of the mirrored winding.
-    pub front_unknown: bool,
+    /// The shape's `flip_normals` (for a mesh whose front Mitsuba takes from the file's
+    /// normals: `mesh_front.rs`).
+    pub flip_normals: bool,
     /// A mesh Mitsuba shades with interpolated vertex normals (`face_normals` not true);
     /// we shade every mesh with its face normals.
     pub smooth_in_mitsuba: bool,
@@ -63,8 +62,8 @@ pub(crate) fn geometry(doc: &Doc, p: &Props) -> Result<Geometry, ImportError> {
             // we shade with face normals always; texture coordinates are not used
             smooth = p.boolean(doc, "face_normals")? != Some(true);
             p.ignore(doc, &["flip_tex_coords"])?;
-            // with face normals Mitsuba's front follows the world-space winding, which a
-            // mirror reverses
+            // with face normals (or none in the file) Mitsuba's front follows the world-space
+            // winding, which a mirror reverses; else the file's normals (`mesh_front.rs`)
             let flipped = det_negative(&to_world)? != flip_normals;
             (
                 to_world,
@@ -121,14 +120,10 @@ pub(crate) fn geometry(doc: &Doc, p: &Props) -> Result<Geometry, ImportError> {
         doc,
         &format!("{supported}, one <bsdf> or <ref>, one <emitter type=\"area\">"),
     )?;
-    let front_unknown = smooth && det_negative(&ops)?;
-    if front_flipped {
-        t.insert("flip_normals".into(), Value::Boolean(true));
-    }
     Ok(Geometry {
         table: t,
         front_flipped,
-        front_unknown,
+        flip_normals,
         smooth_in_mitsuba: smooth,
     })
 }
