@@ -142,3 +142,36 @@ fn a_one_sided_panels_derivative_matches_finite_differences() {
     let (_, resolution) = fd.check_aggregates("panel_x", 0.1, 0.03);
     assert!(resolution < 0.04, "resolves only a bias of {:.1} %", resolution * 100.0);
 }
+
+/// A relay wall of a one-sided material: facing the SPAD and the laser, it renders the
+/// two-sided wall's bytes; turned away (`flip_normals`), its points are not seen and its laser
+/// spots light nothing, so the capture is black.
+#[test]
+fn a_one_sided_relay_wall_turned_away_sees_nothing() {
+    let text = std::fs::read_to_string(common::scene_path("nlos_hidden_patch.toml")).unwrap();
+    let wall = "name = \"wall\"\ntype = \"diffuse\"\nalbedo = 0.8\n";
+    assert!(text.contains(wall));
+    let one_sided = text.replace(wall, &format!("{wall}one_sided = true\n"));
+    let turned = one_sided.replacen("material = \"wall\"\n", "material = \"wall\"\nflip_normals = true\n", 1);
+    assert_ne!(turned, one_sided);
+    let render_text = |t: &str| {
+        let s = Scene::from_str(
+            t,
+            difftransient::scene::Format::Toml,
+            &common::scene_path("x.toml"),
+            &[],
+        )
+        .unwrap();
+        render(&s, &common::options(4, 1)).unwrap().0
+    };
+    let two = render_text(&text);
+    assert!(two.data.iter().any(|&v| v > 0.0));
+    assert!(
+        render_text(&one_sided).data == two.data,
+        "a one-sided wall seen from the front changed the capture"
+    );
+    assert!(
+        render_text(&turned).data.iter().all(|&v| v == 0.0),
+        "a wall turned away from the SPAD lit the capture"
+    );
+}

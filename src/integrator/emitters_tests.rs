@@ -407,3 +407,26 @@ fn the_select_number_is_read_only_where_it_picks() {
         assert_eq!(changed, reads, "whether the number changed any sample");
     }
 }
+
+/// A laser that meets a one-sided material from behind lights nothing (its spot is black, as
+/// the material is there); from the front, or on a two-sided material, it lights its spot.
+#[test]
+fn a_laser_on_the_back_of_a_one_sided_material_lights_nothing() {
+    let device = Device::new("").unwrap();
+    let spot = |one_sided: bool, z: f32| {
+        let text = format!(
+            "{}\n[[material]]\nname = \"front\"\ntype = \"diffuse\"\nalbedo = 0.5\none_sided = {one_sided}\n\
+             [[shape]]\nname = \"wall\"\ntype = \"rectangle\"\nmaterial = \"front\"\n\
+             [[emitter]]\nname = \"beam\"\ntype = \"laser\"\nposition = [0.0, 0.0, {z}]\ndirection = [0.0, 0.0, {}]\npower = 1.0\n",
+            header!(),
+            -z
+        );
+        let scene = load(&text, &[]);
+        let ctx = RenderContext::new(&scene, &device).unwrap();
+        ctx.emitters.laser_spot(0).is_some()
+    };
+    // the rectangle faces +z
+    assert!(spot(true, 1.0), "from the front");
+    assert!(!spot(true, -1.0), "from behind");
+    assert!(spot(false, -1.0), "two-sided, from behind");
+}
