@@ -12,25 +12,12 @@
 
 use crate::common;
 
-use common::fd::coarse_aggregates;
+use difftransient::Scene;
 use difftransient::scene::Material;
-use difftransient::{RenderOptions, Scene, render};
 
-/// Coarse aggregates of `seeds` renders from seed `first` on.
+/// Coarse aggregates of `seeds` renders of 32 spp from seed `first` on.
 fn aggregates(scene: &Scene, first: u64, seeds: u64) -> Vec<Vec<f64>> {
-    (first..first + seeds)
-        .map(|seed| {
-            let opts = RenderOptions {
-                spp: Some(32),
-                seed: Some(seed),
-                threads: Some(2),
-                steady: difftransient::film::SteadyMode::Full,
-                ..Default::default()
-            };
-            let t = render(scene, &opts).unwrap().0;
-            coarse_aggregates(&t).into_iter().map(|(_, v)| v).collect()
-        })
-        .collect()
+    common::fd::coarse_runs(scene, None, first..first + seeds)
 }
 
 fn with_ior(roughness: f32, ior: f32) -> Scene {

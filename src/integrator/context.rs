@@ -47,9 +47,9 @@ pub struct RenderContext<'a> {
     /// Whether every material is Lambertian (`Scene::diffuse_only`): the kernels then keep
     /// their diffuse-only path.
     pub diffuse_only: bool,
-    /// Per material, whether it is one-sided (`NamedMaterial::one_sided`); `None` when none
-    /// is (`super::surface::behind_one_sided`).
-    pub one_sided: Option<Vec<bool>>,
+    /// Whether any material is one-sided (`NamedMaterial::one_sided`): only then do the
+    /// kernels look for backs (`super::surface::behind_one_sided`).
+    pub any_one_sided: bool,
     /// Draws on the time edges for the path tracer's time term (`super::time_edges`), when
     /// the render asked for them and they apply; set with [`Self::use_time_edges`].
     pub time_edges: Option<super::time_edges::TimeEdges>,
@@ -141,11 +141,7 @@ impl<'a> RenderContext<'a> {
             camera_box,
             nlos,
             diffuse_only: scene.diffuse_only(),
-            one_sided: scene
-                .materials
-                .iter()
-                .any(|m| m.one_sided)
-                .then(|| scene.materials.iter().map(|m| m.one_sided).collect()),
+            any_one_sided: scene.materials.iter().any(|m| m.one_sided),
             time_edges: None,
             cancel: crate::cancel::Cancel::new(),
         })

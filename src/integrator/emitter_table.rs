@@ -75,7 +75,7 @@ pub fn spot_at(
     } else {
         -1.0
     };
-    if material.one_sided && side < 0.0 {
+    if scene.behind_one_sided(prim, -direction) {
         return Ok(None);
     }
     Ok(Some(LaserSpot {

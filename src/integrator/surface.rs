@@ -89,12 +89,13 @@ pub fn behind_one_sided<V: Real>(
     w_in: &V3<V>,
     active: V::Mask,
 ) -> V::Mask {
-    let Some(one_sided) = &ctx.one_sided else {
+    if !ctx.any_one_sided {
         return V::Mask::splat(false);
-    };
+    }
+    let materials = &ctx.scene.materials;
     let mut listed = [false; 8];
     for i in (0..V::LANES).filter(|&i| active.bit(i) && prim[i] != u32::MAX) {
-        listed[i] = one_sided[ctx.tri_material[prim[i] as usize] as usize];
+        listed[i] = materials[ctx.tri_material[prim[i] as usize] as usize].one_sided;
     }
     active & V::Mask::from_bools(&listed[..V::LANES]) & n.dot(*w_in).gt(V::zero())
 }

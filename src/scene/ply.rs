@@ -108,7 +108,8 @@ pub fn integer_coordinates(path: &Path) -> Option<String> {
         })
 }
 
-fn scalar(p: &Property) -> Option<f64> {
+/// A scalar property as f64 (`None` for a list).
+pub(crate) fn scalar(p: &Property) -> Option<f64> {
     Some(match p {
         Property::Char(v) => *v as f64,
         Property::UChar(v) => *v as f64,
@@ -122,7 +123,8 @@ fn scalar(p: &Property) -> Option<f64> {
     })
 }
 
-fn indices(p: &Property) -> Option<Vec<i64>> {
+/// An integer list property (a face's `vertex_indices`) as i64s (`None` for anything else).
+pub(crate) fn indices(p: &Property) -> Option<Vec<i64>> {
     Some(match p {
         Property::ListChar(v) => v.iter().map(|&x| x as i64).collect(),
         Property::ListUChar(v) => v.iter().map(|&x| x as i64).collect(),

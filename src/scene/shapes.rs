@@ -198,12 +198,7 @@ pub fn parse_obj(text: &str) -> ObjResult<LocalMesh> {
         if idx.iter().any(|&i| i as usize >= p.len() / 3) {
             return Err(format!("object {:?} has a face index out of range", m.name));
         }
-        // tobj leaves `face_arities` empty when every face is a triangle
-        let arities: Vec<usize> = if m.mesh.face_arities.is_empty() {
-            vec![3; idx.len() / 3]
-        } else {
-            m.mesh.face_arities.iter().map(|&a| a as usize).collect()
-        };
+        let arities = face_arities(&m.mesh);
         let mut start = 0;
         for (f, &arity) in arities.iter().enumerate() {
             let face = &idx[start..start + arity];
@@ -228,6 +223,15 @@ pub fn parse_obj(text: &str) -> ObjResult<LocalMesh> {
         return Err("empty mesh: it has no faces (f lines with 3 or more vertices)".to_string());
     }
     Ok(mesh)
+}
+
+/// The number of corners of each face of a tobj mesh (tobj leaves `face_arities` empty when
+/// every face is a triangle).
+pub(crate) fn face_arities(mesh: &tobj::Mesh) -> Vec<usize> {
+    match mesh.face_arities.is_empty() {
+        true => vec![3; mesh.indices.len() / 3],
+        false => mesh.face_arities.iter().map(|&a| a as usize).collect(),
+    }
 }
 
 /// How tobj reads an OBJ here: one index per corner (positions and normals alike), faces as
@@ -593,7 +597,9 @@ pub(crate) fn build(
             return Err(ctx.invalid(
                 at("flip_normals"),
                 format!(
-                    "material {:?} is a dielectric, whose interior is the side its shape's normals point away                      from: flipped, the rest of the scene would lie inside it; give the shape a material that is                      not a dielectric, or leave flip_normals out",
+                    "material {:?} is a dielectric, whose interior is the side its shape's normals point away \
+                     from: flipped, the rest of the scene would lie inside it; give the shape a material that is \
+                     not a dielectric, or leave flip_normals out",
                     desc.material[material].name
                 ),
             ));

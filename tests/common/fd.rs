@@ -419,3 +419,23 @@ impl FdCheck {
         (zmax, resolution, test)
     }
 }
+
+/// The [`coarse_aggregates`] values of forward renders of `scene` at 32 spp on two threads,
+/// one per seed of `seeds`, with `integrator` (the scene's when `None`) and steady images over
+/// all time.
+pub fn coarse_runs(scene: &Scene, integrator: Option<IntegratorKind>, seeds: std::ops::Range<u64>) -> Vec<Vec<f64>> {
+    seeds
+        .map(|seed| {
+            let opts = RenderOptions {
+                spp: Some(32),
+                seed: Some(seed),
+                threads: Some(2),
+                integrator,
+                steady: difftransient::film::SteadyMode::Full,
+                ..Default::default()
+            };
+            let t = render(scene, &opts).unwrap().0;
+            coarse_aggregates(&t).into_iter().map(|(_, v)| v).collect()
+        })
+        .collect()
+}

@@ -8,9 +8,11 @@
 //! point against its winding emitted and reflected on the other side than in Mitsuba:
 //! helper 41).
 
+use crate::scene::ply::{indices, scalar};
+use crate::scene::shapes::face_arities;
 use glam::DVec3;
 use ply_rs_bw::parser::Parser;
-use ply_rs_bw::ply::{DefaultElement, Property};
+use ply_rs_bw::ply::DefaultElement;
 use std::path::Path;
 
 /// How a mesh file's vertex normals lie against its faces' winding.
@@ -75,21 +77,13 @@ fn read_ply(bytes: &[u8]) -> Result<Faces, String> {
     let parser = Parser::<DefaultElement>::new();
     let header = parser.read_header(&mut reader).map_err(|e| e.to_string())?;
     let payload = parser.read_payload(&mut reader, &header).map_err(|e| e.to_string())?;
-    let number = |p: Option<&Property>| match p {
-        Some(Property::Float(x)) => Some(*x as f64),
-        Some(Property::Double(x)) => Some(*x),
-        _ => None,
-    };
     let vertices = payload.get("vertex").ok_or("no vertex element")?;
     let xyz = |v: &DefaultElement, k: [&str; 3]| {
-        Some(DVec3::new(
-            number(v.get(k[0]))?,
-            number(v.get(k[1]))?,
-            number(v.get(k[2]))?,
-        ))
+        let c = |i: usize| v.get(k[i]).and_then(scalar);
+        Some(DVec3::new(c(0)?, c(1)?, c(2)?))
     };
     let positions: Option<Vec<DVec3>> = vertices.iter().map(|v| xyz(v, ["x", "y", "z"])).collect();
-    let positions = positions.ok_or("a vertex without float x, y, z")?;
+    let positions = positions.ok_or("a vertex without x, y, z")?;
     let normals: Vec<DVec3> = vertices.iter().filter_map(|v| xyz(v, ["nx", "ny", "nz"])).collect();
     let normals = if normals.len() == positions.len() {
         normals
@@ -98,16 +92,11 @@ fn read_ply(bytes: &[u8]) -> Result<Faces, String> {
     };
     let mut faces = Vec::new();
     for face in payload.get("face").map(Vec::as_slice).unwrap_or_default() {
-        let list = face.get("vertex_indices").or_else(|| face.get("vertex_index"));
-        let idx: Vec<i64> = match list {
-            Some(Property::ListUChar(v)) => v.iter().map(|&x| x as i64).collect(),
-            Some(Property::ListInt(v)) => v.iter().map(|&x| x as i64).collect(),
-            Some(Property::ListUInt(v)) => v.iter().map(|&x| x as i64).collect(),
-            Some(Property::ListShort(v)) => v.iter().map(|&x| x as i64).collect(),
-            Some(Property::ListUShort(v)) => v.iter().map(|&x| x as i64).collect(),
-            Some(Property::ListChar(v)) => v.iter().map(|&x| x as i64).collect(),
-            _ => return Err("a face without a vertex_indices list".into()),
-        };
+        let idx = face
+            .get("vertex_indices")
+            .or_else(|| face.get("vertex_index"))
+            .and_then(indices)
+            .ok_or("a face without a vertex_indices list")?;
         faces.push(checked(&idx, positions.len())?);
     }
     Ok((positions, normals, faces))
@@ -130,12 +119,8 @@ fn read_obj(bytes: &[u8]) -> Result<Faces, String> {
         let count = p.len();
         positions.extend(p);
         normals.extend(n);
-        let arities: Vec<usize> = match m.mesh.face_arities.is_empty() {
-            true => vec![3; m.mesh.indices.len() / 3],
-            false => m.mesh.face_arities.iter().map(|&a| a as usize).collect(),
-        };
         let mut start = 0;
-        for a in arities {
+        for a in face_arities(&m.mesh) {
             let idx: Vec<i64> = m.mesh.indices[start..start + a].iter().map(|&i| i as i64).collect();
             start += a;
             faces.push(checked(&idx, count)?.into_iter().map(|i| i + base).collect());

@@ -467,16 +467,27 @@ impl<'d, 'a, 'input> Converter<'d, 'a, 'input> {
         // where a side is told apart, ours must be Mitsuba's (`shape::Geometry`); a mesh
         // Mitsuba shades with its vertex normals faces where they point (`mesh_front.rs`)
         let sided = emitter.is_some() || dielectric || self.is_one_sided(&material);
+        // the mesh file as this process reads it (`file` is relative to the XML file naming it)
+        let mesh = geo.table.get("file").and_then(Value::as_str).map(|f| {
+            let ply = geo.table.get("type").and_then(Value::as_str) == Some("ply");
+            (f.to_string(), self.scene_dir.join(doc.rel_dir()).join(f), ply)
+        });
+        if let Some((f, on_disk, true)) = &mesh
+            && let Some(what) = crate::scene::ply::integer_coordinates(on_disk)
+        {
+            return Err(doc.err(
+                node,
+                format!(
+                    "{f}: its vertex coordinates are stored as integers ({what}), which Mitsuba 3 does not read \
+                     as metres (its mesh shrinks to almost nothing there); store them as float"
+                ),
+            ));
+        }
         let mut front_flipped = geo.front_flipped;
-        if let (true, true, Some(Value::String(f)), Some(ty)) = (
-            sided,
-            geo.smooth_in_mitsuba,
-            geo.table.get("file"),
-            geo.table.get("type").and_then(Value::as_str),
-        ) {
+        if let (true, true, Some((f, on_disk, ply))) = (sided, geo.smooth_in_mitsuba, &mesh) {
             use mesh_front::StoredNormals;
             // (a file that cannot be read is the scene loader's to report)
-            match mesh_front::stored_normals(&self.scene_dir.join(doc.rel_dir()).join(f), ty == "ply") {
+            match mesh_front::stored_normals(on_disk, *ply) {
                 Ok(StoredNormals::None) | Err(_) => {}
                 Ok(StoredNormals::WithWinding) => front_flipped = geo.flip_normals,
                 Ok(StoredNormals::AgainstWinding) => front_flipped = !geo.flip_normals,
@@ -508,18 +519,6 @@ impl<'d, 'a, 'input> Converter<'d, 'a, 'input> {
         }
         // mesh file names are relative to the file that names them: to the scene file's
         // folder through an included file's folder, then to where the description will live
-        if let Some(Value::String(f)) = t.get("file")
-            && t.get("type").and_then(Value::as_str) == Some("ply")
-            && let Some(what) = crate::scene::ply::integer_coordinates(&self.scene_dir.join(doc.rel_dir()).join(f))
-        {
-            return Err(doc.err(
-                node,
-                format!(
-                    "{f}: its vertex coordinates are stored as integers ({what}), which Mitsuba 3 does not read \
-                     as metres (its mesh shrinks to almost nothing there); store them as float"
-                ),
-            ));
-        }
         if let Some(Value::String(f)) = t.get("file")
             && Path::new(f).is_relative()
         {
