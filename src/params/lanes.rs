@@ -160,6 +160,20 @@ impl Motion {
                 ParamKind::Roughness { material } => roughness = Some(material),
                 ParamKind::Ior { material } => ior = Some(material),
             }
+            // a shape lying flush on another is met or not by rounding: no derivative
+            if let Some(&(shape, _)) = fields.first()
+                && let Some(other) = scene.flush_partner(shape)
+            {
+                return Err(crate::error::Error::Invalid(format!(
+                    "{}: the derivative with respect to {name:?}: shape {:?}, which it moves, lies flush on shape {:?} (faces \
+                     in one plane, facing the same way, that overlap): which of the two a ray meets there \
+                     is left to rounding, so the render has no derivative with respect to moving either; \
+                     move one off the other (by a millimetre, say)",
+                    scene.source.display(),
+                    scene.shapes[shape].name,
+                    scene.shapes[other].name
+                )));
+            }
             m.fields.push(fields);
             m.albedo.push(albedo);
             m.radiance.push(radiance);

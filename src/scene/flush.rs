@@ -187,8 +187,9 @@ pub(crate) fn flush_dielectric(
     })
 }
 
-/// Candidate triangle pairs beyond which [`flush_surfaces`] gives up on a pair of shapes (two
-/// large meshes overlapping in space): the check is a warning, not worth minutes of loading.
+/// Candidate triangle pairs beyond which [`faces_flush`] gives up on a pair of shapes (two
+/// large meshes overlapping in space): the check gives a warning (and refuses derivatives),
+/// which is not worth minutes of loading.
 const MAX_PAIRS: usize = 1 << 24;
 
 /// Pairs of shapes of different materials with faces that lie in one plane, facing the same
@@ -204,59 +205,96 @@ pub(crate) fn flush_surfaces(
     materials: &[super::NamedMaterial],
     scale: f32,
 ) -> Vec<(usize, usize)> {
-    let skip = |s: &Shape| {
-        s.emitter.is_some()
-            || matches!(
-                materials[s.material as usize].material,
-                super::Material::Dielectric { .. }
-            )
-    };
-    let tris = |s: &Shape| s.first_tri as usize..(s.first_tri + s.tri_count) as usize;
     let boxes: Vec<(Vec3, Vec3)> = shapes.iter().map(|s| bounds(s, geo)).collect();
+    let material = |s: &Shape| &materials[s.material as usize].material;
     let mut found = Vec::new();
     for (i, a) in shapes.iter().enumerate() {
         for (j, b) in shapes.iter().enumerate().skip(i + 1) {
-            if skip(a) || skip(b) || materials[a.material as usize].material == materials[b.material as usize].material
-            {
+            if unlooked(a, materials) || unlooked(b, materials) || material(a) == material(b) {
                 continue;
             }
-            let ((alo, ahi), (blo, bhi)) = (boxes[i], boxes[j]);
-            let m = alo
-                .abs()
-                .max(ahi.abs())
-                .max(blo.abs())
-                .max(bhi.abs())
-                .max_element()
-                .max(scale);
-            let plane = in_plane(m);
-            let (lo, hi) = (alo.max(blo) - plane, ahi.min(bhi) + plane);
-            if lo.cmpgt(hi).any() {
-                continue;
-            }
-            let near = |t: &usize| {
-                let c = corners(geo, *t);
-                let (clo, chi) = (c[0].min(c[1]).min(c[2]), c[0].max(c[1]).max(c[2]));
-                !(clo.cmpgt(hi).any() || chi.cmplt(lo).any())
-            };
-            let (ta, tb): (Vec<usize>, Vec<usize>) = (tris(a).filter(near).collect(), tris(b).filter(near).collect());
-            if ta.len().saturating_mul(tb.len()) > MAX_PAIRS {
-                continue;
-            }
-            let clash = ta.iter().any(|&s| {
-                let sc = corners(geo, s);
-                let n = triangle_normal(sc);
-                n != Vec3::ZERO
-                    && tb.iter().any(|&o| {
-                        let oc = corners(geo, o);
-                        n.dot(triangle_normal(oc)) >= COPLANAR_COS
-                            && oc.iter().all(|&p| (p - sc[0]).dot(n).abs() <= plane)
-                            && overlap(sc, oc, n)
-                    })
-            });
-            if clash {
+            if faces_flush((a, boxes[i]), (b, boxes[j]), geo, scale) {
                 found.push((i, j));
             }
         }
     }
     found
+}
+
+/// A shape that lies flush on `shape` as [`flush_surfaces`] finds them, whatever the two
+/// materials: moving either one has no derivative, since which of the two a ray meets there
+/// is left to rounding (even where the two look alike, the interior estimator moves the
+/// surface points of the one it happened to meet, and the edges between them show no
+/// difference for the boundary estimator to weigh). `params::lanes::Motion` refuses such
+/// parameters.
+pub(crate) fn flush_partner(
+    shapes: &[Shape],
+    geo: &Geometry,
+    materials: &[super::NamedMaterial],
+    scale: f32,
+    shape: usize,
+) -> Option<usize> {
+    let a = &shapes[shape];
+    if unlooked(a, materials) {
+        return None;
+    }
+    let own = (a, bounds(a, geo));
+    (0..shapes.len()).find(|&j| {
+        let b = &shapes[j];
+        j != shape && !unlooked(b, materials) && faces_flush(own, (b, bounds(b, geo)), geo, scale)
+    })
+}
+
+/// Shapes [`flush_surfaces`] leaves alone: emitters (lifted off flush faces) and dielectrics
+/// (refused where flush).
+fn unlooked(s: &Shape, materials: &[super::NamedMaterial]) -> bool {
+    s.emitter.is_some()
+        || matches!(
+            materials[s.material as usize].material,
+            super::Material::Dielectric { .. }
+        )
+}
+
+/// Whether shapes `a` and `b` (each with the box around its vertices) have faces in one
+/// plane, facing the same way, that overlap.
+fn faces_flush(
+    (a, abox): (&Shape, (Vec3, Vec3)),
+    (b, bbox): (&Shape, (Vec3, Vec3)),
+    geo: &Geometry,
+    scale: f32,
+) -> bool {
+    let tris = |s: &Shape| s.first_tri as usize..(s.first_tri + s.tri_count) as usize;
+    let ((alo, ahi), (blo, bhi)) = (abox, bbox);
+    let m = alo
+        .abs()
+        .max(ahi.abs())
+        .max(blo.abs())
+        .max(bhi.abs())
+        .max_element()
+        .max(scale);
+    let plane = in_plane(m);
+    let (lo, hi) = (alo.max(blo) - plane, ahi.min(bhi) + plane);
+    if lo.cmpgt(hi).any() {
+        return false;
+    }
+    let near = |t: &usize| {
+        let c = corners(geo, *t);
+        let (clo, chi) = (c[0].min(c[1]).min(c[2]), c[0].max(c[1]).max(c[2]));
+        !(clo.cmpgt(hi).any() || chi.cmplt(lo).any())
+    };
+    let (ta, tb): (Vec<usize>, Vec<usize>) = (tris(a).filter(near).collect(), tris(b).filter(near).collect());
+    if ta.len().saturating_mul(tb.len()) > MAX_PAIRS {
+        return false;
+    }
+    ta.iter().any(|&s| {
+        let sc = corners(geo, s);
+        let n = triangle_normal(sc);
+        n != Vec3::ZERO
+            && tb.iter().any(|&o| {
+                let oc = corners(geo, o);
+                n.dot(triangle_normal(oc)) >= COPLANAR_COS
+                    && oc.iter().all(|&p| (p - sc[0]).dot(n).abs() <= plane)
+                    && overlap(sc, oc, n)
+            })
+    })
 }

@@ -391,6 +391,13 @@ impl Scene {
         }
     }
 
+    /// Another shape that shape `shape` lies flush on (faces in one plane, facing the same
+    /// way, that overlap: `flush.rs`), whatever the two materials: a ray meets one or the
+    /// other by rounding, so moving either has no derivative.
+    pub fn flush_partner(&self, shape: usize) -> Option<usize> {
+        flush::flush_partner(&self.shapes, &self.geometry, &self.materials, self.offset_scale, shape)
+    }
+
     /// Whether triangle `prim`'s material is one-sided ([`NamedMaterial::one_sided`]) and
     /// `towards` (a direction from its surface) points to its back, where it is black.
     pub fn behind_one_sided(&self, prim: u32, towards: Vec3) -> bool {
