@@ -117,7 +117,11 @@ pub struct RenderOptions {
 
 /// Whether the render's draws on the time edges take a delta pulse's time term
 /// (`integrator::time_edges::TimeEdges::cover_delta`), or why not.
-pub(crate) fn delta_draws(scene: &Scene, motion: &Motion, opts: &RenderOptions) -> Result<(), String> {
+pub(crate) fn delta_draws(
+    scene: &Scene,
+    motion: &Motion,
+    opts: &RenderOptions,
+) -> Result<(), crate::integrator::time_edges::Uncovered> {
     if opts.integrator.unwrap_or(scene.integrator.kind) != IntegratorKind::Path {
         return Err("BDPT draws no light points on the time edges (the path tracer does: --integrator path)".into());
     }

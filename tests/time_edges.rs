@@ -135,6 +135,16 @@ fn delta_pulse_derivatives_are_refused_where_the_draws_miss_paths() {
     // the camera sees the light: its pulse offset moves those paths' OPL too
     let e = refused("light_offset", opts(TimeEdgeMode::Auto, None));
     assert!(e.contains("pulse offset"), "{e}");
+    // asked for together with a parameter the draws cover alone, the one they cannot is named
+    // (an independent sweep saw the message blame tall_box_x, which renders fine alone)
+    let both = ["tall_box_x".to_string(), "light_offset".to_string()];
+    let e = render_diff(&scene, &both, &opts(TimeEdgeMode::Auto, None))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("parameter \"light_offset\"") && !e.contains("tall_box_x") && e.contains("pulse offset"),
+        "{e}"
+    );
     // and where they cover every path, the derivative renders
     assert!(render_diff(&scene, &["tall_box_x".to_string()], &opts(TimeEdgeMode::Auto, None)).is_ok());
 }

@@ -523,7 +523,7 @@ impl TimeEdges {
     /// last vertex before the light is such would reach it without a draw), and no parameter
     /// shifts the paths that see an emitter from the camera (the pulse offset of a delta
     /// emitter, the medium's index, an emitter's motion). Else why not.
-    pub fn cover_delta(scene: &Scene, motion: &Motion, path_draws: bool) -> Result<(), String> {
+    pub fn cover_delta(scene: &Scene, motion: &Motion, path_draws: bool) -> Result<(), Uncovered> {
         if !path_draws {
             return Err("the draws on the time edges are off (--time-edges off; auto turns them on)".into());
         }
@@ -535,10 +535,7 @@ impl TimeEdges {
             .iter()
             .find(|e| !matches!(e.kind, EmitterKind::Area { .. }))
         {
-            return Err(format!(
-                "emitter {:?} is not an area emitter (no light point to draw)",
-                e.name
-            ));
+            return Err(format!("emitter {:?} is not an area emitter (no light point to draw)", e.name).into());
         }
         if let Some(m) = scene
             .materials
@@ -549,7 +546,8 @@ impl TimeEdges {
                 "material {:?} (type {}) reaches the light along paths the draws do not make (a Dirac lobe or a refraction)",
                 m.name,
                 m.material.type_name()
-            ));
+            )
+            .into());
         }
         for k in 0..motion.len() {
             let delta_offset = motion.pulse_offset[k].is_some_and(|e| scene.emitters[e].pulse == Pulse::Delta);
@@ -557,11 +555,20 @@ impl TimeEdges {
                 EmitterKind::Area { shape, .. } => motion.fields[k].iter().any(|(s, _)| *s == shape as usize),
                 _ => false,
             });
+            let what = if delta_offset {
+                "the pulse offset of a delta emitter"
+            } else if motion.eta[k] {
+                "the medium's index"
+            } else {
+                "an emitter's motion"
+            };
             if delta_offset || motion.eta[k] || moves_emitter {
-                return Err(
-                    "a parameter shifts the emitter seen from the camera in time (a delta emitter's pulse offset, the medium's index, an emitter's motion)"
-                        .into(),
-                );
+                return Err(Uncovered {
+                    param: Some(k),
+                    why: format!(
+                        "it shifts the emitter seen from the camera in time ({what}), along paths with no vertex to draw from"
+                    ),
+                });
             }
         }
         match Self::build(scene, motion) {
@@ -570,7 +577,30 @@ impl TimeEdges {
             None => Err("an emitter has no area to draw light points on".into()),
         }
     }
+}
 
+/// Why the draws on the time edges cannot take a delta pulse's time term
+/// ([`TimeEdges::cover_delta`]): the reason, and the parameter it is about where one is
+/// (its index among the render's), which is then the one to name.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Uncovered {
+    pub param: Option<usize>,
+    pub why: String,
+}
+
+impl From<&str> for Uncovered {
+    fn from(why: &str) -> Self {
+        String::from(why).into()
+    }
+}
+
+impl From<String> for Uncovered {
+    fn from(why: String) -> Self {
+        Uncovered { param: None, why }
+    }
+}
+
+impl TimeEdges {
     /// The shape emitter `e` covers (its light points move with it).
     pub fn shape(&self, e: u32) -> usize {
         self.emitters[e as usize].shape

@@ -208,13 +208,15 @@ impl Motion {
         &self,
         scene: &crate::scene::Scene,
         params: &[String],
-        delta_draws: Result<(), String>,
+        delta_draws: Result<(), crate::integrator::time_edges::Uncovered>,
     ) -> Result<(), crate::error::Error> {
-        let Err(why) = delta_draws else {
+        let Err(uncovered) = delta_draws else {
             return Ok(());
         };
+        let why = &uncovered.why;
         for (k, name) in params.iter().enumerate() {
-            if !self.shifts_time(k) {
+            // where one parameter is why, it is the one named (the others may be fine alone)
+            if !self.shifts_time(k) || uncovered.param.is_some_and(|p| p != k) {
                 continue;
             }
             for (e, emitter) in scene.emitters.iter().enumerate() {

@@ -83,7 +83,7 @@ pub(crate) fn resolve(described: Described, path: &Path) -> Result<Scene, SceneE
     }
     for (a, b) in super::flush::flush_surfaces(&shapes, &geometry, &materials, offset_scale) {
         super::warnings::warn_once(format!(
-            "{}: shapes {:?} and {:?} have faces in one plane, facing the same way, that overlap: which of the two a ray meets there is left to rounding, so the picture shows a speckled mix of both materials; move one off the other (by a millimetre, say)",
+            "{}: shapes {:?} and {:?} have faces in one plane, facing the same way, that overlap: which of the two a ray meets there is left to rounding, so the picture shows a speckled mix of both materials, and a derivative that moves either is refused; move one off the other (by a millimetre, say)",
             path.display(),
             shapes[a].name,
             shapes[b].name
