@@ -114,6 +114,10 @@ pub(super) enum Entry {
 #[derive(Clone, Debug)]
 pub struct EmitterTable {
     pub(super) entries: Vec<Entry>,
+    /// Whether the point's first number also chooses the emitter (`EmitterTable::sample`):
+    /// with several emitters, each of whose triangles, shares of `1/n` of the unit interval,
+    /// still leave the point enough bits.
+    pub(super) by_point: bool,
 }
 
 impl EmitterTable {
@@ -171,7 +175,13 @@ impl EmitterTable {
                 }
             })
             .collect::<Result<Vec<_>, crate::error::Error>>()?;
-        Ok(Self { entries })
+        let n_e = entries.len();
+        let by_point = n_e > 1
+            && entries.iter().all(|e| match e {
+                Entry::Area { tris, .. } => tris.len() * n_e <= super::emitters::REUSE_MAX_TRIANGLES,
+                _ => true,
+            });
+        Ok(Self { entries, by_point })
     }
 
     pub fn count(&self) -> usize {

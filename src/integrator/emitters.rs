@@ -40,15 +40,16 @@ pub const REUSE_MAX_TRIANGLES: usize = 1024;
 
 impl EmitterTable {
     /// Whether [`EmitterTable::sample`] reads its `select` number: to pick one of several
-    /// emitters, or a triangle of a mesh larger than `REUSE_MAX_TRIANGLES`. With one emitter
-    /// of fewer triangles, the number is never read, so a caller may skip its dimension
-    /// ([`crate::kernel::sampler::PathSampler::skip`]) instead of computing it.
+    /// emitters where the point's number cannot spare the bits, or a triangle of a mesh larger
+    /// than `REUSE_MAX_TRIANGLES`. Elsewhere the number is never read, so a caller may skip
+    /// its dimension ([`crate::kernel::sampler::PathSampler::skip`]) instead of computing it.
     pub fn reads_select(&self) -> bool {
-        self.entries.len() > 1
-            || self
-                .entries
-                .iter()
-                .any(|e| matches!(e, Entry::Area { tris, .. } if tris.len() > REUSE_MAX_TRIANGLES))
+        !self.by_point
+            && (self.entries.len() > 1
+                || self
+                    .entries
+                    .iter()
+                    .any(|e| matches!(e, Entry::Area { tris, .. } if tris.len() > REUSE_MAX_TRIANGLES)))
     }
 
     /// Samples one emitter point per lane: `select` picks the emitter, and the 2D point
@@ -58,7 +59,12 @@ impl EmitterTable {
     /// stratified 2D point set (a pixel's Sobol pair) stays stratified over the whole emitter,
     /// not only within whichever triangle each point happened to pick. A larger emitter mesh
     /// picks its triangle with the rest of `select` (after the emitter choice), since rescaling
-    /// would leave `u0` too few of its 24 bits.
+    /// would leave `u0` too few of its 24 bits. Several emitters are chosen the same way, by
+    /// `u0` rescaled within the emitter's share 1/n, wherever every emitter's triangles times
+    /// n stay within `REUSE_MAX_TRIANGLES` (`EmitterTable::by_point`): a number apart from
+    /// the point split a stratified set between the emitters at random, so that each emitter
+    /// got an unstratified half (an independent sweep measured the boundary stage's variance
+    /// of a two-light scene ~100× its lights' alone, where Sobol points gained nothing).
     pub fn sample<R: Real, const C: usize>(
         &self,
         ctx: &RenderContext,
@@ -116,6 +122,13 @@ impl EmitterTable {
             }
             let sel = select.lane(i) * n_e as f32;
             let mut e = (sel as usize).min(n_e - 1);
+            // the point's first number, rescaled within the emitter's share where it chose it
+            let mut u_point = u0.lane(i);
+            if self.by_point {
+                let s = u_point * n_e as f32;
+                e = (s as usize).min(n_e - 1);
+                u_point = (s - e as f32).clamp(0.0, 1.0 - f32::EPSILON);
+            }
             let mut p_sel = 1.0 / n_e as f32;
             let scanned;
             let entry = match scan {
@@ -141,11 +154,11 @@ impl EmitterTable {
                         continue;
                     }
                     let (k, ua) = if tris.len() <= REUSE_MAX_TRIANGLES {
-                        pick_and_rescale(cdf, u0.lane(i))
+                        pick_and_rescale(cdf, u_point)
                     } else {
                         // the fractional part of the selection number
                         let ut = (sel - e as f32).clamp(0.0, 1.0 - f32::EPSILON);
-                        (pick_and_rescale(cdf, ut).0, u0.lane(i))
+                        (pick_and_rescale(cdf, ut).0, u_point)
                     };
                     prim[i] = tris[k];
                     (bu[i], bv[i]) = uniform_in_triangle(ua, u1.lane(i));
