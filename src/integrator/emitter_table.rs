@@ -12,6 +12,11 @@ use crate::accel::Accel;
 use crate::scene::{EmitterKind, Material, Scene};
 use glam::Vec3;
 
+/// Largest area emitter (in triangles) whose triangle is picked by the first number of the
+/// point it samples (`EmitterTable::sample`, in `emitters.rs`): its rescaled remainder keeps
+/// at least 14 of the number's 24 bits for the point on a triangle of average area.
+pub const REUSE_MAX_TRIANGLES: usize = 1024;
+
 /// The spot a laser lights.
 #[derive(Clone, Debug)]
 pub struct LaserSpot {
@@ -178,7 +183,7 @@ impl EmitterTable {
         let n_e = entries.len();
         let by_point = n_e > 1
             && entries.iter().all(|e| match e {
-                Entry::Area { tris, .. } => tris.len() * n_e <= super::emitters::REUSE_MAX_TRIANGLES,
+                Entry::Area { tris, .. } => tris.len() * n_e <= REUSE_MAX_TRIANGLES,
                 _ => true,
             });
         Ok(Self { entries, by_point })

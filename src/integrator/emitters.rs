@@ -33,10 +33,7 @@ pub struct LightSample<R: Real, const C: usize> {
     pub pre64: [f64; 8],
 }
 
-/// Largest area emitter (in triangles) whose triangle is picked by the first number of the
-/// point it samples ([`EmitterTable::sample`]): its rescaled remainder keeps at least 14 of
-/// the number's 24 bits for the point on a triangle of average area.
-pub const REUSE_MAX_TRIANGLES: usize = 1024;
+pub use super::emitter_table::REUSE_MAX_TRIANGLES;
 
 impl EmitterTable {
     /// Whether [`EmitterTable::sample`] reads its `select` number: to pick one of several
