@@ -578,7 +578,14 @@ pub fn trace_packet_from<R: Real, const C: usize, S: Sink<C>>(
                                 + eta.value().lane(i) as f64 * free;
                         }
                     }
-                    let drop_time = if time_edges.is_some() { lit } else { no_lanes };
+                    // (a point light's or a laser's time term stays here: the draws take area emitters')
+                    let drop_time = match time_edges {
+                        Some(te) => {
+                            let covered: [bool; 8] = std::array::from_fn(|i| te.covers(ls.emitter[i]));
+                            lit & R::Mask::from_bools(&covered[..R::LANES])
+                        }
+                        None => no_lanes,
+                    };
                     splat(
                         ctx,
                         sink,

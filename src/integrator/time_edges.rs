@@ -39,8 +39,9 @@
 //! the bin after that edge and takes it from the bin before ([`Draw::edge`]).
 //!
 //! The kernel uses this only where next-event estimation covers every path it replaces: the
-//! box gate, area emitters only (a point or a laser spot leaves no r to aim), and no NLOS
-//! capture. `time_edge_nee.rs` says how the other estimators' time terms are left out so
+//! box gate, the area emitters (a point or a laser spot leaves no r to aim: their
+//! contributions keep their own time term, so their pulses must be smooth where a derivative
+//! shifts time), and no NLOS capture. `time_edge_nee.rs` says how the other estimators' time terms are left out so
 //! that nothing is counted twice; [`TimeEdges::cover_delta`] when a delta pulse's derivative
 //! may be taken from the draws alone.
 
@@ -387,6 +388,8 @@ impl Spread {
 /// One emitter's polygons with their area shares.
 #[derive(Clone, Debug)]
 struct EmitterPolygons {
+    /// The scene's index of the emitter, and its shape.
+    emitter: u32,
     shape: usize,
     polygons: Vec<Polygon>,
     /// Cumulative area shares (last = 1).
@@ -396,7 +399,7 @@ struct EmitterPolygons {
 
 impl EmitterPolygons {
     /// `polygons` of emitter shape `shape`, chosen by area; `None` if they have no area.
-    fn new(shape: usize, polygons: Vec<Polygon>, radiance: [f32; 3]) -> Option<Self> {
+    fn new(emitter: u32, shape: usize, polygons: Vec<Polygon>, radiance: [f32; 3]) -> Option<Self> {
         let total: f64 = polygons.iter().map(|p| p.area).sum();
         if polygons.is_empty() || !(total > 0.0) {
             return None;
@@ -410,6 +413,7 @@ impl EmitterPolygons {
             })
             .collect();
         Some(Self {
+            emitter,
             shape,
             polygons,
             cdf,
@@ -421,7 +425,11 @@ impl EmitterPolygons {
 /// What the time-edge draws need of a render, built once ([`TimeEdges::build`]).
 #[derive(Clone, Debug)]
 pub struct TimeEdges {
+    /// The area emitters, whose light points the draws take (`spreads` and `first` follow
+    /// them), and each of the scene's emitters' place among them (`None`: a point light or a
+    /// laser, whose contributions keep their time term).
     emitters: Vec<EmitterPolygons>,
+    slot: Vec<Option<u32>>,
     spreads: Vec<Spread>,
     /// OPL of film edge 0 less each emitter's offset τ (the edges then lie at `first + j·w`).
     first: Vec<f64>,
@@ -438,7 +446,9 @@ pub struct TimeEdges {
 /// A vertex's draws: the polygon and the OPL components it reaches.
 #[derive(Clone, Copy, Debug)]
 pub struct Plan {
+    /// The scene's index of the emitter, and its place among the draws' (`TimeEdges::emitters`).
     pub emitter: u32,
+    slot: u32,
     polygon: u32,
     /// Emitter and polygon choice probability.
     p_choice: f64,
@@ -473,10 +483,11 @@ pub struct Draw {
 }
 
 impl TimeEdges {
-    /// The draws' data when every emitter is an area emitter (Gaussian, box or delta pulse),
-    /// the film's gate is a box, there is no NLOS capture and some parameter shifts paths in
-    /// time; `None` otherwise (the kernel then keeps the time term in its ordinary
-    /// contributions; a delta pulse's is then refused, [`Self::cover_delta`]).
+    /// The draws' data, on the area emitters (Gaussian, box or delta pulse), when the film's
+    /// gate is a box, there is no NLOS capture and some parameter shifts paths in time; `None`
+    /// otherwise (the kernel then keeps the time term in its ordinary contributions; a delta
+    /// pulse's is then refused, [`Self::cover_delta`]). Point lights and lasers are left to
+    /// their ordinary contributions, which keep their time term ([`Self::covers`]).
     pub fn build(scene: &Scene, motion: &Motion) -> Option<Self> {
         if scene.nlos.is_some() || scene.film.gate != Gate::Box || scene.emitters.is_empty() {
             return None;
@@ -486,13 +497,16 @@ impl TimeEdges {
         }
         let geo = &scene.geometry;
         let mut emitters = Vec::new();
+        let mut slot = Vec::new();
         let mut spreads = Vec::new();
         let mut first = Vec::new();
         let mut emitters_move = false;
-        for e in &scene.emitters {
+        for (index, e) in scene.emitters.iter().enumerate() {
             let EmitterKind::Area { shape, radiance } = e.kind else {
-                return None;
+                slot.push(None);
+                continue;
             };
+            slot.push(Some(emitters.len() as u32));
             spreads.push(Spread::of(e.pulse, scene.film.axis.bin_width_opl));
             first.push(scene.film.axis.start_opl - e.offset_opl);
             emitters_move |= motion
@@ -503,10 +517,19 @@ impl TimeEdges {
             let tris: Vec<[DVec3; 3]> = (s.first_tri..s.first_tri + s.tri_count)
                 .map(|t| geo.indices[t as usize].map(|i| geo.positions[i as usize].as_dvec3()))
                 .collect();
-            emitters.push(EmitterPolygons::new(shape as usize, polygons(&tris), radiance)?);
+            emitters.push(EmitterPolygons::new(
+                index as u32,
+                shape as usize,
+                polygons(&tris),
+                radiance,
+            )?);
+        }
+        if emitters.is_empty() {
+            return None;
         }
         Some(Self {
             emitters,
+            slot,
             spreads,
             first,
             width: scene.film.axis.bin_width_opl,
@@ -530,12 +553,17 @@ impl TimeEdges {
         if scene.nlos.is_some() {
             return Err("an NLOS capture's laser spots leave no light point to draw".into());
         }
+        // (the draws cover the area emitters; a point light's or a laser's delta pulse is not)
         if let Some(e) = scene
             .emitters
             .iter()
-            .find(|e| !matches!(e.kind, EmitterKind::Area { .. }))
+            .find(|e| e.pulse == Pulse::Delta && !matches!(e.kind, EmitterKind::Area { .. }))
         {
-            return Err(format!("emitter {:?} is not an area emitter (no light point to draw)", e.name).into());
+            return Err(format!(
+                "emitter {:?} has a delta pulse but is not an area emitter (no light point to draw)",
+                e.name
+            )
+            .into());
         }
         if let Some(m) = scene
             .materials
@@ -601,18 +629,29 @@ impl From<String> for Uncovered {
 }
 
 impl TimeEdges {
-    /// The shape emitter `e` covers (its light points move with it).
+    /// The draws' own data of scene emitter `e` (an area emitter).
+    fn own(&self, e: u32) -> &EmitterPolygons {
+        &self.emitters[self.slot[e as usize].expect("an area emitter") as usize]
+    }
+
+    /// The shape area emitter `e` covers (its light points move with it).
     pub fn shape(&self, e: u32) -> usize {
-        self.emitters[e as usize].shape
+        self.own(e).shape
     }
 
     pub fn radiance(&self, e: u32) -> [f32; 3] {
-        self.emitters[e as usize].radiance
+        self.own(e).radiance
+    }
+
+    /// Whether the draws take the time term of the paths that end on scene emitter `e` (an
+    /// area emitter), which its ordinary contributions then leave out.
+    pub fn covers(&self, e: u32) -> bool {
+        self.slot.get(e as usize).is_some_and(Option::is_some)
     }
 
     /// The emitting normal of the plan's polygon.
     pub fn normal(&self, plan: &Plan) -> DVec3 {
-        self.emitters[plan.emitter as usize].polygons[plan.polygon as usize].normal
+        self.emitters[plan.slot as usize].polygons[plan.polygon as usize].normal
     }
 
     /// The draws for vertex `x` (prefix OPL `d_p`, medium index `eta`): the emitter from
@@ -657,7 +696,8 @@ impl TimeEdges {
             return None;
         }
         Some(Plan {
-            emitter: e as u32,
+            emitter: em.emitter,
+            slot: e as u32,
             polygon: k as u32,
             p_choice: p_poly / n_e as f64,
             foot,
@@ -685,7 +725,7 @@ impl TimeEdges {
     /// roulette when it is under one draw's worth) or where the circle misses the polygon
     /// (only at its rim, in rounding).
     pub fn draw(&self, plan: &Plan, slot: usize, xi: f64, v: f64) -> Option<Draw> {
-        let e = plan.emitter as usize;
+        let e = plan.slot as usize;
         let spread = self.spreads[e];
         // the stratum's point of the components laid end to end
         let mut u = (slot as f64 + xi.clamp(0.0, 1.0)) / plan.slots as f64 * plan.line;
@@ -754,7 +794,7 @@ impl TimeEdges {
     fn on_circle(&self, plan: &Plan, d: f64, v: f64) -> Option<(DVec3, f64)> {
         let r = (d - plan.d_p) / plan.eta;
         let rho = (r * r - plan.h * plan.h).max(0.0).sqrt();
-        let poly = &self.emitters[plan.emitter as usize].polygons[plan.polygon as usize];
+        let poly = &self.emitters[plan.slot as usize].polygons[plan.polygon as usize];
         let mut arcs = [(0.0, 0.0); MAX_SIDES];
         let (n, theta) = poly.arcs(plan.foot, rho, &mut arcs);
         if !(theta > 0.0) {

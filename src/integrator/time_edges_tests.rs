@@ -12,7 +12,8 @@ fn square(centre: DVec3, side: f64) -> Vec<[DVec3; 3]> {
 
 fn edges_for(polygons: Vec<Polygon>, pulse: Pulse, axis: TimeAxis, offset: f64) -> TimeEdges {
     TimeEdges {
-        emitters: vec![EmitterPolygons::new(0, polygons, [1.0; 3]).unwrap()],
+        emitters: vec![EmitterPolygons::new(0, 0, polygons, [1.0; 3]).unwrap()],
+        slot: vec![Some(0)],
         spreads: vec![Spread::of(pulse, axis.bin_width_opl)],
         first: vec![axis.start_opl - offset],
         width: axis.bin_width_opl,
