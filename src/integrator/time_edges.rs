@@ -41,9 +41,9 @@
 //! The kernel uses this only where next-event estimation covers every path it replaces: the
 //! box gate, the area emitters (a point or a laser spot leaves no r to aim: their
 //! contributions keep their own time term, so their pulses must be smooth where a derivative
-//! shifts time), and no NLOS capture. `time_edge_nee.rs` says how the other estimators' time terms are left out so
-//! that nothing is counted twice; [`TimeEdges::cover_delta`] when a delta pulse's derivative
-//! may be taken from the draws alone.
+//! shifts time), and no NLOS capture. `time_edge_nee.rs` says how the other estimators' time
+//! terms are left out so that nothing is counted twice; [`TimeEdges::cover_delta`] when a
+//! delta pulse's derivative may be taken from the draws alone.
 
 use crate::params::lanes::Motion;
 use crate::scene::{EmitterKind, Scene};
