@@ -583,14 +583,14 @@ impl TimeEdges {
                 EmitterKind::Area { shape, .. } => motion.fields[k].iter().any(|(s, _)| *s == shape as usize),
                 _ => false,
             });
-            let what = if delta_offset {
-                "the pulse offset of a delta emitter"
-            } else if motion.eta[k] {
-                "the medium's index"
-            } else {
-                "an emitter's motion"
-            };
             if delta_offset || motion.eta[k] || moves_emitter {
+                let what = if delta_offset {
+                    "the pulse offset of a delta emitter"
+                } else if motion.eta[k] {
+                    "the medium's index"
+                } else {
+                    "an emitter's motion"
+                };
                 return Err(Uncovered {
                     param: Some(k),
                     why: format!(
