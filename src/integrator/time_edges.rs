@@ -544,8 +544,8 @@ impl TimeEdges {
     /// 2.5): `Ok` when the path tracer draws (`path_draws`: its kernel, the draws on), every
     /// emitter is an area emitter, no material has a Dirac lobe or transmits (a path whose
     /// last vertex before the light is such would reach it without a draw), and no parameter
-    /// shifts the paths that see an emitter from the camera (the pulse offset of a delta
-    /// emitter, the medium's index, an emitter's motion). Else why not.
+    /// shifts the paths that see a delta emitter from the camera (its pulse offset, the
+    /// medium's index, its motion). Else why not.
     pub fn cover_delta(scene: &Scene, motion: &Motion, path_draws: bool) -> Result<(), Uncovered> {
         if !path_draws {
             return Err("the draws on the time edges are off (--time-edges off; auto turns them on)".into());
@@ -579,17 +579,24 @@ impl TimeEdges {
         }
         for k in 0..motion.len() {
             let delta_offset = motion.pulse_offset[k].is_some_and(|e| scene.emitters[e].pulse == Pulse::Delta);
-            let moves_emitter = scene.emitters.iter().any(|e| match e.kind {
-                EmitterKind::Area { shape, .. } => motion.fields[k].iter().any(|(s, _)| *s == shape as usize),
+            // (a moving emitter with a smooth pulse keeps the time term of the paths that see it
+            // from the camera in its ordinary contributions)
+            let moved_delta = scene.emitters.iter().find(|e| match e.kind {
+                EmitterKind::Area { shape, .. } => {
+                    e.pulse == Pulse::Delta && motion.fields[k].iter().any(|(s, _)| *s == shape as usize)
+                }
                 _ => false,
             });
-            if delta_offset || motion.eta[k] || moves_emitter {
+            if delta_offset || motion.eta[k] || moved_delta.is_some() {
                 let what = if delta_offset {
-                    "the pulse offset of a delta emitter"
+                    "the pulse offset of a delta emitter".to_string()
                 } else if motion.eta[k] {
-                    "the medium's index"
+                    "the medium's index".to_string()
                 } else {
-                    "an emitter's motion"
+                    format!(
+                        "the motion of delta emitter {:?}",
+                        moved_delta.map_or("", |e| e.name.as_str())
+                    )
                 };
                 return Err(Uncovered {
                     param: Some(k),
