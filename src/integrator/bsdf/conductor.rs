@@ -6,30 +6,30 @@ use super::ggx;
 use crate::kernel::{Real, V3};
 
 /// The cosines a conductor needs for unit `wo`, `wi` at normal `n`, mirrored to the side of
-/// `wo`: (|cos θ_o|, cos θ_i on that side, cos θ_h, o·h), and the lanes where both leave on the
-/// same side.
+/// `wo`: (|cos θ_o|, cos θ_i on that side, cos θ_h, o·h, sin²θ_h), and the lanes where both
+/// leave on the same side.
 #[inline(always)]
-pub fn cosines<R: Real>(n: &V3<R>, wo: &V3<R>, wi: &V3<R>) -> ([R; 4], R::Mask) {
+pub fn cosines<R: Real>(n: &V3<R>, wo: &V3<R>, wi: &V3<R>) -> ([R; 5], R::Mask) {
     let co = n.dot(*wo);
     let ci = R::select(co.lt(R::zero()), -n.dot(*wi), n.dot(*wi));
     let h = (*wo + *wi).normalize();
     let ch = n.dot(h).abs();
     let oh = wo.dot(h);
     let co = co.abs();
-    ([co, ci, ch, oh], co.gt(R::zero()) & ci.gt(R::zero()))
+    ([co, ci, ch, oh, ggx::sin2(n, &h)], co.gt(R::zero()) & ci.gt(R::zero()))
 }
 
 /// D·G / (4 cos θ_o cos θ_i): f without Fresnel and tint.
 #[inline(always)]
-pub fn eval<R: Real>(alpha: R, [co, ci, ch, oh]: [R; 4], valid: R::Mask) -> R {
+pub fn eval<R: Real>(alpha: R, [co, ci, ch, oh, sh]: [R; 5], valid: R::Mask) -> R {
     let g = ggx::g1(alpha, co, oh) * ggx::g1(alpha, ci, oh);
-    R::safe_div(ggx::d(alpha, ch) * g, (co * ci).mul_f(4.0)).masked(valid)
+    R::safe_div(ggx::d(alpha, ch, sh) * g, (co * ci).mul_f(4.0)).masked(valid)
 }
 
 /// Solid-angle pdf of mirroring `wo` about a visible normal: G1(o)·D(h) / (4 cos θ_o).
 #[inline(always)]
-pub fn pdf<R: Real>(alpha: R, [co, _ci, ch, oh]: [R; 4], valid: R::Mask) -> R {
-    R::safe_div(ggx::g1(alpha, co, oh) * ggx::d(alpha, ch), co.mul_f(4.0)).masked(valid)
+pub fn pdf<R: Real>(alpha: R, [co, _ci, ch, oh, sh]: [R; 5], valid: R::Mask) -> R {
+    R::safe_div(ggx::g1(alpha, co, oh) * ggx::d(alpha, ch, sh), co.mul_f(4.0)).masked(valid)
 }
 
 /// `w` mirrored about unit `m`: 2(w·m)m − w.

@@ -17,8 +17,9 @@ pub struct Half<R: Real> {
     /// cos θ_o, cos θ_i against `n` (signed).
     pub co: R,
     pub ci: R,
-    /// cos θ_m of the half vector oriented to the exterior, o·m, i·m.
+    /// cos θ_m of the half vector oriented to the exterior, its sin²θ_m, o·m, i·m.
     pub cm: R,
+    pub sm2: R,
     pub om: R,
     pub im: R,
     /// η_i / η_o: 1 for reflection, η or 1/η for refraction.
@@ -46,6 +47,7 @@ pub fn half<R: Real>(n: &V3<R>, wo: &V3<R>, wi: &V3<R>, eta: R) -> Half<R> {
         co,
         ci,
         cm,
+        sm2: ggx::sin2(n, &m),
         om,
         im,
         etap,
@@ -85,7 +87,7 @@ pub fn grazing_taper<R: Real>(cm: R) -> R {
 #[inline(always)]
 pub fn eval<R: Real>(alpha: R, eta: R, h: &Half<R>, radiance: bool) -> R {
     let f = fresnel::dielectric(h.om, eta);
-    let dg = ggx::d(alpha, h.cm) * ggx::g1(alpha, h.co, h.om) * ggx::g1(alpha, h.ci, h.im);
+    let dg = ggx::d(alpha, h.cm, h.sm2) * ggx::g1(alpha, h.co, h.om) * ggx::g1(alpha, h.ci, h.im);
     let fr = R::safe_div(dg * f, (h.ci * h.co).abs().mul_f(4.0));
     let s = h.im + R::safe_div(h.om, h.etap);
     let ft = R::safe_div(dg * (R::one() - f) * (h.im * h.om).abs(), (s * s * h.ci * h.co).abs());
@@ -99,7 +101,7 @@ pub fn eval<R: Real>(alpha: R, eta: R, h: &Half<R>, radiance: bool) -> R {
 #[inline(always)]
 pub fn pdf<R: Real>(alpha: R, eta: R, h: &Half<R>) -> R {
     let f = fresnel::dielectric(h.om, eta);
-    let dv = ggx::visible_pdf(alpha, h.co, h.om, h.cm);
+    let dv = ggx::visible_pdf(alpha, h.co, h.om, h.cm, h.sm2);
     let pr = R::safe_div(dv * f, h.om.abs().mul_f(4.0));
     let s = h.im + R::safe_div(h.om, h.etap);
     let pt = R::safe_div(dv * (R::one() - f) * h.im.abs(), s * s);

@@ -8,16 +8,26 @@ use crate::kernel::{Real, V3};
 use std::f32::consts::PI;
 
 /// D(m) = α² / (π ((α² − 1) cos²θ_m + 1)²) for cos θ_m > 0, 0 below (Walter et al. 2007,
-/// Eq. 33). The denominator's root is taken as α² cos²θ_m + sin²θ_m: in the form of Eq. 33,
-/// α² − 1 rounds to −1 in f32 below α ≈ 2.4·10⁻⁴, so the root vanished at the peak, D was 0
-/// there and a lobe sampled at m = n lost its sample (a rough conductor of α 10⁻⁴ rendered
-/// 38 % dark).
+/// Eq. 33), from cos θ_m and sin²θ_m. The denominator's root is taken as α² cos²θ_m + sin²θ_m:
+/// in the form of Eq. 33, α² − 1 rounds to −1 in f32 below α ≈ 2.4·10⁻⁴, so the root vanished
+/// at the peak, D was 0 there and a lobe sampled at m = n lost its sample (a rough conductor of
+/// α 10⁻⁴ rendered 38 % dark). And sin²θ_m comes from the caller as |n × m|² ([`sin2`]):
+/// 1 − cos²θ_m rounds in f32 to multiples of 6·10⁻⁸ near the peak, coarser than α² there below
+/// α ≈ 10⁻³, and the roughness derivative ∂D/∂α, which changes sign across the peak, came
+/// out biased: −8008 ± 16 against a finite difference of about 0 at α 10⁻⁴
+/// (`tests::roughness_derivative_of_a_nearly_smooth_lobe`).
 #[inline(always)]
-pub fn d<R: Real>(alpha: R, cos_m: R) -> R {
+pub fn d<R: Real>(alpha: R, cos_m: R, sin2_m: R) -> R {
     let a2 = alpha * alpha;
-    let c2 = cos_m * cos_m;
-    let t = a2 * c2 + (R::one() - c2).max(R::zero());
+    let t = a2 * cos_m * cos_m + sin2_m;
     R::safe_div(a2, (t * t).mul_f(PI)).masked(cos_m.gt(R::zero()))
+}
+
+/// sin²θ between unit vectors `n` and `m`, as |n × m|²: exact to f32's relative precision
+/// near θ = 0, where 1 − (n·m)² is not.
+#[inline(always)]
+pub fn sin2<R: Real>(n: &V3<R>, m: &V3<R>) -> R {
+    n.cross(*m).length_squared()
 }
 
 /// Smith's G1 = 2 / (1 + √(1 + α² tan²θ_w)) of a direction with cosine `cos_w` against the
@@ -34,8 +44,11 @@ pub fn g1<R: Real>(alpha: R, cos_w: R, cos_wm: R) -> R {
 /// Density of the visible normal m seen from w, D_w(m) = G1(w)·|w·m|·D(m) / |cos θ_w|
 /// (Heitz 2018, Eq. 1), per solid angle of m.
 #[inline(always)]
-pub fn visible_pdf<R: Real>(alpha: R, cos_w: R, cos_wm: R, cos_m: R) -> R {
-    R::safe_div(g1(alpha, cos_w, cos_wm) * cos_wm.abs() * d(alpha, cos_m), cos_w.abs())
+pub fn visible_pdf<R: Real>(alpha: R, cos_w: R, cos_wm: R, cos_m: R, sin2_m: R) -> R {
+    R::safe_div(
+        g1(alpha, cos_w, cos_wm) * cos_wm.abs() * d(alpha, cos_m, sin2_m),
+        cos_w.abs(),
+    )
 }
 
 /// A visible normal (local frame, z up) for the direction `w` (local, w.z > 0), distributed by
