@@ -133,8 +133,8 @@ pub(crate) fn delta_draws(
 #[serde(rename_all = "lowercase")]
 pub enum TimeEdgeMode {
     /// Light points drawn where a connection's OPL crosses a bin edge, wherever they apply
-    /// (box gate, area emitters with Gaussian or box pulses, no NLOS capture); the ordinary
-    /// contributions elsewhere.
+    /// (box gate, area emitters with delta pulses or pulses at most half a bin wide, no NLOS
+    /// capture); the ordinary contributions elsewhere.
     #[default]
     Auto,
     /// The ordinary contributions only (next-event estimation and emission hits).

@@ -95,6 +95,22 @@ pub enum Pulse {
     },
 }
 
+impl Pulse {
+    /// The pulse's variance in time of flight (m² of OPL): 0, σ², or a box's width²/12.
+    pub fn variance(&self) -> f64 {
+        match *self {
+            Pulse::Delta => 0.0,
+            Pulse::Gaussian { sigma_opl } => (sigma_opl as f64).powi(2),
+            Pulse::Box { width_opl } => (width_opl as f64).powi(2) / 12.0,
+        }
+    }
+
+    /// The pulse's standard deviation (m of OPL).
+    pub fn std_dev(&self) -> f64 {
+        self.variance().sqrt()
+    }
+}
+
 /// Sensor gate of each bin.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub enum Gate {

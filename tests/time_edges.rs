@@ -240,7 +240,14 @@ fn a_point_light_beside_a_delta_area_light_keeps_its_time_term() {
     // with its time term from the ordinary contributions (`--time-edges off`)
     let mut area_only = common::load("narrow_pulse_box.toml");
     delta(&mut area_only);
-    assert_two_lights_superpose(&both, &area_only, &dark_ceiling(&both), "tall_box_x", "the bulb's part");
+    assert_two_lights_superpose(
+        &both,
+        &area_only,
+        &dark_ceiling(&both),
+        "tall_box_x",
+        16,
+        "the bulb's part",
+    );
 }
 
 /// `scene` with its delta ceiling light dark and of a smooth pulse: no draws are needed.
@@ -258,14 +265,14 @@ fn dark_ceiling(scene: &Scene) -> Scene {
 /// d/d`param` (interior) of a scene with two lights (`both`, draws on) against the sum of
 /// the first light alone (draws on) and the second beside the first made dark (its time term
 /// from the ordinary contributions, `--time-edges off`): independent seeds, coarse
-/// aggregates, 24 seeds × 16 spp each. The second light's part (`what`) must be resolved to 8
+/// aggregates, 24 seeds × `spp` each. The second light's part (`what`) must be resolved to 8
 /// standard errors of the difference at the aggregate where it stands out most.
-fn assert_two_lights_superpose(both: &Scene, first: &Scene, second: &Scene, param: &str, what: &str) {
+fn assert_two_lights_superpose(both: &Scene, first: &Scene, second: &Scene, param: &str, spp: u32, what: &str) {
     let runs = |scene: &Scene, seeds: std::ops::Range<u64>, time_edges: TimeEdgeMode| -> Vec<Vec<f64>> {
         seeds
             .map(|seed| {
                 let opts = RenderOptions {
-                    spp: Some(16),
+                    spp: Some(spp),
                     seed: Some(seed),
                     threads: Some(1),
                     boundary: BoundaryMode::InteriorOnly,
@@ -303,6 +310,31 @@ fn assert_two_lights_superpose(both: &Scene, first: &Scene, second: &Scene, para
     );
 }
 
+/// narrow_pulse_box.toml with its ceiling light made delta and a 30 cm panel 5 cm in front of
+/// the red wall, facing into the box and seen by the camera, with a parameter `panel_x`
+/// moving it towards the box (written to `dir`): the panel as an area emitter `glow` of
+/// `pulse` (TOML), and as plain geometry.
+fn panel_beside_delta_light(dir: &std::path::Path, pulse: &str) -> (Scene, Scene) {
+    let base = std::fs::read_to_string(common::scene_path("narrow_pulse_box.toml")).unwrap();
+    let panel = "\n[[shape]]\nname = \"panel\"\ntype = \"rectangle\"\nmaterial = \"white\"\n\
+                 translate = [-0.95, 1.2, -0.2]\nrotate = [0.0, 90.0, 0.0]\nscale = [0.2, 0.2, 1.0]\n\
+                 \n[[param]]\nname = \"panel_x\"\nkind = \"translate\"\nshape = \"panel\"\naxis = \"x\"\nvalue = -0.95\n";
+    let glow = format!(
+        "\n[[emitter]]\nname = \"glow\"\ntype = \"area\"\nshape = \"panel\"\nradiance = 30.0\npulse = {pulse}\noffset_opl = 0.1\n"
+    );
+    let load = |name: &str, text: String| -> Scene {
+        let path = dir.join(name);
+        std::fs::write(&path, text).unwrap();
+        let mut scene = Scene::load(&path, &[]).unwrap();
+        delta(&mut scene);
+        scene
+    };
+    (
+        load("both.toml", format!("{base}{panel}{glow}")),
+        load("light.toml", format!("{base}{panel}")),
+    )
+}
+
 /// A moving area emitter with a smooth pulse beside a static delta area light: the draws take
 /// the delta light's time term, and the paths that see the moving panel from the camera keep
 /// theirs in the ordinary contributions (`TimeEdges::cover_delta` refuses only the motion of a
@@ -314,24 +346,16 @@ fn assert_two_lights_superpose(both: &Scene, first: &Scene, second: &Scene, para
 /// it (Σz² 140 over 17 aggregates, checked by hand); a delta pulse on the panel is refused.
 #[test]
 fn a_moving_smooth_emitter_beside_a_delta_area_light_keeps_its_time_term() {
-    let base = std::fs::read_to_string(common::scene_path("narrow_pulse_box.toml")).unwrap();
-    // a 30 cm panel 5 cm in front of the red wall, facing into the box, seen by the camera
-    let panel = "\n[[shape]]\nname = \"panel\"\ntype = \"rectangle\"\nmaterial = \"white\"\n\
-                 translate = [-0.95, 1.2, -0.2]\nrotate = [0.0, 90.0, 0.0]\nscale = [0.2, 0.2, 1.0]\n\
-                 \n[[param]]\nname = \"panel_x\"\nkind = \"translate\"\nshape = \"panel\"\naxis = \"x\"\nvalue = -0.95\n";
-    let glow = "\n[[emitter]]\nname = \"glow\"\ntype = \"area\"\nshape = \"panel\"\nradiance = 30.0\n\
-                pulse = { type = \"gaussian\", sigma_opl = 0.01 }\noffset_opl = 0.1\n";
     let dir = tempfile::tempdir().unwrap();
-    let load = |name: &str, text: String| -> Scene {
-        let path = dir.path().join(name);
-        std::fs::write(&path, text).unwrap();
-        let mut scene = Scene::load(&path, &[]).unwrap();
-        delta(&mut scene);
-        scene
-    };
-    let both = load("both.toml", format!("{base}{panel}{glow}"));
-    let light_only = load("light.toml", format!("{base}{panel}"));
-    assert_two_lights_superpose(&both, &light_only, &dark_ceiling(&both), "panel_x", "the panel's light");
+    let (both, light_only) = panel_beside_delta_light(dir.path(), "{ type = \"gaussian\", sigma_opl = 0.01 }");
+    assert_two_lights_superpose(
+        &both,
+        &light_only,
+        &dark_ceiling(&both),
+        "panel_x",
+        16,
+        "the panel's light",
+    );
     // the camera sees the panel: with a delta pulse of its own, its motion shifts a Dirac
     let mut delta_panel = both.clone();
     delta_panel.emitters[1].pulse = Pulse::Delta;
@@ -346,5 +370,72 @@ fn a_moving_smooth_emitter_beside_a_delta_area_light_keeps_its_time_term() {
     assert!(
         e.contains("parameter \"panel_x\"") && e.contains("motion of delta emitter \"glow\""),
         "{e}"
+    );
+}
+
+/// Pulses wider than [`MAX_SIGMA_PER_BIN`] of a bin keep their ordinary time term: the draws
+/// cost 2–5× the interior's time there for little or no less variance. Alone, such an emitter
+/// renders the bytes of `--time-edges off` and the stats say no draws ran; at half a bin the
+/// draws run. Beside a narrow light the draws cover, a wide-pulsed panel's paths keep their
+/// time term wherever they end on it: with that light dark, auto renders the bytes of off;
+/// with a delta ceiling light, d/d`tall_box_x` of the two lights matches the sum of each
+/// alone. Emission found by a BSDF sample after a vertex dropped its time term for every
+/// emitter before (the draws then covered them all); left so, the bytes differ.
+///
+/// [`MAX_SIGMA_PER_BIN`]: difftransient::integrator::time_edges::MAX_SIGMA_PER_BIN
+#[test]
+fn pulses_wider_than_half_a_bin_keep_their_ordinary_time_term() {
+    use difftransient::integrator::time_edges::MAX_SIGMA_PER_BIN;
+    let mut scene = common::load("narrow_pulse_box.toml");
+    let bin = scene.film.axis.bin_width_opl;
+    let render = |scene: &Scene, mode: TimeEdgeMode| {
+        let opts = RenderOptions {
+            spp: Some(2),
+            seed: Some(3),
+            threads: Some(1),
+            time_edges: mode,
+            ..Default::default()
+        };
+        render_diff(scene, &["tall_box_x".to_string(), "light_offset".to_string()], &opts).unwrap()
+    };
+    for (ratio, drawn) in [(2.0 * MAX_SIGMA_PER_BIN, false), (MAX_SIGMA_PER_BIN, true)] {
+        scene.emitters[0].pulse = Pulse::Gaussian {
+            sigma_opl: (ratio * bin) as f32,
+        };
+        let (p, d, stats) = render(&scene, TimeEdgeMode::Auto);
+        assert_eq!(stats.time_edges, drawn, "σ = {ratio} bins");
+        if !drawn {
+            let (p_off, d_off, _) = render(&scene, TimeEdgeMode::Off);
+            assert_eq!(p.data, p_off.data);
+            for (a, b) in d.iter().zip(&d_off) {
+                assert_eq!(a.data, b.data, "σ = {ratio} bins: auto against off");
+            }
+        }
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let pulse = format!(
+        "{{ type = \"gaussian\", sigma_opl = {} }}",
+        2.0 * MAX_SIGMA_PER_BIN * bin
+    );
+    let (both, light_only) = panel_beside_delta_light(dir.path(), &pulse);
+    // beside a dark narrow light that the draws cover (and add nothing for), the panel's
+    // paths are those of `--time-edges off`, with every time term where it was
+    let dark = dark_ceiling(&both);
+    let (_, d, stats) = render(&dark, TimeEdgeMode::Auto);
+    let (_, d_off, _) = render(&dark, TimeEdgeMode::Off);
+    assert!(stats.time_edges);
+    for (a, b) in d.iter().zip(&d_off) {
+        assert_eq!(
+            a.data, b.data,
+            "a wide panel beside a dark narrow light: auto against off"
+        );
+    }
+    assert_two_lights_superpose(
+        &both,
+        &light_only,
+        &dark_ceiling(&both),
+        "tall_box_x",
+        64,
+        "the wide panel's part",
     );
 }

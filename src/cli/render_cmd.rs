@@ -628,7 +628,7 @@ fn metadata(scene: &Scene, film: &Transient, stats: &RenderStats, a: &RenderArgs
     // the instruction set of this build (src/simd.rs)
     meta["simd"] = json!(crate::simd::compiled_for());
     meta["time_edges"] = json!({
-        "about": "used: the path tracer estimated each derivative's time term f·dS_e/dd·(dd/dθ) from light points drawn where a connection's OPL crosses a bin edge (box gate, area emitters with Gaussian, box or delta pulses, a parameter that shifts paths in time; a delta pulse's time term, a Dirac on each bin edge, comes from them alone); else from its ordinary next-event and emission contributions (--time-edges off, or where the draws do not apply)",
+        "about": "used: the path tracer estimated each derivative's time term f·dS_e/dd·(dd/dθ) from light points drawn where a connection's OPL crosses a bin edge (box gate, area emitters with delta pulses or pulses of standard deviation at most half a bin, a parameter that shifts paths in time; a delta pulse's time term, a Dirac on each bin edge, comes from them alone); else from its ordinary next-event and emission contributions (--time-edges off, or where the draws do not apply)",
         "used": stats.time_edges,
     });
     meta["steady"] = json!({

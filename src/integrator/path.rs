@@ -447,8 +447,9 @@ pub fn trace_packet_from<R: Real, const C: usize, S: Sink<C>>(
                     };
                     let contrib = (beta * hits.radiance).scale(R::from_value(w));
                     // after a vertex with next-event estimation, the draws carry the time term
+                    // of the emitters they cover
                     let drop_time = match time_edges {
-                        Some(_) if depth > 1 => !no_mis,
+                        Some(te) if depth > 1 => !no_mis & te.covered::<R>(&emitter),
                         _ => no_lanes,
                     };
                     splat(
@@ -578,12 +579,9 @@ pub fn trace_packet_from<R: Real, const C: usize, S: Sink<C>>(
                                 + eta.value().lane(i) as f64 * free;
                         }
                     }
-                    // (a point light's or a laser's time term stays here: the draws take area emitters')
+                    // (a point light's, a laser's or a wide pulse's time term stays here)
                     let drop_time = match time_edges {
-                        Some(te) => {
-                            let covered: [bool; 8] = std::array::from_fn(|i| te.covers(ls.emitter[i]));
-                            lit & R::Mask::from_bools(&covered[..R::LANES])
-                        }
+                        Some(te) => lit & te.covered::<R>(&ls.emitter),
                         None => no_lanes,
                     };
                     splat(

@@ -3,7 +3,7 @@
 //! optimisation loop resolves it at every iteration).
 
 use super::{Emitter, FilmSpec};
-use crate::temporal::{Gate, Pulse};
+use crate::temporal::Gate;
 use std::collections::HashSet;
 use std::path::Path;
 use std::sync::Mutex;
@@ -33,12 +33,7 @@ pub(crate) fn narrow_gate(path: &Path, film: &FilmSpec, emitters: &[Emitter]) ->
     };
     let w = film.axis.bin_width_opl;
     let sigma = sigma_opl as f64;
-    let spread = |p: &Pulse| match *p {
-        Pulse::Delta => 0.0,
-        Pulse::Gaussian { sigma_opl } => (sigma_opl as f64).powi(2),
-        Pulse::Box { width_opl } => (width_opl as f64).powi(2) / 12.0,
-    };
-    let widest = emitters.iter().map(|e| spread(&e.pulse)).fold(0.0, f64::max);
+    let widest = emitters.iter().map(|e| e.pulse.variance()).fold(0.0, f64::max);
     let eff = (sigma * sigma + widest).sqrt();
     if !(eff < NARROW_GATE * w) {
         return None;
