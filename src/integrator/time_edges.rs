@@ -569,16 +569,19 @@ impl TimeEdges {
             return Err("an NLOS capture's laser spots leave no light point to draw".into());
         }
         // (the draws cover the area emitters; a point light's or a laser's delta pulse is not)
-        if let Some(e) = scene
+        if let Some(i) = scene
             .emitters
             .iter()
-            .find(|e| e.pulse == Pulse::Delta && !matches!(e.kind, EmitterKind::Area { .. }))
+            .position(|e| e.pulse == Pulse::Delta && !matches!(e.kind, EmitterKind::Area { .. }))
         {
-            return Err(format!(
-                "emitter {:?} has a delta pulse but is not an area emitter (no light point to draw)",
-                e.name
-            )
-            .into());
+            return Err(Uncovered {
+                emitter: Some(i),
+                ..format!(
+                    "emitter {:?} has a delta pulse but is not an area emitter (no light point to draw)",
+                    scene.emitters[i].name
+                )
+                .into()
+            });
         }
         if let Some(m) = scene
             .materials
@@ -596,7 +599,7 @@ impl TimeEdges {
             let delta_offset = motion.pulse_offset[k].is_some_and(|e| scene.emitters[e].pulse == Pulse::Delta);
             // (a moving emitter with a smooth pulse keeps the time term of the paths that see it
             // from the camera in its ordinary contributions)
-            let moved_delta = scene.emitters.iter().find(|e| match e.kind {
+            let moved_delta = scene.emitters.iter().position(|e| match e.kind {
                 EmitterKind::Area { shape, .. } => {
                     e.pulse == Pulse::Delta && motion.fields[k].iter().any(|(s, _)| *s == shape as usize)
                 }
@@ -610,11 +613,16 @@ impl TimeEdges {
                 } else {
                     format!(
                         "the motion of delta emitter {:?}",
-                        moved_delta.map_or("", |e| e.name.as_str())
+                        moved_delta.map_or("", |i| scene.emitters[i].name.as_str())
                     )
                 };
                 return Err(Uncovered {
                     param: Some(k),
+                    emitter: if delta_offset {
+                        motion.pulse_offset[k]
+                    } else {
+                        moved_delta
+                    },
                     why: format!(
                         "it shifts the emitter seen from the camera in time ({what}), along paths with no vertex to draw from"
                     ),
@@ -630,11 +638,13 @@ impl TimeEdges {
 }
 
 /// Why the draws on the time edges cannot take a delta pulse's time term
-/// ([`TimeEdges::cover_delta`]): the reason, and the parameter it is about where one is
-/// (its index among the render's), which is then the one to name.
+/// ([`TimeEdges::cover_delta`]): the reason, and the parameter (its index among the
+/// render's) and the delta emitter (scene index) it is about where there is one, which are
+/// then the ones to name.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Uncovered {
     pub param: Option<usize>,
+    pub emitter: Option<usize>,
     pub why: String,
 }
 
@@ -646,7 +656,11 @@ impl From<&str> for Uncovered {
 
 impl From<String> for Uncovered {
     fn from(why: String) -> Self {
-        Uncovered { param: None, why }
+        Uncovered {
+            param: None,
+            emitter: None,
+            why,
+        }
     }
 }
 

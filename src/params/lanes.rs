@@ -220,6 +220,10 @@ impl Motion {
                 continue;
             }
             for (e, emitter) in scene.emitters.iter().enumerate() {
+                // where one emitter is why, it is the one named
+                if uncovered.emitter.is_some_and(|u| u != e) {
+                    continue;
+                }
                 let corr = crate::temporal::Correlation::new(
                     scene.film.axis,
                     emitter.pulse,
