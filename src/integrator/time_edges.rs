@@ -435,9 +435,10 @@ impl EmitterPolygons {
 /// What the time-edge draws need of a render, built once ([`TimeEdges::build`]).
 #[derive(Clone, Debug)]
 pub struct TimeEdges {
-    /// The area emitters, whose light points the draws take (`spreads` and `first` follow
-    /// them), and each of the scene's emitters' place among them (`None`: a point light or a
-    /// laser, whose contributions keep their time term).
+    /// The area emitters whose light points the draws take (`spreads` and `first` follow
+    /// them), and each of the scene's emitters' place among them (`None`: a point light, a
+    /// laser or a pulse wider than [`MAX_SIGMA_PER_BIN`], whose contributions keep their time
+    /// term).
     emitters: Vec<EmitterPolygons>,
     slot: Vec<Option<u32>>,
     spreads: Vec<Spread>,
@@ -513,14 +514,11 @@ impl TimeEdges {
         let mut first = Vec::new();
         let mut emitters_move = false;
         for (index, e) in scene.emitters.iter().enumerate() {
-            let EmitterKind::Area { shape, radiance } = e.kind else {
+            let narrow = e.pulse.std_dev() <= MAX_SIGMA_PER_BIN * scene.film.axis.bin_width_opl;
+            let (&EmitterKind::Area { shape, radiance }, true) = (&e.kind, narrow) else {
                 slot.push(None);
                 continue;
             };
-            if e.pulse.std_dev() > MAX_SIGMA_PER_BIN * scene.film.axis.bin_width_opl {
-                slot.push(None);
-                continue;
-            }
             slot.push(Some(emitters.len() as u32));
             spreads.push(Spread::of(e.pulse, scene.film.axis.bin_width_opl));
             first.push(scene.film.axis.start_opl - e.offset_opl);
@@ -557,7 +555,7 @@ impl TimeEdges {
     /// Whether the draws take the whole time term of a delta pulse's paths, whose Ṡ_e is a
     /// Dirac on each bin edge that no ordinary contribution can estimate (supplemental Lemma
     /// 2.5): `Ok` when the path tracer draws (`path_draws`: its kernel, the draws on), every
-    /// emitter is an area emitter, no material has a Dirac lobe or transmits (a path whose
+    /// delta emitter is an area emitter, no material has a Dirac lobe or transmits (a path whose
     /// last vertex before the light is such would reach it without a draw), and no parameter
     /// shifts the paths that see a delta emitter from the camera (its pulse offset, the
     /// medium's index, its motion). Else why not.
