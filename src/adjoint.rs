@@ -180,7 +180,7 @@ pub fn render_adjoint(
 
 /// Checks, without rendering, that [`render_adjoint`] takes `params` on `scene` with `opts`:
 /// the names, their number per render, and time derivatives the estimators cannot take
-/// (`Motion::check_time_derivatives`). A caller refuses them with it before it creates
+/// (`integrator::time_terms::refuse_uncovered_delta`). A caller refuses them with it before it creates
 /// anything (`dtr optimize`, before its output folder).
 pub fn check_params(scene: &crate::Scene, params: &[String], opts: &crate::RenderOptions) -> Result<(), crate::Error> {
     if params.is_empty() {
@@ -208,7 +208,7 @@ fn group_motion(
             motion.len()
         )));
     }
-    motion.check_time_derivatives(scene, params, crate::render::delta_draws(scene, &motion, opts))?;
+    crate::render::check_time_terms(scene, &motion, params, opts)?;
     // what the render would refuse of the materials, before any render (`dtr optimize` checks
     // its parameters' ranges with it)
     let kind = opts.integrator.unwrap_or(scene.integrator.kind);

@@ -14,6 +14,8 @@ use crate::integrator::bdpt::{self, film::BdptFilm};
 use crate::integrator::deposit::PathCounts;
 use crate::integrator::path::{PacketLanes, trace_packet};
 use crate::integrator::sink::Sink;
+use crate::integrator::time_edges::{Needs, TimeEdges, Uncovered};
+use crate::integrator::time_terms;
 use crate::kernel::{Dual8, Real};
 use crate::params::MAX_PARAMS;
 use crate::params::lanes::Motion;
@@ -115,17 +117,52 @@ pub struct RenderOptions {
     pub cancel: crate::cancel::Cancel,
 }
 
-/// Whether the render's draws on the time edges take a delta pulse's time term
-/// (`integrator::time_edges::TimeEdges::cover_delta`), or why not.
-pub(crate) fn delta_draws(
+/// Whether the render's draws on the time edges take the whole time term of the emitters
+/// `needs` picks (`integrator::time_edges::TimeEdges::cover`), or why not.
+fn draws_cover(scene: &Scene, motion: &Motion, opts: &RenderOptions, needs: Needs) -> Result<(), Uncovered> {
+    let path = opts.integrator.unwrap_or(scene.integrator.kind) == IntegratorKind::Path;
+    TimeEdges::cover(scene, motion, path && opts.time_edges == TimeEdgeMode::Auto, needs).map_err(|u| match path {
+        true => u,
+        false => "BDPT draws no light points on the time edges (the path tracer does: --integrator path)".into(),
+    })
+}
+
+/// What a derivative render asks of the time term f·Ṡ_e·ḋ, before it runs: refused where a
+/// delta pulse's is left to paths the draws on the time edges do not make
+/// (`time_terms::refuse_uncovered_delta`), said (once per process) where a narrow pulse's is
+/// ([`narrow_time_term_warning`]).
+pub(crate) fn check_time_terms(
     scene: &Scene,
     motion: &Motion,
+    params: &[String],
     opts: &RenderOptions,
-) -> Result<(), crate::integrator::time_edges::Uncovered> {
-    if opts.integrator.unwrap_or(scene.integrator.kind) != IntegratorKind::Path {
-        return Err("BDPT draws no light points on the time edges (the path tracer does: --integrator path)".into());
+) -> Result<(), Error> {
+    time_terms::refuse_uncovered_delta(scene, motion, params, draws_cover(scene, motion, opts, Needs::Delta))?;
+    if let Some(w) = time_terms::narrow_warning(scene, motion, params, draws_cover(scene, motion, opts, Needs::Narrow))
+    {
+        crate::scene::warnings::warn_once(w);
     }
-    crate::integrator::time_edges::TimeEdges::cover_delta(scene, motion, opts.time_edges == TimeEdgeMode::Auto)
+    Ok(())
+}
+
+/// The warning a derivative render of `params` gives when a parameter shifts in time the light
+/// of an emitter whose smooth pulse is narrower than a tenth of a bin
+/// ([`NARROW_SIGMA_PER_BIN`](crate::integrator::time_edges::NARROW_SIGMA_PER_BIN)) along paths
+/// the draws on the time edges do not make (the emitter seen from the camera while it moves,
+/// a point light, `--time-edges off`, BDPT, ...): those estimate its time term without bias but
+/// with a variance that grows as the bin width over σ. `None` when there is nothing to say.
+pub fn narrow_time_term_warning(
+    scene: &Scene,
+    params: &[String],
+    opts: &RenderOptions,
+) -> Result<Option<String>, Error> {
+    let motion = Motion::build(scene, params)?;
+    Ok(time_terms::narrow_warning(
+        scene,
+        &motion,
+        params,
+        draws_cover(scene, &motion, opts, Needs::Narrow),
+    ))
 }
 
 /// How the path tracer estimates the time term f·Ṡ_e·ḋ of a derivative (Algorithm 1).
@@ -355,7 +392,7 @@ pub fn render_diff_parts(scene: &Scene, params: &[String], opts: &RenderOptions)
             motion.len()
         )));
     }
-    motion.check_time_derivatives(scene, params, delta_draws(scene, &motion, opts))?;
+    check_time_terms(scene, &motion, params, opts)?;
     let mut run = Run::new(scene, motion, opts, false)?;
     let mut interior = run.interior(opts, false);
     let boundary = run.boundary(opts);

@@ -33,6 +33,7 @@ pub mod surface;
 pub(crate) mod testutil;
 pub mod time_edge_nee;
 pub mod time_edges;
+pub mod time_terms;
 pub mod trace;
 pub mod transport;
 pub mod window;

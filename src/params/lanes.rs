@@ -200,53 +200,6 @@ impl Motion {
         Ok(m)
     }
 
-    /// Refuses parameters that shift paths in time when S_e is discontinuous in time (delta
-    /// pulse, box gate): Ṡ_e is then a Dirac distribution (supplemental Lemma 2.5), which only
-    /// the path tracer's draws on the time edges estimate, and only where they make every path
-    /// that needs it (`delta_draws`: `Ok`, or why not; `integrator::time_edges`).
-    pub fn check_time_derivatives(
-        &self,
-        scene: &crate::scene::Scene,
-        params: &[String],
-        delta_draws: Result<(), crate::integrator::time_edges::Uncovered>,
-    ) -> Result<(), crate::error::Error> {
-        let Err(uncovered) = delta_draws else {
-            return Ok(());
-        };
-        let why = &uncovered.why;
-        for (k, name) in params.iter().enumerate() {
-            // where one parameter is why, it is the one named (the others may be fine alone)
-            if !self.shifts_time(k) || uncovered.param.is_some_and(|p| p != k) {
-                continue;
-            }
-            for (e, emitter) in scene.emitters.iter().enumerate() {
-                // where one emitter is why, it is the one named
-                if uncovered.emitter.is_some_and(|u| u != e) {
-                    continue;
-                }
-                let corr = crate::temporal::Correlation::new(
-                    scene.film.axis,
-                    emitter.pulse,
-                    emitter.offset_opl,
-                    scene.film.gate,
-                )?;
-                if corr.derivative_is_distribution()
-                    && (self.pulse_offset[k].is_none() || self.pulse_offset[k] == Some(e))
-                {
-                    return Err(crate::error::Error::Invalid(format!(
-                        "{}: parameter {name:?} shifts paths in time, but emitter {:?} has a delta pulse and the film a box gate: \
-                         S_e is then discontinuous in time and its derivative is a Dirac distribution on the bin edges, which the \
-                         path tracer's draws on the time edges estimate, but not here: {why}. Use a Gaussian pulse \
-                         (pulse = {{ type = \"gaussian\", sigma_opl = ... }}) or a Gaussian gate (film.gate = {{ type = \"gaussian\", sigma_opl = ... }}).",
-                        scene.source.display(),
-                        emitter.name
-                    )));
-                }
-            }
-        }
-        Ok(())
-    }
-
     /// Number of derivative lanes.
     pub fn len(&self) -> usize {
         self.fields.len()

@@ -40,7 +40,7 @@ mod resolve;
 pub mod shapes;
 #[cfg(test)]
 pub(crate) mod testutil;
-mod warnings;
+pub(crate) mod warnings;
 pub use crate::params::{Axis, Param, ParamKind};
 pub use error::SceneError;
 pub use load::Format;
