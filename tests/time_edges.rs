@@ -337,7 +337,7 @@ fn panel_beside_delta_light(dir: &std::path::Path, pulse: &str) -> (Scene, Scene
 
 /// A moving area emitter with a smooth pulse beside a static delta area light: the draws take
 /// the delta light's time term, and the paths that see the moving panel from the camera keep
-/// theirs in the ordinary contributions (`TimeEdges::cover_delta` refuses only the motion of a
+/// theirs in the ordinary contributions (`TimeEdges::cover` refuses only the motion of a
 /// delta emitter). Until 2026-12-02 any moving area emitter was refused once a delta pulse was
 /// in the scene (an independent sweep asked why). d/d`panel_x` (towards the box, interior) of
 /// the two lights together against the sum of the delta light beside the panel as plain
