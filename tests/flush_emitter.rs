@@ -224,3 +224,75 @@ fn moving_a_shape_laid_flush_on_another_has_no_derivative() {
         assert!(dir.path().join(format!("{out}.npy")).exists());
     }
 }
+
+/// The Cornell box (`renders`' settings) with a 20 cm emitting panel ("panel", radiance
+/// `glow`) in the light quad's plane, inside it, facing down like it, declared before the quad
+/// when `panel_first`; `drop_mm` lowers the panel below that plane.
+fn panel_in_light_quad(dir: &Path, panel_first: bool, glow: f64, drop_mm: f64) -> std::path::PathBuf {
+    let text = std::fs::read_to_string(common::scene_path("cornell_box.toml")).unwrap();
+    let mut v: toml::Value = toml::from_str(&text).unwrap();
+    v["camera"]["resolution"] = toml::Value::try_from([32, 32]).unwrap();
+    v["integrator"]["max_bounces"] = toml::Value::Integer(4);
+    let shapes = v["shape"].as_array_mut().unwrap();
+    let quad = shapes
+        .iter()
+        .find(|s| s["name"].as_str() == Some("light_quad"))
+        .unwrap()
+        .clone();
+    let mut panel = quad.clone();
+    panel["name"] = "panel".into();
+    let y = quad["translate"][1].as_float().unwrap() - drop_mm * 1e-3;
+    panel["translate"] = toml::Value::try_from([0.0, y, 0.0]).unwrap();
+    panel["scale"] = toml::Value::try_from([0.1, 0.1, 1.0]).unwrap();
+    shapes.insert(if panel_first { 0 } else { shapes.len() }, panel);
+    let mut emitter = v["emitter"][0].clone();
+    emitter["name"] = "glow".into();
+    emitter["shape"] = "panel".into();
+    emitter["radiance"] = toml::Value::try_from(glow).unwrap();
+    v["emitter"].as_array_mut().unwrap().push(emitter);
+    let path = dir.join(format!("panel_{panel_first}_{glow}_{drop_mm}.toml"));
+    std::fs::write(&path, toml::to_string(&v).unwrap()).unwrap();
+    path
+}
+
+/// Two emitters in one plane, overlapping and facing the same way (a panel drawn inside the
+/// light quad): the loader lifts one off the other so that an emitter's light wins, but both
+/// emit, so the one lifted in front covers the other. Until 2026-12-02 nothing said so (an
+/// independent sweep found the panel's light gone). Loading now warns, naming both and which
+/// one covers which (the first declared, either way round); the warning is true: with the
+/// quad in front, the image's energy is that of the panel dark, while the panel 1 mm below the
+/// quad adds its light. One millimetre apart, nothing is said.
+#[test]
+fn two_emitters_in_one_plane_are_warned_about() {
+    let dir = tempfile::tempdir().unwrap();
+    let info = |path: &Path| {
+        let out = common::dtr(&["info", path.to_str().unwrap()], dir.path());
+        assert!(out.status.success(), "{out:?}");
+        String::from_utf8_lossy(&out.stderr).to_string()
+    };
+    for (first, front, behind) in [(false, "light_quad", "panel"), (true, "panel", "light_quad")] {
+        let err = info(&panel_in_light_quad(dir.path(), first, 30.0, 0.0));
+        assert!(
+            err.contains("emitting shapes")
+                && err.contains(&format!("so {front:?} now lies in front and covers {behind:?}")),
+            "{err}"
+        );
+    }
+    assert!(!info(&panel_in_light_quad(dir.path(), false, 30.0, 1.0)).contains("emitting shapes"));
+    // the image's energy over seeds: mean and standard error
+    let energy = |glow: f64, drop_mm: f64| {
+        let path = panel_in_light_quad(dir.path(), false, glow, drop_mm);
+        let scene = Scene::load(&path, &[]).unwrap();
+        let e: Vec<f64> = renders(&scene, IntegratorKind::Path, 40)
+            .iter()
+            .map(|t| t.steady.iter().map(|&v| v as f64).sum())
+            .collect();
+        let mean = e.iter().sum::<f64>() / e.len() as f64;
+        let var = e.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (e.len() - 1) as f64;
+        (mean, (var / e.len() as f64).sqrt())
+    };
+    let z = |(a, sa): (f64, f64), (b, sb): (f64, f64)| (a - b) / (sa * sa + sb * sb).sqrt();
+    let (covered, dark, below) = (energy(30.0, 0.0), energy(0.0, 0.0), energy(30.0, 1.0));
+    assert!(z(covered, dark).abs() < Z, "covered {covered:?} against dark {dark:?}");
+    assert!(z(below, dark) > 10.0, "below {below:?} against dark {dark:?}");
+}

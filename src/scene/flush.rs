@@ -257,12 +257,18 @@ fn unlooked(s: &Shape, materials: &[super::NamedMaterial]) -> bool {
 
 /// Whether shapes `a` and `b` (each with the box around its vertices) have faces in one
 /// plane, facing the same way, that overlap.
-fn faces_flush(
+fn faces_flush(a: (&Shape, (Vec3, Vec3)), b: (&Shape, (Vec3, Vec3)), geo: &Geometry, scale: f32) -> bool {
+    flush_pair(a, b, geo, scale).is_some()
+}
+
+/// A triangle of `a` and one of `b` in one plane, facing the same way, that overlap, if any
+/// ([`faces_flush`]).
+fn flush_pair(
     (a, abox): (&Shape, (Vec3, Vec3)),
     (b, bbox): (&Shape, (Vec3, Vec3)),
     geo: &Geometry,
     scale: f32,
-) -> bool {
+) -> Option<(usize, usize)> {
     let tris = |s: &Shape| s.first_tri as usize..(s.first_tri + s.tri_count) as usize;
     let ((alo, ahi), (blo, bhi)) = (abox, bbox);
     let m = alo
@@ -275,7 +281,7 @@ fn faces_flush(
     let plane = in_plane(m);
     let (lo, hi) = (alo.max(blo) - plane, ahi.min(bhi) + plane);
     if lo.cmpgt(hi).any() {
-        return false;
+        return None;
     }
     let near = |t: &usize| {
         let c = corners(geo, *t);
@@ -284,17 +290,53 @@ fn faces_flush(
     };
     let (ta, tb): (Vec<usize>, Vec<usize>) = (tris(a).filter(near).collect(), tris(b).filter(near).collect());
     if ta.len().saturating_mul(tb.len()) > MAX_PAIRS {
-        return false;
+        return None;
     }
-    ta.iter().any(|&s| {
+    ta.iter().find_map(|&s| {
         let sc = corners(geo, s);
         let n = triangle_normal(sc);
-        n != Vec3::ZERO
-            && tb.iter().any(|&o| {
+        if n == Vec3::ZERO {
+            return None;
+        }
+        tb.iter()
+            .find(|&&o| {
                 let oc = corners(geo, o);
                 n.dot(triangle_normal(oc)) >= COPLANAR_COS
                     && oc.iter().all(|&p| (p - sc[0]).dot(n).abs() <= plane)
                     && overlap(sc, oc, n)
             })
+            .map(|&o| (s, o))
     })
+}
+
+/// Two emitters in one plane: pairs of area-emitter shapes with faces in one plane, facing the
+/// same way, that overlap (a light panel drawn inside a larger light quad), each with one such
+/// pair of triangles. Both emit there, and [`lift_flush_emitters`] can lift only one in
+/// front: the other's light is then lost where they overlap ([`front_of`] says which).
+pub(crate) fn flush_emitters(shapes: &[Shape], geo: &Geometry, scale: f32) -> Vec<[(usize, usize); 2]> {
+    let boxes: Vec<(Vec3, Vec3)> = shapes.iter().map(|s| bounds(s, geo)).collect();
+    let mut found = Vec::new();
+    for (i, a) in shapes.iter().enumerate().filter(|(_, s)| s.emitter.is_some()) {
+        for (j, b) in shapes
+            .iter()
+            .enumerate()
+            .skip(i + 1)
+            .filter(|(_, s)| s.emitter.is_some())
+        {
+            if let Some((ta, tb)) = flush_pair((a, boxes[i]), (b, boxes[j]), geo, scale) {
+                found.push([(i, ta), (j, tb)]);
+            }
+        }
+    }
+    found
+}
+
+/// Of a pair [`flush_emitters`] found (shape, triangle), the shape now in front along the
+/// first triangle's normal, then the other.
+pub(crate) fn front_of(geo: &Geometry, [(i, ti), (j, tj)]: [(usize, usize); 2]) -> (usize, usize) {
+    let (a, b) = (corners(geo, ti), corners(geo, tj));
+    match (b[0] - a[0]).dot(triangle_normal(a)) > 0.0 {
+        true => (j, i),
+        false => (i, j),
+    }
 }
