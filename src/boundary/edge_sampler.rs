@@ -120,22 +120,28 @@ fn cross_section(geo: &Geometry, e: &Edge) -> Option<CrossSection> {
     Some(CrossSection { v0, v1, len, a, b, psi })
 }
 
-/// Whether no line through sharp edge `e` along its silhouette directions can join two
-/// points of `points` (for a boundary edge, false). In the cross-section the faces bound a
-/// wedge of angle ψ and its vertical opposite; the silhouette lines run through the other
-/// two wedges, one end in each. So when every point lies in the closed wedge between the
-/// faces, or every one in its opposite, a boundary ray through the edge finds no surface at
-/// one of its ends, and the edge's term is 0: a crease of a closed convex room seen from
-/// inside. Each of those wedges is convex, so the corners of a box holding the scene stand
-/// for every point in it. `slack` (metres) counts a point that far outside a face's plane as
-/// on it: positions within the renderer's ray offsets of a plane are not told apart.
+/// Whether no line through edge `e` along its silhouette directions can join two points of
+/// `points`. In the cross-section of a sharp edge the faces bound a wedge of angle ψ and its
+/// vertical opposite; the silhouette lines run through the other two wedges, one end in each.
+/// So when every point lies in the closed wedge between the faces, or every one in its
+/// opposite, a boundary ray through the edge finds no surface at one of its ends, and the
+/// edge's term is 0: a crease of a closed convex room seen from inside. A boundary edge (one
+/// face) is a silhouette every way, but a line through it meets the face's plane there, so it
+/// joins two points only if they lie on the two sides of that plane (or both in it, along the
+/// face, a set of no measure): when every point lies on one side, its term is 0 too (the floor
+/// of a room, a ground plane under everything, the front edges of an open box). Each of those
+/// wedges and half-spaces is convex, so the corners of a box holding the scene stand for every
+/// point in it. `slack` (metres) counts a point that far outside a face's plane as on it:
+/// positions within the renderer's ray offsets of a plane are not told apart.
 pub fn silhouettes_join_nothing(geo: &Geometry, e: &Edge, points: &[Vec3], slack: f32) -> bool {
-    if e.is_boundary() {
-        return false;
-    }
     let Some(c) = cross_section(geo, e) else {
         return false;
     };
+    if e.is_boundary() {
+        // b is the face's normal: the height of each point over its plane
+        let height = |p: &Vec3| (*p - c.v0).dot(c.b);
+        return points.iter().all(|p| height(p) >= -slack) || points.iter().all(|p| height(p) <= slack);
+    }
     let (sin, cos) = c.psi.sin_cos();
     // (x, y) in the (a, b) frame: between the faces means y ≥ 0 and x·sinψ − y·cosψ ≥ 0
     let sides = |p: &Vec3| {
@@ -311,8 +317,9 @@ mod tests {
 
     /// A lone cube's edges join nothing (every line through an edge in a silhouette direction
     /// leaves the cube's box at both ends); in a box twice its size every edge can bound a
-    /// segment; a boundary edge always can; a point beyond a face's plane by less than the
-    /// slack counts as on it.
+    /// segment; a boundary edge can where points lie on both sides of its face's plane, not
+    /// where all lie on one side or in the plane; a point beyond a face's plane by less than
+    /// the slack counts as on it.
     #[test]
     fn silhouettes_join_nothing_only_where_every_point_lies_in_the_faces_wedge() {
         let geo = geometry(shapes::cube());
@@ -338,10 +345,27 @@ mod tests {
             assert!(!silhouettes_join_nothing(&geo, e, &near, 0.0), "{e:?}");
             assert!(silhouettes_join_nothing(&geo, e, &near, 1e-3), "{e:?}");
         }
+        // a boundary edge: points on both sides of its face's plane can be joined through it;
+        // points on one side (or in the plane, or within the slack of it) cannot
         let flap = geometry(shapes::rectangle());
+        let [p0, p1, p2] = flap.indices[0].map(|i| flap.positions[i as usize]);
+        let normal = (p1 - p0).cross(p2 - p0).normalize();
+        let edge_point = |e: &Edge| flap.positions[e.v0 as usize];
         for e in build_edges(&flap, 0.0) {
             assert!(e.is_boundary());
             assert!(!silhouettes_join_nothing(&flap, &e, &own, 0.0));
+            for side in [1.0, -1.0] {
+                let one_side: Vec<Vec3> = box_corners(Vec3::splat(-3.0), Vec3::splat(3.0))
+                    .iter()
+                    .map(|&p| p - normal * (p - edge_point(&e)).dot(normal) + side * normal * (1.0 + p.x.abs()))
+                    .chain([edge_point(&e) + Vec3::new(5.0, -4.0, 2.0).cross(normal)])
+                    .collect();
+                assert!(silhouettes_join_nothing(&flap, &e, &one_side, 0.0), "{e:?} {side}");
+                let mut beyond = one_side.clone();
+                beyond.push(edge_point(&e) - side * 1e-4 * normal);
+                assert!(!silhouettes_join_nothing(&flap, &e, &beyond, 0.0), "{e:?} {side}");
+                assert!(silhouettes_join_nothing(&flap, &e, &beyond, 1e-3), "{e:?} {side}");
+            }
         }
     }
 
