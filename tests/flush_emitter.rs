@@ -287,9 +287,7 @@ fn two_emitters_in_one_plane_are_warned_about() {
             .iter()
             .map(|t| t.steady.iter().map(|&v| v as f64).sum())
             .collect();
-        let mean = e.iter().sum::<f64>() / e.len() as f64;
-        let var = e.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (e.len() - 1) as f64;
-        (mean, (var / e.len() as f64).sqrt())
+        common::mean_se(&e)
     };
     let z = |(a, sa): (f64, f64), (b, sb): (f64, f64)| (a - b) / (sa * sa + sb * sb).sqrt();
     let (covered, dark, below) = (energy(30.0, 0.0), energy(0.0, 0.0), energy(30.0, 1.0));

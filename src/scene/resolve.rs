@@ -71,16 +71,13 @@ pub(crate) fn resolve(described: Described, path: &Path) -> Result<Scene, SceneE
     let lifted_emitters = super::flush::lift_flush_emitters(&mut shapes, &mut geometry, offset_scale);
     for pair in flush_emitters {
         let (front, behind) = super::flush::front_of(&geometry, pair);
+        let (front, behind) = (&shapes[front].name, &shapes[behind].name);
         super::warnings::warn_once(format!(
-            "{}: the emitting shapes {:?} and {:?} have faces in one plane, facing the same way, that overlap: the \
-             loader lifts an emitter off a surface in its plane so that its light wins, but here both emit, so {:?} \
-             now lies in front and covers {:?}, whose light is lost where they overlap; move one off the other (by a \
-             millimetre, say), or make the two one shape",
-            path.display(),
-            shapes[front].name,
-            shapes[behind].name,
-            shapes[front].name,
-            shapes[behind].name
+            "{}: the emitting shapes {front:?} and {behind:?} have faces in one plane, facing the same way, that \
+             overlap: the loader lifts an emitter off a surface in its plane so that its light wins, but here both \
+             emit, so {front:?} now lies in front and covers {behind:?}, whose light is lost where they overlap; move \
+             one off the other (by a millimetre, say), or make the two one shape",
+            path.display()
         ));
     }
     if let Some((d, o, delta)) = super::flush::flush_dielectric(&shapes, &geometry, &materials, offset_scale) {
