@@ -225,7 +225,7 @@ fn render_adjoint_group(
 ) -> Result<(Vec<f64>, AdjointStats), crate::Error> {
     use crate::Error;
     use crate::integrator::deposit::PathCounts;
-    use crate::render::{BoundaryMode, Run, TILE, dispatch, render_tile};
+    use crate::render::{Run, TILE, dispatch, render_tile};
     use crate::scene::IntegratorKind;
     use rayon::prelude::*;
     let f = &scene.film;
@@ -256,7 +256,7 @@ fn render_adjoint_group(
     let samples = &run.samples;
     let (w, h) = (f.width as usize, f.height as usize);
     let channels = f.channels;
-    let interior = opts.boundary != BoundaryMode::BoundaryOnly;
+    let interior = opts.boundary.interior();
     // Per tile (path tracer: `render::tile_rects`; BDPT: `render::tiles`, whose splats onto
     // other pixels need no film here), summed in order: the same gradient for any thread
     // count.
@@ -318,13 +318,14 @@ fn render_adjoint_group(
         grad.iter_mut().zip(g).for_each(|(a, b)| *a += b / spp as f64);
         stats.non_finite_samples += c.non_finite;
     }
-    let boundary = derivs > 0 && ctx.motion.moves_geometry() && opts.boundary != BoundaryMode::InteriorOnly;
+    let boundary = derivs > 0 && ctx.motion.moves_geometry() && opts.boundary.stages().any();
     if boundary {
         let settings = crate::boundary::BoundarySettings {
             spp_boundary: opts.spp_boundary.unwrap_or(spp),
             seed,
             guiding: opts.guiding,
             shard: opts.shard,
+            stages: opts.boundary.stages(),
             // the optimizer shows its own progress per iteration
             progress: indicatif::ProgressBar::hidden(),
         };

@@ -189,6 +189,36 @@ pub enum BoundaryMode {
     InteriorOnly,
     /// Primary + secondary boundary only; the interior pass is skipped and the primal is zero.
     BoundaryOnly,
+    /// The primary boundary term alone (silhouettes seen from the camera): interior and
+    /// secondary skipped, the primal zero. For finding which term carries a derivative's noise.
+    PrimaryOnly,
+    /// The secondary boundary term alone (Algorithm 2 at edges seen from path vertices):
+    /// interior and primary skipped, the primal zero.
+    SecondaryOnly,
+}
+
+impl BoundaryMode {
+    /// Whether the interior estimator (Algorithm 1) runs.
+    pub fn interior(self) -> bool {
+        matches!(self, Self::Full | Self::InteriorOnly)
+    }
+
+    /// Which boundary terms run where a parameter moves geometry.
+    pub fn stages(self) -> crate::boundary::Stages {
+        use crate::boundary::Stages;
+        match self {
+            Self::Full | Self::BoundaryOnly => Stages::BOTH,
+            Self::InteriorOnly => Stages::NONE,
+            Self::PrimaryOnly => Stages {
+                primary: true,
+                secondary: false,
+            },
+            Self::SecondaryOnly => Stages {
+                primary: false,
+                secondary: true,
+            },
+        }
+    }
 }
 
 /// What a render did and how fast.
@@ -569,7 +599,7 @@ pub(crate) fn check_materials(
                 "BDPT differentiates through it only parameters that move no path vertex (albedo, reflectance, radiance, pulse offset, an index no smooth dielectric bends with), since its strategies would move a specular chain in different ways; render this derivative with [integrator] kind = \"path\"",
             );
         }
-        if boundary != BoundaryMode::InteriorOnly {
+        if boundary.stages().any() {
             if motion.moves_geometry() {
                 return smooth(
                     "a parameter that moves geometry needs the boundary stage, which assumes no Dirac lobes (supplemental assumption A.4); differentiate another parameter or pass --estimators interior for the interior term alone (not the derivative: it leaves out the silhouettes and shadows that move, also those seen in or through the smooth surface)",
@@ -913,7 +943,7 @@ impl<'s> Run<'s> {
         }
         ctx.cut_to_window(opts.steady);
         check_camera_medium(&ctx)?;
-        let boundary_wanted = derivs > 0 && ctx.motion.moves_geometry() && opts.boundary != BoundaryMode::InteriorOnly;
+        let boundary_wanted = derivs > 0 && ctx.motion.moves_geometry() && opts.boundary.stages().any();
         let pool = thread_pool(opts.threads)?;
         if boundary_wanted {
             check_crossings(&ctx, &device, &pool)?;
@@ -1014,7 +1044,7 @@ impl<'s> Run<'s> {
         let (w, h) = (scene.film.width as usize, scene.film.height as usize);
         let axis = scene.film.axis;
         let channels = scene.film.channels;
-        let ran = opts.boundary != BoundaryMode::BoundaryOnly || derivs == 0;
+        let ran = opts.boundary.interior() || derivs == 0;
         let rects = if ran { tile_rects(scene) } else { Vec::new() };
         let bar = progress_bar(
             opts.progress,
@@ -1365,6 +1395,7 @@ impl<'s> Run<'s> {
                 seed: self.seed,
                 shard: opts.shard,
                 guiding: opts.guiding,
+                stages: opts.boundary.stages(),
                 progress: progress_bar(
                     opts.progress,
                     0,

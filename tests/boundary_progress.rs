@@ -21,6 +21,7 @@ fn the_secondary_pass_advances_its_bar_to_the_end() {
             seed: 1,
             guiding: false,
             shard,
+            stages: Default::default(),
             progress: bar.clone(),
         };
         render_boundary(&mut ctx, &settings, &pool);

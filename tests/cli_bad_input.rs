@@ -313,6 +313,10 @@ fn repeated_and_meaningless_arguments_are_refused() {
             vec!["--diff", "albedo", "--spp-boundary", "4", "--estimators", "interior"],
             "which --estimators interior leaves out",
         ),
+        (
+            vec!["--diff", "albedo", "--guiding", "--estimators", "primary"],
+            "which --estimators primary leaves out",
+        ),
         (vec!["--pixel", "1,1"], "it needs --preview"),
         // taken without a word until the forty-third session (clap defaults hid them)
         (

@@ -233,8 +233,13 @@ fn optimize_refuses_before_making_its_folder() {
         "--spp",
         "1",
     ];
-    let cases: [(&[&str], &str); 3] = [
+    let cases: [(&[&str], &str); 4] = [
         (&["--params", "plane_z", "--lr-end", "0"], "--lr-end 0"),
+        // one boundary term alone is a diagnosis for `dtr render`, not a gradient
+        (
+            &["--params", "plane_z", "--estimators", "secondary"],
+            "--estimators secondary: one boundary term alone",
+        ),
         (&["--params", "plane_z", "--lr-end", "nan"], "--lr-end NaN"),
         (&["--params", "plane_z"], "delta pulse and the film a box gate"),
     ];

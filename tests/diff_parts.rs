@@ -1,6 +1,7 @@
 //! `render_diff` is the sum of named parts (`render_diff_parts`): the interior (Algorithm 1),
 //! primary and secondary boundary films, each from its own estimator and samples. Each part
-//! equals what the estimator modes render on their own, and the parts sum to `render_diff`.
+//! equals what the estimator modes render on their own (each boundary term alone too), and
+//! the parts sum to `render_diff`.
 
 use crate::common;
 use difftransient::render::{BoundaryMode, render_diff_parts};
@@ -45,8 +46,18 @@ fn check(name: &str, params: &[&str], seen: bool) {
     };
     let interior = only(BoundaryMode::InteriorOnly);
     let boundary = only(BoundaryMode::BoundaryOnly);
+    // each boundary term alone (`--estimators primary|secondary`) is its part of the sum,
+    // from the same samples
+    let primary = only(BoundaryMode::PrimaryOnly);
+    let secondary = only(BoundaryMode::SecondaryOnly);
     for k in 0..n {
         assert_eq!(bits(&interior[k].data), bits(&parts.interior[k].data), "interior {k}");
+        assert_eq!(bits(&primary[k].data), bits(&parts.primary[k].data), "primary {k}");
+        assert_eq!(
+            bits(&secondary[k].data),
+            bits(&parts.secondary[k].data),
+            "secondary {k}"
+        );
         let b: Vec<f32> = parts.primary[k]
             .data
             .iter()

@@ -203,15 +203,17 @@ def render_diff(scene: Scene, params: Sequence[str], *, spp: Optional[int] = Non
                 estimators: str = "full", time_edges: str = "auto") -> DiffRender:
     """Renders the transient and dI/dθ for each name in `params`: the interior (Algorithm 1)
     plus, when a parameter moves geometry, the boundary terms (Algorithm 2). `estimators`:
-    "full", "interior" or "boundary". `time_edges`: "auto" (the path tracer draws the time
-    term f·dS_e/dd·ḋ on the bin edges where that applies; what makes delta pulses
-    differentiable) or "off" (`dtr render --time-edges`)."""
+    "full", "interior" or "boundary", or one boundary term alone, "primary" (silhouettes seen
+    from the camera) or "secondary" (edges seen from path vertices), to find which carries a
+    derivative's noise; all but "full" and "interior" leave the transient 0. `time_edges`:
+    "auto" (the path tracer draws the time term f·dS_e/dd·ḋ on the bin edges where that
+    applies; what makes delta pulses differentiable) or "off" (`dtr render --time-edges`)."""
     scene, params = _scene(scene), _names(params)
     spp, seed, threads = _count("spp", spp), _count("seed", seed), _count("threads", threads)
     spp_boundary = _count("spp_boundary", spp_boundary)
     t, d, stats = _render_diff(scene._native, params, spp, seed, threads, spp_boundary, estimators, time_edges)
-    # estimators="boundary" leaves the transient 0 on purpose: nothing to warn of (as the CLI)
-    stats = _warn_of_window(json.loads(stats), primal=estimators != "boundary")
+    # the boundary terms alone leave the transient 0 on purpose: nothing to warn of (as the CLI)
+    stats = _warn_of_window(json.loads(stats), primal=estimators in ("full", "interior"))
     return DiffRender(t, dict(zip(params, d)), scene.bin_centres, stats)
 
 

@@ -329,9 +329,11 @@ fn options(
         "full" => BoundaryMode::Full,
         "interior" => BoundaryMode::InteriorOnly,
         "boundary" => BoundaryMode::BoundaryOnly,
+        "primary" => BoundaryMode::PrimaryOnly,
+        "secondary" => BoundaryMode::SecondaryOnly,
         other => {
             return Err(RenderError::new_err(format!(
-                "estimators must be \"full\", \"interior\" or \"boundary\" (got {other:?})"
+                "estimators must be \"full\", \"interior\", \"boundary\", \"primary\" or \"secondary\" (got {other:?})"
             )));
         }
     };

@@ -633,6 +633,28 @@ def test_a_boundary_only_render_does_not_warn_of_its_empty_transient():
     assert d.stats["energy"]["warning"]
 
 
+def test_each_boundary_term_renders_alone():
+    """`estimators="primary"` and `"secondary"` render one boundary term each (to find which
+    carries a derivative's noise): with the same seed they add up to `"boundary"`; a sliding
+    cube's silhouette is the primary term's, a hidden occluder's shadow the secondary's; the
+    transient stays 0 without a warning, and another name is refused, listing the five."""
+    import warnings
+    scenes = [("silhouette_slide.toml", "cube_x", True), ("shadow_hidden_occluder.toml", "occluder_x", False)]
+    for name, param, seen in scenes:
+        s = dt.Scene.load(str(SCENES / name), {"camera.resolution": [16, 16]})
+        run = lambda e: dt.render_diff(s, [param], spp=2, seed=3, threads=1, estimators=e)
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            p, q, b = run("primary"), run("secondary"), run("boundary")
+        dp, dq, db = (r.derivatives[param] for r in (p, q, b))
+        assert not p.transient.any() and not q.transient.any(), name
+        # the camera sees the cube, never the occluder
+        assert dp.any() if seen else not dp.any() and dq.any(), name
+        np.testing.assert_array_equal(dp + dq, db)
+    with pytest.raises(dt.RenderError, match='"primary" or "secondary"'):
+        run("edges")
+
+
 def test_renders_compare_by_identity():
     """`==` between two renders is identity (their arrays compare with np.array_equal). The
     dataclass's generated `__eq__` compared the arrays with ==, and raised ValueError

@@ -82,9 +82,43 @@ pub struct BoundarySettings {
     /// The shard whose part of each estimator's samples to trace ([`crate::shard`]); the
     /// films stay normalised by the whole sample counts.
     pub shard: crate::shard::Shard,
+    /// Which of the two terms to estimate (both, but for diagnosis: `--estimators primary`
+    /// or `secondary`); a term left out is a zero film and takes no samples.
+    pub stages: Stages,
     /// Progress of the secondary pass, in chunks of boundary samples: its length is set when
     /// the pass starts and it advances per batch (`indicatif::ProgressBar::hidden()` for none).
     pub progress: indicatif::ProgressBar,
+}
+
+/// Which boundary terms a render estimates.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Stages {
+    /// Primary edges: silhouettes seen from the camera ([`primary`]).
+    pub primary: bool,
+    /// Secondary edges: Algorithm 2 at edges seen from path vertices ([`secondary`]).
+    pub secondary: bool,
+}
+
+impl Stages {
+    pub const BOTH: Self = Self {
+        primary: true,
+        secondary: true,
+    };
+    pub const NONE: Self = Self {
+        primary: false,
+        secondary: false,
+    };
+
+    /// Whether any boundary term runs.
+    pub fn any(self) -> bool {
+        self.primary || self.secondary
+    }
+}
+
+impl Default for Stages {
+    fn default() -> Self {
+        Self::BOTH
+    }
 }
 
 /// The boundary parts of the gradient, one transient per parameter each.
@@ -118,7 +152,8 @@ impl BoundaryStats {
     }
 }
 
-/// Runs the primary and secondary estimators for the parameters in `ctx.motion`.
+/// Runs the primary and secondary estimators for the parameters in `ctx.motion` (those
+/// `settings.stages` asks for; a term left out is a zero film).
 pub fn render_boundary(
     ctx: &mut RenderContext,
     settings: &BoundarySettings,
@@ -127,17 +162,26 @@ pub fn render_boundary(
     let t0 = Instant::now();
     // one edge list for both passes
     let edges = edges::build_edges(&ctx.scene.geometry, ctx.scene.offset_scale);
-    let (primary, pstats) = primary::render_primary_with_stats(
-        ctx,
-        &edges,
-        settings.spp_boundary,
-        settings.seed ^ PRIMARY_SEED,
-        settings.shard,
-        pool,
-    );
+    let (primary, pstats) = if settings.stages.primary {
+        primary::render_primary_with_stats(
+            ctx,
+            &edges,
+            settings.spp_boundary,
+            settings.seed ^ PRIMARY_SEED,
+            settings.shard,
+            pool,
+        )
+    } else {
+        (zero_films(ctx), Default::default())
+    };
     let primary_seconds = t0.elapsed().as_secs_f64();
-    let (sec, pilot) = secondary_with_pilot(ctx, &edges, settings, pool);
-    let (secondary, sstats) = sec.render(settings, pilot.as_ref(), pool);
+    let (secondary, sstats, edge_count) = if settings.stages.secondary {
+        let (sec, pilot) = secondary_with_pilot(ctx, &edges, settings, pool);
+        let (films, stats) = sec.render(settings, pilot.as_ref(), pool);
+        (films, stats, sec.edge_count())
+    } else {
+        (zero_films(ctx), Default::default(), edges.len())
+    };
     BoundaryParts {
         primary,
         secondary,
@@ -146,10 +190,22 @@ pub fn render_boundary(
             primary_seconds,
             primary_non_finite: pstats.non_finite,
             secondary: sstats,
-            edges: sec.edge_count(),
+            edges: edge_count,
             ..Default::default()
         },
     }
+}
+
+/// One zero film per parameter: the part of a boundary term left out.
+fn zero_films(ctx: &RenderContext) -> Vec<crate::film::Transient> {
+    let film = &ctx.scene.film;
+    crate::film::Transient::zeros_many(
+        ctx.motion.len().min(crate::params::MAX_PARAMS),
+        film.width as usize,
+        film.height as usize,
+        film.axis,
+        film.channels,
+    )
 }
 
 /// The boundary stage contracted with an adjoint volume (`crate::adjoint`): the same
@@ -163,25 +219,34 @@ pub fn boundary_adjoint(
 ) -> ([f64; crate::params::MAX_PARAMS], BoundaryStats) {
     let t0 = Instant::now();
     let edges = edges::build_edges(&ctx.scene.geometry, ctx.scene.offset_scale);
-    let (mut grad, pstats) = primary::primary_adjoint(
-        ctx,
-        &edges,
-        settings.spp_boundary,
-        settings.seed ^ PRIMARY_SEED,
-        settings.shard,
-        pool,
-        adjoint,
-    );
+    let (mut grad, pstats) = if settings.stages.primary {
+        primary::primary_adjoint(
+            ctx,
+            &edges,
+            settings.spp_boundary,
+            settings.seed ^ PRIMARY_SEED,
+            settings.shard,
+            pool,
+            adjoint,
+        )
+    } else {
+        ([0.0; crate::params::MAX_PARAMS], Default::default())
+    };
     let primary_seconds = t0.elapsed().as_secs_f64();
-    let (sec, pilot) = secondary_with_pilot(ctx, &edges, settings, pool);
-    let (g2, sstats) = sec.adjoint(settings, pilot.as_ref(), pool, adjoint);
-    grad.iter_mut().zip(g2).for_each(|(a, b)| *a += b);
+    let (sstats, edge_count) = if settings.stages.secondary {
+        let (sec, pilot) = secondary_with_pilot(ctx, &edges, settings, pool);
+        let (g2, sstats) = sec.adjoint(settings, pilot.as_ref(), pool, adjoint);
+        grad.iter_mut().zip(g2).for_each(|(a, b)| *a += b);
+        (sstats, sec.edge_count())
+    } else {
+        (Default::default(), edges.len())
+    };
     let stats = BoundaryStats {
         spp_boundary: settings.spp_boundary,
         primary_seconds,
         primary_non_finite: pstats.non_finite,
         secondary: sstats,
-        edges: sec.edge_count(),
+        edges: edge_count,
         wall_seconds: t0.elapsed().as_secs_f64(),
         ..Default::default()
     };

@@ -16,7 +16,7 @@
 use super::optimize_files::{RunFiles, RunState, Shared, stage_text};
 use crate::film::Transient;
 use crate::optimize::{Problem, Step, loss::Loss};
-use crate::render::{BoundaryMode, RenderOptions};
+use crate::render::RenderOptions;
 use crate::scene::Scene;
 use anyhow::{Context, bail};
 use std::path::{Path, PathBuf};
@@ -319,6 +319,16 @@ pub fn run(a: OptimizeArgs) -> anyhow::Result<()> {
     }
     super::optimize_files::check_log_columns(&a.params)?;
     super::render_cmd::refuse_unused_boundary_samples(a.spp_boundary, a.estimators)?;
+    if matches!(
+        a.estimators,
+        super::render_cmd::Estimators::Primary | super::render_cmd::Estimators::Secondary
+    ) {
+        bail!(
+            "--estimators {}: one boundary term alone is for finding a derivative's noise with `dtr render`; \
+             dtr optimize takes full, interior or boundary",
+            a.estimators.name()
+        );
+    }
     if a.iters == 0 || a.spp == 0 || a.spp_boundary == Some(0) {
         bail!("--iters, --spp and --spp-boundary must be at least 1");
     }
@@ -380,11 +390,7 @@ pub fn run(a: OptimizeArgs) -> anyhow::Result<()> {
             spp_boundary: a.spp_boundary,
             seed: Some(a.seed),
             threads: a.threads,
-            boundary: match a.estimators {
-                super::render_cmd::Estimators::Full => BoundaryMode::Full,
-                super::render_cmd::Estimators::Interior => BoundaryMode::InteriorOnly,
-                super::render_cmd::Estimators::Boundary => BoundaryMode::BoundaryOnly,
-            },
+            boundary: a.estimators.mode(),
             ..Default::default()
         },
         bounds,

@@ -75,7 +75,9 @@ pub struct RenderArgs {
     #[arg(long = "spp-boundary", allow_negative_numbers = true, value_name = "N")]
     pub spp_boundary: Option<i64>,
     /// Which parts of the gradient --diff estimates: full (interior + boundary), interior
-    /// (Algorithm 1 alone: misses moving visibility), boundary (primal left zero). Default: full.
+    /// (Algorithm 1 alone: misses moving visibility), boundary (primal left zero), or one
+    /// boundary term alone to see where a derivative's noise comes from: primary (silhouettes
+    /// seen from the camera) or secondary (edges seen from path vertices). Default: full.
     #[arg(long, value_enum)]
     pub estimators: Option<Estimators>,
     /// Guide the boundary rays with grids fitted by a pilot pass (1/8 of the boundary
@@ -137,6 +139,32 @@ pub enum Estimators {
     Full,
     Interior,
     Boundary,
+    Primary,
+    Secondary,
+}
+
+impl Estimators {
+    /// The render mode this choice asks for.
+    pub fn mode(self) -> BoundaryMode {
+        match self {
+            Self::Full => BoundaryMode::Full,
+            Self::Interior => BoundaryMode::InteriorOnly,
+            Self::Boundary => BoundaryMode::BoundaryOnly,
+            Self::Primary => BoundaryMode::PrimaryOnly,
+            Self::Secondary => BoundaryMode::SecondaryOnly,
+        }
+    }
+
+    /// The name `--estimators` takes.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Full => "full",
+            Self::Interior => "interior",
+            Self::Boundary => "boundary",
+            Self::Primary => "primary",
+            Self::Secondary => "secondary",
+        }
+    }
 }
 
 pub fn run(a: RenderArgs) -> anyhow::Result<()> {
@@ -166,8 +194,11 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
     refuse_settings_without_their_output(&a)?;
     let estimators = a.estimators.unwrap_or(Estimators::Full);
     refuse_unused_boundary_samples(a.spp_boundary, estimators)?;
-    if a.guiding && estimators == Estimators::Interior {
-        bail!("--guiding guides the boundary term's samples, which --estimators interior leaves out; drop one of them");
+    if a.guiding && !estimators.mode().stages().secondary {
+        bail!(
+            "--guiding guides the secondary boundary term's samples, which --estimators {} leaves out; drop one of them",
+            estimators.name()
+        );
     }
     let auto_window = if a.auto_window {
         if let Some((n, _)) = overrides
@@ -256,11 +287,7 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
             Steady::Window => SteadyMode::Window,
             Steady::Full => SteadyMode::Full,
         },
-        boundary: match estimators {
-            Estimators::Full => BoundaryMode::Full,
-            Estimators::Interior => BoundaryMode::InteriorOnly,
-            Estimators::Boundary => BoundaryMode::BoundaryOnly,
-        },
+        boundary: estimators.mode(),
         shard: a.shard.unwrap_or_default(),
         checkpoint: None,
         time_edges: match a.time_edges.unwrap_or(TimeEdges::Auto) {
@@ -385,7 +412,7 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
     let prefix = |ext: &str| with_suffix(&prefix_path, ext);
     // the primal is left zero on purpose by `--estimators boundary`
     // (a shard holds part of the energy; `dtr merge` checks the whole)
-    let primal_rendered = (a.diff.is_empty() || !matches!(estimators, Estimators::Boundary)) && a.shard.is_none();
+    let primal_rendered = (a.diff.is_empty() || estimators.mode().interior()) && a.shard.is_none();
     if let Some(w) = stats.energy.warning(&film.axis).filter(|_| primal_rendered) {
         log::warn!("{}: {w}", a.scene.display());
     }
