@@ -208,7 +208,7 @@ fn group_motion(
             motion.len()
         )));
     }
-    crate::render::check_time_terms(scene, &motion, params, opts)?;
+    crate::render::check_derivative_terms(scene, &motion, params, opts)?;
     // what the render would refuse of the materials, before any render (`dtr optimize` checks
     // its parameters' ranges with it)
     let kind = opts.integrator.unwrap_or(scene.integrator.kind);

@@ -127,11 +127,12 @@ fn draws_cover(scene: &Scene, motion: &Motion, opts: &RenderOptions, needs: Need
     })
 }
 
-/// What a derivative render asks of the time term f·Ṡ_e·ḋ, before it runs: refused where a
-/// delta pulse's is left to paths the draws on the time edges do not make
+/// What a derivative render asks of its terms, before it runs: of the time term f·Ṡ_e·ḋ,
+/// refused where a delta pulse's is left to paths the draws on the time edges do not make
 /// (`time_terms::refuse_uncovered_delta`), said (once per process) where a narrow pulse's is
-/// ([`narrow_time_term_warning`]).
-pub(crate) fn check_time_terms(
+/// ([`narrow_time_term_warning`]); of the interior's throughput term, said where a parameter
+/// slides a shape along one it rests on ([`sliding_contact_warning`]).
+pub(crate) fn check_derivative_terms(
     scene: &Scene,
     motion: &Motion,
     params: &[String],
@@ -139,6 +140,11 @@ pub(crate) fn check_time_terms(
 ) -> Result<(), Error> {
     time_terms::refuse_uncovered_delta(scene, motion, params, draws_cover(scene, motion, opts, Needs::Delta))?;
     if let Some(w) = time_terms::narrow_warning(scene, motion, params, draws_cover(scene, motion, opts, Needs::Narrow))
+    {
+        crate::scene::warnings::warn_once(w);
+    }
+    if opts.boundary.interior()
+        && let Some(w) = crate::params::sliding::sliding_warning(scene, motion)
     {
         crate::scene::warnings::warn_once(w);
     }
@@ -162,6 +168,16 @@ pub fn narrow_time_term_warning(
         &motion,
         params,
         draws_cover(scene, &motion, opts, Needs::Narrow),
+    ))
+}
+
+/// The warning a derivative render of `params` gives when one of them slides a shape along a
+/// shape it rests on (faces in contact: `Scene::resting`): the interior estimator's variance
+/// is unbounded there (`params::sliding`). `None` when there is nothing to say.
+pub fn sliding_contact_warning(scene: &Scene, params: &[String]) -> Result<Option<String>, Error> {
+    Ok(crate::params::sliding::sliding_warning(
+        scene,
+        &Motion::build(scene, params)?,
     ))
 }
 
@@ -422,7 +438,7 @@ pub fn render_diff_parts(scene: &Scene, params: &[String], opts: &RenderOptions)
             motion.len()
         )));
     }
-    check_time_terms(scene, &motion, params, opts)?;
+    check_derivative_terms(scene, &motion, params, opts)?;
     let mut run = Run::new(scene, motion, opts, false)?;
     let mut interior = run.interior(opts, false);
     let boundary = run.boundary(opts);

@@ -62,6 +62,7 @@ mod secondary_fd;
 mod set_params;
 mod shards;
 mod sink;
+mod sliding_contact;
 mod small_scenes;
 mod sobol_sampler;
 mod time_edges;

@@ -9,7 +9,9 @@
 //! - [`lanes`]: the derivative lanes of a render ([`lanes::Motion`]): the velocity field of
 //!   every shape a parameter moves (material-form vertices, Algorithm 1), the albedo,
 //!   radiance, η and pulse-offset lanes, and the refusal of time derivatives that S_e cannot
-//!   give (supplemental Lemma 2.5).
+//!   give (supplemental Lemma 2.5);
+//! - `sliding`: the warning for a parameter that slides a shape along one it rests on (the
+//!   interior's variance is unbounded there).
 //!
 //! How a moving edge sweeps over the boundary's path vertices (the normal velocity of
 //! supplemental Eqs. 18–19) is boundary theory and lives in `boundary::velocity`, built from
@@ -17,6 +19,7 @@
 
 pub mod lanes;
 pub(crate) mod resolve;
+pub(crate) mod sliding;
 
 /// The most parameters one render differentiates at once: the derivative lanes of the widest
 /// dual number the renderer dispatches (`Dual8<16>`, tied to this by a const assert in

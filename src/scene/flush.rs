@@ -264,10 +264,32 @@ fn faces_flush(a: (&Shape, (Vec3, Vec3)), b: (&Shape, (Vec3, Vec3)), geo: &Geome
 /// A triangle of `a` and one of `b` in one plane, facing the same way, that overlap, if any
 /// ([`faces_flush`]).
 fn flush_pair(
+    a: (&Shape, (Vec3, Vec3)),
+    b: (&Shape, (Vec3, Vec3)),
+    geo: &Geometry,
+    scale: f32,
+) -> Option<(usize, usize)> {
+    coplanar_pair(a, b, geo, scale, Facing::Same)
+}
+
+/// How the two faces of a [`coplanar_pair`] face.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Facing {
+    /// The same way, within the ray-origin offset of one plane (`in_plane`): flush.
+    Same,
+    /// Either way, less than half of [`lift`] apart: one rests on the other (a box's bottom
+    /// on the floor), or nearly (an open mat 0.05 mm over it).
+    Either,
+}
+
+/// A triangle of `a` and one of `b`, parallel, facing as `facing` says, close enough and
+/// overlapping, if any.
+fn coplanar_pair(
     (a, abox): (&Shape, (Vec3, Vec3)),
     (b, bbox): (&Shape, (Vec3, Vec3)),
     geo: &Geometry,
     scale: f32,
+    facing: Facing,
 ) -> Option<(usize, usize)> {
     let tris = |s: &Shape| s.first_tri as usize..(s.first_tri + s.tri_count) as usize;
     let ((alo, ahi), (blo, bhi)) = (abox, bbox);
@@ -278,8 +300,11 @@ fn flush_pair(
         .max(bhi.abs())
         .max_element()
         .max(scale);
-    let plane = in_plane(m);
-    let (lo, hi) = (alo.max(blo) - plane, ahi.min(bhi) + plane);
+    let (gap, cos) = match facing {
+        Facing::Same => (in_plane(m), COPLANAR_COS),
+        Facing::Either => (lift(m) / 2.0, COPLANAR_COS),
+    };
+    let (lo, hi) = (alo.max(blo) - gap, ahi.min(bhi) + gap);
     if lo.cmpgt(hi).any() {
         return None;
     }
@@ -301,12 +326,34 @@ fn flush_pair(
         tb.iter()
             .find(|&&o| {
                 let oc = corners(geo, o);
-                n.dot(triangle_normal(oc)) >= COPLANAR_COS
-                    && oc.iter().all(|&p| (p - sc[0]).dot(n).abs() <= plane)
+                let c = n.dot(triangle_normal(oc));
+                (if facing == Facing::Same { c } else { c.abs() }) >= cos
+                    && oc.iter().all(|&p| (p - sc[0]).dot(n).abs() <= gap)
                     && overlap(sc, oc, n)
             })
             .map(|&o| (s, o))
     })
+}
+
+/// The shapes `shape` rests on or is rested on by: each other shape with a face parallel to
+/// one of `shape`'s, less than half of [`lift`] apart (0.06 mm in a room), overlapping (a
+/// box's bottom on the floor, an open mat 0.05 mm over it), with that triangle of `shape`'s.
+/// Emitters, lifted off the surfaces they lie flush on ([`lift_flush_emitters`]), are not
+/// looked at. Contacts along an edge or at a vertex only (a cube balanced on an edge) are
+/// not found.
+pub(crate) fn resting(shapes: &[Shape], geo: &Geometry, scale: f32, shape: usize) -> Vec<(usize, usize)> {
+    let a = &shapes[shape];
+    if a.emitter.is_some() {
+        return Vec::new();
+    }
+    let own = (a, bounds(a, geo));
+    (0..shapes.len())
+        .filter(|&j| j != shape && shapes[j].emitter.is_none())
+        .filter_map(|j| {
+            let b = &shapes[j];
+            coplanar_pair(own, (b, bounds(b, geo)), geo, scale, Facing::Either).map(|(t, _)| (j, t))
+        })
+        .collect()
 }
 
 /// Two emitters in one plane: pairs of area-emitter shapes with faces in one plane, facing the

@@ -398,6 +398,13 @@ impl Scene {
         flush::flush_partner(&self.shapes, &self.geometry, &self.materials, self.offset_scale, shape)
     }
 
+    /// The shapes that `shape` rests on, or that rest on it: (other shape, a triangle of
+    /// `shape`'s in contact), parallel faces less than half the emitter lift apart
+    /// (`flush::resting`).
+    pub fn resting(&self, shape: usize) -> Vec<(usize, usize)> {
+        flush::resting(&self.shapes, &self.geometry, self.offset_scale, shape)
+    }
+
     /// Whether triangle `prim`'s material is one-sided ([`NamedMaterial::one_sided`]) and
     /// `towards` (a direction from its surface) points to its back, where it is black.
     pub fn behind_one_sided(&self, prim: u32, towards: Vec3) -> bool {
