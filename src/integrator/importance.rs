@@ -22,7 +22,7 @@ use super::context::RenderContext;
 use super::deposit::PathCounts;
 use super::opl::points64;
 use super::path::SurfaceStarts;
-use super::surface::{SurfacePoint, behind_one_sided, surface_at};
+use super::surface::{SurfacePoint, behind_one_sided, resolvable, surface_at};
 use super::trace::{SegmentEnd, next_hits, spawn_point, visible_between};
 use super::transport::{scatter, scatter_lobes};
 use super::window;
@@ -144,7 +144,15 @@ pub fn trace_importance_packet<R: Real, const C: usize>(
         let facing = (cos_x * n.dot(side)).gt(zero) | transmits;
         let leg = if unwarp { zero } else { dist * leg_eta + spad_leg };
         let d = opl.value() + leg;
-        let ok = active & proj.visible & facing & window::within(ctx.opl_budget, d);
+        // a sensor point is a surface point too (the pinhole is not)
+        let cos_s = sensors.as_ref().map_or(V::<R>::one(), |s| {
+            s.normals.dot(p - eye) * V::<R>::safe_div(V::<R>::one(), dist)
+        });
+        let ok = active
+            & proj.visible
+            & facing
+            & window::within(ctx.opl_budget, d)
+            & resolvable(&p, ctx.scene.offset_scale, cos_x, cos_s, dist);
         if ok.any() {
             // leaving through the surface, the origin is not stepped back along the arrival
             let here = SegmentEnd {

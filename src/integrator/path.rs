@@ -24,7 +24,7 @@ use super::entry::Crossings;
 use super::opl::points64;
 use super::power_heuristic;
 use super::sink::Sink;
-use super::surface::{behind_one_sided, surface_at};
+use super::surface::{behind_one_sided, resolvable, surface_at};
 use super::trace::{SegmentEnd, next_hits, spawn_point, visible_between};
 use super::transport::{emitter_hits, scatter, scatter_lobes};
 use super::window;
@@ -537,7 +537,14 @@ pub fn trace_packet_from<R: Real, const C: usize, S: Sink<C>>(
                 & same_side
                 & not_delta
                 & cos_y.value().gt(V::<R>::zero())
-                & d2.value().gt(V::<R>::zero());
+                & d2.value().gt(V::<R>::zero())
+                & resolvable(
+                    &x.p.value(),
+                    ctx.scene.offset_scale,
+                    cos_x_signed.value(),
+                    cos_y.value(),
+                    dist.value(),
+                );
             let lit = lit & window::within(ctx.opl_budget, d.value());
             if lit.any() {
                 let p_bsdf = match &lobes {

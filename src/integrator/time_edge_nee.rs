@@ -16,7 +16,7 @@ use super::bsdf::Lobes;
 use super::context::RenderContext;
 use super::deposit::{PathCounts, for_each_lane};
 use super::sink::Sink;
-use super::surface::SurfacePoint;
+use super::surface::{SurfacePoint, resolvable};
 use super::time_edges::{DIMS_PER_VERTEX, Draw, MAX_SLOTS, Plan, TimeEdges};
 use super::trace::{SegmentEnd, visible_between};
 use crate::kernel::{Mask, PathSampler, Real, Spectrum, V3};
@@ -152,7 +152,14 @@ pub fn connect<R: Real, const C: usize, S: Sink<C>>(
             & R::Mask::from_bools(&valid[..R::LANES])
             & same_side
             & cos_y.value().gt(V::<R>::zero())
-            & d2.value().gt(V::<R>::zero());
+            & d2.value().gt(V::<R>::zero())
+            & resolvable(
+                &x_val,
+                ctx.scene.offset_scale,
+                cos_x.value(),
+                cos_y.value(),
+                dist.value(),
+            );
         if lit.none() {
             continue;
         }

@@ -11,6 +11,7 @@ use super::Packet;
 use super::mis::{allowed_through, path_pdfs, ratio_sums, weight};
 use super::vertex::segment_end;
 use crate::integrator::sink::Sink;
+use crate::integrator::surface::resolvable;
 use crate::integrator::trace::visible_between;
 use crate::integrator::transport::emitter_hits;
 use crate::integrator::window;
@@ -62,6 +63,14 @@ pub fn connect<R: Real, const C: usize, S: Sink<C>>(pk: &mut Packet<'_, '_, R, C
     // no connection ends at a Dirac lobe (`vertex` module docs)
     let ok = (qs.alive & pt.alive).and_not(qs.delta | pt.delta);
     let ok = ok & cos_q.value().gt(zero) & cos_p.value().gt(zero) & d2.value().gt(zero);
+    let ok = ok
+        & resolvable(
+            &qs.p.value(),
+            ctx.scene.offset_scale,
+            cos_q.value(),
+            cos_p.value(),
+            dist.value(),
+        );
     // the window cut (`integrator::window`): connections that land past it cast no shadow ray
     let ok = ok & window::within(ctx.opl_budget, d.value());
     if ok.none() {

@@ -20,6 +20,7 @@ use super::connect::{joined_opl64, towards};
 use super::mis::weight;
 use super::vertex::{segment_end, to_area};
 use crate::integrator::sink::Sink;
+use crate::integrator::surface::resolvable;
 use crate::integrator::trace::visible_between;
 use crate::integrator::window;
 use crate::kernel::{Mask, Real};
@@ -41,6 +42,14 @@ pub fn connect_to_sensor<R: Real, const C: usize, S: Sink<C>>(pk: &mut Packet<'_
     // a Dirac lobe at q sends nothing towards one point
     let ok = (qs.alive & sensor.alive).and_not(qs.delta);
     let ok = ok & cos_q.value().gt(zero) & cos_s.value().gt(zero) & d2.value().gt(zero);
+    let ok = ok
+        & resolvable(
+            &qs.p.value(),
+            ctx.scene.offset_scale,
+            cos_q.value(),
+            cos_s.value(),
+            dist.value(),
+        );
     let ok = ok & window::within(ctx.opl_budget, d.value());
     if ok.none() {
         return;
