@@ -12,7 +12,7 @@
 //! the parameter and the two shapes; a gap between them bounds the weight.
 
 use super::lanes::Motion;
-use crate::scene::Scene;
+use crate::scene::{Scene, triangle_normal};
 use glam::Vec3;
 
 /// Relative tangential speed (against the larger of the two shapes' speeds there) above which
@@ -31,9 +31,7 @@ pub(crate) fn sliding_warning(scene: &Scene, motion: &Motion) -> Option<String> 
             let pairs = resting[shape].get_or_insert_with(|| scene.resting(shape));
             for &(other, tri) in pairs.iter() {
                 let corners = geo.indices[tri].map(|i| geo.positions[i as usize]);
-                let n = (corners[1] - corners[0])
-                    .cross(corners[2] - corners[0])
-                    .normalize_or_zero();
+                let n = triangle_normal(corners);
                 let centroid = (corners[0] + corners[1] + corners[2]) / 3.0;
                 let slides = corners.iter().chain([&centroid]).any(|&p| {
                     let (a, b) = (motion.velocity(k, shape, p), motion.velocity(k, other, p));
