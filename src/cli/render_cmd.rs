@@ -155,15 +155,11 @@ impl Estimators {
         }
     }
 
-    /// The name `--estimators` takes.
-    pub fn name(self) -> &'static str {
-        match self {
-            Self::Full => "full",
-            Self::Interior => "interior",
-            Self::Boundary => "boundary",
-            Self::Primary => "primary",
-            Self::Secondary => "secondary",
-        }
+    /// The name `--estimators` takes (clap's, derived from the variant).
+    pub fn name(self) -> String {
+        use clap::ValueEnum;
+        self.to_possible_value()
+            .map_or_else(|| format!("{self:?}"), |v| v.get_name().to_string())
     }
 }
 

@@ -300,9 +300,9 @@ fn coplanar_pair(
         .max(bhi.abs())
         .max_element()
         .max(scale);
-    let (gap, cos) = match facing {
-        Facing::Same => (in_plane(m), COPLANAR_COS),
-        Facing::Either => (lift(m) / 2.0, COPLANAR_COS),
+    let gap = match facing {
+        Facing::Same => in_plane(m),
+        Facing::Either => lift(m) / 2.0,
     };
     let (lo, hi) = (alo.max(blo) - gap, ahi.min(bhi) + gap);
     if lo.cmpgt(hi).any() {
@@ -327,7 +327,7 @@ fn coplanar_pair(
             .find(|&&o| {
                 let oc = corners(geo, o);
                 let c = n.dot(triangle_normal(oc));
-                (if facing == Facing::Same { c } else { c.abs() }) >= cos
+                (if facing == Facing::Same { c } else { c.abs() }) >= COPLANAR_COS
                     && oc.iter().all(|&p| (p - sc[0]).dot(n).abs() <= gap)
                     && overlap(sc, oc, n)
             })
