@@ -66,6 +66,7 @@ pub mod film;
 pub mod integrator;
 #[doc(hidden)]
 pub mod kernel;
+pub mod named;
 pub mod optimize;
 pub mod output;
 #[doc(hidden)]

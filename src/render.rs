@@ -194,6 +194,17 @@ pub enum TimeEdgeMode {
     Off,
 }
 
+impl crate::named::Named for TimeEdgeMode {
+    const ALL: &'static [Self] = &[Self::Auto, Self::Off];
+
+    fn name(self) -> &'static str {
+        match self {
+            Self::Auto => "auto",
+            Self::Off => "off",
+        }
+    }
+}
+
 /// Which parts of the gradient `render_diff` estimates. Tests use the parts to show that the
 /// interior alone misses what moving visibility contributes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
@@ -211,6 +222,26 @@ pub enum BoundaryMode {
     /// The secondary boundary term alone (Algorithm 2 at edges seen from path vertices):
     /// interior and primary skipped, the primal zero.
     SecondaryOnly,
+}
+
+impl crate::named::Named for BoundaryMode {
+    const ALL: &'static [Self] = &[
+        Self::Full,
+        Self::InteriorOnly,
+        Self::BoundaryOnly,
+        Self::PrimaryOnly,
+        Self::SecondaryOnly,
+    ];
+
+    fn name(self) -> &'static str {
+        match self {
+            Self::Full => "full",
+            Self::InteriorOnly => "interior",
+            Self::BoundaryOnly => "boundary",
+            Self::PrimaryOnly => "primary",
+            Self::SecondaryOnly => "secondary",
+        }
+    }
 }
 
 impl BoundaryMode {

@@ -11,6 +11,7 @@
 //!   (anything a render refuses) with the library's messages.
 
 use difftransient::kernel::SampleSequence;
+use difftransient::named::Named;
 use difftransient::render::TimeEdgeMode;
 use difftransient::scene::shapes::LocalMesh;
 use difftransient::scene::{Format, IntegratorKind, SceneState};
@@ -316,27 +317,18 @@ fn options(
     estimators: &str,
     time_edges: &str,
 ) -> PyResult<RenderOptions> {
-    let time_edges = match time_edges {
-        "auto" => TimeEdgeMode::Auto,
-        "off" => TimeEdgeMode::Off,
-        other => {
-            return Err(RenderError::new_err(format!(
-                "time_edges must be \"auto\" or \"off\" (got {other:?})"
-            )));
-        }
-    };
-    let boundary = match estimators {
-        "full" => BoundaryMode::Full,
-        "interior" => BoundaryMode::InteriorOnly,
-        "boundary" => BoundaryMode::BoundaryOnly,
-        "primary" => BoundaryMode::PrimaryOnly,
-        "secondary" => BoundaryMode::SecondaryOnly,
-        other => {
-            return Err(RenderError::new_err(format!(
-                "estimators must be \"full\", \"interior\", \"boundary\", \"primary\" or \"secondary\" (got {other:?})"
-            )));
-        }
-    };
+    let time_edges = TimeEdgeMode::from_name(time_edges).ok_or_else(|| {
+        RenderError::new_err(format!(
+            "time_edges must be {} (got {time_edges:?})",
+            TimeEdgeMode::listed()
+        ))
+    })?;
+    let boundary = BoundaryMode::from_name(estimators).ok_or_else(|| {
+        RenderError::new_err(format!(
+            "estimators must be {} (got {estimators:?})",
+            BoundaryMode::listed()
+        ))
+    })?;
     Ok(RenderOptions {
         spp,
         seed,

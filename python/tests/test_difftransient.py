@@ -259,7 +259,7 @@ def test_errors_carry_the_renderers_messages(tmp_path):
         s.with_params({"nope": 1.0})
     with pytest.raises(dt.RenderError, match="shape"):
         dt.gradient(s, ["albedo"], np.zeros((2, 2, 2, 1), np.float32))
-    with pytest.raises(dt.RenderError, match="estimators"):
+    with pytest.raises(dt.RenderError, match='estimators must be "full", "interior", "boundary", "primary" or "secondary"'):
         dt.render_diff(s, ["albedo"], estimators="some")
     with pytest.raises(dt.RenderError):
         dt.render_diff(s, ["no_such_param"])

@@ -15,8 +15,9 @@
 
 use super::optimize_files::{RunFiles, RunState, Shared, stage_text};
 use crate::film::Transient;
+use crate::named::Named;
 use crate::optimize::{Problem, Step, loss::Loss};
-use crate::render::RenderOptions;
+use crate::render::{BoundaryMode, RenderOptions};
 use crate::scene::Scene;
 use anyhow::{Context, bail};
 use std::path::{Path, PathBuf};
@@ -78,7 +79,7 @@ pub struct OptimizeArgs {
     /// what the boundary term is for, or for a smooth dielectric's index, whose boundary
     /// term is refused) or boundary (the boundary term alone).
     #[arg(long, value_enum, default_value = "full")]
-    pub estimators: super::render_cmd::Estimators,
+    pub estimators: BoundaryMode,
     /// Output folder (created; must be empty if it exists).
     #[arg(short = 'o', long = "output", value_name = "DIR")]
     pub output: PathBuf,
@@ -319,10 +320,7 @@ pub fn run(a: OptimizeArgs) -> anyhow::Result<()> {
     }
     super::optimize_files::check_log_columns(&a.params)?;
     super::render_cmd::refuse_unused_boundary_samples(a.spp_boundary, a.estimators)?;
-    if matches!(
-        a.estimators,
-        super::render_cmd::Estimators::Primary | super::render_cmd::Estimators::Secondary
-    ) {
+    if matches!(a.estimators, BoundaryMode::PrimaryOnly | BoundaryMode::SecondaryOnly) {
         bail!(
             "--estimators {}: one boundary term alone is for finding a derivative's noise with `dtr render`; \
              dtr optimize takes full, interior or boundary",
@@ -353,7 +351,7 @@ pub fn run(a: OptimizeArgs) -> anyhow::Result<()> {
         .with_context(|| format!("cannot read {}", a.scene.display()))?;
     let scene = Scene::load_with_text(&a.scene, &fixed, &sets.texts)?;
     let target = read_target(&a.target, &scene)?;
-    if matches!(a.estimators, super::render_cmd::Estimators::Interior) {
+    if matches!(a.estimators, BoundaryMode::InteriorOnly) {
         super::render_cmd::warn_interior_alone(&scene, &a.params, &a.scene);
     }
     for w in target_warnings(&target.data) {
@@ -390,7 +388,7 @@ pub fn run(a: OptimizeArgs) -> anyhow::Result<()> {
             spp_boundary: a.spp_boundary,
             seed: Some(a.seed),
             threads: a.threads,
-            boundary: a.estimators.mode(),
+            boundary: a.estimators,
             ..Default::default()
         },
         bounds,

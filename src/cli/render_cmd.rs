@@ -3,6 +3,7 @@
 use super::output_set::{OutputSet, with_suffix};
 use crate::film::{SteadyMode, Transient};
 use crate::kernel::SampleSequence;
+use crate::named::Named;
 use crate::output::{self, FilmView};
 use crate::render::{
     BoundaryMode, Lanes, RenderOptions, RenderStats, TimeEdgeMode, render, render_diff, render_strategies,
@@ -79,7 +80,7 @@ pub struct RenderArgs {
     /// boundary term alone to see where a derivative's noise comes from: primary (silhouettes
     /// seen from the camera) or secondary (edges seen from path vertices). Default: full.
     #[arg(long, value_enum)]
-    pub estimators: Option<Estimators>,
+    pub estimators: Option<BoundaryMode>,
     /// Guide the boundary rays with grids fitted by a pilot pass (1/8 of the boundary
     /// samples): lower mean error from ~16k samples on, heavier tails (see README).
     #[arg(long)]
@@ -99,11 +100,12 @@ pub struct RenderArgs {
     #[arg(long, value_enum, default_value = "window")]
     pub steady: Steady,
     /// How --diff's path tracer estimates the time term f·Ṡ_e·ḋ: `auto` (default: from light
-    /// points drawn where a connection's OPL crosses a bin edge, for box gates and area
-    /// emitters with Gaussian or box pulses; much lower variance under narrow pulses) or
-    /// `off` (from the ordinary next-event and emission contributions). Needs --diff.
+    /// points drawn where a connection's OPL crosses a bin edge, with a box gate, for area
+    /// emitters whose pulse is delta or at most half a bin wide (standard deviation): much
+    /// lower variance there, and what makes a delta pulse's derivative possible) or `off`
+    /// (from the ordinary next-event and emission contributions). Needs --diff.
     #[arg(long = "time-edges", value_enum)]
-    pub time_edges: Option<TimeEdges>,
+    pub time_edges: Option<TimeEdgeMode>,
     /// Render shard I of N (0-based): this shard's part of every estimator's samples,
     /// normalised so that the N shards add up to the whole render; `dtr merge` adds them.
     /// Also writes PREFIX.steady.npy (the steady image, for the merge).
@@ -123,45 +125,27 @@ pub struct RenderArgs {
 }
 
 #[derive(clap::ValueEnum, Clone, Copy, Debug)]
-pub enum TimeEdges {
-    Auto,
-    Off,
-}
-
-#[derive(clap::ValueEnum, Clone, Copy, Debug)]
 pub enum Steady {
     Window,
     Full,
 }
 
-#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Estimators {
-    Full,
-    Interior,
-    Boundary,
-    Primary,
-    Secondary,
-}
+/// `--estimators` and `--time-edges` take the library's names ([`Named`]), the lists Python's
+/// `estimators=` and `time_edges=` read too.
+macro_rules! value_enum_by_name {
+    ($($t:ty),*) => {$(
+        impl clap::ValueEnum for $t {
+            fn value_variants<'a>() -> &'a [Self] {
+                <$t as Named>::ALL
+            }
 
-impl Estimators {
-    /// The render mode this choice asks for.
-    pub fn mode(self) -> BoundaryMode {
-        match self {
-            Self::Full => BoundaryMode::Full,
-            Self::Interior => BoundaryMode::InteriorOnly,
-            Self::Boundary => BoundaryMode::BoundaryOnly,
-            Self::Primary => BoundaryMode::PrimaryOnly,
-            Self::Secondary => BoundaryMode::SecondaryOnly,
+            fn to_possible_value(&self) -> Option<clap::builder::PossibleValue> {
+                Some(clap::builder::PossibleValue::new(self.name()))
+            }
         }
-    }
-
-    /// The name `--estimators` takes (clap's, derived from the variant).
-    pub fn name(self) -> String {
-        use clap::ValueEnum;
-        self.to_possible_value()
-            .map_or_else(|| format!("{self:?}"), |v| v.get_name().to_string())
-    }
+    )*};
 }
+value_enum_by_name!(BoundaryMode, TimeEdgeMode);
 
 pub fn run(a: RenderArgs) -> anyhow::Result<()> {
     let super::Sets {
@@ -188,9 +172,9 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
         bail!("--spp-boundary sets the boundary samples of a derivative render; it needs --diff");
     }
     refuse_settings_without_their_output(&a)?;
-    let estimators = a.estimators.unwrap_or(Estimators::Full);
+    let estimators = a.estimators.unwrap_or(BoundaryMode::Full);
     refuse_unused_boundary_samples(a.spp_boundary, estimators)?;
-    if a.guiding && !estimators.mode().stages().secondary {
+    if a.guiding && !estimators.stages().secondary {
         bail!(
             "--guiding guides the secondary boundary term's samples, which --estimators {} leaves out; drop one of them",
             estimators.name()
@@ -262,7 +246,7 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
             (bounces as u64 + 2) * (bounces as u64 + 3) / 2
         );
     }
-    if matches!(estimators, Estimators::Interior) {
+    if matches!(estimators, BoundaryMode::InteriorOnly) {
         warn_interior_alone(&scene, &a.diff, &a.scene);
     }
     let pixel = match &a.pixel {
@@ -283,13 +267,10 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
             Steady::Window => SteadyMode::Window,
             Steady::Full => SteadyMode::Full,
         },
-        boundary: estimators.mode(),
+        boundary: estimators,
         shard: a.shard.unwrap_or_default(),
         checkpoint: None,
-        time_edges: match a.time_edges.unwrap_or(TimeEdges::Auto) {
-            TimeEdges::Auto => TimeEdgeMode::Auto,
-            TimeEdges::Off => TimeEdgeMode::Off,
-        },
+        time_edges: a.time_edges.unwrap_or_default(),
         ..Default::default()
     };
     if let Some(t) = a.checkpoint {
@@ -408,7 +389,7 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
     let prefix = |ext: &str| with_suffix(&prefix_path, ext);
     // the primal is left zero on purpose by `--estimators boundary`
     // (a shard holds part of the energy; `dtr merge` checks the whole)
-    let primal_rendered = (a.diff.is_empty() || estimators.mode().interior()) && a.shard.is_none();
+    let primal_rendered = (a.diff.is_empty() || estimators.interior()) && a.shard.is_none();
     if let Some(w) = stats.energy.warning(&film.axis).filter(|_| primal_rendered) {
         log::warn!("{}: {w}", a.scene.display());
     }
@@ -687,9 +668,9 @@ fn refuse_settings_without_their_output(a: &RenderArgs) -> anyhow::Result<()> {
 /// the boundary term out: they were taken without a word and never drawn.
 pub(super) fn refuse_unused_boundary_samples(
     spp_boundary: Option<impl std::fmt::Display>,
-    estimators: Estimators,
+    estimators: BoundaryMode,
 ) -> anyhow::Result<()> {
-    if let (Some(n), Estimators::Interior) = (spp_boundary, estimators) {
+    if let (Some(n), BoundaryMode::InteriorOnly) = (spp_boundary, estimators) {
         bail!(
             "--spp-boundary {n} sets the boundary term's samples, which --estimators interior leaves out; drop one of them"
         );
