@@ -121,11 +121,12 @@ pub fn trace_importance_packet<R: Real, const C: usize>(
         let side = -ray_d;
 
         // the connection to the pinhole, or to each lane's sensor point
-        let (proj, eye, rho) = match &sensors {
-            None => (cam.project_lanes(&p), eye, None),
+        // a sensor point is a surface point too, with its own cosine (the pinhole is not)
+        let (proj, eye, rho, cos_s) = match &sensors {
+            None => (cam.project_lanes(&p), eye, None, V::<R>::one()),
             Some(s) => {
-                let (proj, rho) = s.project(&p);
-                (proj, s.points, Some(rho))
+                let (proj, rho, cos_s) = s.project(&p);
+                (proj, s.points, Some(rho), cos_s)
             }
         };
         let dist = proj.dist2.sqrt();
@@ -144,10 +145,6 @@ pub fn trace_importance_packet<R: Real, const C: usize>(
         let facing = (cos_x * n.dot(side)).gt(zero) | transmits;
         let leg = if unwarp { zero } else { dist * leg_eta + spad_leg };
         let d = opl.value() + leg;
-        // a sensor point is a surface point too (the pinhole is not)
-        let cos_s = sensors.as_ref().map_or(V::<R>::one(), |s| {
-            s.normals.dot(p - eye) * V::<R>::safe_div(V::<R>::one(), dist)
-        });
         let ok = active
             & proj.visible
             & facing
@@ -314,8 +311,8 @@ impl<R: Real, const C: usize> SensorPoints<R, C> {
     /// gives it (film point unused: the caller knows the sensor), with importance
     /// |cos θ_s|/π per steradian (f_r = ρ/π, ρ returned per channel: the scan's importance,
     /// the lane form of `NlosSensor::project`); not visible behind the wall or where the SPAD
-    /// does not see s.
-    fn project(&self, p: &V3<V<R>>) -> (LaneProjection<V<R>>, Spectrum<R, C>) {
+    /// does not see s. Also returns cos θ_s, for the connection's [`resolvable`] test.
+    fn project(&self, p: &V3<V<R>>) -> (LaneProjection<V<R>>, Spectrum<R, C>, V<R>) {
         let zero = V::<R>::zero();
         let d = *p - self.points;
         let dist2 = d.length_squared();
@@ -328,6 +325,6 @@ impl<R: Real, const C: usize> SensorPoints<R, C> {
             dist2,
             visible,
         };
-        (proj, self.rho)
+        (proj, self.rho, cos)
     }
 }
