@@ -185,9 +185,12 @@ fn edges_that_can_bound(ctx: &RenderContext, list: &[Edge]) -> Vec<Edge> {
         return list.to_vec();
     }
     let corners = super::edge_sampler::box_corners(lo, hi);
-    // the renderer's own ray offsets (`self_intersection_eps`) at the scene's largest coordinate
-    let scale = lo.abs().max(hi.abs()).max_element().max(scene.offset_scale);
-    let slack = scale / 262_144.0;
+    // the renderer's smallest ray offset (`self_intersection_eps` at the render origin): a
+    // point that far off a face's plane may be told apart from it wherever it lies. The offset
+    // at the scene's largest coordinate, taken before (the forty-seventh session), grew with
+    // anything far away: beside a 40 km ground (or a point light 30 km off) a panel 5 cm under
+    // a ceiling light counted the light as in its plane, and its shadow's derivative was 0.
+    let slack = scene.offset_scale * crate::integrator::surface::OFFSET_PER_COORDINATE;
     list.iter()
         .copied()
         .filter(|e| !super::edge_sampler::silhouettes_join_nothing(geo, e, &corners, slack))

@@ -110,15 +110,19 @@ pub fn offset_origin<V: Real>(p: &V3<V>, n: &V3<V>, dir: &V3<V>, scale: f32) -> 
     p.add_scaled(*n, side)
 }
 
-/// 2⁻¹⁸ (32 f32 ulps) of the largest coordinate, taken at least `scale` (the scene's offset
-/// scale, `Scene::offset_scale`: 1 m, or the extent of a smaller scene), so at least 3.8e-6 m
-/// in a room: f32 barycentric reconstruction is accurate to a few ulps of the coordinates.
-/// A fixed floor of 1 m made the offset 0.2 % of a 2 mm scene, which biased its boundary
-/// derivatives by 1.6 %.
+/// The ray offset off a surface as a fraction of the coordinates there ([`self_intersection_eps`]):
+/// 2⁻¹⁸, 32 f32 ulps.
+pub const OFFSET_PER_COORDINATE: f32 = 1.0 / 262_144.0;
+
+/// 2⁻¹⁸ (32 f32 ulps, [`OFFSET_PER_COORDINATE`]) of the largest coordinate, taken at least
+/// `scale` (the scene's offset scale, `Scene::offset_scale`: 1 m, or the extent of a smaller
+/// scene), so at least 3.8e-6 m in a room: f32 barycentric reconstruction is accurate to a few
+/// ulps of the coordinates. A fixed floor of 1 m made the offset 0.2 % of a 2 mm scene, which
+/// biased its boundary derivatives by 1.6 %.
 #[inline(always)]
 pub fn self_intersection_eps<V: Real>(p: &V3<V>, scale: f32) -> V {
     let m = p.x.abs().max(p.y.abs()).max(p.z.abs()).max(V::splat(scale));
-    m * V::splat(1.0 / 262_144.0)
+    m * V::splat(OFFSET_PER_COORDINATE)
 }
 
 /// The lanes of a connection of length `dist` between two surface points (`p` either end)

@@ -35,7 +35,7 @@ pub fn lift(m: f32) -> f32 {
 /// plane, at coordinate magnitude `m`: the ray-origin offset there (2⁻¹⁸ m), within which no
 /// ray tells the two apart.
 fn in_plane(m: f32) -> f32 {
-    m / 262_144.0
+    m * crate::integrator::surface::OFFSET_PER_COORDINATE
 }
 
 fn corners(geo: &Geometry, t: usize) -> [Vec3; 3] {
