@@ -269,25 +269,13 @@ fn shadow_derivatives_do_not_depend_on_the_distance_from_the_render_origin() {
 #[test]
 fn a_ground_far_larger_than_the_scene_leaves_the_edge_samples_to_it() {
     let text = std::fs::read_to_string(common::scene_path("shadow_hidden_occluder.toml")).unwrap();
-    let ground = "\n[[shape]]\nname = \"ground\"\ntype = \"rectangle\"\nmaterial = \"black\"\n\
-                  translate = [0.0, -10.0, 0.0]\nrotate = [-90.0, 0.0, 0.0]\nscale = [20000.0, 20000.0, 1.0]\n";
-    let (alone, over) = (load(&text), load(&(text.clone() + ground)));
-    let run = |scene: &Scene, seed: u64| {
+    let sums = |scene: &Scene, seed: u64| {
         let (d, edges) = boundary_sums(scene, &["occluder_x".to_string()], seed);
         (d[0], edges)
     };
-    let (a, b): (Vec<_>, Vec<_>) = (0..6).map(|s| (run(&alone, s), run(&over, s))).unzip();
-    // the floor's four edges come back with a surface below them; the square's own four do not
-    assert_eq!(
-        b[0].1,
-        a[0].1 + 4,
-        "edges drawn alone {}, over the square {}",
-        a[0].1,
-        b[0].1
-    );
-    let sd = |v: &[(f64, usize)]| {
-        let x: Vec<f64> = v.iter().map(|r| r.0).collect();
-        let (m, se) = common::mean_se(&x);
+    let (a, b) = alone_and_over_a_far_ground(&text, sums);
+    let sd = |x: &[f64]| {
+        let (m, se) = common::mean_se(x);
         (m, se * (x.len() as f64).sqrt())
     };
     let ((ma, sa), (mb, sb)) = (sd(&a), sd(&b));
@@ -319,9 +307,6 @@ fn a_far_ground_leaves_a_panel_under_a_light_its_shadow() {
         }
     }
     let text = toml::to_string(&v).unwrap();
-    let ground = "\n[[shape]]\nname = \"ground\"\ntype = \"rectangle\"\nmaterial = \"black\"\n\
-                  translate = [0.0, -10.0, 0.0]\nrotate = [-90.0, 0.0, 0.0]\nscale = [20000.0, 20000.0, 1.0]\n";
-    let (alone, over) = (load(&text), load(&(text.clone() + ground)));
     // the shadow moves along x: its left edge lights up, its right edge darkens
     let run = |scene: &Scene, seed: u64| {
         let (d, edges) = boundary_films(scene, &["occluder_x".to_string()], seed);
@@ -341,9 +326,23 @@ fn a_far_ground_leaves_a_panel_under_a_light_its_shadow() {
             .sum();
         (contrast, edges)
     };
-    let (a, b): (Vec<_>, Vec<_>) = (0..6).map(|s| (run(&alone, s), run(&over, s))).unzip();
-    // the floor's four edges come back with a surface below them, the square's own four are
-    // left out, and the panel's four are drawn in both
+    let (a, b) = alone_and_over_a_far_ground(&text, run);
+    let ((ma, sa), (mb, sb)) = (common::mean_se(&a), common::mean_se(&b));
+    assert!(
+        ma.abs() > 4.0 * sa && (mb - ma).abs() <= 4.0 * (sa * sa + sb * sb).sqrt(),
+        "occluder_x's left-right contrast alone {ma} ± {sa}, over the square {mb} ± {sb}: {a:?} {b:?}"
+    );
+}
+
+/// The scene of `text` alone and over a black 40 km square 10 m down: `measure` (a number and
+/// the edges the secondary stage drew) over seeds 0–5 of each. The floor's four edges come
+/// back with a surface below them, and the square's own four are left out (a line through one
+/// meets the square's plane there, with the whole scene above it).
+fn alone_and_over_a_far_ground(text: &str, measure: impl Fn(&Scene, u64) -> (f64, usize)) -> (Vec<f64>, Vec<f64>) {
+    let ground = "\n[[shape]]\nname = \"ground\"\ntype = \"rectangle\"\nmaterial = \"black\"\n\
+                  translate = [0.0, -10.0, 0.0]\nrotate = [-90.0, 0.0, 0.0]\nscale = [20000.0, 20000.0, 1.0]\n";
+    let (alone, over) = (load(text), load(&(text.to_string() + ground)));
+    let (a, b): (Vec<_>, Vec<_>) = (0..6).map(|s| (measure(&alone, s), measure(&over, s))).unzip();
     assert_eq!(
         b[0].1,
         a[0].1 + 4,
@@ -351,12 +350,7 @@ fn a_far_ground_leaves_a_panel_under_a_light_its_shadow() {
         a[0].1,
         b[0].1
     );
-    let stats = |v: &[(f64, usize)]| common::mean_se(&v.iter().map(|r| r.0).collect::<Vec<_>>());
-    let ((ma, sa), (mb, sb)) = (stats(&a), stats(&b));
-    assert!(
-        ma.abs() > 4.0 * sa && (mb - ma).abs() <= 4.0 * (sa * sa + sb * sb).sqrt(),
-        "occluder_x's left-right contrast alone {ma} ± {sa}, over the square {mb} ± {sb}: {a:?} {b:?}"
-    );
+    (a.iter().map(|r| r.0).collect(), b.iter().map(|r| r.0).collect())
 }
 
 /// The boundary term alone of `params` on `scene` (64 spp, `seed`): each derivative film's
