@@ -52,6 +52,33 @@ fn bounds(shape: &Shape, geo: &Geometry) -> (Vec3, Vec3) {
         })
 }
 
+/// The heights of the smaller triangle's corners over the larger one's plane, signed so that
+/// a positive height puts `e` in front of `o` along `n` (`e`'s unit normal; `o` parallel to
+/// it). Measured in f64 on the larger triangle's plane, as its own vertices give it: the
+/// plane of a small face is known only to the rounding of its normal times the distance, and
+/// the corners of a 40 km ground lie that far from a panel over it, so the ground's corners
+/// over the panel's plane came out centimetres off.
+fn heights(e: [Vec3; 3], o: [Vec3; 3], n: Vec3) -> [f64; 3] {
+    let area = |t: [Vec3; 3]| (t[1] - t[0]).cross(t[2] - t[0]).length();
+    let (big, small, sign) = if area(o) >= area(e) { (o, e, 1.0) } else { (e, o, -1.0) };
+    let [b0, b1, b2] = big.map(|p| p.as_dvec3());
+    let normal = (b1 - b0).cross(b2 - b0).normalize_or_zero();
+    let normal = if normal.dot(n.as_dvec3()) < 0.0 {
+        -normal
+    } else {
+        normal
+    };
+    small.map(|p| sign * (p.as_dvec3() - b0).dot(normal))
+}
+
+/// The largest absolute coordinate where triangles `a` and `b` can overlap (within both, so at
+/// most the smaller of their largest coordinates), at least `scale`: the magnitude that sets
+/// the rounding there, whatever else either shape reaches (a 40 km ground under a room).
+fn overlap_magnitude(a: [Vec3; 3], b: [Vec3; 3], scale: f32) -> f32 {
+    let largest = |t: [Vec3; 3]| t.iter().fold(0.0f32, |m, p| m.max(p.abs().max_element()));
+    largest(a).min(largest(b)).max(scale)
+}
+
 /// Orientation of (a, b, c) seen along the plane normal `n` (twice the signed area).
 fn orient(a: Vec3, b: Vec3, c: Vec3, n: Vec3) -> f32 {
     (b - a).cross(c - a).dot(n)
@@ -112,7 +139,7 @@ fn flush_faces(shape: &Shape, geo: &Geometry, scale: f32) -> (Vec<(usize, Vec3, 
             if n == Vec3::ZERO || on == Vec3::ZERO || n.dot(on).abs() < COPLANAR_COS {
                 continue;
             }
-            let d = ec.iter().map(|&p| (p - oc[0]).dot(n)).fold(f32::INFINITY, f32::min);
+            let d = heights(ec, oc, n).into_iter().fold(f64::INFINITY, f64::min) as f32;
             if d.abs() < delta && overlap(ec, oc, n) {
                 found.push((o, n, d));
             }
@@ -300,9 +327,18 @@ fn coplanar_pair(
         .max(bhi.abs())
         .max_element()
         .max(scale);
+    // how far apart two faces may be: at the shapes' largest coordinate, which picks the
+    // candidates; two faces in one plane are told apart by the rounding where they overlap,
+    // which a far corner of either shape (a 40 km ground under a room) does not widen, so
+    // each such pair takes its own (`overlap_magnitude`); a resting contact keeps the shapes'
+    // magnitude, its threshold being about the estimator's variance rather than rounding
     let gap = match facing {
         Facing::Same => in_plane(m),
         Facing::Either => lift(m) / 2.0,
+    };
+    let pair_gap = |sc: [Vec3; 3], oc: [Vec3; 3]| match facing {
+        Facing::Same => in_plane(overlap_magnitude(sc, oc, scale)),
+        Facing::Either => gap,
     };
     let (lo, hi) = (alo.max(blo) - gap, ahi.min(bhi) + gap);
     if lo.cmpgt(hi).any() {
@@ -327,8 +363,9 @@ fn coplanar_pair(
             .find(|&&o| {
                 let oc = corners(geo, o);
                 let c = n.dot(triangle_normal(oc));
+                let gap = pair_gap(sc, oc) as f64;
                 (if facing == Facing::Same { c } else { c.abs() }) >= COPLANAR_COS
-                    && oc.iter().all(|&p| (p - sc[0]).dot(n).abs() <= gap)
+                    && heights(sc, oc, n).iter().all(|h| h.abs() <= gap)
                     && overlap(sc, oc, n)
             })
             .map(|&o| (s, o))
