@@ -26,7 +26,7 @@
 
 use super::edge_sampler::EdgeSampler;
 use super::guiding::{GuideGrid, RESOLUTION, UNIFORM_MIX};
-use super::secondary::{BoundaryPath, LIGHT_STREAM, Prepared, Scratch, Secondary};
+use super::secondary::{BoundaryPath, EmissionSplit, LIGHT_STREAM, Prepared, Scratch, Secondary};
 use super::{BoundarySettings, SECONDARY_SEED};
 use crate::film::{TileFilm, Transient};
 use crate::params::MAX_PARAMS;
@@ -295,6 +295,11 @@ impl Secondary<'_> {
         let cells = uniform.cells();
         let shapes = self.edges.edges.iter().map(|r| r.shape as usize + 1).max().unwrap_or(0);
         let table = &self.edges;
+        // both strategies draw every id from the one table
+        let split = EmissionSplit {
+            edges: [table, table],
+            evaluations: [samples, samples],
+        };
         // each wave of chunks is merged into the sums in chunk order as it ends (`waves`): a
         // list of every chunk's tallies grew by two 512-cell tallies per 4096 samples until
         // the end (2.2 GB before any work at spp_boundary 2^24 on 32 × 32 pixels)
@@ -318,8 +323,17 @@ impl Secondary<'_> {
                 for s in 0..2 {
                     let before = scratch[s].rays();
                     let p = match s {
-                        0 => self.prepare(seed, id, &uniform, table, 1.0, &mut scratch[0]),
-                        _ => self.prepare_light(seed ^ LIGHT_STREAM, id, &uniform, table, &[], 1.0, &mut scratch[1]),
+                        0 => self.prepare(seed, id, &uniform, table, &split, 1.0, &mut scratch[0]),
+                        _ => self.prepare_light(
+                            seed ^ LIGHT_STREAM,
+                            id,
+                            &uniform,
+                            table,
+                            &split,
+                            &[],
+                            1.0,
+                            &mut scratch[1],
+                        ),
                     };
                     if s == 1
                         && let Some(p) = p.as_ref().filter(|p| p.segment.sensed.is_none())
@@ -525,6 +539,10 @@ impl Secondary<'_> {
         // each strategy's paths carry samples/n_s, so that the final 1/samples averages each
         // over its own count
         let scale = [samples as f32 / n_a as f32, samples as f32 / n_b as f32];
+        let split = EmissionSplit {
+            edges: [&pl.edges[0], &pl.edges[1]],
+            evaluations: [n_a, n_b],
+        };
         let my_chunks = super::waves::chunks_of(&mine, CHUNK);
         settings.progress.set_length(my_chunks.end - my_chunks.start);
         let trace_chunk = |ids: std::ops::Range<u64>| {
@@ -534,7 +552,7 @@ impl Secondary<'_> {
             let mut keep = |_: &Prepared, bp: &BoundaryPath| paths.push(*bp);
             for id in ids {
                 if id < n_a {
-                    let p = self.prepare(seed, id, &pl.grid, &pl.edges[0], scale[0], &mut scratch);
+                    let p = self.prepare(seed, id, &pl.grid, &pl.edges[0], &split, scale[0], &mut scratch);
                     queue[0].push(self, p, &mut scratch, &mut keep);
                 }
                 if id < n_b {
@@ -543,6 +561,7 @@ impl Secondary<'_> {
                         id,
                         &pl.grid_light,
                         &pl.edges[1],
+                        &split,
                         &pl.shadow_shares,
                         scale[1],
                         &mut scratch,

@@ -79,6 +79,9 @@ pub struct SegmentSample {
     /// x_L's emission when it is a light sample (strategy B): its only source term. None: x_L
     /// reflects, and the source subpath estimates its radiance.
     pub emitted: Option<SourceTerm>,
+    /// x_L's own emission where strategy A found x_L on an emitter and takes that term
+    /// (`secondary::EmissionSplit`): a source term beside the source subpath's.
+    pub also_emitted: Option<SourceTerm>,
     /// x_S's importance when it is a sensor point of an NLOS capture (the sensor-directed
     /// draws of strategy B): its only sensor term. None: the importance walk from x_S.
     pub sensed: Option<SensorTerm>,
@@ -160,6 +163,9 @@ pub fn subpaths<const C: usize>(
         };
         let mut sink = SourceSink(&mut terms.source);
         trace_packet_from::<f32x8, C, _>(ctx, seed, &lanes, PathStart::Surface(&starts), &mut sink, counts);
+        for (i, s) in group.iter().enumerate() {
+            terms.source[i].extend(s.also_emitted);
+        }
     }
     let mut limit = [0u32; 8];
     let mut from = [0.0f64; 8];
