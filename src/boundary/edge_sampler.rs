@@ -290,7 +290,6 @@ impl EdgeSampler {
     /// where the edge is not a silhouette for ω (for the χ² test and MIS).
     pub fn pdf(&self, i: usize, omega: Vec3) -> f32 {
         let r = &self.edges[i];
-        let len = (r.v1 - r.v0).length();
         let mut gamma = omega.dot(r.b).atan2(omega.dot(r.a));
         if gamma < 0.0 {
             gamma += 2.0 * PI;
@@ -299,7 +298,13 @@ impl EdgeSampler {
         if g < r.psi {
             return 0.0;
         }
-        self.edge_pmf(i) / len / (4.0 * (PI - r.psi))
+        self.silhouette_density(i)
+    }
+
+    /// [`Self::pdf`] of edge `i` at any of its silhouette directions (one value over them).
+    pub fn silhouette_density(&self, i: usize) -> f32 {
+        let r = &self.edges[i];
+        self.edge_pmf(i) / (r.v1 - r.v0).length() / (4.0 * (PI - r.psi))
     }
 
     /// Σ over edges of length × silhouette fraction (metres).

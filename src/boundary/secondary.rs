@@ -227,10 +227,16 @@ impl EmissionSplit<'_> {
         let [a, b] = self.edges;
         let rec = &b.edges[edge];
         let len = (rec.v1 - rec.v0).length() as f64;
-        let p_a = a.pdf(edge, omega) as f64;
         let (t_l, cos_l) = (t_l as f64, cos_l.abs() as f64);
         let p_b = b.edge_pmf(edge) as f64 / len * ctx.emitters.area_pdf(e) as f64 * t_l * t_l / cos_l;
-        self.evaluations[0] as f64 * p_a > self.evaluations[1] as f64 * p_b
+        let n_b = self.evaluations[1] as f64 * p_b;
+        // A's density is one value over the edge's silhouette directions and 0 elsewhere:
+        // below B's even at that value, the direction needs no look (most lines, far from
+        // their lights, end here)
+        if self.evaluations[0] as f64 * a.silhouette_density(edge) as f64 <= n_b {
+            return false;
+        }
+        self.evaluations[0] as f64 * a.pdf(edge, omega) as f64 > n_b
     }
 }
 
