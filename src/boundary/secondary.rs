@@ -591,9 +591,9 @@ impl<'a> Secondary<'a> {
 
     /// Strategy A, boundary sample `id` of stream `seed`: a boundary ray drawn from `grid` and
     /// the edge table `edges` (this pass's, `pass.rs`), traced both ways; x_L's emission is
-    /// left to strategy B (a partition of the integrand, so no MIS is needed), its reflected
-    /// light is estimated by the source subpath ([`Secondary::complete`]). None when the
-    /// sample adds nothing.
+    /// this sample's where `split` gives the line to this strategy, else strategy B's (a
+    /// partition of the integrand, so no MIS is needed), and its reflected light is estimated
+    /// by the source subpath ([`Secondary::complete`]). None when the sample adds nothing.
     #[allow(clippy::too_many_arguments)]
     pub(super) fn prepare(
         &self,
@@ -693,8 +693,8 @@ impl<'a> Secondary<'a> {
     /// Strategy B, boundary sample `id` of stream `seed`: shadow edges of direct light. A
     /// point x_B on an edge (drawn from `edges`, as in strategy A) and a point y on an
     /// emitter (next-event sampling) fix ω = (x_B − y)/t_L; x_L = y when nothing blocks
-    /// y → x_B. The density of ω per steradian is pdf_A(y) · t_L² / |cos_L|, so the weight of
-    /// strategy A becomes
+    /// y → x_B, and the line is not strategy A's (`split`, for area lights). The density of
+    /// ω per steradian is pdf_A(y) · t_L² / |cos_L|, so the weight of strategy A becomes
     /// −s_o · (L_e / pdf_A) · |cos_L| / (t_L² (t_L + t_S) p_e); for a point light L_e/pdf_A · |cos_L|
     /// is I / p_select (the density is a delta in ω); a laser spot is such a point source with
     /// intensity ∝ cos_L, moving along the beam (ray form). The inputs (edge coordinate,
