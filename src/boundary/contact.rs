@@ -45,7 +45,7 @@ use crate::kernel::V3;
 use glam::Vec3;
 
 /// Back-off of the ray origins behind x_B, in units of the self-intersection ε.
-const BACK_OFF: f32 = 8.0;
+pub(super) const BACK_OFF: f32 = 8.0;
 /// Farthest a supporting surface may be hit from x_B (and x_L's ray start), in units of ε.
 const REACH: f32 = 256.0;
 
