@@ -224,9 +224,9 @@ impl EmissionSplit<'_> {
     /// length per steradian (the guiding grids' densities left out: any rule both strategies
     /// evaluate alike is a partition).
     fn edge_directed(&self, ctx: &RenderContext, edge: usize, omega: Vec3, e: u32, t_l: f32, cos_l: f32) -> bool {
-        self.edge_directed_somewhere(ctx, edge, e, t_l, cos_l)
-            && self.evaluations[0] as f64 * self.edges[0].pdf(edge, omega) as f64
-                > self.b_density(ctx, edge, e, t_l, cos_l)
+        let n_b = self.b_density(ctx, edge, e, t_l, cos_l);
+        self.a_silhouette_density(edge) > n_b
+            && self.evaluations[0] as f64 * self.edges[0].pdf(edge, omega) as f64 > n_b
     }
 
     /// Whether [`Self::edge_directed`] can hold for some direction: A's density is one value
@@ -234,8 +234,12 @@ impl EmissionSplit<'_> {
     /// value the line is B's without a look at its direction (most lines, far from their
     /// lights, end here).
     fn edge_directed_somewhere(&self, ctx: &RenderContext, edge: usize, e: u32, t_l: f32, cos_l: f32) -> bool {
+        self.a_silhouette_density(edge) > self.b_density(ctx, edge, e, t_l, cos_l)
+    }
+
+    /// n_A p_A at any silhouette direction of edge `edge`.
+    fn a_silhouette_density(&self, edge: usize) -> f64 {
         self.evaluations[0] as f64 * self.edges[0].silhouette_density(edge) as f64
-            > self.b_density(ctx, edge, e, t_l, cos_l)
     }
 
     /// n_B p_B: B's evaluations times its density of the line.
@@ -699,8 +703,9 @@ impl<'a> Secondary<'a> {
         let d_b = eta as f64 * segment(ctx, x_l.p64, x_s.p64, seg);
         // x_L's own emission, where this strategy takes it (`EmissionSplit`)
         let e = ctx.tri_emitter[x_l.prim as usize];
-        let also_emitted =
-            (!contact && self.takes_emission(split, br.index, br.x_b, br.omega, &open_l)).then(|| SourceTerm {
+        let also_emitted = self
+            .takes_emission(split, br.index, br.x_b, br.omega, &open_l)
+            .then(|| SourceTerm {
                 rgb: ctx.emitters.radiance(e),
                 opl: d_b,
                 emitter: e,
