@@ -23,9 +23,14 @@ pub struct SurfaceHit {
 
 /// Closest hit of the ray `o + t·d` (d unit), t ∈ (0, ∞).
 pub fn trace(ctx: &RenderContext, o: Vec3, d: Vec3, counts: &mut RayCounts) -> Option<SurfaceHit> {
+    trace_past(ctx, o, d, 0.0, counts)
+}
+
+/// Closest hit of the ray `o + t·d` (d unit) with t ≥ `t_near`.
+pub fn trace_past(ctx: &RenderContext, o: Vec3, d: Vec3, t_near: f32, counts: &mut RayCounts) -> Option<SurfaceHit> {
     let t0 = counts.clock.start();
     counts.intersect += 1;
-    let hit = ctx.accel.intersect1(o.to_array(), d.to_array(), 0.0, f32::INFINITY);
+    let hit = ctx.accel.intersect1(o.to_array(), d.to_array(), t_near, f32::INFINITY);
     counts.trace_ticks += counts.clock.stop(t0);
     let h = hit?;
     let [p0, p1, p2] = ctx.tri_verts[h.prim as usize];

@@ -472,13 +472,10 @@ impl<'a> Secondary<'a> {
 
     /// Whether strategy A takes the emission at x_L (`found`: the first surface along −ω from
     /// x_B on edge `edge`, as `contact::segment_ends` finds it on an open segment): x_L lies
-    /// on an area emitter's front whose plane passes more than twice the rays' back-off
-    /// (`contact::BACK_OFF`·ε) from x_B, and `split` gives the line to A. Both strategies ask
-    /// this of the same line, so each emitting line is counted by exactly one of them. Nearer
-    /// than that the back-off puts a ray's origin past the light: a light 40–50 µm above an
-    /// occluder's edge in a room (ε 7.6 µm), or 1 mm above it 50 m from the render origin,
-    /// gave A's draws a steady derivative of the wrong sign (helper 51: −1.9 against +3.05 ±
-    /// 0.35 by finite differences), so there B keeps the emission, as before.
+    /// on an area emitter's front whose plane passes more than 2ε from x_B (nearer, x_B lies on
+    /// the light as far as the segment search can tell), and `split` gives the line to A. Both
+    /// strategies ask this of the same line, so each emitting line is counted by exactly one of
+    /// them.
     fn takes_emission(
         &self,
         split: &EmissionSplit,
@@ -494,7 +491,7 @@ impl<'a> Secondary<'a> {
         let e = ctx.tri_emitter[x_l.prim as usize];
         let cos_l = x_l.n.dot(omega);
         let eps = self_intersection_eps(&V3::<f32>::splat(x_b), ctx.scene.offset_scale);
-        let clear = x_l.n.dot(x_b - x_l.p).abs() > 2.0 * super::contact::BACK_OFF * eps;
+        let clear = x_l.n.dot(x_b - x_l.p).abs() > 2.0 * eps;
         self.scan.is_none()
             && e != u32::MAX
             && cos_l > 0.0
