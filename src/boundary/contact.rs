@@ -26,7 +26,9 @@
 //!   object off its support is not differentiable there (a gap opens one way, the surfaces
 //!   interpenetrate the other).
 //!
-//! Not covered: a contact vertex that emits (an object resting on an area light).
+//! A supporting surface that emits towards x_S (an object resting on an area light's front)
+//! adds its emission at x_L to the source subpath: the light's free area changes at the edge
+//! at the same rate (`secondary.rs`, `contact_emits`).
 //!
 //! Tracing: ray origins are moved off x_B by ε to the free side of the plane Π(edge, ω) (so no
 //! ray meets the edge's own faces) and backed off by `BACK_OFF`·ε along the ray, so a surface

@@ -499,6 +499,14 @@ impl<'a> Secondary<'a> {
             && split.edge_directed(ctx, edge, omega, e, x_l.t, cos_l)
     }
 
+    /// Whether the supporting surface of a contact edge emits towards x_S at x_L (contact.rs):
+    /// an object resting on an area light's front. As the object slides, the light's free
+    /// area changes at the edge just as a reflecting support's does, so its emission joins
+    /// the source subpath there.
+    fn contact_emits(&self, x_l: &SurfaceHit, omega: Vec3) -> bool {
+        self.scan.is_none() && self.ctx.tri_emitter[x_l.prim as usize] != u32::MAX && x_l.n.dot(omega) > 0.0
+    }
+
     /// dh̃/dθ_k (velocity.rs) with x_S in material form and in ray form; x_L moves as `motion_l`
     /// says.
     /// under x_L (None: a point light, which no parameter moves).
@@ -698,17 +706,21 @@ impl<'a> Secondary<'a> {
             self.on_boundary_line(rec, br.x_b, |_| omega64, Some(&mut x_l), &mut x_s);
         }
         let d_b = eta as f64 * segment(ctx, x_l.p64, x_s.p64, seg);
-        // x_L's own emission, where this strategy takes it (`EmissionSplit`)
+        // x_L's own emission, where this strategy takes it (`EmissionSplit`); at a contact
+        // edge always (strategy B's light points never land on the edge itself)
         let e = ctx.tri_emitter[x_l.prim as usize];
-        let also_emitted = self
-            .takes_emission(split, br.index, br.x_b, br.omega, &open_l)
-            .then(|| SourceTerm {
-                rgb: ctx.emitters.radiance(e),
-                opl: d_b,
-                emitter: e,
-                scatters: 0,
-                laser: 0,
-            });
+        let emits = if contact {
+            self.contact_emits(&x_l, br.omega)
+        } else {
+            self.takes_emission(split, br.index, br.x_b, br.omega, &open_l)
+        };
+        let also_emitted = emits.then(|| SourceTerm {
+            rgb: ctx.emitters.radiance(e),
+            opl: d_b,
+            emitter: e,
+            scatters: 0,
+            laser: 0,
+        });
         Some(Prepared {
             segment: SegmentSample {
                 id,
