@@ -299,10 +299,26 @@ fn an_occluder_a_millimetre_under_a_large_light_matches_finite_differences() {
 /// Such a ray now goes on past a surface that lies behind x_B (`contact::segment_ends`).
 #[test]
 fn an_occluder_twenty_micrometres_under_a_large_light_matches_finite_differences() {
+    check_occluder_under_light_at("1.99998");
+}
+
+/// 10 µm, between the rays' offset ε (7.6 µm) and the 2ε within which a surface counts as
+/// passing through an edge point: the segment search took the light for the flat occluder's
+/// support, and a flat face lying on its support adds nothing, so the derivative read 0 (here
+/// Σz² 28 570 against a bound of 99). The forward render resolves the gap (the occluder
+/// shades the light; within ε, `scene::flush` lifts the light in front of it), so faces
+/// lying flat along a surface now count as on it only within ε (`contact::passes_through`).
+#[test]
+fn an_occluder_ten_micrometres_under_a_large_light_matches_finite_differences() {
+    check_occluder_under_light_at("1.99999");
+}
+
+/// The FD check of scenes/occluder_under_light.toml with the occluder's height `y`.
+fn check_occluder_under_light_at(y: &str) {
     let (_dir, path) = edited_scene(
         "occluder_under_light.toml",
-        &[("translate = [0.0, 1.999, 0.0]", "translate = [0.0, 1.99998, 0.0]")],
-        "occluder_20um_under_light.toml",
+        &[("translate = [0.0, 1.999, 0.0]", &format!("translate = [0.0, {y}, 0.0]"))],
+        "occluder_near_light.toml",
     );
     check_seeds(8 * K, &path, Some("occluder"), "occluder_x", 0.1, 0.1, |_| {}, &[]);
 }

@@ -45,6 +45,7 @@ use crate::integrator::opl::on_plane64;
 use crate::integrator::surface::self_intersection_eps;
 use crate::integrator::trace::RayCounts;
 use crate::kernel::V3;
+use crate::scene::Geometry;
 use glam::Vec3;
 
 /// Back-off of the ray origins behind x_B, in units of the self-intersection ε.
@@ -142,7 +143,7 @@ pub(super) fn segment_ends(
     let back = BACK_OFF * eps;
     let free = (rec.v1 - rec.v0).cross(omega).normalize_or_zero() * -s_o;
     let o = x_b + free * eps;
-    let through = |h: &SurfaceHit| h.n.dot(x_b - h.p).abs() <= 2.0 * eps;
+    let through = |h: &SurfaceHit| passes_through(&ctx.scene.geometry, rec, x_b, h, eps);
     let s_hit = first_not_behind(ctx, o - omega * back, omega, back, eps, &through, rays);
     let l_hit = first_not_behind(ctx, o + omega * back, -omega, back, eps, &through, rays);
     let supports = |h: &SurfaceHit| through(h) && h.t <= back + REACH * eps;
@@ -153,6 +154,31 @@ pub(super) fn segment_ends(
         }),
         Some(support) => contact_ends(ctx, rec, x_b, omega, free, eps, &support, rays),
     }
+}
+
+/// Whether the plane of `h`'s surface passes through x_B on edge `rec`: within 2ε of it, or
+/// within ε where the edge's faces lie flat along that plane (a panel under a light). Such
+/// faces stand on neither side of it, so a contact there adds nothing (`contact_ends`); a gap
+/// wider than ε, the rays' own offset, is one the forward render resolves (the panel shades
+/// the light: `scene::flush` lifts a light off a face only within ε), and it is an ordinary
+/// gap here too. A panel 10 µm under a light in a room (ε 7.6 µm) was taken to lie on it, and
+/// its shadow's derivative read 0.
+pub(super) fn passes_through(geo: &Geometry, rec: &EdgeRecord, x_b: Vec3, h: &SurfaceHit, eps: f32) -> bool {
+    let d = h.n.dot(x_b - h.p).abs();
+    d <= eps || (d <= 2.0 * eps && faces_beside(geo, rec, x_b, h.n, eps) != (false, false))
+}
+
+/// Whether the opposite vertices of edge `rec`'s faces lie beyond the plane through x_B with
+/// normal `n` on its front (first) or its back (second), by more than the back-off.
+fn faces_beside(geo: &Geometry, rec: &EdgeRecord, x_b: Vec3, n: Vec3, eps: f32) -> (bool, bool) {
+    let tol = BACK_OFF * eps;
+    let (mut above, mut below) = (false, false);
+    for o in std::iter::once(rec.edge.opposite0).chain(rec.edge.opposite1) {
+        let h = n.dot(geo.positions[o as usize] - x_b);
+        above |= h > tol;
+        below |= h < -tol;
+    }
+    (above, below)
 }
 
 /// The ends when `support` passes through x_B (a contact edge).
@@ -167,18 +193,10 @@ fn contact_ends(
     support: &SurfaceHit,
     rays: &mut RayCounts,
 ) -> Option<SegmentEnds> {
-    let geo = &ctx.scene.geometry;
     let n = support.n;
     // the edge's faces must lie on one side of the supporting plane (their opposite
     // vertices on it or beyond it on one side; none beyond: a flat face lying on it)
-    let tol = BACK_OFF * eps;
-    let (mut above, mut below) = (false, false);
-    for o in std::iter::once(rec.edge.opposite0).chain(rec.edge.opposite1) {
-        let h = n.dot(geo.positions[o as usize] - x_b);
-        above |= h > tol;
-        below |= h < -tol;
-    }
-    let n_obj = match (above, below) {
+    let n_obj = match faces_beside(&ctx.scene.geometry, rec, x_b, n, eps) {
         (true, false) => n,
         (false, true) => -n,
         _ => return None,

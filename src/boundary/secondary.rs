@@ -472,8 +472,8 @@ impl<'a> Secondary<'a> {
 
     /// Whether strategy A takes the emission at x_L (`found`: the first surface along −ω from
     /// x_B on edge `edge`, as `contact::segment_ends` finds it on an open segment): x_L lies
-    /// on an area emitter's front whose plane passes more than 2ε from x_B (nearer, x_B lies on
-    /// the light as far as the segment search can tell), and `split` gives the line to A. Both
+    /// on an area emitter's front whose plane does not pass through x_B (as far as the segment
+    /// search can tell, `contact::passes_through`), and `split` gives the line to A. Both
     /// strategies ask this of the same line, so each emitting line is counted by exactly one of
     /// them.
     fn takes_emission(
@@ -491,7 +491,8 @@ impl<'a> Secondary<'a> {
         let e = ctx.tri_emitter[x_l.prim as usize];
         let cos_l = x_l.n.dot(omega);
         let eps = self_intersection_eps(&V3::<f32>::splat(x_b), ctx.scene.offset_scale);
-        let clear = x_l.n.dot(x_b - x_l.p).abs() > 2.0 * eps;
+        let rec = &split.edges[0].edges[edge];
+        let clear = !super::contact::passes_through(&ctx.scene.geometry, rec, x_b, x_l, eps);
         self.scan.is_none()
             && e != u32::MAX
             && cos_l > 0.0
