@@ -336,3 +336,46 @@ fn a_far_ground_does_not_make_a_floor_5_cm_above_it_flush() {
         "{err}"
     );
 }
+
+/// A plate held against a light's emitting face, closer than rays can tell apart
+/// (7 µm under the light of scenes/occluder_under_light.toml, where that is 7.6 µm): the
+/// loader lifts the light in front of it, so the plate casts no shadow, though 10 µm off it
+/// does. Until 2026-12-02 nothing said so (an independent sweep found the shadow gone). Loading
+/// now warns, naming both shapes and the scene. A light flush with the ceiling it hangs from
+/// (the two face the same way) is lifted without a word, as before.
+#[test]
+fn a_plate_held_against_a_light_is_warned_about() {
+    let dir = tempfile::tempdir().unwrap();
+    let info = |scene: &str, sets: &[&str]| {
+        let path = common::scene_path(scene);
+        let mut args = vec!["info", path.to_str().unwrap()];
+        for s in sets {
+            args.extend(["--set", s]);
+        }
+        let out = common::dtr(&args, dir.path());
+        assert!(out.status.success(), "{out:?}");
+        String::from_utf8_lossy(&out.stderr).to_string()
+    };
+    let held = info("occluder_under_light.toml", &["shape.occluder.translate.1=1.999993"]);
+    assert!(
+        held.contains("shape \"occluder\" has a face on the emitting side of \"light_quad\"")
+            && held.contains("occluder_under_light.toml"),
+        "{held}"
+    );
+    // facing away from the light, 5 µm off: gone from the picture just the same
+    let away = info(
+        "occluder_under_light.toml",
+        &[
+            "shape.occluder.translate.1=1.999995",
+            "shape.occluder.rotate=[90.0, 0.0, 0.0]",
+        ],
+    );
+    assert!(away.contains("a face on the emitting side"), "{away}");
+    let near = info("occluder_under_light.toml", &["shape.occluder.translate.1=1.99999"]);
+    assert!(!near.contains("emitting side"), "10 µm: {near}");
+    let ceiling = info("cornell_box.toml", &["shape.light_quad.translate.1=2.0"]);
+    assert!(
+        !ceiling.contains("emitting side"),
+        "a light flush with the ceiling: {ceiling}"
+    );
+}

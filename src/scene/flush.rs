@@ -415,6 +415,32 @@ pub(crate) fn flush_emitters(shapes: &[Shape], geo: &Geometry, scale: f32) -> Ve
     found
 }
 
+/// Pairs (emitter shape, other shape) where a face of the other, not an emitter, lies on the
+/// emitter's front within the rays' offset (`in_plane`): a panel held against a light, a box
+/// standing on a light panel. [`lift_flush_emitters`] takes such a face for one
+/// the emitter lies flush on and moves the emitter in front of it, so the other shape no
+/// longer shades the light there, though a little farther off it would. Each pair once, with
+/// the distance within which a face counts as in the emitter's plane.
+pub(crate) fn facing_emitters(shapes: &[Shape], geo: &Geometry, scale: f32) -> Vec<(usize, usize, f32)> {
+    let mut found = Vec::new();
+    for (i, shape) in shapes.iter().enumerate().filter(|(_, s)| s.emitter.is_some()) {
+        let (faces, m) = flush_faces(shape, geo, scale);
+        for (o, n, d) in faces {
+            let other = geo.tri_shape[o] as usize;
+            // in front: facing the emitter (a plate against a light, a box's bottom on a light
+            // panel) from anywhere on its front, else clearly beyond the rounding of a face
+            // in its plane (a ceiling the light hangs from, facing the way it does)
+            let faces_it = triangle_normal(corners(geo, o)).dot(n) < 0.0;
+            let in_front = if faces_it { d <= 0.0 } else { d < -in_plane(m) / 4.0 };
+            let pair = (i, other, in_plane(m));
+            if in_front && d >= -in_plane(m) && shapes[other].emitter.is_none() && !found.contains(&pair) {
+                found.push(pair);
+            }
+        }
+    }
+    found
+}
+
 /// Of a pair [`flush_emitters`] found (shape, triangle), the shape now in front along the
 /// first triangle's normal, then the other.
 pub(crate) fn front_of(geo: &Geometry, [(i, ti), (j, tj)]: [(usize, usize); 2]) -> (usize, usize) {

@@ -68,6 +68,15 @@ pub(crate) fn resolve(described: Described, path: &Path) -> Result<Scene, SceneE
     }
     refuse_overflowing_opl(&desc, bounds, &integrator, &materials, &ctx)?;
     let flush_emitters = super::flush::flush_emitters(&shapes, &geometry, offset_scale);
+    for (light, other, within) in super::flush::facing_emitters(&shapes, &geometry, offset_scale) {
+        let (light, other) = (&shapes[light].name, &shapes[other].name);
+        super::warnings::warn_once(format!(
+            "{}: shape {other:?} has a face on the emitting side of {light:?}, closer than rays can tell apart \
+             ({within:.1e} m): the loader lifts the emitter in front of it so that its light wins, so {other:?} \
+             does not shade {light:?} there; move {other:?} off the light (by a millimetre, say) if it should",
+            path.display()
+        ));
+    }
     let lifted_emitters = super::flush::lift_flush_emitters(&mut shapes, &mut geometry, offset_scale);
     for pair in flush_emitters {
         let (front, behind) = super::flush::front_of(&geometry, pair);
