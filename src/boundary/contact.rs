@@ -33,8 +33,9 @@
 //! Tracing: ray origins are moved off x_B by ε to the free side of the plane Π(edge, ω) (so no
 //! ray meets the edge's own faces) and backed off by `BACK_OFF`·ε along the ray, so a surface
 //! through x_B is hit at t ≈ `BACK_OFF`·ε whichever side of it the offset origin fell on. A hit
-//! whose plane passes within 2ε of x_B is a supporting surface; any other hit closer than the
-//! back-off lies behind x_B, and the ray goes on past it. A supporting surface's side holding
+//! whose plane passes within 2ε of x_B (within ε where the edge's faces lie flat along it:
+//! `passes_through`) is a supporting surface; any other hit closer than the back-off lies
+//! behind x_B, and the ray goes on past it. A supporting surface's side holding
 //! the edge's faces orients it; the x_S ray then starts on that side, λ = 2ε/|ω·n| along the
 //! line. Where that exceeds `REACH`·ε (|cos_L| < 2/`REACH`) the sample is dropped: its weight
 //! carries |cos_L|, so the loss is of order (2/`REACH`)².
@@ -101,7 +102,8 @@ const BEHIND: usize = 4;
 
 /// The first hit of the ray `o + t·d`, started `back` behind x_B, that is not a surface lying
 /// behind x_B: one met before x_B (t < `back`) whose plane does not pass through x_B
-/// (`through`, within 2ε) is on the other end's side of the line, so the ray goes on past it.
+/// (`through`: [`passes_through`]) is on the other end's side of the line, so the ray goes on
+/// past it.
 /// Such a surface is as near x_B as the back-off (a light 20 µm over an occluder's edge in a
 /// room, 8ε = 61 µm). Taken for a supporting surface, as it once was, the edge's faces lay
 /// on neither side of it and every line through the edge was dropped: the occluder's shadow

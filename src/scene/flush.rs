@@ -417,10 +417,10 @@ pub(crate) fn flush_emitters(shapes: &[Shape], geo: &Geometry, scale: f32) -> Ve
 
 /// Pairs (emitter shape, other shape) where a face of the other, not an emitter, lies on the
 /// emitter's front within the rays' offset (`in_plane`): a panel held against a light, a box
-/// standing on a light panel. [`lift_flush_emitters`] takes such a face for one
-/// the emitter lies flush on and moves the emitter in front of it, so the other shape no
-/// longer shades the light there, though a little farther off it would. Each pair once, with
-/// the distance within which a face counts as in the emitter's plane.
+/// standing on a light panel. [`lift_flush_emitters`] takes such a face for one the emitter
+/// lies flush on and moves the emitter in front of it, so the other shape no longer shades the
+/// light there, though a little farther off it would. Each pair once, with the distance within
+/// which a face counts as in the emitter's plane.
 pub(crate) fn facing_emitters(shapes: &[Shape], geo: &Geometry, scale: f32) -> Vec<(usize, usize, f32)> {
     let mut found = Vec::new();
     for (i, shape) in shapes.iter().enumerate().filter(|(_, s)| s.emitter.is_some()) {
