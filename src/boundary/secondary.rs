@@ -476,9 +476,11 @@ impl<'a> Secondary<'a> {
     /// search can tell, `contact::passes_through`), and `split` gives the line to A. Both
     /// strategies ask this of the same line, so each emitting line is counted by exactly one of
     /// them.
+    #[allow(clippy::too_many_arguments)]
     fn takes_emission(
         &self,
         split: &EmissionSplit,
+        rec: &EdgeRecord,
         edge: usize,
         x_b: Vec3,
         omega: Vec3,
@@ -488,23 +490,25 @@ impl<'a> Secondary<'a> {
             return false;
         };
         let ctx = self.ctx;
-        let e = ctx.tri_emitter[x_l.prim as usize];
-        let cos_l = x_l.n.dot(omega);
         let eps = self_intersection_eps(&V3::<f32>::splat(x_b), ctx.scene.offset_scale);
-        let rec = &split.edges[0].edges[edge];
-        let clear = !super::contact::passes_through(&ctx.scene.geometry, rec, x_b, x_l, eps);
-        self.scan.is_none()
-            && e != u32::MAX
-            && cos_l > 0.0
-            && clear
-            && split.edge_directed(ctx, edge, omega, e, x_l.t, cos_l)
+        self.emits_towards(x_l, omega)
+            && !super::contact::passes_through(&ctx.scene.geometry, rec, x_b, x_l, eps)
+            && split.edge_directed(
+                ctx,
+                edge,
+                omega,
+                ctx.tri_emitter[x_l.prim as usize],
+                x_l.t,
+                x_l.n.dot(omega),
+            )
     }
 
-    /// Whether the supporting surface of a contact edge emits towards x_S at x_L (contact.rs):
-    /// an object resting on an area light's front. As the object slides, the light's free
-    /// area changes at the edge just as a reflecting support's does, so its emission joins
-    /// the source subpath there.
-    fn contact_emits(&self, x_l: &SurfaceHit, omega: Vec3) -> bool {
+    /// Whether x_L lies on an area emitter's front facing along ω (towards x_S), outside a
+    /// capture (whose sources are its laser points). On a contact edge its emission is always
+    /// the edge-directed sample's: an object resting on an area light's front frees and covers
+    /// the light's area at the edge just as a reflecting support's (contact.rs), and strategy
+    /// B's light points never land on the edge itself.
+    fn emits_towards(&self, x_l: &SurfaceHit, omega: Vec3) -> bool {
         self.scan.is_none() && self.ctx.tri_emitter[x_l.prim as usize] != u32::MAX && x_l.n.dot(omega) > 0.0
     }
 
@@ -707,13 +711,13 @@ impl<'a> Secondary<'a> {
             self.on_boundary_line(rec, br.x_b, |_| omega64, Some(&mut x_l), &mut x_s);
         }
         let d_b = eta as f64 * segment(ctx, x_l.p64, x_s.p64, seg);
-        // x_L's own emission, where this strategy takes it (`EmissionSplit`); at a contact
-        // edge always (strategy B's light points never land on the edge itself)
+        // x_L's own emission, where this strategy takes it (`EmissionSplit`; on a contact
+        // edge always, `emits_towards`)
         let e = ctx.tri_emitter[x_l.prim as usize];
         let emits = if contact {
-            self.contact_emits(&x_l, br.omega)
+            self.emits_towards(&x_l, br.omega)
         } else {
-            self.takes_emission(split, br.index, br.x_b, br.omega, &open_l)
+            self.takes_emission(split, rec, br.index, br.x_b, br.omega, &open_l)
         };
         let also_emitted = emits.then(|| SourceTerm {
             rgb: ctx.emitters.radiance(e),
@@ -849,13 +853,12 @@ impl<'a> Secondary<'a> {
         // an area light's emission along a line strategy A draws more densely is A's, where
         // A's own segment search on this line finds x_L on it (not, say, taking a light a
         // hair from the edge for a surface the edge rests on: contact.rs)
+        let ends = self.ends_through(rec, x_b, omega, &mut scratch.counts.rays)?;
         if self.scan.is_none()
             && matches!(motion_l, SourceMotion::Material(_))
             && split.edge_directed_somewhere(ctx, edge, e as u32, t_l, cos_l)
-            && let Some(s_o) = self.blocked_side(rec, omega)
-            && let Some(SegmentEnds::Open { x_l: found, .. }) =
-                segment_ends(ctx, rec, x_b, omega, s_o, &mut scratch.counts.rays)
-            && self.takes_emission(split, edge, x_b, omega, &found)
+            && let (_, SegmentEnds::Open { x_l: found, .. }) = &ends
+            && self.takes_emission(split, rec, edge, x_b, omega, found)
         {
             return None;
         }
@@ -873,7 +876,7 @@ impl<'a> Secondary<'a> {
             seg,
             eta,
             d_b,
-        } = self.through_point(rec, x_b, &end, t_l, omega, scratch)?;
+        } = self.through_point(rec, x_b, ends, &end, t_l, omega, scratch)?;
         // the light point in f64 where the render keeps one, else as drawn
         let y_line = if ctx.opl.f64_paths { y64 } else { y.as_dvec3() };
         let x_l = SurfaceHit {
@@ -959,7 +962,15 @@ impl<'a> Secondary<'a> {
             seg,
             eta,
             d_b,
-        } = self.through_point(rec, x_b, &end, t_s, omega, scratch)?;
+        } = self.through_point(
+            rec,
+            x_b,
+            self.ends_through(rec, x_b, omega, &mut scratch.counts.rays)?,
+            &end,
+            t_s,
+            omega,
+            scratch,
+        )?;
         let x_s = SurfaceHit {
             p: sp.p,
             p64: end.p64,
@@ -997,27 +1008,43 @@ impl<'a> Secondary<'a> {
         })
     }
 
+    /// The side s_o of Π(edge, ω) that holds edge `rec`'s faces and the ends of the line through
+    /// x_B along ω (`contact::segment_ends`), searched once per line of a point end. None: the
+    /// edge is no silhouette for ω, or nothing lies beyond x_B.
+    fn ends_through(
+        &self,
+        rec: &EdgeRecord,
+        x_b: Vec3,
+        omega: Vec3,
+        rays: &mut RayCounts,
+    ) -> Option<(f32, SegmentEnds)> {
+        let s_o = self.blocked_side(rec, omega)?;
+        Some((s_o, segment_ends(self.ctx, rec, x_b, omega, s_o, rays)?))
+    }
+
     /// The segment of a boundary ray from a point end (a light point of strategy B, or a
-    /// sensor point): `end` at distance `t` from x_B on edge `rec`, ω = (x_B − end)/t. Finds
-    /// the first surface beyond x_B (the point the discontinuity sweeps over) and checks that
+    /// sensor point): `end` at distance `t` from x_B on edge `rec`, ω = (x_B − end)/t, with
+    /// `ends` the line's (`ends_through`). Takes the first surface beyond x_B (the point the
+    /// discontinuity sweeps over) and checks that
     /// nothing stands between x_B and the end (a hit more than 2ε in front of its tangent
     /// plane, or short of it by distance for a point light: `blocks_light_point`; a contact
     /// edge has x_L = x_B, never a point end, `contact.rs`). None when the sample adds nothing.
+    #[allow(clippy::too_many_arguments)]
     fn through_point(
         &self,
         rec: &EdgeRecord,
         x_b: Vec3,
+        (s_o, ends): (f32, SegmentEnds),
         end: &PointEnd,
         t: f32,
         omega: Vec3,
         scratch: &mut Scratch,
     ) -> Option<PointSegment> {
         let ctx = self.ctx;
-        let s_o = self.blocked_side(rec, omega)?;
-        let Some(SegmentEnds::Open {
+        let SegmentEnds::Open {
             x_s: mut far,
             x_l: back,
-        }) = segment_ends(ctx, rec, x_b, omega, s_o, &mut scratch.counts.rays)
+        } = ends
         else {
             return None;
         };
