@@ -24,7 +24,7 @@ use super::entry::Crossings;
 use super::opl::points64;
 use super::power_heuristic;
 use super::sink::Sink;
-use super::surface::{behind_one_sided, resolvable, surface_at};
+use super::surface::{behind_one_sided, geometry_ratio, resolvable, surface_at};
 use super::trace::{SegmentEnd, next_hits, spawn_point, visible_between};
 use super::transport::{emitter_hits, scatter, scatter_lobes};
 use super::window;
@@ -390,10 +390,11 @@ pub fn trace_packet_from<R: Real, const C: usize, S: Sink<C>>(
                     prev_pdf = pdf;
                 }
                 if R::DERIVS > 0 && !from_camera {
-                    // G·J (dual) over its value: the derivative of the geometry of this segment.
-                    let cos_prev = prev_n.dot(w_in).abs();
-                    let g = cos_prev * cos_i / r2;
-                    let ratio = R::safe_div(g, R::from_value(g.value())) * x.jacobian;
+                    // G·J (dual) over its value: the derivative of the geometry of this segment
+                    // (none where a cosine is rounding noise: `geometry_ratio`)
+                    let cos_prev = prev_n.dot(w_in);
+                    let g = geometry_ratio(&x.p.value(), scene.offset_scale, cos_prev, cos_i, r2);
+                    let ratio = g * x.jacobian;
                     // no G·J after a Dirac lobe: the delta took the segment's measure
                     beta = beta.scale(R::select(after_delta, R::one(), ratio));
                     if let Some((lobes, wo)) = &prev_lobes {

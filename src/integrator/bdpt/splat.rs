@@ -83,7 +83,7 @@ pub fn splat_to_camera<R: Real, const C: usize, S: Sink<C>>(pk: &mut Packet<'_, 
     let (beta, d, y) = if R::DERIVS > 0 {
         // q slides along its camera ray (module docs): y(θ), with q's own motion divided out
         let y = ray_plane_point(&V3::from_value(eye), &V3::from_value(-dir), &qs.p, &qs.n);
-        let carrier = geometry_carrier(prev, &y, &qs.n);
+        let carrier = geometry_carrier(prev, &y, &qs.n, ctx.scene.offset_scale);
         let beta = qs.beta.scale(R::safe_div(carrier, qs.geo));
         (
             beta,

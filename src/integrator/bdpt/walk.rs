@@ -12,7 +12,7 @@ use crate::integrator::context::RenderContext;
 use crate::integrator::entry::Crossings;
 use crate::integrator::nlos_start::{start, weigh_first_hit};
 use crate::integrator::path::{PacketLanes, ray_plane_point, traced};
-use crate::integrator::surface::{behind_one_sided, offset_origin, surface_at};
+use crate::integrator::surface::{behind_one_sided, geometry_ratio, offset_origin, surface_at};
 use crate::integrator::trace::{RayCounts, next_hits, spawn_point};
 use crate::integrator::transport::{scatter, scatter_lobes};
 use crate::kernel::{Mask, PathSampler, Real, Spectrum, V3};
@@ -109,7 +109,7 @@ fn random_walk<R: Real, const C: usize>(
         let r = r2.sqrt();
         let mut geo = R::one();
         if R::DERIVS > 0 && !ray_form {
-            geo = geometry_carrier(&prev, &x.p, &x.n) * x.jacobian;
+            geo = geometry_carrier(&prev, &x.p, &x.n, ctx.scene.offset_scale) * x.jacobian;
             beta = beta.scale(geo);
             if !ctx.diffuse_only && path.len() >= 2 {
                 // the previous vertex's f, now with both of its directions moving: ḟ/f on
@@ -214,15 +214,15 @@ fn random_walk<R: Real, const C: usize>(
 
 /// `[G]_dual / [G]_value` of the segment from `prev` to the surface point `p` with normal
 /// `n` (G = |cos θ_prev| |cos θ_p| / r², no cosine at point-like vertices): value 1, and the
-/// derivative of the segment's geometry term relative to its value.
+/// derivative of the segment's geometry term relative to its value, none where a cosine is
+/// rounding noise (`geometry_ratio`).
 #[inline(always)]
-pub fn geometry_carrier<R: Real, const C: usize>(prev: &Vertex<R, C>, p: &V3<R>, n: &V3<R>) -> R {
+pub fn geometry_carrier<R: Real, const C: usize>(prev: &Vertex<R, C>, p: &V3<R>, n: &V3<R>, scale: f32) -> R {
     let seg = *p - prev.p;
     let r2 = seg.length_squared();
     let w = seg * R::safe_div(R::one(), r2.sqrt());
-    let cos_prev = R::select(prev.on_surface, prev.n.dot(w).abs(), R::one());
-    let g = cos_prev * n.dot(w).abs() / r2;
-    R::safe_div(g, R::from_value(g.value()))
+    let cos_prev = R::select(prev.on_surface, prev.n.dot(w), R::one());
+    geometry_ratio(&p.value(), scale, cos_prev, n.dot(w), r2)
 }
 
 /// The camera subpath of each lane's pixel: vertex 0 at the pinhole, then up to
