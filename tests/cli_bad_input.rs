@@ -550,6 +550,57 @@ fn an_emission_that_overflows_the_film_is_named() {
     );
 }
 
+/// Roughnesses and refractive indices too small for 32-bit floats are refused naming the field
+/// (`scene::limits::MIN_ROUGHNESS`, `MIN_INDEX`, 10⁻⁶), in the scene and as a parameter's
+/// value. Before (an independent sweep, 2026-12-02), a rough conductor of α = 10⁻¹⁰ rendered
+/// 20 % too dark and one of 10⁻²⁰ 68 %, silently (GGX's α⁴ flushed to zero); `int_ior` 10⁻¹⁹
+/// gave a derivative of −130 where the image does not change; a medium `eta` of 10⁻³⁸ made
+/// every path vanish. The smallest allowed values still render.
+#[test]
+fn roughnesses_and_indices_below_what_floats_resolve_are_named() {
+    let conductor = scenes().join("rough_conductor.toml");
+    let (e, _o) = render_fails(&conductor, &["--set", "gold_roughness=1e-10"]);
+    assert!(
+        e.contains(r#"param[0] "gold_roughness": field 'value': a roughness (GGX α) must be in [1e-6, 1] (got 1e-10)"#),
+        "{e}"
+    );
+    let (e, _o) = render_fails(
+        &scenes().join("cornell_gold.toml"),
+        &["--set", "material.gold.roughness=1e-20"],
+    );
+    assert!(
+        e.contains(r#"material[2] "gold": field 'roughness': must be in [1e-6, 1] (got 1e-20)"#)
+            && e.contains("32-bit"),
+        "{e}"
+    );
+    let dielectric = scenes().join("rough_dielectric.toml");
+    let (e, _o) = render_fails(&dielectric, &["--set", "glass_ior=1e-19"]);
+    assert!(
+        e.contains(r#""glass_ior": field 'value': an index of refraction must be >= 1e-6 (got 1e-19)"#),
+        "{e}"
+    );
+    let (e, _o) = render_fails(&scenes().join("cornell_box.toml"), &["--set", "medium.eta=1e-38"]);
+    assert!(
+        e.contains("medium: field 'eta': must be at least 1e-6 (got 1e-38)"),
+        "{e}"
+    );
+    for (scene, set) in [
+        (&conductor, "gold_roughness=1e-6"),
+        (&dielectric, "glass_ior=1e-6"),
+        (&dielectric, "glass_roughness=1e-6"),
+    ] {
+        let d = tempfile::tempdir().unwrap();
+        let o = dtr()
+            .args(["render", "--quiet", "--spp", "1", "--threads", "1"])
+            .arg(scene)
+            .args(["--set", set, "-o"])
+            .arg(d.path().join("a"))
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{set}: {}", String::from_utf8_lossy(&o.stderr));
+    }
+}
+
 /// A refractive index so large that a path's optical path length would pass what 32-bit
 /// floats add up is refused naming its field: the medium's eta and a dielectric's int_ior.
 /// Before, `medium.eta = 3e38 --steady full` rendered all zeros with exit 0, every sample

@@ -248,7 +248,7 @@ fn unknown_names_and_out_of_range_values_are_refused_by_name() {
         "diff_room.toml",
         "eta",
         -1.0,
-        &["\"eta\": field 'value'", "must be > 0"],
+        &["\"eta\": field 'value'", "must be >= 1e-6"],
     );
     refused("diff_room.toml", "intensity", f64::NAN, &["intensity", "finite"]);
     refused(

@@ -150,8 +150,9 @@ impl std::fmt::Display for Domain {
 impl ParamKind {
     /// The values a parameter of this kind may take, and what the loader calls the quantity
     /// ("an albedo"): albedo in [0, 1], an emitted amount in [0, 10¹⁸]
-    /// ([`crate::scene::limits::MAX_EMISSION`]), refractive indices > 0, a roughness in
-    /// (0, 1], a pulse offset within ±2²⁴ m ([`crate::scene::limits::MAX_TIME_OPL`]); a scale
+    /// ([`crate::scene::limits::MAX_EMISSION`]), refractive indices of at least 10⁻⁶
+    /// ([`crate::scene::limits::MIN_INDEX`]), a roughness in [10⁻⁶, 1]
+    /// ([`crate::scene::limits::MIN_ROUGHNESS`]), a pulse offset within ±2²⁴ m ([`crate::scene::limits::MAX_TIME_OPL`]); a scale
     /// factor is nonzero, so its domain is the side of 0 that `value` is on (> 0 for 0
     /// itself); poses take any number.
     pub fn domain(&self, value: f64) -> (Domain, &'static str) {
@@ -159,6 +160,7 @@ impl ParamKind {
             open_lo: true,
             ..Domain::closed(0.0, f64::INFINITY)
         };
+        let index = Domain::closed(crate::scene::limits::MIN_INDEX, f64::INFINITY);
         match self {
             ParamKind::Translate { .. } | ParamKind::Rotate { .. } => (Domain::ANY, "a value"),
             ParamKind::PulseOffset { .. } => (
@@ -178,13 +180,10 @@ impl ParamKind {
                 Domain::closed(0.0, crate::scene::limits::MAX_EMISSION),
                 "an emitted amount",
             ),
-            ParamKind::Eta => (positive, "a refractive index"),
-            ParamKind::Ior { .. } => (positive, "an index of refraction"),
+            ParamKind::Eta => (index, "a refractive index"),
+            ParamKind::Ior { .. } => (index, "an index of refraction"),
             ParamKind::Roughness { .. } => (
-                Domain {
-                    open_lo: true,
-                    ..Domain::closed(0.0, 1.0)
-                },
+                Domain::closed(crate::scene::limits::MIN_ROUGHNESS, 1.0),
                 "a roughness (GGX α)",
             ),
         }

@@ -463,7 +463,7 @@ mod tests {
             &scene_text("confocal_plane.toml"),
             &[],
             &set("eta", 0.0),
-            &["param[0] \"eta\": field 'value'", "must be > 0", "--set eta=0"],
+            &["param[0] \"eta\": field 'value'", "must be >= 1e-6", "--set eta=0"],
         );
     }
 

@@ -215,7 +215,7 @@ pub struct MaterialDesc {
     pub ty: MaterialType,
     /// diffuse: albedo in [0, 1]
     pub albedo: Option<Triple>,
-    /// rough types: GGX α in (0, 1]
+    /// rough types: GGX α in [10⁻⁶, 1] (`limits::MIN_ROUGHNESS`)
     pub roughness: Option<f32>,
     /// conductors: reflectance multiplier in [0, 1] (default 1)
     pub specular_reflectance: Option<Triple>,

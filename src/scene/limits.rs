@@ -25,6 +25,23 @@ pub const MAX_EMISSION: f64 = 1e18;
 /// and `--auto-window` chose a window of [-3.4·10³⁰, 2.6·10³⁰] m.
 pub const MAX_TIME_OPL: f64 = (1u64 << 24) as f64;
 
+/// Smallest GGX roughness α of a rough conductor or dielectric (and a `roughness`
+/// parameter's value). The microfacet lobe is evaluated in 32-bit floats through α⁴, which
+/// below about 3·10⁻¹⁰ falls under the smallest normal float and is flushed to zero: the
+/// lobe then lost 20 % of its light at α = 10⁻¹⁰ and 68 % at 10⁻²⁰, silently (an independent
+/// sweep, 2026-12-02; exact down to 10⁻⁹ against the smooth material). At 10⁻⁶, α⁴ = 10⁻²⁴
+/// leaves 14 orders of magnitude for the factors it is multiplied by; a lobe that narrow is
+/// a mirror to any camera (for α = 0 use the smooth types).
+pub const MIN_ROUGHNESS: f64 = 1e-6;
+
+/// Smallest refractive index: a dielectric's `int_ior`, the medium's `eta` (and `ior` and
+/// `eta` parameters' values). Fresnel terms and their derivatives take squares and fourth
+/// powers of relative indices in 32-bit floats; at `int_ior` 10⁻¹⁹ those flushed to zero and
+/// the derivative read −130 where the image does not change (an independent sweep,
+/// 2026-12-02), and a medium `eta` of 10⁻³⁸ made every path vanish. No material has an index
+/// near 10⁻⁶.
+pub const MIN_INDEX: f64 = 1e-6;
+
 /// `{v}` for numbers of ordinary size, `{v:e}` for the very large or small (1e18, not
 /// 1000000000000000000).
 pub fn number<T: Copy + Into<f64> + std::fmt::Display + std::fmt::LowerExp>(v: T) -> String {

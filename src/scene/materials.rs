@@ -3,14 +3,14 @@
 //! | type | fields |
 //! |---|---|
 //! | `diffuse` | `albedo` in [0, 1] (required), `one_sided` (default false) |
-//! | `roughconductor` | `roughness` (GGX α in (0, 1], required), `specular_reflectance` in [0, 1] (default 1), `eta` and `k` ≥ 0 (complex index per channel, both or neither; without them the Fresnel term is 1), `one_sided` |
+//! | `roughconductor` | `roughness` (GGX α in [10⁻⁶, 1], required), `specular_reflectance` in [0, 1] (default 1), `eta` and `k` ≥ 0 (complex index per channel, both or neither; without them the Fresnel term is 1), `one_sided` |
 //! | `conductor` | the same without `roughness` (a smooth mirror) |
 //!
 //! `one_sided = true` (diffuse and conductors) makes a material black from behind, the side
 //! its shapes' normals point away from, as a Mitsuba BSDF without a `twosided` wrapper: a
 //! path that meets it there ends (`crate::integrator::surface::behind_one_sided`). It still
 //! hides what lies behind it. Dielectrics are two-sided.
-//! | `roughdielectric` | `roughness`, `int_ior` > 0 (required), `exterior` (optional) |
+//! | `roughdielectric` | `roughness` in [10⁻⁶, 1], `int_ior` ≥ 10⁻⁶ (required), `exterior` (optional) |
 //! | `dielectric` | the same without `roughness` (smooth glass) |
 //!
 //! Media: a dielectric's shape separates its interior (index `int_ior`, the side its normals
@@ -25,6 +25,7 @@
 use super::context::{Ctx, check_colour, no_such};
 use super::desc::{MaterialDesc, MaterialType, Triple};
 use super::error::item_field;
+use super::limits::{MIN_INDEX, MIN_ROUGHNESS, number};
 use super::{Material, NamedMaterial, SceneError};
 
 pub(super) fn materials(list: &[MaterialDesc], ctx: &Ctx) -> Result<Vec<NamedMaterial>, SceneError> {
@@ -77,14 +78,18 @@ fn material(
     }
     let roughness = || -> Result<f32, SceneError> {
         match m.roughness {
-            Some(a) if a > 0.0 && a <= 1.0 => Ok(a),
+            Some(a) if a >= MIN_ROUGHNESS as f32 && a <= 1.0 => Ok(a),
             Some(a) => Err(ctx.invalid(
                 at("roughness"),
-                format!("must be in (0, 1] (got {a}); for roughness 0 use type conductor or dielectric"),
+                format!(
+                    "must be in [{MIN_ROUGHNESS:e}, 1] (got {}): below {MIN_ROUGHNESS:e} the GGX lobe leaves the range of \
+                     32-bit floats; for roughness 0 use type conductor or dielectric",
+                    number(a)
+                ),
             )),
             None => Err(ctx.invalid(
                 at("roughness"),
-                format!("missing: type {ty} needs roughness = GGX α in (0, 1]"),
+                format!("missing: type {ty} needs roughness = GGX α in [{MIN_ROUGHNESS:e}, 1]"),
             )),
         }
     };
@@ -133,8 +138,17 @@ fn material(
         MaterialType::Roughdielectric | MaterialType::Dielectric => {
             let roughness = smooth(m.ty == MaterialType::Roughdielectric)?;
             let int_ior = match m.int_ior {
-                Some(v) if v > 0.0 && v.is_finite() => v,
-                Some(v) => return Err(ctx.invalid(at("int_ior"), format!("must be a finite number > 0 (got {v})"))),
+                Some(v) if v >= MIN_INDEX as f32 && v.is_finite() => v,
+                Some(v) => {
+                    return Err(ctx.invalid(
+                        at("int_ior"),
+                        format!(
+                            "must be a finite number of at least {MIN_INDEX:e} (got {}): smaller indices leave the \
+                             range of 32-bit floats in the Fresnel terms",
+                            number(v)
+                        ),
+                    ));
+                }
                 None => {
                     return Err(ctx.invalid(
                         at("int_ior"),
@@ -291,12 +305,12 @@ mod tests {
             (
                 "[[material]]\nname = \"m\"\ntype = \"roughconductor\"\n",
                 "m",
-                &["material[1] \"m\": field 'roughness'", "missing", "(0, 1]"],
+                &["material[1] \"m\": field 'roughness'", "missing", "[1e-6, 1]"],
             ),
             (
                 "[[material]]\nname = \"m\"\ntype = \"roughconductor\"\nroughness = 0\n",
                 "m",
-                &["field 'roughness'", "(0, 1]", "type conductor"],
+                &["field 'roughness'", "[1e-6, 1]", "type conductor"],
             ),
             (
                 "[[material]]\nname = \"m\"\ntype = \"conductor\"\nroughness = 0.2\n",
@@ -326,7 +340,7 @@ mod tests {
             (
                 "[[material]]\nname = \"m\"\ntype = \"dielectric\"\nint_ior = -1\n",
                 "m",
-                &["field 'int_ior'", "> 0", "-1"],
+                &["field 'int_ior'", "at least 1e-6", "-1"],
             ),
             (
                 "[[material]]\nname = \"m\"\ntype = \"dielectric\"\nint_ior = 1.3\nexterior = \"white\"\n",
@@ -426,7 +440,7 @@ mod tests {
             "rough_range.toml",
             &bad,
             &[],
-            &["param[0] \"a\": field 'value'", "(0, 1]"],
+            &["param[0] \"a\": field 'value'", "[1e-6, 1]"],
         );
     }
 }

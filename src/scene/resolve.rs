@@ -49,8 +49,15 @@ pub(crate) fn resolve(described: Described, path: &Path) -> Result<Scene, SceneE
 
     let integrator = integrator(&desc, &ctx)?;
     let eta = desc.medium.eta;
-    if eta <= 0.0 {
-        return Err(ctx.invalid(table_field("medium", "eta"), format!("must be > 0 (got {eta})")));
+    if eta < super::limits::MIN_INDEX as f32 || eta.is_nan() {
+        let min = super::limits::MIN_INDEX;
+        return Err(ctx.invalid(
+            table_field("medium", "eta"),
+            format!(
+                "must be at least {min:e} (got {}): smaller indices leave the range of 32-bit floats",
+                super::limits::number(eta)
+            ),
+        ));
     }
     let (camera, width, height, filter) = camera_film::camera(&desc.camera, origin, &ctx)?;
     let materials = materials::materials(&desc.material, &ctx)?;
@@ -388,7 +395,12 @@ mod tests {
     #[test]
     fn eta_and_albedo_ranges() {
         let text = format!("[medium]\neta = 0\n{MINI}");
-        expect_err("eta.toml", &text, &[], &["medium: field 'eta'", "must be > 0"]);
+        expect_err(
+            "eta.toml",
+            &text,
+            &[],
+            &["medium: field 'eta'", "must be at least 1e-6"],
+        );
         let text = mini_with("albedo = 0.5", "albedo = [0.5, 1.5, 0.5]");
         expect_err(
             "alb.toml",
