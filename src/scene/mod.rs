@@ -38,6 +38,7 @@ mod read;
 pub(crate) use read::{MAX_SCENE_BYTES, read_regular_file};
 mod resolve;
 pub mod shapes;
+mod surface_distance;
 #[cfg(test)]
 pub(crate) mod testutil;
 pub(crate) mod warnings;

@@ -74,6 +74,7 @@ pub(crate) fn resolve(described: Described, path: &Path) -> Result<Scene, SceneE
         ));
     }
     refuse_overflowing_opl(&desc, bounds, &integrator, &materials, &ctx)?;
+    refuse_camera_on_a_surface(&camera, &shapes, &geometry, offset_scale, &ctx)?;
     let flush_emitters = super::flush::flush_emitters(&shapes, &geometry, offset_scale);
     for (light, other, within) in super::flush::facing_emitters(&shapes, &geometry, offset_scale) {
         let (light, other) = (&shapes[light].name, &shapes[other].name);
@@ -168,6 +169,31 @@ pub(crate) fn resolve(described: Described, path: &Path) -> Result<Scene, SceneE
 /// Largest optical path length a path may reach: a render adds OPLs and their derivatives
 /// in f32, whose largest value is 3.4·10³⁸; a margin of 2¹⁰ keeps their sums finite.
 const OPL_CAP: f64 = f32::MAX as f64 / 1024.0;
+
+/// Refuses a camera closer to a surface than the rays' offset: which side of it the camera is
+/// on cannot be told (`super::surface_distance`).
+fn refuse_camera_on_a_surface(
+    camera: &super::Camera,
+    shapes: &[super::Shape],
+    geo: &super::Geometry,
+    offset_scale: f32,
+    ctx: &Ctx,
+) -> Result<(), SceneError> {
+    let p = camera.position;
+    let eps = (p.abs().max_element().max(offset_scale) * crate::integrator::surface::OFFSET_PER_COORDINATE) as f64;
+    match super::surface_distance::nearest_within(geo, p, eps) {
+        None => Ok(()),
+        Some((t, d)) => Err(ctx.invalid(
+            table_field("camera", "position"),
+            format!(
+                "lies {d:.1e} m from shape {:?}, within the rays' offset ({eps:.1e} m): which side of it the camera \
+                 is on cannot be told, so light would pass it (BDPT's connections to the camera stop short of it) or \
+                 nothing be seen; move the camera more than {eps:.1e} m off it",
+                shapes[geo.tri_shape[t] as usize].name
+            ),
+        )),
+    }
+}
 
 /// Refuses a refractive index (above 1) so large that a path's OPL (the index times its
 /// length) could pass [`OPL_CAP`] within the scene: each of the path's `max_bounces + 1` segments is at
