@@ -1097,6 +1097,8 @@ fn optimize_refuses_a_target_that_is_not_a_render_of_the_scene() {
 /// `--set` given twice (the run went from the last value without a word), and a bound at
 /// the index of the glass around a liquid, where the liquid turns smooth: the run stopped
 /// at iteration 7 with exit 2 and advice that did not apply. Found by an independent sweep.
+/// A parameter named with 300 characters ran every iteration, then failed writing its plot
+/// `param_NAME.png` without `result.json` (exit 3; another sweep, 2026-12-02).
 #[test]
 fn optimize_refuses_names_and_ranges_that_would_spoil_the_run() {
     let tmp = tempfile::tempdir().unwrap();
@@ -1104,7 +1106,8 @@ fn optimize_refuses_names_and_ranges_that_would_spoil_the_run() {
     rough_target(SCENE, dir, "t");
     let text = std::fs::read_to_string(SCENE).unwrap();
     assert!(text.contains("name = \"plate_x\""));
-    for (file, name) in [("loss.toml", "loss"), ("dotted.toml", "plate.x")] {
+    let long = "p".repeat(300);
+    for (file, name) in [("loss.toml", "loss"), ("dotted.toml", "plate.x"), ("long.toml", &long)] {
         std::fs::write(
             dir.join(file),
             text.replace("name = \"plate_x\"", &format!("name = \"{name}\"")),
@@ -1113,10 +1116,14 @@ fn optimize_refuses_names_and_ranges_that_would_spoil_the_run() {
     }
     let liquid = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/liquid_glass.toml");
     rough_target(liquid, dir, "liquid");
-    let cases: [(Vec<&str>, &str); 4] = [
+    let cases: [(Vec<&str>, &str); 5] = [
         (
             one_iteration("loss.toml", "t.npy", "loss", "out"),
             "log.csv would have the column loss twice",
+        ),
+        (
+            one_iteration("long.toml", "t.npy", &long, "out"),
+            "(310 bytes), and a file name may have at most 255 bytes",
         ),
         (
             one_iteration("dotted.toml", "t.npy", "plate.x", "out"),

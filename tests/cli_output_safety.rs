@@ -799,3 +799,66 @@ fn a_boundary_render_of_any_length_runs_in_bounded_memory_and_stops_on_sigint() 
     };
     assert_eq!(status.code(), Some(130), "{status:?}");
 }
+
+/// Under a file-size limit (`ulimit -f`) with SIGXFSZ at its default, a write past the limit
+/// is an output error like a full disk's: exit 3 naming the file ("File too large"), the
+/// earlier set kept byte for byte, nothing left beside it (`cli::ignore_file_size_signal`).
+/// Before (an independent sweep, 2026-12-02), the kernel killed the render (exit 153) and its
+/// staging folder and lock files stayed, one of them (`.a.steady.dtr-lock`) for good.
+#[cfg(unix)]
+#[test]
+fn a_file_size_limit_is_an_output_error_not_a_kill() {
+    use std::os::unix::process::CommandExt;
+    let dir = workdir();
+    let d = dir.path();
+    let args = ["render", "room.toml", "--spp", "1", "--threads", "1", "-q", "-o", "a"];
+    let o = dtr(&args, d);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let before = listing(d);
+    let npy = std::fs::read(d.join("a.npy")).unwrap();
+    let mut limited = Command::new(env!("CARGO_BIN_EXE_dtr"));
+    limited.current_dir(d).args(args).args(["--preview", "--seed", "2"]);
+    // SAFETY: only async-signal-safe calls between fork and exec
+    unsafe {
+        limited.pre_exec(|| {
+            libc::signal(libc::SIGXFSZ, libc::SIG_DFL);
+            let limit = libc::rlimit {
+                rlim_cur: 1024,
+                rlim_max: libc::RLIM_INFINITY,
+            };
+            if libc::setrlimit(libc::RLIMIT_FSIZE, &limit) != 0 {
+                return Err(std::io::Error::last_os_error());
+            }
+            Ok(())
+        });
+    }
+    let o = limited.output().unwrap();
+    assert_eq!(o.status.code(), Some(3), "{:?}: {}", o.status, stderr(&o));
+    assert!(stderr(&o).contains("File too large"), "{}", stderr(&o));
+    assert_eq!(listing(d), before, "{}", stderr(&o));
+    assert_eq!(std::fs::read(d.join("a.npy")).unwrap(), npy);
+}
+
+/// The lock a killed render with `--preview` left on the prefix its steady image shares
+/// (`.a.steady.dtr-lock`) goes with the next render to the prefix, with or without
+/// `--preview`; one that a running render holds stays. Before (an independent sweep,
+/// 2026-12-02), a render without `--preview` never removed it.
+#[test]
+fn a_killed_renders_shared_lock_goes_with_the_next_render() {
+    let dir = workdir();
+    let d = dir.path();
+    std::fs::write(d.join(".a.steady.dtr-lock"), b"").unwrap();
+    let held = std::fs::File::create(d.join(".a.other.dtr-lock")).unwrap();
+    held.try_lock().unwrap();
+    let o = dtr(
+        &["render", "room.toml", "--spp", "1", "--threads", "1", "-q", "-o", "a"],
+        d,
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(
+        listing(d),
+        [".a.other.dtr-lock", "a.json", "a.npy", "room.json", "room.toml"],
+        "{}",
+        stderr(&o)
+    );
+}

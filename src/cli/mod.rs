@@ -68,6 +68,7 @@ pub enum Command {
 
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     logging::init(cli.quiet, cli.verbose);
+    ignore_file_size_signal();
     match cli.command {
         Command::Render(args) => render_cmd::run(args),
         Command::Merge(args) => shard_set::run(args),
@@ -80,6 +81,18 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
             clap_complete::generate(shell, &mut Cli::command(), "dtr", &mut script);
             Ok(write_stdout(&script)?)
         }
+    }
+}
+
+/// A write past the process's file-size limit (`ulimit -f`) then fails with EFBIG ("File too
+/// large"), an output error like a full disk's (exit 3, the earlier output set kept, the
+/// staging and lock files removed), instead of raising SIGXFSZ, whose default kills the
+/// process with its hidden files left behind (exit 153; an independent sweep, 2026-12-02).
+fn ignore_file_size_signal() {
+    #[cfg(unix)]
+    // SAFETY: setting a signal's disposition to "ignore" has no handler to race with
+    unsafe {
+        libc::signal(libc::SIGXFSZ, libc::SIG_IGN);
     }
 }
 

@@ -319,6 +319,7 @@ pub fn run(a: OptimizeArgs) -> anyhow::Result<()> {
         bail!("--params names {name} more than once");
     }
     super::optimize_files::check_log_columns(&a.params)?;
+    super::optimize_files::check_plot_names(&a.params)?;
     super::render_cmd::refuse_unused_boundary_samples(a.spp_boundary, a.estimators)?;
     if matches!(a.estimators, BoundaryMode::PrimaryOnly | BoundaryMode::SecondaryOnly) {
         bail!(

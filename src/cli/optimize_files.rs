@@ -75,6 +75,21 @@ pub(super) fn check_log_columns(names: &[String]) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// Refuses parameters whose plot `param_NAME.png` would have a file name longer than a file
+/// system takes, before the first iteration. Before, a parameter named with 300 characters
+/// ran every iteration and then failed writing its plot, without `result.json` (exit 3).
+pub(super) fn check_plot_names(names: &[String]) -> anyhow::Result<()> {
+    let max = super::output_set::NAME_MAX;
+    if let Some(name) = names.iter().find(|n| format!("param_{n}.png").len() > max) {
+        anyhow::bail!(
+            "--params {name}: the run would plot it to param_{name}.png ({} bytes), and a file name may have at most \
+             {max} bytes; rename the parameter in the scene",
+            format!("param_{name}.png").len()
+        );
+    }
+    Ok(())
+}
+
 impl RunFiles {
     /// Starts the log in `dir` (made by this run when `created`) with its header. A log the
     /// file system refuses is an output error naming it, and the folder is left as it was

@@ -689,7 +689,7 @@ fn prefixes_sharing_names(stem: &str, names: &[String]) -> Vec<String> {
 }
 
 /// The longest file name (in bytes) that Linux's file systems and macOS's take (NAME_MAX).
-const NAME_MAX: usize = 255;
+pub(super) const NAME_MAX: usize = 255;
 
 /// Refuses a prefix whose outputs (`suffixes`), or the files a render keeps beside them (its
 /// lock, staging folder and checkpoint's temporary file, and the locks of the prefixes that
@@ -788,10 +788,13 @@ fn refuse_inputs_in_reserved_names(inputs: &[PathBuf], dir: &Path, name: &str) -
 }
 
 /// Removes what earlier renders to the prefix named `name` in `dir` left when killed: their
-/// staging folders (`.NAME.dtr-staging-` and tempfile's six characters) and the temporary
+/// staging folders (`.NAME.dtr-staging-` and tempfile's six characters), the temporary
 /// files of checkpoints they were writing (`.NAME.checkpoint.` six characters `.tmp`,
 /// `output::write_atomic`; 50 MB each on a large film, kept by every later render before
-/// 2026-11-30). Called with the prefix's lock held, so no render is writing them.
+/// 2026-11-30), and the locks they took on prefixes that share names with theirs
+/// (`.NAME.steady.dtr-lock` of a render with `--preview`, which a later render without it
+/// never took, so never removed: an independent sweep, 2026-12-02) where no render holds
+/// them. Called with the prefix's lock held, so no render is writing the rest.
 fn remove_stale_staging(dir: &Path, name: &str) {
     let random = |s: &str| s.len() == 6 && s.bytes().all(|b| b.is_ascii_alphanumeric());
     let Reserved {
@@ -811,6 +814,26 @@ fn remove_stale_staging(dir: &Path, name: &str) {
         if temporary.is_some_and(random) && kind.is_file() {
             let _ = std::fs::remove_file(e.path());
         }
+        let shared = n
+            .strip_prefix(&format!(".{name}."))
+            .and_then(|r| r.strip_suffix(".dtr-lock"));
+        if shared.is_some_and(|r| !r.is_empty()) && kind.is_file() {
+            remove_unheld_lock(&e.path());
+        }
+    }
+}
+
+/// Removes the lock file `path` when no render holds it. One that starts to lock it as it
+/// goes finds it gone and makes another (`OutputSet::lock`).
+fn remove_unheld_lock(path: &Path) {
+    let mut open = std::fs::OpenOptions::new();
+    open.write(true);
+    #[cfg(unix)]
+    std::os::unix::fs::OpenOptionsExt::custom_flags(&mut open, libc::O_NOFOLLOW | libc::O_NONBLOCK);
+    if let Ok(f) = open.open(path)
+        && f.try_lock().is_ok()
+    {
+        let _ = std::fs::remove_file(path);
     }
 }
 
