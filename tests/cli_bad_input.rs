@@ -550,6 +550,43 @@ fn an_emission_that_overflows_the_film_is_named() {
     );
 }
 
+/// Counts beyond what their field holds say the maximum, and the whole number 2⁵³ is one.
+/// Before (an independent sweep, 2026-12-02): `--spp 4294967296` said "--spp is too large:
+/// out of range integral type conversion attempted", and `--set integrator.seed=
+/// 9007199254740992` (2⁵³, exact in a 64-bit float) was refused as "not a whole number".
+#[test]
+fn counts_beyond_their_field_say_the_maximum_and_2_to_the_53_is_whole() {
+    let cornell = scenes().join("cornell_box.toml");
+    for flag in ["--spp", "--spp-boundary"] {
+        let d = tempfile::tempdir().unwrap();
+        let o = dtr()
+            .arg("render")
+            .arg(&cornell)
+            .arg("-o")
+            .arg(d.path().join("a"))
+            .args([flag, "4294967296", "--quiet"])
+            .output()
+            .unwrap();
+        let e = String::from_utf8_lossy(&o.stderr);
+        assert!(
+            e.contains(&format!("{flag} must be at most 4294967295 (got 4294967296)")),
+            "{e}"
+        );
+        assert_eq!(std::fs::read_dir(d.path()).unwrap().count(), 0);
+    }
+    let d = tempfile::tempdir().unwrap();
+    let o = dtr()
+        .args(["render", "--quiet", "--spp", "1", "--threads", "1"])
+        .arg(&cornell)
+        .args(["--set", "integrator.seed=9007199254740992", "-o"])
+        .arg(d.path().join("a"))
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let json: serde_json::Value = serde_json::from_slice(&std::fs::read(d.path().join("a.json")).unwrap()).unwrap();
+    assert_eq!(json["seed"], 9007199254740992u64, "{json}");
+}
+
 /// A camera on a surface, within the rays' offset, is refused naming the field and the shape
 /// (src/scene/surface_distance.rs). Before (an independent sweep, 2026-12-02), the camera of
 /// diff_room.toml set on the room's wall (z = 3, or 3.0000001, outside, which rounds onto it)

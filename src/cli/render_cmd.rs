@@ -154,12 +154,14 @@ pub fn run(a: RenderArgs) -> anyhow::Result<()> {
     } = super::parse_sets(&a.set)?;
     let spp = match a.spp {
         Some(n) if n <= 0 => bail!("--spp must be a positive integer (got {n})"),
-        Some(n) => Some(u32::try_from(n).context("--spp is too large")?),
+        Some(n) => Some(u32::try_from(n).map_err(|_| anyhow::anyhow!("--spp must be at most {} (got {n})", u32::MAX))?),
         None => None,
     };
     let spp_boundary = match a.spp_boundary {
         Some(n) if n <= 0 => bail!("--spp-boundary must be a positive integer (got {n})"),
-        Some(n) => Some(u32::try_from(n).context("--spp-boundary is too large")?),
+        Some(n) => Some(
+            u32::try_from(n).map_err(|_| anyhow::anyhow!("--spp-boundary must be at most {} (got {n})", u32::MAX))?,
+        ),
         None => None,
     };
     if let Some(name) = first_repeat(a.diff.iter().map(|s| s.trim())) {

@@ -205,7 +205,8 @@ fn keys(map: &Map<String, Value>) -> String {
 /// the description's own checks say what the field takes (before: "only numbers can be set",
 /// for `--set film.channels=5`, where words can be set too).
 fn number(old: &Value, value: f64) -> Result<Value, String> {
-    let integral = value.fract() == 0.0 && value.abs() < 2f64.powi(53);
+    // 2⁵³ itself is exact too (`cli::parse_sets` sends larger whole numbers as text)
+    let integral = value.fract() == 0.0 && value.abs() <= 2f64.powi(53);
     match old {
         Value::Number(n) if n.is_f64() => Ok(Value::from(value)),
         Value::Array(a) => Err(format!(
