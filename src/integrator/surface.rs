@@ -149,7 +149,7 @@ pub fn resolvable<V: Real>(p: &V3<V>, scale: f32, cos_a: V, cos_b: V, dist: V) -
 /// its rounding ([`resolvable`]), its value is rounding noise, and the relative derivative
 /// ċos/cos that noise amplified without bound: a path on a floor within ε of the plane of a
 /// box's face resting on it, bouncing to that face, carried a derivative of 10¹² in one
-/// sample (a 0.2 m cube at contact, 2 of 1500 renders at 64 spp). Those lanes keep the value
+/// sample (a 0.3 m cube at contact, 2 of 1500 renders at 64 spp). Those lanes keep the value
 /// and take no derivative from the segment: they are the vertices within about ε of the
 /// other end's plane, whose true relative derivatives average out over the directions that
 /// reach it (the face's irradiance at a point a from its plane changes as a log, not as 1/a).
