@@ -38,6 +38,27 @@ fn render_fails(scene: &Path, extra: &[&str]) -> (String, tempfile::TempDir) {
     (stderr, dir)
 }
 
+/// Renders `scene` at 1 spp on one thread with `extra`, to the prefix `a` in a new folder,
+/// which it returns; the render must succeed.
+fn render_succeeds(scene: &Path, extra: &[&str]) -> tempfile::TempDir {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dtr()
+        .arg("render")
+        .arg(scene)
+        .arg("-o")
+        .arg(dir.path().join("a"))
+        .args(["--spp", "1", "--threads", "1", "--quiet"])
+        .args(extra)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{extra:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    dir
+}
+
 fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
     let p = dir.join(name);
     std::fs::write(&p, text).unwrap();
@@ -574,15 +595,7 @@ fn counts_beyond_their_field_say_the_maximum_and_2_to_the_53_is_whole() {
         );
         assert_eq!(std::fs::read_dir(d.path()).unwrap().count(), 0);
     }
-    let d = tempfile::tempdir().unwrap();
-    let o = dtr()
-        .args(["render", "--quiet", "--spp", "1", "--threads", "1"])
-        .arg(&cornell)
-        .args(["--set", "integrator.seed=9007199254740992", "-o"])
-        .arg(d.path().join("a"))
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let d = render_succeeds(&cornell, &["--set", "integrator.seed=9007199254740992"]);
     let json: serde_json::Value = serde_json::from_slice(&std::fs::read(d.path().join("a.json")).unwrap()).unwrap();
     assert_eq!(json["seed"], 9007199254740992u64, "{json}");
 }
@@ -606,24 +619,7 @@ fn a_camera_on_a_wall_is_named() {
             );
         }
     }
-    let d = tempfile::tempdir().unwrap();
-    let o = dtr()
-        .args([
-            "render",
-            "--quiet",
-            "--spp",
-            "1",
-            "--threads",
-            "1",
-            "--integrator",
-            "bdpt",
-        ])
-        .arg(&room)
-        .args(["--set", "camera.position.2=2.9999", "-o"])
-        .arg(d.path().join("a"))
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    render_succeeds(&room, &["--set", "camera.position.2=2.9999", "--integrator", "bdpt"]);
 }
 
 /// Roughnesses and refractive indices too small for 32-bit floats are refused naming the field
@@ -665,15 +661,7 @@ fn roughnesses_and_indices_below_what_floats_resolve_are_named() {
         (&dielectric, "glass_ior=1e-6"),
         (&dielectric, "glass_roughness=1e-6"),
     ] {
-        let d = tempfile::tempdir().unwrap();
-        let o = dtr()
-            .args(["render", "--quiet", "--spp", "1", "--threads", "1"])
-            .arg(scene)
-            .args(["--set", set, "-o"])
-            .arg(d.path().join("a"))
-            .output()
-            .unwrap();
-        assert!(o.status.success(), "{set}: {}", String::from_utf8_lossy(&o.stderr));
+        render_succeeds(scene, &["--set", set]);
     }
 }
 
@@ -700,16 +688,11 @@ fn an_index_whose_path_lengths_overflow_is_named() {
         e.contains(r#"cornell_glass.toml: material[2] "glass": field 'int_ior': 1e37 is too large"#),
         "{e}"
     );
-    let d = tempfile::tempdir().unwrap();
-    let o = dtr()
-        .args(["render", "--quiet", "--spp", "1", "--threads", "1", "--steady", "full"])
-        .arg(scenes().join("cornell_box.toml"))
-        .args(["--set", "medium.eta=1e30", "-o"])
-        .arg(d.path().join("x"))
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let j: serde_json::Value = serde_json::from_slice(&std::fs::read(d.path().join("x.json")).unwrap()).unwrap();
+    let d = render_succeeds(
+        &scenes().join("cornell_box.toml"),
+        &["--steady", "full", "--set", "medium.eta=1e30"],
+    );
+    let j: serde_json::Value = serde_json::from_slice(&std::fs::read(d.path().join("a.json")).unwrap()).unwrap();
     assert_eq!(j["non_finite_samples"], 0);
     assert!(j["energy"]["primal"]["total"].as_f64().unwrap() > 0.0);
 }

@@ -80,11 +80,12 @@ pub(super) fn check_log_columns(names: &[String]) -> anyhow::Result<()> {
 /// ran every iteration and then failed writing its plot, without `result.json` (exit 3).
 pub(super) fn check_plot_names(names: &[String]) -> anyhow::Result<()> {
     let max = super::output_set::NAME_MAX;
-    if let Some(name) = names.iter().find(|n| format!("param_{n}.png").len() > max) {
+    let plots = names.iter().map(|n| (n, format!("param_{n}.png")));
+    if let Some((name, plot)) = plots.into_iter().find(|(_, plot)| plot.len() > max) {
         anyhow::bail!(
-            "--params {name}: the run would plot it to param_{name}.png ({} bytes), and a file name may have at most \
-             {max} bytes; rename the parameter in the scene",
-            format!("param_{name}.png").len()
+            "--params {name}: the run would plot it to {plot} ({} bytes), and a file name may have at most {max} \
+             bytes; rename the parameter in the scene",
+            plot.len()
         );
     }
     Ok(())

@@ -147,23 +147,21 @@ macro_rules! value_enum_by_name {
 }
 value_enum_by_name!(BoundaryMode, TimeEdgeMode);
 
+/// A sample count given as `flag`: positive, and at most what the renderer counts in (u32).
+fn sample_count(flag: &str, n: i64) -> anyhow::Result<u32> {
+    if n <= 0 {
+        bail!("{flag} must be a positive integer (got {n})");
+    }
+    u32::try_from(n).map_err(|_| anyhow::anyhow!("{flag} must be at most {} (got {n})", u32::MAX))
+}
+
 pub fn run(a: RenderArgs) -> anyhow::Result<()> {
     let super::Sets {
         numbers: mut overrides,
         texts,
     } = super::parse_sets(&a.set)?;
-    let spp = match a.spp {
-        Some(n) if n <= 0 => bail!("--spp must be a positive integer (got {n})"),
-        Some(n) => Some(u32::try_from(n).map_err(|_| anyhow::anyhow!("--spp must be at most {} (got {n})", u32::MAX))?),
-        None => None,
-    };
-    let spp_boundary = match a.spp_boundary {
-        Some(n) if n <= 0 => bail!("--spp-boundary must be a positive integer (got {n})"),
-        Some(n) => Some(
-            u32::try_from(n).map_err(|_| anyhow::anyhow!("--spp-boundary must be at most {} (got {n})", u32::MAX))?,
-        ),
-        None => None,
-    };
+    let spp = a.spp.map(|n| sample_count("--spp", n)).transpose()?;
+    let spp_boundary = a.spp_boundary.map(|n| sample_count("--spp-boundary", n)).transpose()?;
     if let Some(name) = first_repeat(a.diff.iter().map(|s| s.trim())) {
         bail!("--diff names {name} more than once");
     }

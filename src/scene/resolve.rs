@@ -180,7 +180,8 @@ fn refuse_camera_on_a_surface(
     ctx: &Ctx,
 ) -> Result<(), SceneError> {
     let p = camera.position;
-    let eps = (p.abs().max_element().max(offset_scale) * crate::integrator::surface::OFFSET_PER_COORDINATE) as f64;
+    let at = crate::kernel::V3::<f32>::new(p.x, p.y, p.z);
+    let eps = crate::integrator::surface::self_intersection_eps(&at, offset_scale) as f64;
     match super::surface_distance::nearest_within(geo, p, eps) {
         None => Ok(()),
         Some((t, d)) => Err(ctx.invalid(
