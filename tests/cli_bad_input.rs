@@ -665,6 +665,56 @@ fn roughnesses_and_indices_below_what_floats_resolve_are_named() {
     }
 }
 
+/// Pixel filters narrower than a thousandth of a pixel or wider than 64 pixels are refused,
+/// naming the field and the range (`scene::limits::MIN_FILTER_WIDTH`, `MAX_FILTER_WIDTH`).
+/// Before, a tent of radius 10³⁰ rendered a black image whose warning blamed the emitter, a
+/// Gaussian of σ = 10³⁰ ended in "internal error: non-finite values", and one of σ = 10⁻²⁰
+/// rendered another image than the box, all silently but the last. Filters at the limits
+/// render.
+#[test]
+fn pixel_filters_beyond_what_a_pixel_filter_is_are_named() {
+    let cornell = scenes().join("cornell_box.toml");
+    for (set, field, got) in [
+        (r#"camera.filter={type="tent",radius=1e30}"#, "filter.radius", "1e30"),
+        (r#"camera.filter={type="tent",radius=1e-20}"#, "filter.radius", "1e-20"),
+        (
+            r#"camera.filter={type="gaussian",sigma=1e-20}"#,
+            "filter.sigma",
+            "1e-20",
+        ),
+        (
+            r#"camera.filter={type="gaussian",sigma=1e30,radius=3e38}"#,
+            "filter.sigma",
+            "1e30",
+        ),
+        (
+            r#"camera.filter={type="gaussian",sigma=0.5,radius=65}"#,
+            "filter.radius",
+            "65",
+        ),
+    ] {
+        let (e, _o) = render_fails(&cornell, &["--set", set]);
+        assert!(
+            e.contains(&format!(
+                "cornell_box.toml: camera: field '{field}': must be in [0.001, 64] pixels (got {got})"
+            )),
+            "{set}: {e}"
+        );
+    }
+    for set in [
+        r#"camera.filter={type="tent",radius=64}"#,
+        r#"camera.filter={type="gaussian",sigma=0.001,radius=0.001}"#,
+        r#"camera.filter={type="gaussian",sigma=64,radius=1.5}"#,
+    ] {
+        for kind in ["path", "bdpt"] {
+            render_succeeds(
+                &cornell,
+                &["--set", set, "--set", &format!("integrator.kind=\"{kind}\"")],
+            );
+        }
+    }
+}
+
 /// A refractive index so large that a path's optical path length would pass what 32-bit
 /// floats add up is refused naming its field: the medium's eta and a dielectric's int_ior.
 /// Before, `medium.eta = 3e38 --steady full` rendered all zeros with exit 0, every sample

@@ -12,53 +12,83 @@ pub struct FilterSampler {
     /// 1 / ∫ f over [-radius, radius]: turns the filter into the density h that it samples.
     norm: f32,
     radius: f32,
-    /// CDF at `TABLE` uniformly spaced offsets over [-radius, radius]; empty for the box.
+    /// The table's half-width: the radius, or `GAUSSIAN_REACH` σ when that is less.
+    span: f32,
+    /// CDF at `TABLE` uniformly spaced offsets over [-span, span]; empty for the box.
     cdf: Vec<f32>,
 }
 
 const TABLE: usize = 512;
 
+/// How far out, in standard deviations, a Gaussian filter's table reaches: beyond it the
+/// filter is below e⁻⁵⁰ of its peak. A narrow Gaussian (σ = 0.01 px under the default radius
+/// 1.5) thus keeps its 512 rows on its bell instead of spreading them over [−r, r], where
+/// every row but one read 0.
+const GAUSSIAN_REACH: f64 = 10.0;
+
+/// The separable filter f(x) (unnormalised) at offset `x` pixels, in f64 for the table.
+/// The Gaussian is e^(−x²/2σ²) − e^(−r²/2σ²), written as e^(−r²/2σ²)·expm1((r² − x²)/2σ²)
+/// where the two terms are close (σ ≫ r), which subtracted as written left 0 in f32 for
+/// σ = 10⁶ and r = 1.5, and the table then sampled the filter's edge alone.
+fn filter_value(filter: PixelFilter, x: f64) -> f64 {
+    match filter {
+        PixelFilter::Box => f64::from(u8::from(x.abs() <= 0.5)),
+        PixelFilter::Tent { radius } => (radius as f64 - x.abs()).max(0.0),
+        PixelFilter::Gaussian { sigma, radius } => {
+            let (r, inv) = (radius as f64, 1.0 / (2.0 * sigma as f64 * sigma as f64));
+            if x.abs() >= r {
+                0.0
+            } else if r * r * inv < 20.0 {
+                (-r * r * inv).exp() * ((r * r - x * x) * inv).exp_m1()
+            } else {
+                (-x * x * inv).exp() - (-r * r * inv).exp()
+            }
+        }
+    }
+}
+
 impl FilterSampler {
     pub fn new(filter: PixelFilter) -> Self {
-        let (radius, f): (f32, Box<dyn Fn(f32) -> f32>) = match filter {
+        let radius = match filter {
             PixelFilter::Box => {
                 return Self {
                     filter,
                     norm: 1.0,
                     radius: 0.5,
+                    span: 0.5,
                     cdf: Vec::new(),
                 };
             }
-            PixelFilter::Tent { radius } => (radius, Box::new(move |x: f32| (radius - x.abs()).max(0.0))),
-            PixelFilter::Gaussian { sigma, radius } => {
-                let edge = (-radius * radius / (2.0 * sigma * sigma)).exp();
-                (
-                    radius,
-                    Box::new(move |x: f32| ((-x * x / (2.0 * sigma * sigma)).exp() - edge).max(0.0)),
-                )
-            }
+            PixelFilter::Tent { radius } | PixelFilter::Gaussian { radius, .. } => radius,
+        };
+        // the table's half-width: the radius, or GAUSSIAN_REACH σ inside it
+        let span = match filter {
+            PixelFilter::Gaussian { sigma, radius } => (radius as f64).min(GAUSSIAN_REACH * sigma as f64),
+            _ => radius as f64,
         };
         // trapezoid rule on a fine grid, then normalise
         let mut cdf = vec![0.0f64; TABLE + 1];
-        let h = 2.0 * radius as f64 / TABLE as f64;
+        let h = 2.0 * span / TABLE as f64;
         for i in 0..TABLE {
-            let x0 = -radius as f64 + i as f64 * h;
-            cdf[i + 1] = cdf[i] + 0.5 * h * (f(x0 as f32) as f64 + f((x0 + h) as f32) as f64);
+            let x0 = -span + i as f64 * h;
+            cdf[i + 1] = cdf[i] + 0.5 * h * (filter_value(filter, x0) + filter_value(filter, x0 + h));
         }
-        let total = cdf[TABLE].max(1e-30);
-        let exact = match filter {
-            PixelFilter::Box => 1.0,
-            PixelFilter::Tent { radius } => (radius * radius) as f64,
-            PixelFilter::Gaussian { sigma, radius } => {
-                let (s, r) = (sigma as f64, radius as f64);
-                let edge = (-r * r / (2.0 * s * s)).exp();
-                s * (2.0 * std::f64::consts::PI).sqrt() * libm::erf(r / (s * std::f64::consts::SQRT_2)) - 2.0 * r * edge
-            }
-        };
+        // ∫ f by Simpson's rule on the same grid (exact for the tent, whose kink at 0 is a
+        // node; the Gaussian's table spans at least 25 rows per σ), for the density h = f / ∫f
+        let simpson = (0..=TABLE)
+            .map(|i| {
+                let w = if i == 0 || i == TABLE { 1.0 } else { [2.0, 4.0][i % 2] };
+                w * filter_value(filter, -span + i as f64 * h)
+            })
+            .sum::<f64>()
+            * h
+            / 3.0;
+        let total = cdf[TABLE];
         Self {
             filter,
-            norm: (1.0 / exact.max(1e-30)) as f32,
+            norm: (1.0 / simpson) as f32,
             radius,
+            span: span as f32,
             cdf: cdf.iter().map(|c| (c / total) as f32).collect(),
         }
     }
@@ -94,13 +124,7 @@ impl FilterSampler {
                 }
             }
             PixelFilter::Tent { radius } => (radius - x.abs()).max(0.0) * self.norm,
-            PixelFilter::Gaussian { sigma, radius } => {
-                if x.abs() >= radius {
-                    return 0.0;
-                }
-                let inv = 1.0 / (2.0 * sigma * sigma);
-                ((-x * x * inv).exp() - (-radius * radius * inv).exp()) * self.norm
-            }
+            PixelFilter::Gaussian { .. } => filter_value(self.filter, x as f64) as f32 * self.norm,
         }
     }
 
@@ -113,8 +137,8 @@ impl FilterSampler {
         let i = self.cdf.partition_point(|&c| c <= u).clamp(1, TABLE);
         let (c0, c1) = (self.cdf[i - 1], self.cdf[i]);
         let frac = if c1 > c0 { (u - c0) / (c1 - c0) } else { 0.5 };
-        let h = 2.0 * self.radius / TABLE as f32;
-        -self.radius + (i as f32 - 1.0 + frac) * h
+        let h = 2.0 * self.span / TABLE as f32;
+        -self.span + (i as f32 - 1.0 + frac) * h
     }
 }
 
@@ -349,6 +373,66 @@ mod tests {
             let h = 2.0 * fs.radius() as f64 / n as f64;
             let total: f64 = (0..n)
                 .map(|i| fs.density(-fs.radius() + (i as f32 + 0.5) * h as f32) as f64 * h)
+                .sum();
+            assert!((total - 1.0).abs() < 1e-3, "{filter:?}: integral {total}");
+        }
+    }
+
+    /// Filters at the limits of what a scene may declare (`scene::limits::MIN_FILTER_WIDTH`,
+    /// `MAX_FILTER_WIDTH`) are sampled with their own variance, and their density integrates
+    /// to 1. Before, a Gaussian of σ = 10⁻³ under radius 1.5 was drawn uniformly over the
+    /// table's rows around 0 (variance 11 σ²), and one of σ = 10⁶ (beyond the limits now) read
+    /// 0 everywhere in f32, so its table drew the edge alone.
+    #[test]
+    fn filters_at_the_width_limits_keep_their_shape() {
+        let n = 200_000;
+        // a Gaussian cut at r = σ, less its edge value e^(−½): ∫t²f / ∫f over t ∈ [−1, 1]
+        let (mass, edge) = (
+            (2.0 * std::f64::consts::PI).sqrt() * libm::erf(std::f64::consts::FRAC_1_SQRT_2),
+            (-0.5f64).exp(),
+        );
+        let truncated = (mass - 2.0 * edge - 2.0 / 3.0 * edge) / (mass - 2.0 * edge);
+        let cases = [
+            (
+                PixelFilter::Gaussian {
+                    sigma: 1e-3,
+                    radius: 1.5,
+                },
+                1e-6,
+            ),
+            (
+                PixelFilter::Gaussian {
+                    sigma: 64.0,
+                    radius: 1.5,
+                },
+                // nearly the parabola r² − x² (variance r²/5), to O(r²/σ²) = 5·10⁻⁴
+                1.5 * 1.5 / 5.0,
+            ),
+            (
+                PixelFilter::Gaussian {
+                    sigma: 1e-3,
+                    radius: 1e-3,
+                },
+                1e-6 * truncated,
+            ),
+            (PixelFilter::Tent { radius: 1e-3 }, 1e-6 / 6.0),
+            (PixelFilter::Tent { radius: 64.0 }, 64.0 * 64.0 / 6.0),
+        ];
+        for (filter, want) in cases {
+            let fs = FilterSampler::new(filter);
+            let var = (0..n)
+                .map(|i| fs.sample((i as f32 + 0.5) / n as f32) as f64)
+                .map(|x| x * x)
+                .sum::<f64>()
+                / n as f64;
+            assert!(
+                (var / want - 1.0).abs() < 0.01,
+                "{filter:?}: variance {var}, want {want}"
+            );
+            let m = 400_000;
+            let h = 2.0 * fs.radius() as f64 / m as f64;
+            let total: f64 = (0..m)
+                .map(|i| fs.density((-fs.radius() as f64 + (i as f64 + 0.5) * h) as f32) as f64 * h)
                 .sum();
             assert!((total - 1.0).abs() < 1e-3, "{filter:?}: integral {total}");
         }

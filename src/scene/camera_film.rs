@@ -2,9 +2,10 @@
 //! origin), image size and pixel filter, then the film's time axis, gate and colour channels
 //! (`mono`, `rgb`, or `auto` from the colours and parameters of the scene).
 
-use super::context::{Ctx, count, positive, time_width};
+use super::context::{Ctx, count, time_width};
 use super::desc::{CameraDesc, Channels, FilmDesc, FilterType, GateType, NameOr, SceneDesc, Triple};
 use super::error::{item_field, table_field};
+use super::limits::{MAX_FILTER_WIDTH, MIN_FILTER_WIDTH, number};
 use super::{Camera, FilmSpec, Param, ParamKind, PixelFilter, SceneError};
 use crate::temporal::{Gate, TimeAxis};
 use glam::{DVec3, Vec3};
@@ -140,14 +141,29 @@ fn pixel_filter(f: &NameOr<super::desc::FilterTable>, ctx: &Ctx) -> Result<Pixel
                 ));
             }
             PixelFilter::Tent {
-                radius: positive(ctx, at("filter.radius"), radius.unwrap_or(1.0))?,
+                radius: filter_width(ctx, at("filter.radius"), radius.unwrap_or(1.0))?,
             }
         }
         FilterType::Gaussian => PixelFilter::Gaussian {
-            sigma: positive(ctx, at("filter.sigma"), sigma.unwrap_or(0.5))?,
-            radius: positive(ctx, at("filter.radius"), radius.unwrap_or(1.5))?,
+            sigma: filter_width(ctx, at("filter.sigma"), sigma.unwrap_or(0.5))?,
+            radius: filter_width(ctx, at("filter.radius"), radius.unwrap_or(1.5))?,
         },
     })
+}
+
+/// A filter's radius or σ in pixels, within [`MIN_FILTER_WIDTH`, `MAX_FILTER_WIDTH`].
+fn filter_width(ctx: &Ctx, at: String, v: f32) -> Result<f32, SceneError> {
+    if (MIN_FILTER_WIDTH..=MAX_FILTER_WIDTH).contains(&(v as f64)) {
+        return Ok(v);
+    }
+    Err(ctx.invalid(
+        at,
+        format!(
+            "must be in [{MIN_FILTER_WIDTH}, {MAX_FILTER_WIDTH}] pixels (got {}): a narrower filter is the pixel's centre alone, \
+             and a wider one reaches past what a pixel filter is for (blur the image after rendering instead)",
+            number(v)
+        ),
+    ))
 }
 
 fn gate(g: &NameOr<super::desc::GateTable>, ctx: &Ctx) -> Result<Gate, SceneError> {

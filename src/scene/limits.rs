@@ -42,6 +42,23 @@ pub const MIN_ROUGHNESS: f64 = 1e-6;
 /// near 10⁻⁶.
 pub const MIN_INDEX: f64 = 1e-6;
 
+/// Narrowest pixel filter: a tent's radius, a Gaussian's σ and radius, in pixels. The density
+/// a light path splats with (BDPT's connections to the camera) is 1/r² for a tent of radius r,
+/// and the Gaussian's exponent takes 1/σ², in 32-bit floats: at r = 10⁻²⁰ both overflow, and a
+/// Gaussian with σ = 10⁻²⁰ rendered another image than the box (an independent sweep,
+/// 2026-12-02). A filter a thousandth of a pixel wide already samples the pixel's centre
+/// alone, which is what a narrower one would mean.
+pub const MIN_FILTER_WIDTH: f64 = 1e-3;
+
+/// Widest pixel filter: a tent's or Gaussian's radius, and a Gaussian's σ, in pixels. Film
+/// points drawn that far off the pixel become directions through the image plane at up to
+/// 64 pixels times the image's own half-width: at a radius of 10³⁰ every ray left sideways,
+/// the image was black and the warning blamed the emitter, and a Gaussian of σ = 10³⁰ made
+/// the transient non-finite (an independent sweep, 2026-12-02). A pixel filter reaches a few
+/// pixels (pbrt's and Mitsuba's defaults: 1.5 and 2); blur an image wider than 64 pixels
+/// after rendering it.
+pub const MAX_FILTER_WIDTH: f64 = 64.0;
+
 /// `{v}` for numbers of ordinary size, `{v:e}` for the very large or small (1e18, not
 /// 1000000000000000000).
 pub fn number<T: Copy + Into<f64> + std::fmt::Display + std::fmt::LowerExp>(v: T) -> String {
